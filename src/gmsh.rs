@@ -1,0 +1,125 @@
+//! Running the gmsh command line on a parametric .geo file.
+
+use anyhow::{bail, Context, Result};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+/// Names of the numbers a .geo file lets `-setnumber` override: those it defines with
+/// `DefineNumber` (`name = DefineNumber[...]`) or guards with `If (!Exists(name))`.
+pub fn geo_parameters(geo_text: &str) -> Vec<String> {
+    let mut names = Vec::new();
+    for line in geo_text.lines() {
+        let l = line.trim();
+        if let Some(pos) = l.find("DefineNumber") {
+            let lhs = l[..pos].trim().trim_end_matches('=').trim();
+            if !lhs.is_empty() {
+                names.push(lhs.to_string());
+            }
+        }
+        if let Some(pos) = l.find("Exists(") {
+            let rest = &l[pos + 7..];
+            if let Some(end) = rest.find(')') {
+                names.push(rest[..end].trim().to_string());
+            }
+        }
+    }
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// Mesh `geo` with gmsh into `out` (MSH 4.1), setting each parameter with `-setnumber`.
+/// Writes to a temporary name and renames, so an interrupted run leaves no half-written mesh.
+pub fn mesh(geo: &Path, params: &BTreeMap<String, f64>, order: u32, out: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(geo)
+        .with_context(|| format!("cannot read the geometry file {}", geo.display()))?;
+    let known = geo_parameters(&text);
+    for name in params.keys() {
+        if !known.iter().any(|k| k == name) {
+            bail!(
+                "parameter `{name}` is not defined by {} (it defines: {})",
+                geo.display(),
+                known.join(", ")
+            );
+        }
+    }
+    if !(1..=2).contains(&order) {
+        bail!("element order {order} is not supported: expected 1 (TET4) or 2 (TET10)");
+    }
+    let gmsh = which_gmsh()?;
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create directory {}", dir.display()))?;
+    }
+    let tmp = out.with_extension("msh.tmp");
+    let mut cmd = Command::new(&gmsh);
+    cmd.arg("-3")
+        .arg("-order")
+        .arg(order.to_string())
+        .arg("-format")
+        .arg("msh41")
+        .arg("-v")
+        .arg("2")
+        .arg("-setnumber")
+        .arg("order")
+        .arg(order.to_string());
+    for (k, v) in params {
+        cmd.arg("-setnumber").arg(k).arg(format!("{v:e}"));
+    }
+    cmd.arg(geo).arg("-o").arg(&tmp);
+    tracing::debug!("running {:?}", cmd);
+    let output = cmd
+        .output()
+        .with_context(|| format!("cannot run {}", gmsh.display()))?;
+    if !output.status.success() || !tmp.exists() {
+        let _ = std::fs::remove_file(&tmp);
+        bail!(
+            "gmsh failed on {} ({}):\n{}{}",
+            geo.display(),
+            output.status,
+            String::from_utf8_lossy(&output.stdout),
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    for line in stderr.lines().filter(|l| l.contains("Error")) {
+        tracing::warn!("gmsh: {line}");
+    }
+    std::fs::rename(&tmp, out)
+        .with_context(|| format!("cannot move {} to {}", tmp.display(), out.display()))?;
+    Ok(())
+}
+
+fn which_gmsh() -> Result<std::path::PathBuf> {
+    let name = std::env::var_os("NLMODES_GMSH").unwrap_or_else(|| "gmsh".into());
+    let p = std::path::PathBuf::from(&name);
+    if p.components().count() > 1 {
+        if p.exists() {
+            return Ok(p);
+        }
+    } else if let Some(paths) = std::env::var_os("PATH") {
+        for dir in std::env::split_paths(&paths) {
+            let cand = dir.join(&p);
+            if cand.is_file() {
+                return Ok(cand);
+            }
+        }
+    }
+    bail!(
+        "gmsh not found (looked for `{}` on PATH; set NLMODES_GMSH to its path). \
+         Install it with `scripts/deps` (Debian package gmsh)",
+        p.display()
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameters_found_from_define_number_and_exists_guards() {
+        let geo = "span = DefineNumber[0.12, Name \"span\"];\nIf (!Exists(twist)) twist = 30; EndIf\nx = 3;";
+        assert_eq!(geo_parameters(geo), vec!["span".to_string(), "twist".to_string()]);
+    }
+}

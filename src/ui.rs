@@ -1,0 +1,86 @@
+//! Logging (tracing) and progress bars (indicatif), both silenced by `--quiet`.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Set up the tracing subscriber. `RUST_LOG` overrides the default level (`info`, or `warn` when quiet).
+pub fn init(quiet: bool) {
+    QUIET.store(quiet, Ordering::Relaxed);
+    let default = if quiet { "warn" } else { "info" };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_target(false)
+        .with_writer(std::io::stderr)
+        .try_init();
+}
+
+pub fn quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
+/// A progress bar over `len` steps, hidden when quiet or when stderr is not a terminal.
+pub fn bar(len: u64, what: &str) -> ProgressBar {
+    if quiet() {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template("{prefix:>10} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_prefix(what.to_string());
+    pb
+}
+
+/// A spinner for a stage of unknown length.
+pub fn spinner(what: &str) -> ProgressBar {
+    if quiet() {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new_spinner();
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} {prefix}: {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    pb.set_prefix(what.to_string());
+    pb.enable_steady_tick(std::time::Duration::from_millis(120));
+    pb
+}
+
+/// Times a stage and logs one line when it ends.
+pub struct Stage {
+    name: &'static str,
+    start: Instant,
+}
+
+impl Stage {
+    pub fn start(name: &'static str) -> Self {
+        tracing::info!("stage {name}: started");
+        Self {
+            name,
+            start: Instant::now(),
+        }
+    }
+
+    pub fn done(self, what: &str) {
+        tracing::info!(
+            "stage {}: {} ({:.2} s)",
+            self.name,
+            what,
+            self.start.elapsed().as_secs_f64()
+        );
+    }
+}
+
+/// Print a line to stdout unless quiet (tables and summaries).
+pub fn say(line: &str) {
+    if !quiet() {
+        println!("{line}");
+    }
+}
