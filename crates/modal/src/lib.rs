@@ -1,1 +1,29 @@
-//! placeholder
+//! nlmodes-modal: sparse SPD factorization, the ARPACK shift-invert
+//! generalized eigensolver, Craig-Bampton reduction and the reduced-model files.
+//!
+//! This crate knows nothing of meshes: it works on sparse symmetric matrices
+//! (`sprs::CsMat<f64>`, CSC with both triangles stored) and index lists.
+//! Units follow the caller's: with SI matrices (K in N/m, M in kg) eigenvalues
+//! are in rad^2/s^2 and frequencies in Hz.
+
+pub mod arpack;
+pub mod cholesky;
+pub mod contact_geometry;
+pub mod craig_bampton;
+pub mod dense;
+pub mod error;
+pub mod matrix_market;
+pub mod modes;
+pub mod ordering;
+pub mod reduced_model;
+pub mod sparse_ops;
+
+pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored, EigenMethod, EigenOptions};
+pub use cholesky::{shifted, CholeskyOptions, SparseCholesky};
+pub use contact_geometry::{radial_unit_vector, RotorAxis};
+pub use craig_bampton::{craig_bampton, reduced_eigen, CraigBampton};
+pub use dense::{csmat_to_dense, dense_generalized_eigen};
+pub use error::ModalError;
+pub use modes::Modes;
+pub use ordering::FillOrdering;
+pub use reduced_model::{ContactNode, MasterCoordinate, MeshReference, ReducedModel};

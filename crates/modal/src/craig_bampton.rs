@@ -1,0 +1,315 @@
+//! Craig-Bampton reduction (fixed-interface component mode synthesis).
+//!
+//! The DOFs are split into boundary DOFs b (kept physical, in the caller's
+//! order) and interior DOFs i (the rest, ascending). With
+//!
+//! * constraint modes Psi = -K_ii^-1 K_ib (n_i x n_b): the static interior
+//!   response to a unit displacement of each boundary DOF, and
+//! * fixed-interface modes Phi (n_i x n_modes): the lowest eigenpairs of
+//!   K_ii phi = lambda M_ii phi, mass-normalized (Phi^T M_ii Phi = I),
+//!
+//! the displacement is u = T q with q = [u_b; eta] and
+//! T = [[I, 0], [Psi, Phi]] (rows in the b/i partition), and the reduced
+//! matrices are K_r = T^T K T, M_r = T^T M T (dense). Exactly, K_r is
+//! block diagonal: [[K_bb + K_bi Psi, 0], [0, Lambda]]; M_r is full.
+//!
+//! One sparse factorization of K_ii serves both the constraint modes and the
+//! shift-invert eigensolver at sigma = 0.
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
+use sprs::CsMat;
+
+use crate::arpack::{eigs_shift_invert_factored, EigenOptions};
+use crate::cholesky::SparseCholesky;
+use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
+use crate::error::ModalError;
+use crate::sparse_ops::{check_symmetric_input, spmv_unchecked, submatrix_unchecked};
+
+/// A Craig-Bampton reduced model and the basis that produced it.
+#[derive(Clone, Debug)]
+pub struct CraigBampton {
+    /// Reduced stiffness T^T K T (n_b + n_modes square, symmetrized), N/m for SI input.
+    pub k_r: Mat<f64>,
+    /// Reduced mass T^T M T (symmetrized), kg for SI input.
+    pub m_r: Mat<f64>,
+    /// Constraint modes Psi = -K_ii^-1 K_ib (n_i x n_b), dimensionless.
+    pub psi: Mat<f64>,
+    /// Fixed-interface modes (n_i x n_modes), Phi^T M_ii Phi = I.
+    pub phi: Mat<f64>,
+    /// Interior DOFs (input numbering, ascending): row r of `psi`/`phi` is DOF `interior[r]`.
+    pub interior: Vec<usize>,
+    /// Boundary DOFs (input numbering, caller's order): reduced coordinate j < n_b is DOF `boundary[j]`.
+    pub boundary: Vec<usize>,
+    /// Eigenvalues of the fixed-interface modes, ascending (rad^2/s^2 for SI input).
+    pub fixed_interface_eigenvalues: Vec<f64>,
+    /// max |K_r - K_r^T| / max |K_r| before symmetrization.
+    pub asymmetry_k: f64,
+    /// max |M_r - M_r^T| / max |M_r| before symmetrization.
+    pub asymmetry_m: f64,
+    /// Order of the input matrices.
+    n_full: usize,
+}
+
+impl CraigBampton {
+    /// Order of the input (full) model.
+    pub fn n_full(&self) -> usize {
+        self.n_full
+    }
+
+    /// Order of the reduced model: n_b + n_modes.
+    pub fn n_reduced(&self) -> usize {
+        self.boundary.len() + self.phi.ncols()
+    }
+
+    /// Full displacement u = T q_r (input numbering) from reduced coordinates
+    /// q_r = [u_b (boundary order); eta (modal amplitudes)].
+    pub fn recover(&self, q_r: &[f64]) -> Result<Vec<f64>, ModalError> {
+        let n_r = self.n_reduced();
+        if q_r.len() != n_r {
+            return Err(ModalError::DimensionMismatch {
+                what: "length of the reduced coordinate vector".to_string(),
+                expected: n_r,
+                found: q_r.len(),
+            });
+        }
+        let n_b = self.boundary.len();
+        let mut u = vec![0.0; self.n_full];
+        for (&dof, &value) in self.boundary.iter().zip(q_r) {
+            u[dof] = value;
+        }
+        for (r, &dof) in self.interior.iter().enumerate() {
+            let mut acc = 0.0;
+            for (j, &q) in q_r[..n_b].iter().enumerate() {
+                acc += self.psi[(r, j)] * q;
+            }
+            for (j, &eta) in q_r[n_b..].iter().enumerate() {
+                acc += self.phi[(r, j)] * eta;
+            }
+            u[dof] = acc;
+        }
+        Ok(u)
+    }
+
+    /// The basis T as an n_full x n_reduced matrix in input numbering:
+    /// column j is the full displacement for q_r = e_j.
+    pub fn recovery_basis(&self) -> Mat<f64> {
+        let n_b = self.boundary.len();
+        let mut t = Mat::<f64>::zeros(self.n_full, self.n_reduced());
+        for (j, &dof) in self.boundary.iter().enumerate() {
+            t[(dof, j)] = 1.0;
+        }
+        for (r, &dof) in self.interior.iter().enumerate() {
+            for j in 0..n_b {
+                t[(dof, j)] = self.psi[(r, j)];
+            }
+            for j in 0..self.phi.ncols() {
+                t[(dof, n_b + j)] = self.phi[(r, j)];
+            }
+        }
+        t
+    }
+}
+
+/// Craig-Bampton reduction of (K, M) onto the `boundary` DOFs plus
+/// `n_modes` fixed-interface modes (see the module documentation).
+///
+/// Errors: empty boundary, boundary index out of range or duplicated,
+/// boundary covering every DOF, more modes than interior DOFs, K or M not
+/// square/finite/symmetric or of different sizes, K_ii not positive definite
+/// (structure not held once the boundary is fixed), eigensolver failures.
+pub fn craig_bampton(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    boundary: &[usize],
+    n_modes: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<CraigBampton, ModalError> {
+    let n = check_symmetric_input(k, "K")?;
+    let n_m = check_symmetric_input(m, "M")?;
+    if n != n_m {
+        return Err(ModalError::DimensionMismatch {
+            what: "order of M compared with K".to_string(),
+            expected: n,
+            found: n_m,
+        });
+    }
+    let interior = interior_dofs(n, boundary)?;
+    let (n_b, n_i) = (boundary.len(), interior.len());
+    if n_modes > n_i {
+        return Err(ModalError::InvalidReduction(format!(
+            "{n_modes} fixed-interface modes requested but there are only {n_i} interior DOFs \
+             ({n} DOFs, {n_b} on the boundary)"
+        )));
+    }
+
+    let k_ii = submatrix_unchecked(k, &interior, &interior);
+    let m_ii = submatrix_unchecked(m, &interior, &interior);
+    let k_ib = submatrix_unchecked(k, &interior, boundary);
+    let what = format!("K_ii (stiffness of the {n_i} interior DOFs with the boundary DOFs fixed)");
+    let factor =
+        SparseCholesky::with_options(&k_ii, &what, opts.cholesky).map_err(|e| match e {
+            ModalError::NotPositiveDefinite { what, index, .. } => {
+                ModalError::NotPositiveDefinite {
+                    what,
+                    index: interior[index],
+                    hint: " (index in the input numbering); the structure must be held \
+                           (clamped) once the boundary DOFs are fixed, and K must be \
+                           positive semi-definite"
+                        .to_string(),
+                }
+            }
+            other => other,
+        })?;
+
+    // Constraint modes: Psi = -K_ii^-1 K_ib.
+    let mut psi = Mat::<f64>::zeros(n_i, n_b);
+    for (j, col) in k_ib.outer_iterator().enumerate() {
+        for (r, &v) in col.iter() {
+            psi[(r, j)] = -v;
+        }
+    }
+    factor.solve_many(psi.as_mut())?;
+
+    // Fixed-interface modes at sigma = 0, reusing the factorization of K_ii.
+    let (phi, fixed_interface_eigenvalues) = if n_modes > 0 {
+        let modes = eigs_shift_invert_factored(&k_ii, &m_ii, 0.0, &factor, n_modes, opts)?;
+        let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
+        tracing::info!(
+            "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
+             {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}",
+            modes.frequencies_hz()[0],
+            modes.frequencies_hz()[n_modes - 1]
+        );
+        (modes.vectors, modes.eigenvalues)
+    } else {
+        (Mat::<f64>::zeros(n_i, 0), Vec::new())
+    };
+    drop(factor);
+
+    let (mut k_r, mut m_r) = project(k, m, boundary, &interior, &psi, &phi);
+    let asymmetry_k = relative_asymmetry(k_r.as_ref());
+    let asymmetry_m = relative_asymmetry(m_r.as_ref());
+    tracing::info!(
+        "Craig-Bampton: reduced order {} ({n_b} boundary DOFs + {n_modes} modes) from {n}; \
+         asymmetry before symmetrization: K_r {asymmetry_k:.1e}, M_r {asymmetry_m:.1e}",
+        n_b + n_modes
+    );
+    symmetrize(&mut k_r);
+    symmetrize(&mut m_r);
+    Ok(CraigBampton {
+        k_r,
+        m_r,
+        psi,
+        phi,
+        interior,
+        boundary: boundary.to_vec(),
+        fixed_interface_eigenvalues,
+        asymmetry_k,
+        asymmetry_m,
+        n_full: n,
+    })
+}
+
+/// Dense generalized eigenpairs of the reduced model (K_r, M_r): eigenvalues
+/// ascending (rad^2/s^2), vectors in reduced coordinates, Phi_r^T M_r Phi_r = I.
+pub fn reduced_eigen(cb: &CraigBampton) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
+    dense_generalized_eigen(cb.k_r.as_ref(), cb.m_r.as_ref())
+}
+
+/// Validates the boundary list and returns the interior DOFs (ascending).
+fn interior_dofs(n: usize, boundary: &[usize]) -> Result<Vec<usize>, ModalError> {
+    if boundary.is_empty() {
+        return Err(ModalError::InvalidReduction(
+            "the boundary DOF list is empty".to_string(),
+        ));
+    }
+    let mut position = vec![usize::MAX; n];
+    for (p, &dof) in boundary.iter().enumerate() {
+        if dof >= n {
+            return Err(ModalError::InvalidReduction(format!(
+                "boundary DOF {dof} (entry {p} of the list) is out of range: the model has {n} DOFs"
+            )));
+        }
+        if position[dof] != usize::MAX {
+            return Err(ModalError::InvalidReduction(format!(
+                "boundary DOF {dof} appears twice (entries {} and {p} of the list)",
+                position[dof]
+            )));
+        }
+        position[dof] = p;
+    }
+    if boundary.len() == n {
+        return Err(ModalError::InvalidReduction(format!(
+            "all {n} DOFs are on the boundary: there is nothing to reduce"
+        )));
+    }
+    Ok((0..n).filter(|&d| position[d] == usize::MAX).collect())
+}
+
+/// K_r = T^T K T and M_r = T^T M T without forming T: for each reduced
+/// coordinate j, y = K t_j (one sparse product on the full matrix), then
+/// T^T y = [y_b + Psi^T y_i; Phi^T y_i], the interior part as a dense product.
+fn project(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    boundary: &[usize],
+    interior: &[usize],
+    psi: &Mat<f64>,
+    phi: &Mat<f64>,
+) -> (Mat<f64>, Mat<f64>) {
+    let n = k.rows();
+    let (n_b, n_i, n_modes) = (boundary.len(), interior.len(), phi.ncols());
+    let n_r = n_b + n_modes;
+    let mut yk_i = Mat::<f64>::zeros(n_i, n_r);
+    let mut ym_i = Mat::<f64>::zeros(n_i, n_r);
+    let mut k_r = Mat::<f64>::zeros(n_r, n_r);
+    let mut m_r = Mat::<f64>::zeros(n_r, n_r);
+    let mut t = vec![0.0; n];
+    let mut yk = vec![0.0; n];
+    let mut ym = vec![0.0; n];
+    for j in 0..n_r {
+        t.iter_mut().for_each(|v| *v = 0.0);
+        if j < n_b {
+            t[boundary[j]] = 1.0;
+            for (r, &dof) in interior.iter().enumerate() {
+                t[dof] = psi[(r, j)];
+            }
+        } else {
+            for (r, &dof) in interior.iter().enumerate() {
+                t[dof] = phi[(r, j - n_b)];
+            }
+        }
+        spmv_unchecked(k, &t, &mut yk);
+        spmv_unchecked(m, &t, &mut ym);
+        for (r, &dof) in interior.iter().enumerate() {
+            yk_i[(r, j)] = yk[dof];
+            ym_i[(r, j)] = ym[dof];
+        }
+        for (p, &dof) in boundary.iter().enumerate() {
+            k_r[(p, j)] = yk[dof];
+            m_r[(p, j)] = ym[dof];
+        }
+    }
+    for (reduced, y_i) in [(&mut k_r, &yk_i), (&mut m_r, &ym_i)] {
+        // Rows 0..n_b: y_b (already there) + Psi^T y_i.
+        matmul(
+            reduced.as_mut().subrows_mut(0, n_b),
+            Accum::Add,
+            psi.transpose(),
+            y_i.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        // Rows n_b..: Phi^T y_i.
+        matmul(
+            reduced.as_mut().subrows_mut(n_b, n_modes),
+            Accum::Replace,
+            phi.transpose(),
+            y_i.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+    }
+    (k_r, m_r)
+}

@@ -1,0 +1,119 @@
+//! Linear modes of K phi = lambda M phi: eigenvalues, mass-normalized shapes
+//! and residuals, as returned by the eigensolvers.
+
+use faer::Mat;
+use sprs::CsMat;
+
+use crate::dense::fix_sign;
+use crate::sparse_ops::{norm_one, spmv_unchecked};
+
+/// Below this value of |lambda| ||M phi|| / (||K||_1 ||phi||) a mode is
+/// treated as a rigid-body (zero-frequency) mode by [`Modes::residuals`]:
+/// a computed zero eigenvalue is of order machine epsilon (1e-16) relative to
+/// the largest eigenvalue, while the lowest elastic eigenvalue of a fine 3-D
+/// mesh is still around 1e-10 of the largest; 1e-13 separates the two.
+pub const RIGID_MODE_THRESHOLD: f64 = 1e-13;
+
+/// Eigenpairs of K phi = lambda M phi.
+#[derive(Clone, Debug)]
+pub struct Modes {
+    /// Eigenvalues lambda = omega^2 in ascending order (rad^2/s^2 for SI matrices).
+    pub eigenvalues: Vec<f64>,
+    /// Mode shapes as columns (n x nev), mass-normalized: Phi^T M Phi = I.
+    /// Each column's largest-magnitude component is positive.
+    pub vectors: Mat<f64>,
+    /// Relative residual of each pair:
+    /// ||K phi - lambda M phi|| / (|lambda| ||M phi||) (Euclidean norms); for
+    /// a rigid-body mode (see [`RIGID_MODE_THRESHOLD`]), where that quotient is
+    /// 0/0, the backward error ||K phi - lambda M phi|| / (||K||_1 ||phi||) instead.
+    pub residuals: Vec<f64>,
+}
+
+impl Modes {
+    /// Natural frequencies f = sqrt(lambda) / (2 pi) in Hz (SI matrices).
+    /// A negative eigenvalue (round-off on a rigid-body mode, or an unstable
+    /// system) gives a negative frequency -sqrt(-lambda) / (2 pi), never NaN.
+    pub fn frequencies_hz(&self) -> Vec<f64> {
+        self.eigenvalues
+            .iter()
+            .map(|&l| l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI))
+            .collect()
+    }
+
+    /// Number of modes.
+    pub fn len(&self) -> usize {
+        self.eigenvalues.len()
+    }
+
+    /// True when no mode is held.
+    pub fn is_empty(&self) -> bool {
+        self.eigenvalues.is_empty()
+    }
+}
+
+/// Builds [`Modes`] from raw eigenpairs: sorts ascending, mass-normalizes,
+/// fixes signs and computes residuals against the sparse K and M.
+pub(crate) fn finalize_modes(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    eigenvalues: &[f64],
+    vectors: &Mat<f64>,
+) -> Modes {
+    let n = vectors.nrows();
+    let count = eigenvalues.len();
+    let mut order: Vec<usize> = (0..count).collect();
+    order.sort_by(|&a, &b| eigenvalues[a].total_cmp(&eigenvalues[b]));
+    let k_norm = norm_one(k);
+    let mut out_vectors = Mat::<f64>::zeros(n, count);
+    let mut residuals = Vec::with_capacity(count);
+    let mut sorted_values = Vec::with_capacity(count);
+    let mut m_phi = vec![0.0; n];
+    let mut k_phi = vec![0.0; n];
+    for (j, &src) in order.iter().enumerate() {
+        let lambda = eigenvalues[src];
+        let phi = out_vectors.col_as_slice_mut(j);
+        phi.copy_from_slice(vectors.col_as_slice(src));
+        spmv_unchecked(m, phi, &mut m_phi);
+        let mass = dot(phi, &m_phi);
+        if mass > 0.0 {
+            let scale = 1.0 / mass.sqrt();
+            phi.iter_mut().for_each(|x| *x *= scale);
+            m_phi.iter_mut().for_each(|x| *x *= scale);
+        }
+        if fix_sign(phi) {
+            m_phi.iter_mut().for_each(|x| *x = -*x);
+        }
+        spmv_unchecked(k, phi, &mut k_phi);
+        let r = k_phi
+            .iter()
+            .zip(&m_phi)
+            .map(|(kp, mp)| (kp - lambda * mp).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let m_phi_norm = norm2(&m_phi);
+        let phi_norm = norm2(phi);
+        let elastic_scale = lambda.abs() * m_phi_norm;
+        let residual = if elastic_scale > RIGID_MODE_THRESHOLD * k_norm * phi_norm {
+            r / elastic_scale
+        } else if k_norm * phi_norm > 0.0 {
+            r / (k_norm * phi_norm)
+        } else {
+            r
+        };
+        residuals.push(residual);
+        sorted_values.push(lambda);
+    }
+    Modes {
+        eigenvalues: sorted_values,
+        vectors: out_vectors,
+        residuals,
+    }
+}
+
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+pub(crate) fn norm2(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}

@@ -1,0 +1,329 @@
+//! Small sparse-matrix utilities on `sprs::CsMat<f64>`: input validation,
+//! matrix-vector products, the shifted matrix K - sigma M and block extraction.
+//!
+//! Matrices are expected in CSC with both triangles stored (what the fem crate
+//! assembles). CSR input is accepted: it is converted to CSC where the storage
+//! order matters.
+
+use std::borrow::Cow;
+
+use sprs::CsMat;
+
+use crate::error::ModalError;
+
+/// Relative tolerance of the symmetry checks: |a_ij - a_ji| <= tol * max|a|.
+///
+/// Finite-element assembly produces matrices symmetric to a few ulps per
+/// entry (relative 1e-16 to 1e-14); 1e-10 leaves four orders of margin for
+/// round-off while catching any genuine asymmetry (a wrong sign, a missing
+/// triangle, a mis-assembled entry).
+pub const SYMMETRY_TOLERANCE: f64 = 1e-10;
+
+/// Returns the matrix in CSC storage, borrowing when it already is.
+pub fn as_csc(a: &CsMat<f64>) -> Cow<'_, CsMat<f64>> {
+    if a.is_csc() {
+        Cow::Borrowed(a)
+    } else {
+        Cow::Owned(a.to_csc())
+    }
+}
+
+/// Checks that `a` is square and returns its order.
+pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
+    if a.rows() != a.cols() {
+        return Err(ModalError::NotSquare {
+            what: what.to_string(),
+            nrows: a.rows(),
+            ncols: a.cols(),
+        });
+    }
+    Ok(a.rows())
+}
+
+/// Checks that every stored entry of `a` is finite.
+pub fn check_finite(a: &CsMat<f64>, what: &str) -> Result<(), ModalError> {
+    for (&value, (row, col)) in a.iter() {
+        if !value.is_finite() {
+            return Err(ModalError::NotFinite {
+                what: what.to_string(),
+                row,
+                col,
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Largest absolute value of the stored entries (0 for an empty matrix).
+pub fn max_abs(a: &CsMat<f64>) -> f64 {
+    a.data().iter().fold(0.0_f64, |acc, v| acc.max(v.abs()))
+}
+
+/// Checks |a_ij - a_ji| <= `rel_tol` * max|a| for every stored entry.
+pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), ModalError> {
+    check_square(a, what)?;
+    let bound = rel_tol * max_abs(a);
+    for (&a_ij, (row, col)) in a.iter() {
+        if row == col {
+            continue;
+        }
+        let a_ji = a.get(col, row).copied().unwrap_or(0.0);
+        if (a_ij - a_ji).abs() > bound {
+            return Err(ModalError::NotSymmetric {
+                what: what.to_string(),
+                row,
+                col,
+                a_ij,
+                a_ji,
+                tolerance: rel_tol,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Square, finite and symmetric: the checks every solver entry point runs.
+pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
+    let n = check_square(a, what)?;
+    check_finite(a, what)?;
+    check_symmetric(a, what, SYMMETRY_TOLERANCE)?;
+    Ok(n)
+}
+
+/// y = A x (overwrites `y`). Errors when the lengths do not match the matrix.
+pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), ModalError> {
+    for (what, expected, found) in [
+        ("length of x in y = A x", a.cols(), x.len()),
+        ("length of y in y = A x", a.rows(), y.len()),
+    ] {
+        if expected != found {
+            return Err(ModalError::DimensionMismatch {
+                what: what.to_string(),
+                expected,
+                found,
+            });
+        }
+    }
+    spmv_unchecked(a, x, y);
+    Ok(())
+}
+
+/// y = A x for lengths already known to match (internal hot loops).
+pub(crate) fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
+    debug_assert_eq!(x.len(), a.cols());
+    debug_assert_eq!(y.len(), a.rows());
+    let indptr = a.proper_indptr();
+    let indices = a.indices();
+    let data = a.data();
+    if a.is_csc() {
+        y.iter_mut().for_each(|v| *v = 0.0);
+        for (j, &xj) in x.iter().enumerate() {
+            if xj == 0.0 {
+                continue;
+            }
+            for p in indptr[j]..indptr[j + 1] {
+                y[indices[p]] += data[p] * xj;
+            }
+        }
+    } else {
+        for (i, yi) in y.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for p in indptr[i]..indptr[i + 1] {
+                acc += data[p] * x[indices[p]];
+            }
+            *yi = acc;
+        }
+    }
+}
+
+/// K - sigma M on the union of the two sparsity patterns (CSC).
+///
+/// Errors when the matrices are not square or differ in size.
+pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>, ModalError> {
+    let n = check_square(k, "K")?;
+    let n_m = check_square(m, "M")?;
+    if n != n_m {
+        return Err(ModalError::DimensionMismatch {
+            what: "order of M compared with K".to_string(),
+            expected: n,
+            found: n_m,
+        });
+    }
+    if !sigma.is_finite() {
+        return Err(ModalError::InvalidArgument(format!(
+            "the shift sigma must be finite, got {sigma}"
+        )));
+    }
+    let k = as_csc(k);
+    let m = as_csc(m);
+    let (kp, ki, kd) = (k.proper_indptr(), k.indices(), k.data());
+    let (mp, mi, md) = (m.proper_indptr(), m.indices(), m.data());
+    let mut indptr = Vec::with_capacity(n + 1);
+    let mut indices = Vec::with_capacity(kd.len().max(md.len()));
+    let mut data = Vec::with_capacity(kd.len().max(md.len()));
+    indptr.push(0);
+    for j in 0..n {
+        let (mut p, pe) = (kp[j], kp[j + 1]);
+        let (mut q, qe) = (mp[j], mp[j + 1]);
+        while p < pe || q < qe {
+            let rk = if p < pe { ki[p] } else { usize::MAX };
+            let rm = if q < qe { mi[q] } else { usize::MAX };
+            if rk == rm {
+                indices.push(rk);
+                data.push(kd[p] - sigma * md[q]);
+                p += 1;
+                q += 1;
+            } else if rk < rm {
+                indices.push(rk);
+                data.push(kd[p]);
+                p += 1;
+            } else {
+                indices.push(rm);
+                data.push(-sigma * md[q]);
+                q += 1;
+            }
+        }
+        indptr.push(indices.len());
+    }
+    Ok(CsMat::new_csc((n, n), indptr, indices, data))
+}
+
+/// The block A[rows, cols] as a CSC matrix (row and column order as given).
+///
+/// Errors when an index is out of range or a row index is repeated.
+pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat<f64>, ModalError> {
+    let mut seen = vec![false; a.rows()];
+    for &r in rows {
+        if r >= a.rows() || seen[r] {
+            return Err(ModalError::InvalidArgument(format!(
+                "row index {r} of a submatrix is out of range (0..{}) or repeated",
+                a.rows()
+            )));
+        }
+        seen[r] = true;
+    }
+    if let Some(&c) = cols.iter().find(|&&c| c >= a.cols()) {
+        return Err(ModalError::InvalidArgument(format!(
+            "column index {c} of a submatrix is out of range (0..{})",
+            a.cols()
+        )));
+    }
+    Ok(submatrix_unchecked(a, rows, cols))
+}
+
+/// [`submatrix`] for indices already validated (in range, rows distinct).
+pub(crate) fn submatrix_unchecked(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> CsMat<f64> {
+    let a = as_csc(a);
+    let mut row_map = vec![usize::MAX; a.rows()];
+    for (local, &global) in rows.iter().enumerate() {
+        row_map[global] = local;
+    }
+    let monotone = rows.windows(2).all(|w| w[0] < w[1]);
+    let (ap, ai, ad) = (a.proper_indptr(), a.indices(), a.data());
+    let mut indptr = Vec::with_capacity(cols.len() + 1);
+    let mut indices = Vec::new();
+    let mut data = Vec::new();
+    let mut column: Vec<(usize, f64)> = Vec::new();
+    indptr.push(0);
+    for &j in cols {
+        column.clear();
+        for p in ap[j]..ap[j + 1] {
+            let local = row_map[ai[p]];
+            if local != usize::MAX {
+                column.push((local, ad[p]));
+            }
+        }
+        if !monotone {
+            column.sort_unstable_by_key(|&(r, _)| r);
+        }
+        for &(r, v) in &column {
+            indices.push(r);
+            data.push(v);
+        }
+        indptr.push(indices.len());
+    }
+    CsMat::new_csc((rows.len(), cols.len()), indptr, indices, data)
+}
+
+/// Maximum absolute column sum ||A||_1.
+pub fn norm_one(a: &CsMat<f64>) -> f64 {
+    let a = as_csc(a);
+    a.outer_iterator()
+        .map(|col| col.iter().map(|(_, v)| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sprs::TriMat;
+
+    fn small() -> CsMat<f64> {
+        let mut t = TriMat::new((3, 3));
+        for (i, j, v) in [
+            (0, 0, 4.0),
+            (1, 1, 5.0),
+            (2, 2, 6.0),
+            (0, 2, 1.0),
+            (2, 0, 1.0),
+        ] {
+            t.add_triplet(i, j, v);
+        }
+        t.to_csc()
+    }
+
+    #[test]
+    fn spmv_matches_hand_product_in_both_storages() {
+        let a = small();
+        let x = [1.0, 2.0, 3.0];
+        let mut y = [0.0; 3];
+        spmv(&a, &x, &mut y).unwrap();
+        // [4 0 1; 0 5 0; 1 0 6] [1 2 3] = [7 10 19], exact in floating point.
+        assert_eq!(y, [7.0, 10.0, 19.0]);
+        let mut z = [0.0; 3];
+        spmv(&a.to_csr(), &x, &mut z).unwrap();
+        assert!(spmv(&a, &x[..2], &mut z).is_err());
+        assert_eq!(z, y);
+    }
+
+    #[test]
+    fn shifted_merges_patterns() {
+        let k = small();
+        let mut t = TriMat::new((3, 3));
+        t.add_triplet(1, 0, 1.0);
+        t.add_triplet(0, 1, 1.0);
+        t.add_triplet(1, 1, 2.0);
+        let m: CsMat<f64> = t.to_csc();
+        let s = shifted(&k, &m, 0.5).unwrap();
+        assert_eq!(s.get(0, 0), Some(&4.0));
+        assert_eq!(s.get(1, 0), Some(&-0.5));
+        assert_eq!(s.get(1, 1), Some(&4.0));
+        assert_eq!(s.get(2, 0), Some(&1.0));
+        assert_eq!(s.nnz(), 7);
+    }
+
+    #[test]
+    fn asymmetry_is_detected_and_named() {
+        let mut t = TriMat::new((2, 2));
+        t.add_triplet(0, 0, 1.0);
+        t.add_triplet(1, 1, 1.0);
+        t.add_triplet(1, 0, 0.5);
+        let a: CsMat<f64> = t.to_csc();
+        let err = check_symmetric(&a, "test matrix", SYMMETRY_TOLERANCE).unwrap_err();
+        assert!(
+            err.to_string().contains("test matrix is not symmetric"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn submatrix_keeps_given_order() {
+        let a = small();
+        let b = submatrix(&a, &[2, 0], &[0]).unwrap();
+        assert!(submatrix(&a, &[2, 2], &[0]).is_err());
+        assert!(submatrix(&a, &[0], &[3]).is_err());
+        assert_eq!(b.get(0, 0), Some(&1.0));
+        assert_eq!(b.get(1, 0), Some(&4.0));
+    }
+}
