@@ -2,6 +2,7 @@
 //! error that names it (serde `deny_unknown_fields`). Units: SI (m, kg, s, Pa).
 
 use anyhow::{Context, Result};
+use nlmodes_nnm::{AlgorithmParams, ContinuationSettings};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -17,7 +18,10 @@ pub struct Case {
     pub material: MaterialSection,
     pub model: ModelSection,
     pub nnm: NnmSection,
-    pub algorithm: AlgorithmSection,
+    /// Backbone continuation (amplitudes in gaps, q / g0): `nlmodes_nnm::ContinuationSettings`.
+    pub continuation: ContinuationSettings,
+    /// Algorithm 1 and the inner Newton solver: `nlmodes_nnm::AlgorithmParams`.
+    pub algorithm: AlgorithmParams,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -78,31 +82,10 @@ pub struct NnmSection {
     pub harmonics: usize,
     /// Time samples m per period (m >= 2N + 1).
     pub samples: usize,
-    /// First amplitude of the backbone, in gaps (q / g0); below grazing.
-    pub q_start: f64,
-    /// Last amplitude of the backbone, in gaps (q / g0).
-    pub q_max: f64,
-    /// Initial continuation step, in gaps.
-    pub step: f64,
-    /// Maximum number of backbone points.
-    pub max_points: usize,
     /// Amplitudes (q / g0) kept for detailed output (Figs. 4 and 5).
     pub keep: Vec<f64>,
     /// VTU frames over one period for each kept amplitude.
     pub frames: usize,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct AlgorithmSection {
-    /// Algorithm 1: alpha > 1.
-    pub alpha: f64,
-    /// Algorithm 1: beta > 1.
-    pub beta: f64,
-    /// Algorithm 1: tolerance on Powell's measure G (Eq. 21), in units of g0.
-    pub epsilon: f64,
-    /// Algorithm 1: maximum number of accepted outer iterations.
-    pub i_max: usize,
 }
 
 impl Default for Case {
@@ -114,7 +97,12 @@ impl Default for Case {
             material: MaterialSection::default(),
             model: ModelSection::default(),
             nnm: NnmSection::default(),
-            algorithm: AlgorithmSection::default(),
+            continuation: ContinuationSettings {
+                q_start: 0.5,
+                q_max: 35.0,
+                ..ContinuationSettings::default()
+            },
+            algorithm: AlgorithmParams::default(),
         }
     }
 }
@@ -160,23 +148,8 @@ impl Default for NnmSection {
         Self {
             harmonics: 15,
             samples: 256,
-            q_start: 0.5,
-            q_max: 35.0,
-            step: 0.5,
-            max_points: 400,
             keep: vec![5.7, 9.3, 31.3],
             frames: 24,
-        }
-    }
-}
-
-impl Default for AlgorithmSection {
-    fn default() -> Self {
-        Self {
-            alpha: 2.0,
-            beta: 10.0,
-            epsilon: 1e-6,
-            i_max: 50,
         }
     }
 }

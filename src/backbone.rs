@@ -1,0 +1,178 @@
+//! The backbone stage: nonlinear mode of a reduced model traced in amplitude (Algorithm 1 at every
+//! point, pseudo-arc-length continuation), written as `backbone.csv` and `backbone.json`.
+
+use anyhow::{Context, Result};
+use nlmodes_modal::ReducedModel;
+use nlmodes_nnm::{
+    backbone, AlgorithmParams, Backbone, ContinuationSettings, HarmonicSettings, System, Termination,
+};
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::output::write_atomic;
+use crate::ui;
+
+/// The nnm system of a reduced model: its K, M, contact rows (radial unit vectors, Eq. 17), gaps
+/// and master coordinate (`master` overrides the model's default).
+pub fn system_of(model: &ReducedModel, master: Option<usize>) -> Result<System> {
+    let master = master.unwrap_or(model.master.dof);
+    Ok(System::new(
+        model.m.clone(),
+        model.k.clone(),
+        model.contact_rows(),
+        model.gaps(),
+        master,
+    )?)
+}
+
+/// Trace the backbone with a progress bar over q / g0.
+pub fn trace(
+    system: &System,
+    harmonics: HarmonicSettings,
+    params: &AlgorithmParams,
+    cont: &ContinuationSettings,
+) -> Result<Backbone> {
+    let stage = ui::Stage::start("backbone");
+    let scale = 100.0;
+    let bar = ui::bar((cont.q_max * scale) as u64, "backbone");
+    let g = system.gap_reference();
+    let result = backbone(system, harmonics, params.clone(), cont, |p| {
+        bar.set_position(((p.q / g).max(0.0) * scale) as u64);
+        bar.set_message(format!("q/g0 = {:.3}, w/w1 = {:.5}", p.q / g, p.omega_ratio));
+    })
+    .context("tracing the backbone")?;
+    bar.finish_and_clear();
+    match &result.termination {
+        Termination::ReachedMaxAmplitude => {}
+        other => tracing::warn!(
+            "the backbone stopped before q_max = {} g0: {other:?}; the {} points computed are written",
+            cont.q_max,
+            result.points.len()
+        ),
+    }
+    stage.done(&format!(
+        "{} points, last q/g0 = {:.3}, w/w1 = {:.5}",
+        result.points.len(),
+        result.points.last().map(|p| p.q / g).unwrap_or(0.0),
+        result.points.last().map(|p| p.omega_ratio).unwrap_or(1.0)
+    ));
+    Ok(result)
+}
+
+/// Column header of `backbone.csv` (units in the names).
+pub const CSV_HEADER: &str = "point,q_over_g0,q_m,omega_rad_s,frequency_hz,omega_ratio,energy_j,\
+mean_gap_over_g0,max_gap_over_g0,max_penetration_over_g0,max_contact_fraction,nodes_in_contact,\
+powell_measure,outer_iterations,inner_solves,newton_iterations,fold,jump,truncation_warning";
+
+/// `backbone.csv`: one row per point, in continuation order.
+pub fn backbone_csv(b: &Backbone) -> String {
+    let g = b.gap_reference;
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for (i, p) in b.points.iter().enumerate() {
+        let touching = p.contact_fraction.iter().filter(|&&f| f > 0.0).count();
+        let max_frac = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
+        let _ = writeln!(
+            s,
+            "{i},{},{},{},{},{},{},{},{},{},{},{touching},{},{},{},{},{},{},{}",
+            p.q / g,
+            p.q,
+            p.omega,
+            p.frequency_hz,
+            p.omega_ratio,
+            p.energy,
+            p.mean_gap_overall / g,
+            p.max_gap_overall / g,
+            p.max_penetration / g,
+            max_frac,
+            p.powell_measure,
+            p.outer_iterations,
+            p.inner_solves,
+            p.newton_iterations,
+            p.fold as u8,
+            p.jump as u8,
+            p.truncation_warning as u8
+        );
+    }
+    s
+}
+
+/// Write `backbone.csv` and `backbone.json` (every point with its Fourier coefficients, contact
+/// forces, and the run's termination) into `dir`.
+pub fn write(b: &Backbone, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for p in &b.points {
+        anyhow::ensure!(
+            p.omega.is_finite() && p.q.is_finite(),
+            "refusing to write a non-finite backbone point (q = {}, w = {})",
+            p.q,
+            p.omega
+        );
+    }
+    write_atomic(&dir.join("backbone.csv"), backbone_csv(b).as_bytes())?;
+    let json = serde_json::to_vec(b).context("serializing the backbone")?;
+    write_atomic(&dir.join("backbone.json"), &json)?;
+    Ok(())
+}
+
+/// Read a reduced-model directory.
+pub fn load_model(dir: &Path) -> Result<ReducedModel> {
+    ReducedModel::read(dir).with_context(|| format!("reading the reduced model {}", dir.display()))
+}
+
+/// Algorithm 1 parameters and continuation settings from a TOML file with optional `[algorithm]`
+/// and `[continuation]` tables (any other key is an error).
+pub fn load_settings(path: &Path) -> Result<(AlgorithmParams, ContinuationSettings)> {
+    #[derive(serde::Deserialize, Default)]
+    #[serde(deny_unknown_fields, default)]
+    struct File {
+        algorithm: AlgorithmParams,
+        continuation: ContinuationSettings,
+    }
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read settings file {}", path.display()))?;
+    let f: File =
+        toml::from_str(&text).with_context(|| format!("invalid settings file {}", path.display()))?;
+    Ok((f.algorithm, f.continuation))
+}
+
+/// A short table of the backbone (about 15 rows) for the terminal.
+pub fn summary(b: &Backbone) -> String {
+    let g = b.gap_reference;
+    let mut s = format!(
+        "linear frequency {:.4} Hz, grazing at q/g0 = {}\n{:>8} {:>10} {:>14} {:>8} {:>6}\n",
+        b.omega_linear / (2.0 * std::f64::consts::PI),
+        b.grazing_amplitude
+            .map(|q| format!("{:.4}", q / g))
+            .unwrap_or_else(|| "never".into()),
+        "q/g0",
+        "w/w1",
+        "frequency [Hz]",
+        "touching",
+        "flags"
+    );
+    let stride = (b.points.len() / 15).max(1);
+    for (i, p) in b.points.iter().enumerate() {
+        if i % stride != 0 && i + 1 != b.points.len() && !p.fold && !p.jump {
+            continue;
+        }
+        let touching = p.contact_fraction.iter().filter(|&&f| f > 0.0).count();
+        let flags = format!(
+            "{}{}{}",
+            if p.fold { "F" } else { "" },
+            if p.jump { "J" } else { "" },
+            if p.truncation_warning { "N" } else { "" }
+        );
+        let _ = writeln!(
+            s,
+            "{:>8.3} {:>10.6} {:>14.4} {:>8} {:>6}",
+            p.q / g,
+            p.omega_ratio,
+            p.frequency_hz,
+            touching,
+            flags
+        );
+    }
+    let _ = writeln!(s, "termination: {:?}   (flags: F fold, J jump, N harmonics too few)", b.termination);
+    s
+}

@@ -1,0 +1,118 @@
+//! The clamped finite-element model: mesh, material, Dirichlet elimination, assembled K and M.
+
+use anyhow::{bail, Context, Result};
+use nlmodes_fem::{assemble, fixed_dofs, read_msh, DofMap, Isotropic, Mesh};
+use nlmodes_modal::{eigs_shift_invert, EigenOptions, Modes};
+use sprs::CsMat;
+use std::path::Path;
+
+use crate::ui;
+
+/// A mesh with its Dirichlet conditions and the free-DOF stiffness (N/m) and mass (kg) matrices.
+pub struct FeModel {
+    pub mesh: Mesh,
+    pub dofs: DofMap,
+    /// Free-DOF stiffness K_ff, N/m.
+    pub k: CsMat<f64>,
+    /// Free-DOF consistent mass M_ff, kg.
+    pub m: CsMat<f64>,
+}
+
+impl FeModel {
+    /// Read `mesh_path`, assemble K and M for `material`, eliminate the DOFs of the `fix` specs
+    /// (`root`, `bottom:z`).
+    pub fn build(mesh_path: &Path, material: &Isotropic, fix: &[String]) -> Result<Self> {
+        let stage = ui::Stage::start("assemble");
+        let mesh = read_msh(mesh_path)?;
+        let fixed = fixed_dofs(&mesh, fix)
+            .with_context(|| format!("Dirichlet conditions on {}", mesh_path.display()))?;
+        let dofs = DofMap::new(mesh.n_nodes(), &fixed)?;
+        let (k, m) = assemble(&mesh, material)
+            .with_context(|| format!("assembling {}", mesh_path.display()))?;
+        let k = dofs.try_restrict(&k)?;
+        let m = dofs.try_restrict(&m)?;
+        stage.done(&format!(
+            "{} {:?} elements, {} nodes, {} free DOFs ({} fixed), nnz(K) = {}",
+            mesh.n_elements(),
+            mesh.kind,
+            mesh.n_nodes(),
+            dofs.n_free(),
+            3 * mesh.n_nodes() - dofs.n_free(),
+            k.nnz()
+        ));
+        if fix.is_empty() {
+            tracing::warn!("no Dirichlet condition: the model has rigid-body modes; use a negative --sigma");
+        }
+        Ok(Self { mesh, dofs, k, m })
+    }
+
+    /// The `n` lowest modes by ARPACK shift-invert about `sigma` (rad^2/s^2), with a progress spinner.
+    pub fn modes(&self, n: usize, sigma: f64) -> Result<Modes> {
+        if n == 0 {
+            bail!("the number of modes must be at least 1");
+        }
+        let stage = ui::Stage::start("modes");
+        let spinner = ui::spinner("modes");
+        let tick = |i: usize| {
+            if i % 10 == 0 {
+                spinner.set_message(format!("{i} solves"));
+            }
+        };
+        let opts = EigenOptions {
+            on_iteration: Some(&tick),
+            ..EigenOptions::default()
+        };
+        let modes = eigs_shift_invert(&self.k, &self.m, n, sigma, &opts)
+            .with_context(|| format!("computing {n} modes of the {}-DOF model", self.dofs.n_free()))?;
+        spinner.finish_and_clear();
+        let worst = modes.residuals.iter().cloned().fold(0.0, f64::max);
+        stage.done(&format!("{} modes, largest relative residual {worst:.2e}", modes.len()));
+        Ok(modes)
+    }
+
+    /// Full nodal displacement (3 per node, m) of a free-DOF vector.
+    pub fn nodal(&self, free: &[f64]) -> Result<Vec<f64>> {
+        Ok(self.dofs.try_expand(free)?)
+    }
+}
+
+/// `frequencies.csv`: columns `mode,frequency_hz,eigenvalue,residual` (eigenvalue in rad^2/s^2).
+pub fn frequencies_csv(modes: &Modes) -> String {
+    let mut s = String::from("mode,frequency_hz,eigenvalue,residual\n");
+    for (i, f) in modes.frequencies_hz().iter().enumerate() {
+        s.push_str(&format!(
+            "{},{f},{},{}\n",
+            i + 1,
+            modes.eigenvalues[i],
+            modes.residuals[i]
+        ));
+    }
+    s
+}
+
+/// The frequency table printed on the terminal.
+pub fn frequency_table(modes: &Modes) -> String {
+    let mut s = format!("{:>5} {:>14} {:>16} {:>10}\n", "mode", "frequency [Hz]", "eigenvalue [rad²/s²]", "residual");
+    for (i, f) in modes.frequencies_hz().iter().enumerate() {
+        s.push_str(&format!(
+            "{:>5} {:>14.4} {:>16.6e} {:>10.2e}\n",
+            i + 1,
+            f,
+            modes.eigenvalues[i],
+            modes.residuals[i]
+        ));
+    }
+    s
+}
+
+/// Write `frequencies.csv` and `modes.vtu` (one point vector field per mode, m, mass-normalized).
+pub fn write_modes(fe: &FeModel, modes: &Modes, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    crate::output::write_atomic(&dir.join("frequencies.csv"), frequencies_csv(modes).as_bytes())?;
+    let mut fields = Vec::with_capacity(modes.len());
+    for j in 0..modes.len() {
+        let free: Vec<f64> = (0..modes.vectors.nrows()).map(|i| modes.vectors[(i, j)]).collect();
+        fields.push((format!("mode_{:02}", j + 1), fe.nodal(&free)?));
+    }
+    crate::output::write_mesh_vtu(&fe.mesh, &dir.join("modes.vtu"), &fields)
+}

@@ -1,0 +1,202 @@
+//! Craig-Bampton reduction of the clamped FE model onto its contact nodes, and the reduced-model
+//! directory (format documented in `nlmodes_modal::reduced_model` and in the README).
+
+use anyhow::{bail, Context, Result};
+use faer::Mat;
+use nlmodes_modal::{
+    craig_bampton, reduced_eigen, ContactNode, CraigBampton, EigenOptions, MasterCoordinate,
+    MeshReference, ReducedModel, RotorAxis,
+};
+use std::path::Path;
+
+use crate::fe_model::FeModel;
+use crate::ui;
+
+/// What the reduction needs besides the FE model.
+pub struct ReduceSettings<'a> {
+    pub contact_group: &'a str,
+    pub axis: RotorAxis,
+    /// Uniform initial radial gap g0, m.
+    pub gap: f64,
+    /// Number of fixed-interface modes.
+    pub modes: usize,
+    /// Master coordinate: `None` = the contact DOF with the largest first-mode amplitude.
+    pub master: Option<usize>,
+}
+
+/// Contact nodes of `group` (mesh node indices), ordered from the leading edge to the trailing edge:
+/// along the line through the two farthest-apart nodes, from the end with the smaller y.
+pub fn ordered_contact_nodes(fe: &FeModel, group: &str) -> Result<Vec<usize>> {
+    let g = fe.mesh.group(group)?;
+    let mut nodes = g.nodes.clone();
+    if nodes.is_empty() {
+        bail!("contact group `{group}` has no nodes");
+    }
+    let x = |n: usize| fe.mesh.nodes[n];
+    let dist2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
+    let (mut a, mut b, mut best) = (nodes[0], nodes[0], -1.0);
+    for &p in &nodes {
+        for &q in &nodes {
+            let d = dist2(x(p), x(q));
+            if d > best {
+                (a, b, best) = (p, q, d);
+            }
+        }
+    }
+    if x(a)[1] > x(b)[1] {
+        std::mem::swap(&mut a, &mut b);
+    }
+    let (xa, xb) = (x(a), x(b));
+    let dir = [xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]];
+    let proj = |n: usize| (0..3).map(|i| (x(n)[i] - xa[i]) * dir[i]).sum::<f64>();
+    nodes.sort_by(|&p, &q| proj(p).total_cmp(&proj(q)));
+    Ok(nodes)
+}
+
+/// Reduce `fe` by Craig-Bampton onto the three DOFs of every contact node.
+pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBampton)> {
+    if !(s.gap > 0.0 && s.gap.is_finite()) {
+        bail!("the initial gap must be > 0 m, got {}", s.gap);
+    }
+    let nodes = ordered_contact_nodes(fe, s.contact_group)?;
+    let mut boundary = Vec::with_capacity(3 * nodes.len());
+    for &n in &nodes {
+        for c in 0..3 {
+            let free = fe.dofs.free_index(3 * n + c).with_context(|| {
+                format!(
+                    "contact node {} of group `{}` at {:?} has a fixed DOF: it lies on a clamped group",
+                    n + 1,
+                    s.contact_group,
+                    fe.mesh.nodes[n]
+                )
+            })?;
+            boundary.push(free);
+        }
+    }
+    let stage = ui::Stage::start("reduce");
+    let spinner = ui::spinner("reduce");
+    let tick = |i: usize| {
+        if i % 10 == 0 {
+            spinner.set_message(format!("{i} solves"));
+        }
+    };
+    let opts = EigenOptions {
+        on_iteration: Some(&tick),
+        ..EigenOptions::default()
+    };
+    let cb = craig_bampton(&fe.k, &fe.m, &boundary, s.modes, &opts).with_context(|| {
+        format!(
+            "Craig-Bampton reduction onto {} contact nodes with {} fixed-interface modes",
+            nodes.len(),
+            s.modes
+        )
+    })?;
+    spinner.finish_and_clear();
+    tracing::info!(
+        "reduced model: {} coordinates; asymmetry before symmetrization K_r {:.1e}, M_r {:.1e}",
+        cb.n_reduced(),
+        cb.asymmetry_k,
+        cb.asymmetry_m
+    );
+    let (eigenvalues, vectors) = reduced_eigen(&cb)?;
+    let freqs: Vec<f64> = eigenvalues
+        .iter()
+        .take(20)
+        .map(|l| l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI))
+        .collect();
+    let contact_nodes = nodes
+        .iter()
+        .enumerate()
+        .map(|(j, &n)| {
+            Ok(ContactNode {
+                mesh_node: Some(n as u64 + 1),
+                dofs: [3 * j, 3 * j + 1, 3 * j + 2],
+                position: fe.mesh.nodes[n],
+                radial: s.axis.radial_unit_vector(fe.mesh.nodes[n])?,
+                gap: s.gap,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let master = master_coordinate(s.master, &vectors, &contact_nodes, cb.n_reduced())?;
+    let fixed: Vec<usize> = (0..fe.dofs.n_global()).filter(|&d| fe.dofs.is_fixed(d)).collect();
+    let model = ReducedModel {
+        k: cb.k_r.clone(),
+        m: cb.m_r.clone(),
+        contact_nodes,
+        rotor_axis: s.axis.clone(),
+        master,
+        linear_frequencies_hz: freqs,
+        recovery: Some(cb.recovery_basis()),
+        mesh: Some(MeshReference {
+            msh_file: String::new(),
+            n_full_dofs: fe.dofs.n_global(),
+            fixed_dofs: fixed,
+        }),
+    };
+    stage.done(&format!(
+        "{} constraint modes + {} fixed-interface modes",
+        boundary.len(),
+        s.modes
+    ));
+    Ok((model, cb))
+}
+
+/// The master coordinate: given, or the contact DOF with the largest amplitude in the first mode.
+fn master_coordinate(
+    given: Option<usize>,
+    vectors: &Mat<f64>,
+    contact: &[ContactNode],
+    n: usize,
+) -> Result<MasterCoordinate> {
+    let describe = |dof: usize| {
+        for (j, c) in contact.iter().enumerate() {
+            if let Some(k) = c.dofs.iter().position(|&d| d == dof) {
+                return format!(
+                    "{} displacement of contact node {} of {} (mesh node {}), m",
+                    ["x", "y", "z"][k],
+                    j + 1,
+                    contact.len(),
+                    c.mesh_node.unwrap_or(0)
+                );
+            }
+        }
+        format!("reduced coordinate {dof}")
+    };
+    let dof = match given {
+        Some(d) if d < n => d,
+        Some(d) => bail!("master coordinate {d} is out of range: the reduced model has {n} coordinates"),
+        None => contact
+            .iter()
+            .flat_map(|c| c.dofs)
+            .max_by(|&a, &b| vectors[(a, 0)].abs().total_cmp(&vectors[(b, 0)].abs()))
+            .context("no contact DOF")?,
+    };
+    Ok(MasterCoordinate {
+        dof,
+        description: describe(dof),
+    })
+}
+
+/// Write the model directory, pointing its mesh reference at `msh` (made relative when possible).
+pub fn write_model(model: &mut ReducedModel, dir: &Path, msh: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    if let Some(m) = model.mesh.as_mut() {
+        let abs = std::fs::canonicalize(msh).unwrap_or_else(|_| msh.to_path_buf());
+        m.msh_file = abs.to_string_lossy().into_owned();
+    }
+    model
+        .write(dir)
+        .with_context(|| format!("writing the reduced model to {}", dir.display()))
+}
+
+/// The first reduced frequencies beside the full model's, with their relative error.
+pub fn comparison_table(full_hz: &[f64], reduced_hz: &[f64]) -> String {
+    let mut s = format!(
+        "{:>5} {:>14} {:>14} {:>12}\n",
+        "mode", "full [Hz]", "reduced [Hz]", "rel. error"
+    );
+    for (i, (f, r)) in full_hz.iter().zip(reduced_hz).take(10).enumerate() {
+        s.push_str(&format!("{:>5} {f:>14.4} {r:>14.4} {:>12.2e}\n", i + 1, (r - f) / f));
+    }
+    s
+}
