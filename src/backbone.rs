@@ -176,3 +176,37 @@ pub fn summary(b: &Backbone) -> String {
     let _ = writeln!(s, "termination: {:?}   (flags: F fold, J jump, N harmonics too few)", b.termination);
     s
 }
+
+/// The orbits at the amplitudes kept for detailed output (q / g0 values), each solved exactly at
+/// that q from the backbone point nearest to it, on the first stretch of the branch (in
+/// continuation order) that reaches that amplitude. Amplitudes the branch never reached are skipped
+/// with a warning.
+pub fn kept_points(
+    system: &System,
+    harmonics: HarmonicSettings,
+    params: &AlgorithmParams,
+    b: &Backbone,
+    keep: &[f64],
+) -> Result<Vec<nlmodes_nnm::BackbonePoint>> {
+    let g = b.gap_reference;
+    let mut solver = nlmodes_nnm::Solver::new(system, harmonics, params.clone())?;
+    let mut out = Vec::new();
+    for &k in keep {
+        let target = k * g;
+        let crossing = b
+            .points
+            .windows(2)
+            .position(|w| (w[0].q - target) * (w[1].q - target) <= 0.0);
+        let Some(i) = crossing else {
+            tracing::warn!("kept amplitude q/g0 = {k} is outside the computed branch: skipped");
+            continue;
+        };
+        let (a, c) = (&b.points[i], &b.points[i + 1]);
+        let start = if (a.q - target).abs() <= (c.q - target).abs() { a } else { c };
+        let p = solver
+            .solve_point(target, nlmodes_nnm::Start::Point(start))
+            .with_context(|| format!("solving the orbit at the kept amplitude q/g0 = {k}"))?;
+        out.push(p);
+    }
+    Ok(out)
+}

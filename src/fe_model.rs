@@ -116,3 +116,12 @@ pub fn write_modes(fe: &FeModel, modes: &Modes, dir: &Path) -> Result<()> {
     }
     crate::output::write_mesh_vtu(&fe.mesh, &dir.join("modes.vtu"), &fields)
 }
+
+/// Frequencies (Hz) read back from a `frequencies.csv`, if present and well formed.
+pub fn read_frequencies(path: &Path) -> Option<Vec<f64>> {
+    let text = std::fs::read_to_string(path).ok()?;
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1)?.parse::<f64>().ok())
+        .collect()
+}

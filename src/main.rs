@@ -4,9 +4,13 @@
 mod backbone;
 mod case;
 mod fe_model;
+mod figures;
 mod gmsh;
 mod output;
+mod post;
 mod reduce;
+mod report;
+mod run;
 mod ui;
 
 use anyhow::Result;
@@ -139,6 +143,19 @@ enum Command {
         #[arg(long, short)]
         out: PathBuf,
     },
+    /// Run a study case (default cases/blade.toml): mesh, modes, reduce, backbone, post.
+    /// Each stage reruns only when its inputs changed.
+    Run {
+        /// The case file.
+        #[arg(default_value = "cases/blade.toml")]
+        case: PathBuf,
+        /// Run only this stage (and the out-of-date stages it needs).
+        #[arg(long, value_enum)]
+        only: Option<run::Only>,
+        /// Rerun the stages even when up to date.
+        #[arg(long)]
+        force: bool,
+    },
 }
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
@@ -261,5 +278,6 @@ fn run(command: Command) -> Result<()> {
             ui::say(&backbone::summary(&b));
             Ok(())
         }
+        Command::Run { case, only, force } => run::run(&case, only, force),
     }
 }

@@ -1,0 +1,225 @@
+//! Errors of the finite-element front end.
+//!
+//! Every message names what it is about (the file, the physical group, the element tag, the
+//! value) and what was expected, so that a user can fix the input without reading the code.
+
+use std::path::PathBuf;
+
+/// Errors returned by `nlmodes-fem`.
+#[derive(Debug, thiserror::Error)]
+pub enum FemError {
+    /// The mesh file could not be read from disk.
+    #[error("cannot read mesh file '{}': {source}", path.display())]
+    Io {
+        /// The file that was asked for.
+        path: PathBuf,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// The file does not start with a `$MeshFormat` section: it is not a gmsh MSH file.
+    #[error("'{}' is not a gmsh MSH file: {reason}", path.display())]
+    NotMsh {
+        /// The file.
+        path: PathBuf,
+        /// What was found instead.
+        reason: String,
+    },
+
+    /// The file is a gmsh MSH file of a version other than 4.1.
+    #[error(
+        "'{}' is in MSH format version {found}; only MSH 4.1 (ASCII or binary) is supported \
+         (re-export it with `gmsh ... -format msh41`)",
+        path.display()
+    )]
+    UnsupportedMshVersion {
+        /// The file.
+        path: PathBuf,
+        /// The version string found in `$MeshFormat`, e.g. `"2.2"`.
+        found: String,
+    },
+
+    /// The MSH 4.1 content is malformed.
+    #[error("cannot parse MSH file '{}': {message}", path.display())]
+    MshParse {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong and where (line, section).
+        message: String,
+    },
+
+    /// The file holds no tetrahedra (gmsh types 4 or 11).
+    #[error(
+        "'{}' contains no tetrahedra (gmsh element type 4 = TET4 or 11 = TET10); \
+         did you mesh in 3D (`gmsh -3`) and define a Physical Volume?",
+        path.display()
+    )]
+    NoTetrahedra {
+        /// The file.
+        path: PathBuf,
+    },
+
+    /// A volume element block holds an element type other than TET4/TET10.
+    #[error(
+        "'{}': volume entity {entity_tag} holds elements of unsupported gmsh type {gmsh_type} \
+         ({type_name}); only tetrahedra of type 4 (TET4) or 11 (TET10) are supported",
+        path.display()
+    )]
+    UnsupportedVolumeElement {
+        /// The file.
+        path: PathBuf,
+        /// The gmsh element type number.
+        gmsh_type: i32,
+        /// A readable name of that type.
+        type_name: String,
+        /// The gmsh entity holding the elements.
+        entity_tag: i32,
+    },
+
+    /// The volume mixes TET4 and TET10.
+    #[error(
+        "'{}' mixes TET4 (gmsh type 4) and TET10 (gmsh type 11) volume elements; \
+         mesh with a single order (`-order 1` or `-order 2`)",
+        path.display()
+    )]
+    MixedVolumeElements {
+        /// The file.
+        path: PathBuf,
+    },
+
+    /// An element refers to a node tag absent from `$Nodes`.
+    #[error("'{}': element {element_tag} refers to node tag {node_tag}, which is not in $Nodes", path.display())]
+    UnknownNodeTag {
+        /// The file.
+        path: PathBuf,
+        /// gmsh tag of the element.
+        element_tag: usize,
+        /// The missing node tag.
+        node_tag: usize,
+    },
+
+    /// A physical group holds a node that belongs to no tetrahedron.
+    #[error(
+        "'{}': physical group '{group}' holds node tag {node_tag}, which belongs to no tetrahedron \
+         of the volume mesh",
+        path.display()
+    )]
+    GroupNodeOutsideVolume {
+        /// The file.
+        path: PathBuf,
+        /// Group name.
+        group: String,
+        /// gmsh node tag.
+        node_tag: usize,
+    },
+
+    /// A physical group name was asked for that the mesh does not have.
+    #[error("no physical group named '{name}'; groups present: {available}")]
+    UnknownGroup {
+        /// The requested name.
+        name: String,
+        /// The names present, with their dimensions, comma-separated.
+        available: String,
+    },
+
+    /// Two physical groups of different dimensions share a name.
+    #[error(
+        "physical group name '{name}' is used by groups of dimensions {dims:?}; rename one of them"
+    )]
+    AmbiguousGroup {
+        /// The shared name.
+        name: String,
+        /// Their dimensions.
+        dims: Vec<usize>,
+    },
+
+    /// The Jacobian determinant is not positive at a quadrature point.
+    #[error(
+        "element {element_tag} is inverted: det J = {det_j:e} <= 0 at reference point \
+         ({:.4}, {:.4}, {:.4}) (check node ordering / curved mid-edge nodes)",
+        point[0], point[1], point[2]
+    )]
+    InvertedElement {
+        /// gmsh tag of the element.
+        element_tag: usize,
+        /// The Jacobian determinant found (m^3 per unit reference volume).
+        det_j: f64,
+        /// Reference coordinates (xi, eta, zeta) of the quadrature point.
+        point: [f64; 3],
+    },
+
+    /// The Jacobian determinant is positive but negligible relative to h^3.
+    #[error(
+        "element {element_tag} is degenerate (flat): det J = {det_j:e} at reference point \
+         ({:.4}, {:.4}, {:.4}) is below {threshold:e} x h^3 with longest edge h = {h:e}",
+        point[0], point[1], point[2]
+    )]
+    DegenerateElement {
+        /// gmsh tag of the element.
+        element_tag: usize,
+        /// The Jacobian determinant found.
+        det_j: f64,
+        /// Longest vertex-to-vertex edge length (m).
+        h: f64,
+        /// Relative threshold used.
+        threshold: f64,
+        /// Reference coordinates of the quadrature point.
+        point: [f64; 3],
+    },
+
+    /// A material constant is out of its admissible range (or not finite).
+    #[error("invalid material: {parameter} = {value}; expected {expected}")]
+    InvalidMaterial {
+        /// Which constant.
+        parameter: &'static str,
+        /// The value given.
+        value: f64,
+        /// The admissible range.
+        expected: &'static str,
+    },
+
+    /// A node has a non-finite coordinate.
+    #[error("node {node} (0-based) has a non-finite coordinate {coords:?}")]
+    NonFiniteCoordinate {
+        /// 0-based node index.
+        node: usize,
+        /// Its coordinates.
+        coords: [f64; 3],
+    },
+
+    /// A Dirichlet specification could not be parsed.
+    #[error("invalid constraint '{spec}': {reason} (expected GROUP or GROUP:COMPONENTS, e.g. 'root' or 'bottom:z' or 'root:xy')")]
+    InvalidFixSpec {
+        /// The text given.
+        spec: String,
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// A fixed DOF is out of range.
+    #[error("fixed DOF (node {node}, component {component}) is out of range: the mesh has {n_nodes} nodes and components are 0, 1, 2")]
+    InvalidFixedDof {
+        /// 0-based node index.
+        node: usize,
+        /// Component (0 = x, 1 = y, 2 = z).
+        component: usize,
+        /// Number of nodes.
+        n_nodes: usize,
+    },
+
+    /// A matrix or vector does not have the size the DOF map expects.
+    #[error("{what} has size {found}, expected {expected}")]
+    DimensionMismatch {
+        /// What was passed.
+        what: &'static str,
+        /// Its size.
+        found: usize,
+        /// The size expected.
+        expected: usize,
+    },
+
+    /// A mesh built in code is inconsistent.
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+}

@@ -1,0 +1,280 @@
+//! Algorithm 1 of the paper as printed: the frequency-time augmented Lagrangian with Powell's
+//! measure and adaptive penalties (Powell 1978; Arora, Chahande & Paeng 1991).
+//!
+//! ```text
+//! i = 0, G^(0) = inf, theta = theta^(1), kappa = kappa^(1)
+//! while i < i_max:
+//!     solve Eq. (20) at (theta, kappa); evaluate g_{j,k}; v = max(g, -theta) / g0
+//!     L = { (j,k) : |v_{j,k}| >= G^(i) / alpha }
+//!     Gbar = max_{j,k} |v_{j,k}|                                  (Eq. 21)
+//!     if Gbar >= G^(i):  kappa_L <- beta kappa_L,  theta_L <- theta_L / beta
+//!     else:
+//!         i <- i + 1;  G^(i) <- Gbar
+//!         if G^(i) <= epsilon: converged
+//!         theta <- theta + max(g, -theta)                          (Eq. 16)
+//!         if G^(i) >= G^(i-1) / alpha:  kappa_L <- beta kappa_L
+//! ```
+//!
+//! G is Powell's measure; by default the entrywise maximum max_{j,k} |v_{j,k}| (see
+//! [`PowellMeasure`] for why not the row-maximum reading of DESIGN 3, which can accept orbits that
+//! violate complementarity). G is measured in units of the initial gap: v is divided by g0_j, so epsilon is relative to g0.
+//! The rejection branch scales kappa up and theta down by the same factor, which keeps the
+//! multiplier estimate kappa * theta unchanged. Initial penalties: kappa^(1)_j =
+//! `initial_penalty` x (static stiffness seen by contact row j, 1 / (A_j K^-1 A_j^T)); theta^(1) = 0
+//! (or the warm start). Penalties are capped at `max_penalty` x that stiffness, to bound the
+//! conditioning of the Newton matrix over a long continuation (when the cap binds, theta is divided
+//! by the factor actually applied, so kappa * theta is still conserved).
+
+use serde::{Deserialize, Serialize};
+
+use crate::contact::{powell_measure_of, violations, Multipliers, PowellMeasure};
+use crate::error::NnmError;
+use crate::newton::NewtonSettings;
+
+/// How the contact constraint is enforced.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ContactMethod {
+    /// Algorithm 1: augmented Lagrangian with Powell's multiplier and penalty updates.
+    #[default]
+    AugmentedLagrangian,
+    /// Plain penalty: lambda = stiffness (g)_+ with theta = 0 and no update (one inner solve). The
+    /// stiffness is absolute (force per length), the same for every contact row.
+    Penalty {
+        /// Penalty stiffness kc (force per length).
+        stiffness: f64,
+    },
+}
+
+/// What the penalty increase of an accepted iteration does to theta (Algorithm 1, last branch).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum PenaltyUpdate {
+    /// kappa_L <- beta kappa_L and theta_L <- theta_L / beta: the multiplier estimate kappa theta
+    /// just computed by Eq. (16) is kept, as in the rejection branch and in Powell's method.
+    #[default]
+    KeepMultiplier,
+    /// kappa_L <- beta kappa_L only, literally as printed: this multiplies the new multiplier
+    /// estimate kappa theta by beta on L, which over-pushes (G grows at the next solve) and then
+    /// needs rejections to undo; kept for comparison.
+    AsPrinted,
+}
+
+/// Which Newton linear algebra to use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Condensation {
+    /// Exact condensation onto the contact coordinates and the master (see `condensation`).
+    #[default]
+    Exact,
+    /// Dense Newton on all n (N + 1) + 2 unknowns (validation, small systems).
+    None,
+}
+
+/// Parameters of Algorithm 1 and of the inner Newton solver. Every field has a default
+/// (`#[serde(default)]`), so a settings file only lists what it changes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AlgorithmParams {
+    /// alpha > 1: required decrease factor of G per accepted iteration (default 4, Powell's value).
+    pub alpha: f64,
+    /// beta > 1: penalty growth factor (default 10).
+    pub beta: f64,
+    /// epsilon > 0: convergence when G <= epsilon, G in units of g0 (default 1e-6).
+    pub epsilon: f64,
+    /// Reading of Eq. (21) (default entrywise, see [`PowellMeasure`]).
+    pub measure: PowellMeasure,
+    /// Penalty increase after an accepted iteration with too little progress (see
+    /// [`PenaltyUpdate`]; default `KeepMultiplier`).
+    pub penalty_update: PenaltyUpdate,
+    /// i_max: maximum accepted iterations (default 50).
+    pub max_iterations: usize,
+    /// Maximum inner solves, accepted or not, per point (default 200): a guard the printed
+    /// algorithm does not need in theory.
+    pub max_inner_solves: usize,
+    /// kappa^(1) as a multiple of the static stiffness seen by each contact row (default 10).
+    pub initial_penalty: f64,
+    /// Cap of kappa as a multiple of the same stiffness (default 1e8).
+    pub max_penalty: f64,
+    /// Augmented Lagrangian (default) or plain penalty.
+    pub method: ContactMethod,
+    /// Exact condensation (default) or the dense uncondensed Newton.
+    pub condensation: Condensation,
+    /// Inner Newton settings.
+    pub newton: NewtonSettings,
+    /// Warning threshold on the highest harmonic's share of the contact-row motion,
+    /// max_j |A_j u_N| / max_j (sum_{n>=1} |A_j u_n|^2)^(1/2) (default 1e-3): above it the point is
+    /// flagged and a tracing warning says N is too small for this amplitude.
+    pub truncation_warning: f64,
+}
+
+impl Default for AlgorithmParams {
+    fn default() -> Self {
+        Self {
+            alpha: 4.0,
+            beta: 10.0,
+            epsilon: 1e-6,
+            measure: PowellMeasure::Entrywise,
+            penalty_update: PenaltyUpdate::KeepMultiplier,
+            max_iterations: 50,
+            max_inner_solves: 200,
+            initial_penalty: 10.0,
+            max_penalty: 1e8,
+            method: ContactMethod::AugmentedLagrangian,
+            condensation: Condensation::Exact,
+            newton: NewtonSettings::default(),
+            truncation_warning: 1e-3,
+        }
+    }
+}
+
+impl AlgorithmParams {
+    /// Checks every parameter range; the error names the parameter.
+    pub fn validate(&self) -> Result<(), NnmError> {
+        let gt1 = |name, v: f64| {
+            if v.is_finite() && v > 1.0 {
+                Ok(())
+            } else {
+                Err(NnmError::InvalidParameter { name, value: v, expected: "a finite value > 1" })
+            }
+        };
+        let pos = |name, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(NnmError::InvalidParameter { name, value: v, expected: "a finite value > 0" })
+            }
+        };
+        gt1("alpha", self.alpha)?;
+        gt1("beta", self.beta)?;
+        pos("epsilon", self.epsilon)?;
+        pos("initial_penalty", self.initial_penalty)?;
+        pos("max_penalty", self.max_penalty)?;
+        pos("truncation_warning", self.truncation_warning)?;
+        if self.max_penalty < self.initial_penalty {
+            return Err(NnmError::InvalidParameter {
+                name: "max_penalty",
+                value: self.max_penalty,
+                expected: ">= initial_penalty",
+            });
+        }
+        if self.max_iterations == 0 {
+            return Err(NnmError::InvalidParameter {
+                name: "max_iterations",
+                value: 0.0,
+                expected: ">= 1",
+            });
+        }
+        if self.max_inner_solves == 0 {
+            return Err(NnmError::InvalidParameter {
+                name: "max_inner_solves",
+                value: 0.0,
+                expected: ">= 1",
+            });
+        }
+        if let ContactMethod::Penalty { stiffness } = self.method {
+            pos("method.stiffness", stiffness)?;
+        }
+        self.newton.validate()
+    }
+}
+
+/// Counters and final measure of one run of Algorithm 1.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct OuterReport {
+    /// Final Powell measure G (units of g0).
+    pub measure: f64,
+    /// Accepted iterations i.
+    pub accepted: usize,
+    /// Inner solves.
+    pub solves: usize,
+    /// Newton iterations summed over the inner solves.
+    pub newton_iterations: usize,
+}
+
+/// Failure of Algorithm 1 with what was reached.
+pub(crate) struct OuterFailure {
+    pub report: OuterReport,
+    pub reason: String,
+}
+
+/// Runs Algorithm 1. `inner(multipliers, gaps)` solves Eq. (20) at the given multipliers, writes
+/// the gap samples (c x m) and returns its Newton iterations. `kappa_cap[j]` bounds kappa on row j.
+pub(crate) fn run_algorithm1<F>(
+    params: &AlgorithmParams,
+    g0: &[f64],
+    kappa_cap: &[f64],
+    multipliers: &mut Multipliers,
+    mut inner: F,
+) -> Result<OuterReport, OuterFailure>
+where
+    F: FnMut(&Multipliers, &mut Vec<f64>) -> Result<usize, NnmError>,
+{
+    let m = multipliers.samples;
+    let c = g0.len();
+    let mut gaps = vec![0.0; c * m];
+    let mut v = vec![0.0; c * m];
+    let mut rep = OuterReport { measure: f64::INFINITY, ..Default::default() };
+    let mut g_accepted = f64::INFINITY; // G^(i)
+    let (alpha, beta) = (params.alpha, params.beta);
+    while rep.accepted < params.max_iterations {
+        if rep.solves >= params.max_inner_solves {
+            return Err(OuterFailure {
+                report: rep,
+                reason: format!("{} inner solves without convergence", rep.solves),
+            });
+        }
+        rep.solves += 1;
+        match inner(multipliers, &mut gaps) {
+            Ok(it) => rep.newton_iterations += it,
+            Err(e) => {
+                if std::env::var("NNM_AL").is_ok() { eprintln!("AL solve {} FAILED {e}", rep.solves); }
+                return Err(OuterFailure { report: rep, reason: format!("inner solve failed: {e}") })
+            }
+        }
+        violations(&gaps, &multipliers.theta, g0, m, &mut v);
+        let g_bar = powell_measure_of(&v, m, params.measure);
+        rep.measure = g_bar;
+        if std::env::var("NNM_AL").is_ok() { eprintln!("AL solve {} G={g_bar:.3e} accepted G={g_accepted:.3e} kmax={:.3e}", rep.solves, multipliers.kappa.iter().cloned().fold(0.0, f64::max)); }
+        let threshold = g_accepted / alpha;
+        if g_bar >= g_accepted {
+            for i in 0..c * m {
+                if v[i].abs() >= threshold {
+                    let cap = kappa_cap[i / m];
+                    multipliers.kappa[i] = (multipliers.kappa[i] * beta).min(cap).max(multipliers.kappa[i]);
+                    multipliers.theta[i] /= beta;
+                }
+            }
+        } else {
+            rep.accepted += 1;
+            let g_previous = g_accepted;
+            g_accepted = g_bar;
+            if g_bar <= params.epsilon {
+                return Ok(rep);
+            }
+            for (j, &g0j) in g0.iter().enumerate() {
+                for k in 0..m {
+                    let i = j * m + k;
+                    multipliers.theta[i] += v[i] * g0j;
+                }
+            }
+            if g_bar >= g_previous / alpha {
+                for i in 0..c * m {
+                    if v[i].abs() >= g_previous / alpha {
+                        let cap = kappa_cap[i / m];
+                        let old = multipliers.kappa[i];
+                        let new = (old * beta).min(cap).max(old);
+                        multipliers.kappa[i] = new;
+                        if params.penalty_update == PenaltyUpdate::KeepMultiplier {
+                            multipliers.theta[i] *= old / new;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Err(OuterFailure {
+        report: rep,
+        reason: format!("i_max = {} accepted iterations reached", params.max_iterations),
+    })
+}

@@ -1,0 +1,514 @@
+//! The condensed linear model: Newton in the (y, z) coordinates of [`CondensedBasis`], with the
+//! "others" eliminated inside the linear algebra of each step.
+//!
+//! A Newton step is solved in two exact levels:
+//! 1. per harmonic n, every other-mode z_i away from resonance (|Lambda_i - s| >= window Lambda_i,
+//!    s = (n w)^2) is eliminated through the diagonal D_oo: the Schur complement
+//!    S_n = D_kk - D_ko D_oo^-1 D_ok costs O(r^2 n_o), plus O(r n_o) for the w column and the
+//!    right-hand side. Modes near resonance stay explicit unknowns of the small per-harmonic block.
+//! 2. per harmonic, the coordinates that carry no active contact and are not the master are
+//!    eliminated from that block by a small LU; what remains (active contact coordinates and the
+//!    master, for all harmonics, plus w and q) is the only system coupling harmonics and is solved
+//!    by a dense LU of size about (c_active + 1)(N + 1) + 2. If a per-harmonic block is nearly
+//!    singular (n w at an eigenfrequency of the structure with those coordinates held), or if the
+//!    step fails a residual check, the step is redone with every kept coordinate in the coupled
+//!    system (dense LU of size about (c + 1)(N + 1) + 2) - still exact, only slower.
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatMut, MatRef, Par};
+
+use crate::condensation::CondensedBasis;
+use crate::dense::DenseLu;
+use crate::error::NnmError;
+use crate::newton::{contact_jacobian, JacobianData, LinearModel};
+use crate::system::System;
+
+/// Pivot ratio of a per-harmonic interior block below which the step is redone without it.
+const INTERIOR_PIVOT_RATIO: f64 = 1e-12;
+/// Relative linear residual above which a fast step is redone with the full kept system.
+const STEP_CHECK_TOLERANCE: f64 = 1e-9;
+const NOT_IN: usize = usize::MAX;
+
+#[derive(Default)]
+struct HarmonicBlock {
+    near: Vec<usize>,
+    size: usize,
+    /// Kept block (size x size, column-major).
+    a: Vec<f64>,
+    cw: Vec<f64>,
+    b: Vec<f64>,
+    /// Parameter-row coefficients on the kept coordinates of this harmonic.
+    arc: Vec<f64>,
+    /// 1 / (Lambda_i - s) for eliminated modes, 0 for near ones.
+    wt: Vec<f64>,
+    border: Vec<usize>,
+    interior: Vec<usize>,
+    /// Position of a kept coordinate in `border` (or NOT_IN).
+    border_pos: Vec<usize>,
+    lu: DenseLu,
+    /// A_II^-1 [A_IB | cw_I | b_I] (n_I x (n_B + 2), column-major).
+    xs: Vec<f64>,
+    /// Solved kept-block step.
+    delta: Vec<f64>,
+}
+
+pub(crate) struct CondensedModel {
+    basis: CondensedBasis,
+    weights: Vec<f64>,
+    window: f64,
+    blocks: Vec<HarmonicBlock>,
+    reduced: DenseLu,
+    reduced_rhs: Vec<f64>,
+    offsets: Vec<usize>,
+    dt: Mat<f64>,
+    dw: Mat<f64>,
+    s_mat: Mat<f64>,
+    /// Number of steps redone with the full kept system (diagnostics).
+    pub fallbacks: usize,
+}
+
+impl CondensedModel {
+    pub fn new(system: &System, window: f64) -> Result<Self, NnmError> {
+        let basis = CondensedBasis::new(system)?;
+        let mut weights = Vec::with_capacity(basis.r + basis.n_o);
+        for i in 0..basis.r {
+            weights.push(1.0 / basis.k_kk[(i, i)].sqrt());
+        }
+        for &l in &basis.lambda {
+            weights.push(1.0 / l.sqrt());
+        }
+        let (r, n_o) = (basis.r, basis.n_o);
+        Ok(Self {
+            basis,
+            weights,
+            window,
+            blocks: Vec::new(),
+            reduced: DenseLu::default(),
+            reduced_rhs: Vec::new(),
+            offsets: Vec::new(),
+            dt: Mat::zeros(r, n_o),
+            dw: Mat::zeros(r, n_o),
+            s_mat: Mat::zeros(r, r),
+            fallbacks: 0,
+        })
+    }
+
+    /// Level 1 for every harmonic: kept blocks, w columns and right-hand sides.
+    fn build_blocks(&mut self, jac: &JacobianData<'_>, rhs: &[f64]) {
+        let bs = &self.basis;
+        let (r, n_o, d, nh) = (bs.r, bs.n_o, bs.r + bs.n_o, jac.harmonics + 1);
+        let w = jac.omega;
+        let xm = MatRef::from_column_major_slice(&jac.x[..d * nh], d, nh);
+        let (y, z) = (xm.get(..r, ..), xm.get(r.., ..));
+        // w-derivative columns: -2 n^2 w [M_kk y + Mt z; Mt^T y + z]
+        let mut wy = &bs.m_kk * y;
+        matmul(wy.as_mut(), Accum::Add, bs.mt.as_ref(), z, 1.0, Par::Seq);
+        let mut wz = bs.mt.transpose() * y;
+        for h in 0..nh {
+            let f = -2.0 * (h * h) as f64 * w;
+            for i in 0..r {
+                wy[(i, h)] *= f;
+            }
+            for i in 0..n_o {
+                wz[(i, h)] = f * (wz[(i, h)] + z[(i, h)]);
+            }
+        }
+        self.blocks.resize_with(nh, HarmonicBlock::default);
+        for h in 0..nh {
+            let s = (h as f64 * w).powi(2);
+            let blk = &mut self.blocks[h];
+            blk.near.clear();
+            blk.wt.resize(n_o, 0.0);
+            for i in 0..n_o {
+                let l = bs.lambda[i];
+                if (l - s).abs() < self.window * l {
+                    blk.near.push(i);
+                    blk.wt[i] = 0.0;
+                } else {
+                    blk.wt[i] = 1.0 / (l - s);
+                }
+            }
+            // Dt = Kt - s Mt, DW = Dt diag(wt), S = K_kk - s M_kk - DW Dt^T
+            for jcol in 0..n_o {
+                for i in 0..r {
+                    let v = bs.kt[(i, jcol)] - s * bs.mt[(i, jcol)];
+                    self.dt[(i, jcol)] = v;
+                    self.dw[(i, jcol)] = v * blk.wt[jcol];
+                }
+            }
+            for jcol in 0..r {
+                for i in 0..r {
+                    self.s_mat[(i, jcol)] = bs.k_kk[(i, jcol)] - s * bs.m_kk[(i, jcol)];
+                }
+            }
+            if n_o > 0 {
+                matmul(
+                    self.s_mat.as_mut(),
+                    Accum::Add,
+                    self.dw.as_ref(),
+                    self.dt.transpose(),
+                    -1.0,
+                    Par::Seq,
+                );
+            }
+            let nn = blk.near.len();
+            let size = r + nn;
+            blk.size = size;
+            blk.a.clear();
+            blk.a.resize(size * size, 0.0);
+            let mut a = MatMut::from_column_major_slice_mut(&mut blk.a[..], size, size);
+            for jcol in 0..r {
+                for i in 0..r {
+                    a[(i, jcol)] = self.s_mat[(i, jcol)];
+                }
+            }
+            for (t, &mode) in blk.near.iter().enumerate() {
+                for i in 0..r {
+                    a[(i, r + t)] = self.dt[(i, mode)];
+                    a[(r + t, i)] = self.dt[(i, mode)];
+                }
+                a[(r + t, r + t)] = bs.lambda[mode] - s;
+            }
+            // cw = [wy - DW wz; wz_near], b = [rhs_y - DW rhs_z; rhs_z_near]
+            blk.cw.clear();
+            blk.b.clear();
+            let rz = &rhs[h * d + r..(h + 1) * d];
+            for i in 0..r {
+                let mut cwi = wy[(i, h)];
+                let mut bi = rhs[h * d + i];
+                for l in 0..n_o {
+                    let dwl = self.dw[(i, l)];
+                    cwi -= dwl * wz[(l, h)];
+                    bi -= dwl * rz[l];
+                }
+                blk.cw.push(cwi);
+                blk.b.push(bi);
+            }
+            for &mode in &blk.near {
+                blk.cw.push(wz[(mode, h)]);
+                blk.b.push(rz[mode]);
+            }
+            blk.arc.clear();
+            blk.arc.resize(size, 0.0);
+            if !jac.arc_y.is_empty() {
+                let am = jac.arc_y[bs.c * nh + h];
+                for i in 0..r {
+                    let mut v = am * bs.master_row[i];
+                    if i < bs.c {
+                        v += jac.arc_y[i * nh + h];
+                    }
+                    blk.arc[i] = v;
+                }
+            }
+        }
+    }
+
+    /// Level 2 with the given border choice. Returns false if an interior block is too close to
+    /// singular or the reduced matrix is singular.
+    fn solve_reduced(&mut self, jac: &JacobianData<'_>, rhs: &[f64], full_border: bool) -> bool {
+        let bs = &self.basis;
+        let (d, nh) = (bs.r + bs.n_o, jac.harmonics + 1);
+        let np = 2 * jac.harmonics + 1;
+        // Border selection.
+        let mut total = 0;
+        self.offsets.clear();
+        for blk in self.blocks.iter_mut() {
+            blk.border.clear();
+            blk.interior.clear();
+            blk.border_pos.clear();
+            blk.border_pos.resize(blk.size, NOT_IN);
+            for i in 0..blk.size {
+                let keep = full_border
+                    || (i < bs.c && jac.active.binary_search(&i).is_ok())
+                    || bs.master_support.contains(&i);
+                if keep {
+                    blk.border_pos[i] = blk.border.len();
+                    blk.border.push(i);
+                } else {
+                    blk.interior.push(i);
+                }
+            }
+            self.offsets.push(total);
+            total += blk.border.len();
+        }
+        let size = total + 2;
+        let (iw, iq) = (total, total + 1);
+        self.reduced_rhs.clear();
+        self.reduced_rhs.resize(size, 0.0);
+        let mut red = self.reduced.matrix(size);
+        let mut arc_w_fill = 0.0;
+        let mut arc_rhs_fill = 0.0;
+        for (h, blk) in self.blocks.iter_mut().enumerate() {
+            let (nb, ni, sz) = (blk.border.len(), blk.interior.len(), blk.size);
+            let a = MatRef::from_column_major_slice(&blk.a[..], sz, sz);
+            let off = self.offsets[h];
+            if ni > 0 {
+                {
+                    let mut aii = blk.lu.matrix(ni);
+                    for (jj, &jc) in blk.interior.iter().enumerate() {
+                        for (ii, &ic) in blk.interior.iter().enumerate() {
+                            aii[(ii, jj)] = a[(ic, jc)];
+                        }
+                    }
+                }
+                if !blk.lu.factor() || blk.lu.min_pivot_ratio < INTERIOR_PIVOT_RATIO {
+                    return false;
+                }
+                let ncols = nb + 2;
+                blk.xs.clear();
+                blk.xs.resize(ni * ncols, 0.0);
+                {
+                    let mut xs = MatMut::from_column_major_slice_mut(&mut blk.xs[..], ni, ncols);
+                    for (ii, &ic) in blk.interior.iter().enumerate() {
+                        for (bb, &bc) in blk.border.iter().enumerate() {
+                            xs[(ii, bb)] = a[(ic, bc)];
+                        }
+                        xs[(ii, nb)] = blk.cw[ic];
+                        xs[(ii, nb + 1)] = blk.b[ic];
+                    }
+                }
+                let xs = MatMut::from_column_major_slice_mut(&mut blk.xs[..], ni, ncols);
+                blk.lu.solve_in_place(xs);
+            }
+            let xs = MatRef::from_column_major_slice(&blk.xs[..ni * (nb + 2)], ni, nb + 2);
+            for (bb, &br) in blk.border.iter().enumerate() {
+                let row = off + bb;
+                for (cc, &bc) in blk.border.iter().enumerate() {
+                    let mut v = a[(br, bc)];
+                    for (ii, &ic) in blk.interior.iter().enumerate() {
+                        v -= a[(br, ic)] * xs[(ii, cc)];
+                    }
+                    red[(row, off + cc)] = v;
+                }
+                let mut vw = blk.cw[br];
+                let mut vb = blk.b[br];
+                for (ii, &ic) in blk.interior.iter().enumerate() {
+                    vw -= a[(br, ic)] * xs[(ii, nb)];
+                    vb -= a[(br, ic)] * xs[(ii, nb + 1)];
+                }
+                red[(row, iw)] = vw;
+                self.reduced_rhs[row] = vb;
+            }
+            // Parameter row: border entries, minus the fill from the eliminated interior.
+            for (cc, &bc) in blk.border.iter().enumerate() {
+                let mut v = blk.arc[bc];
+                for (ii, &ic) in blk.interior.iter().enumerate() {
+                    v -= blk.arc[ic] * xs[(ii, cc)];
+                }
+                red[(iq, off + cc)] = v;
+            }
+            for (ii, &ic) in blk.interior.iter().enumerate() {
+                arc_w_fill -= blk.arc[ic] * xs[(ii, nb)];
+                arc_rhs_fill -= blk.arc[ic] * xs[(ii, nb + 1)];
+            }
+        }
+        // Contact coupling between harmonics on the active contact coordinates.
+        for (ai, &j) in jac.active.iter().enumerate() {
+            let mom = &jac.moments[ai * np..(ai + 1) * np];
+            for h in 0..nh {
+                let row = self.offsets[h] + self.blocks[h].border_pos[j];
+                for hp in 0..nh {
+                    let col = self.offsets[hp] + self.blocks[hp].border_pos[j];
+                    red[(row, col)] += contact_jacobian(mom, h, hp);
+                }
+            }
+        }
+        for &i in &bs.master_support {
+            red[(iw, self.offsets[1] + self.blocks[1].border_pos[i])] =
+                jac.norm_scale * bs.master_row[i];
+        }
+        red[(iw, iq)] = -jac.norm_scale;
+        red[(iq, iw)] = jac.arc_w + arc_w_fill;
+        red[(iq, iq)] = jac.arc_q;
+        self.reduced_rhs[iw] = rhs[d * nh];
+        self.reduced_rhs[iq] = rhs[d * nh + 1] + arc_rhs_fill;
+        if !self.reduced.factor() {
+            return false;
+        }
+        self.reduced.solve_slice(&mut self.reduced_rhs);
+        let (dw, _dq) = (self.reduced_rhs[iw], self.reduced_rhs[iq]);
+        for (h, blk) in self.blocks.iter_mut().enumerate() {
+            let (nb, ni, sz) = (blk.border.len(), blk.interior.len(), blk.size);
+            let off = self.offsets[h];
+            blk.delta.clear();
+            blk.delta.resize(sz, 0.0);
+            for (bb, &bc) in blk.border.iter().enumerate() {
+                blk.delta[bc] = self.reduced_rhs[off + bb];
+            }
+            let xs = MatRef::from_column_major_slice(&blk.xs[..ni * (nb + 2)], ni, nb + 2);
+            for (ii, &ic) in blk.interior.iter().enumerate() {
+                let mut v = xs[(ii, nb + 1)] - xs[(ii, nb)] * dw;
+                for bb in 0..nb {
+                    v -= xs[(ii, bb)] * self.reduced_rhs[off + bb];
+                }
+                blk.delta[ic] = v;
+            }
+        }
+        true
+    }
+
+    /// Relative residual of the kept system for the solved step (independent of the elimination).
+    fn kept_residual(&self, jac: &JacobianData<'_>, rhs: &[f64]) -> f64 {
+        let bs = &self.basis;
+        let (d, nh) = (bs.r + bs.n_o, jac.harmonics + 1);
+        let np = 2 * jac.harmonics + 1;
+        let dw = self.reduced_rhs[self.reduced_rhs.len() - 2];
+        let dq = self.reduced_rhs[self.reduced_rhs.len() - 1];
+        let (mut num, mut den) = (0.0_f64, 0.0_f64);
+        let mut contact = vec![0.0; bs.c * nh];
+        for (ai, &j) in jac.active.iter().enumerate() {
+            let mom = &jac.moments[ai * np..(ai + 1) * np];
+            for h in 0..nh {
+                let mut v = 0.0;
+                for hp in 0..nh {
+                    v += contact_jacobian(mom, h, hp) * self.blocks[hp].delta[j];
+                }
+                contact[j * nh + h] = v;
+            }
+        }
+        for (h, blk) in self.blocks.iter().enumerate() {
+            let sz = blk.size;
+            let a = MatRef::from_column_major_slice(&blk.a[..], sz, sz);
+            for i in 0..sz {
+                let mut v = blk.cw[i] * dw;
+                let mut mag = (blk.cw[i] * dw).abs() + blk.b[i].abs();
+                for l in 0..sz {
+                    let t = a[(i, l)] * blk.delta[l];
+                    v += t;
+                    mag += t.abs();
+                }
+                if i < bs.c {
+                    v += contact[i * nh + h];
+                    mag += contact[i * nh + h].abs();
+                }
+                num = num.max((v - blk.b[i]).abs());
+                den = den.max(mag);
+            }
+        }
+        let mut vn = -jac.norm_scale * dq;
+        for &i in &bs.master_support {
+            vn += jac.norm_scale * bs.master_row[i] * self.blocks[1].delta[i];
+        }
+        num = num.max((vn - rhs[d * nh]).abs());
+        let mut va = jac.arc_w * dw + jac.arc_q * dq;
+        for blk in &self.blocks {
+            va += blk.arc.iter().zip(&blk.delta).map(|(a, b)| a * b).sum::<f64>();
+        }
+        num = num.max((va - rhs[d * nh + 1]).abs());
+        if den > 0.0 {
+            num / den
+        } else {
+            num
+        }
+    }
+}
+
+impl LinearModel for CondensedModel {
+    fn dim(&self) -> usize {
+        self.basis.r + self.basis.n_o
+    }
+
+    fn contact_coefficients(&self, x: &[f64], harmonics: usize, out: &mut [f64]) {
+        let (d, nh) = (self.dim(), harmonics + 1);
+        for j in 0..self.basis.c {
+            for h in 0..nh {
+                out[j * nh + h] = x[h * d + j];
+            }
+        }
+    }
+
+    fn master_row(&self) -> &[f64] {
+        &self.basis.master_row
+    }
+
+    fn harmonic_residual(
+        &mut self,
+        omega: f64,
+        x: &[f64],
+        harmonics: usize,
+        lambda_coef: &[f64],
+        out: &mut [f64],
+    ) {
+        let bs = &self.basis;
+        let (r, n_o, d, nh, c) = (bs.r, bs.n_o, self.dim(), harmonics + 1, bs.c);
+        let xm = MatRef::from_column_major_slice(&x[..d * nh], d, nh);
+        let (y, z) = (xm.get(..r, ..), xm.get(r.., ..));
+        let mut ky = &bs.k_kk * y;
+        matmul(ky.as_mut(), Accum::Add, bs.kt.as_ref(), z, 1.0, Par::Seq);
+        let mut my = &bs.m_kk * y;
+        matmul(my.as_mut(), Accum::Add, bs.mt.as_ref(), z, 1.0, Par::Seq);
+        let kty = bs.kt.transpose() * y;
+        let mty = bs.mt.transpose() * y;
+        for h in 0..nh {
+            let s = (h as f64 * omega).powi(2);
+            let o = &mut out[h * d..(h + 1) * d];
+            for i in 0..r {
+                o[i] = ky[(i, h)] - s * my[(i, h)];
+            }
+            for i in 0..c {
+                o[i] += lambda_coef[i * nh + h];
+            }
+            for i in 0..n_o {
+                o[r + i] = kty[(i, h)] - s * mty[(i, h)] + (bs.lambda[i] - s) * z[(i, h)];
+            }
+        }
+    }
+
+    fn row_weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError> {
+        let (r, n_o) = (self.basis.r, self.basis.n_o);
+        let (d, nh) = (r + n_o, jac.harmonics + 1);
+        self.build_blocks(jac, rhs);
+        let fast_ok = self.solve_reduced(jac, rhs, false)
+            && self.kept_residual(jac, rhs) <= STEP_CHECK_TOLERANCE;
+        if !fast_ok {
+            self.fallbacks += 1;
+            if std::env::var("NNM_FB").is_ok() { eprintln!("fallback {} active {:?}", self.fallbacks, jac.active); }
+            if !self.solve_reduced(jac, rhs, true) {
+                return Err(NnmError::Decomposition {
+                    what: "LU of the condensed Newton matrix",
+                    detail: "the matrix is singular".to_string(),
+                });
+            }
+        }
+        let dw = self.reduced_rhs[self.reduced_rhs.len() - 2];
+        let dq = self.reduced_rhs[self.reduced_rhs.len() - 1];
+        // Recover the eliminated modes: dz = wt (rhs_z - Dt^T dy - wz dw).
+        let bs = &self.basis;
+        let dy = Mat::from_fn(r, nh, |i, h| self.blocks[h].delta[i]);
+        let kty = bs.kt.transpose() * &dy;
+        let mty = bs.mt.transpose() * &dy;
+        let xm = MatRef::from_column_major_slice(&jac.x[..d * nh], d, nh);
+        let (y, z) = (xm.get(..r, ..), xm.get(r.., ..));
+        let mtyx = bs.mt.transpose() * y;
+        for h in 0..nh {
+            let s = (h as f64 * jac.omega).powi(2);
+            let f = -2.0 * (h * h) as f64 * jac.omega;
+            let blk = &self.blocks[h];
+            let mut dz = vec![0.0; n_o];
+            for i in 0..n_o {
+                let wz = f * (mtyx[(i, h)] + z[(i, h)]);
+                dz[i] = blk.wt[i] * (rhs[h * d + r + i] - (kty[(i, h)] - s * mty[(i, h)]) - wz * dw);
+            }
+            for (t, &mode) in blk.near.iter().enumerate() {
+                dz[mode] = blk.delta[r + t];
+            }
+            rhs[h * d..h * d + r].copy_from_slice(&blk.delta[..r]);
+            rhs[h * d + r..(h + 1) * d].copy_from_slice(&dz);
+        }
+        rhs[d * nh] = dw;
+        rhs[d * nh + 1] = dq;
+        Ok(())
+    }
+
+    fn to_physical(&self, x_n: &[f64], u_n: &mut [f64]) {
+        self.basis.to_physical(x_n, u_n);
+    }
+
+    fn from_physical(&self, u_n: &[f64], x_n: &mut [f64]) {
+        self.basis.from_physical(u_n, x_n);
+    }
+}

@@ -1,0 +1,247 @@
+//! Small dense linear-algebra helpers on top of faer: symmetric checks, the generalized symmetric
+//! eigenproblem K phi = lambda M phi, and an in-place LU with partial pivoting that reuses its buffers
+//! (no allocation once the size has been seen).
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::lu::partial_pivoting::{factor, solve};
+use faer::perm::PermRef;
+use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+
+use crate::error::NnmError;
+
+/// Relative tolerance on |a_ij - a_ji| / max|a| above which a matrix is rejected as asymmetric.
+/// Reduced matrices built numerically (Craig-Bampton products) carry asymmetry of order
+/// n * 1e-16 * max|a|; 1e-9 accepts that round-off and rejects any genuine asymmetry.
+pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-9;
+
+/// Checks that `a` is square of size `n`, finite and symmetric; returns the symmetrized copy.
+pub(crate) fn checked_symmetric(
+    name: &'static str,
+    a: &Mat<f64>,
+    n: usize,
+) -> Result<Mat<f64>, NnmError> {
+    if a.nrows() != n || a.ncols() != n {
+        return Err(NnmError::Shape { name, rows: a.nrows(), cols: a.ncols(), expected: n });
+    }
+    let mut scale = 0.0_f64;
+    for j in 0..n {
+        for i in 0..n {
+            let v = a[(i, j)];
+            if !v.is_finite() {
+                return Err(NnmError::NonFinite { name, row: i, col: j, value: v });
+            }
+            scale = scale.max(v.abs());
+        }
+    }
+    let mut worst = (0.0_f64, 0, 0);
+    for j in 0..n {
+        for i in (j + 1)..n {
+            let d = (a[(i, j)] - a[(j, i)]).abs();
+            if d > worst.0 {
+                worst = (d, i, j);
+            }
+        }
+    }
+    if worst.0 > SYMMETRY_TOLERANCE * scale {
+        return Err(NnmError::NotSymmetric {
+            name,
+            row: worst.1,
+            col: worst.2,
+            difference: worst.0,
+            tolerance: SYMMETRY_TOLERANCE,
+            scale,
+        });
+    }
+    Ok(Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)])))
+}
+
+/// Lower Cholesky factor of a symmetric positive definite matrix.
+pub(crate) fn cholesky_lower(name: &'static str, a: MatRef<'_, f64>) -> Result<Mat<f64>, NnmError> {
+    match a.llt(Side::Lower) {
+        Ok(llt) => Ok(llt.L().to_owned()),
+        Err(e) => Err(NnmError::NotPositiveDefinite {
+            name,
+            detail: format!("Cholesky factorization failed ({e})"),
+        }),
+    }
+}
+
+/// Solution of the symmetric-definite generalized eigenproblem `K phi = lambda M phi`:
+/// eigenvalues ascending, eigenvectors mass-normalized (`Phi^T M Phi = I`).
+pub(crate) struct GeneralizedEigen {
+    /// Eigenvalues lambda (squared circular frequencies, rad^2/s^2), ascending.
+    pub values: Vec<f64>,
+    /// Mass-normalized eigenvectors, one per column.
+    pub vectors: Mat<f64>,
+}
+
+/// Solves `K phi = lambda M phi` with `M = L L^T`: `L^-1 K L^-T v = lambda v`, `phi = L^-T v`.
+pub(crate) fn generalized_eigen(
+    k: MatRef<'_, f64>,
+    m: MatRef<'_, f64>,
+    m_name: &'static str,
+) -> Result<GeneralizedEigen, NnmError> {
+    let n = k.nrows();
+    if n == 0 {
+        return Ok(GeneralizedEigen { values: Vec::new(), vectors: Mat::zeros(0, 0) });
+    }
+    let l = cholesky_lower(m_name, m)?;
+    // C = L^-1 K L^-T
+    let mut c = k.to_owned();
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), c.as_mut(), Par::Seq);
+    let mut ct = c.transpose().to_owned();
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), ct.as_mut(), Par::Seq);
+    let c = Mat::from_fn(n, n, |i, j| 0.5 * (ct[(i, j)] + ct[(j, i)]));
+    let evd = c.self_adjoint_eigen(Side::Lower).map_err(|e| NnmError::Decomposition {
+        what: "symmetric eigen-decomposition",
+        detail: format!("{e:?}"),
+    })?;
+    let s = evd.S().column_vector();
+    let values: Vec<f64> = (0..n).map(|i| s[i]).collect();
+    let mut vectors = evd.U().to_owned();
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        l.transpose(),
+        vectors.as_mut(),
+        Par::Seq,
+    );
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(NnmError::NonFiniteResult { what: "generalized eigenvalues" });
+    }
+    Ok(GeneralizedEigen { values, vectors })
+}
+
+/// LU factorization with partial pivoting, in place in a reusable buffer.
+#[derive(Default)]
+pub(crate) struct DenseLu {
+    data: Vec<f64>,
+    perm: Vec<usize>,
+    perm_inv: Vec<usize>,
+    stack: Option<MemBuffer>,
+    stack_dim: usize,
+    dim: usize,
+    /// Smallest |U_ii| divided by the largest |a_ij| of the factored matrix.
+    pub min_pivot_ratio: f64,
+}
+
+impl DenseLu {
+    /// Resets the matrix to zero with dimension `n` and returns it for assembly.
+    pub fn matrix(&mut self, n: usize) -> MatMut<'_, f64> {
+        self.dim = n;
+        self.data.clear();
+        self.data.resize(n * n, 0.0);
+        MatMut::from_column_major_slice_mut(&mut self.data[..], n, n)
+    }
+
+    fn ensure_stack(&mut self, n: usize) {
+        if self.stack.is_none() || self.stack_dim < n {
+            let req = factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default())
+                .or(solve::solve_in_place_scratch::<usize, f64>(n, 8, Par::Seq));
+            self.stack = Some(MemBuffer::new(req));
+            self.stack_dim = n;
+        }
+    }
+
+    /// Factors the assembled matrix in place. Returns false if it is exactly singular or not finite.
+    pub fn factor(&mut self) -> bool {
+        let n = self.dim;
+        self.ensure_stack(n);
+        let scale = self.data.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        if !scale.is_finite() {
+            self.min_pivot_ratio = 0.0;
+            return false;
+        }
+        self.perm.resize(n, 0);
+        self.perm_inv.resize(n, 0);
+        let Some(buffer) = self.stack.as_mut() else {
+            return false;
+        };
+        let stack = MemStack::new(buffer);
+        let a = MatMut::from_column_major_slice_mut(&mut self.data[..n * n], n, n);
+        factor::lu_in_place(
+            a,
+            &mut self.perm[..],
+            &mut self.perm_inv[..],
+            Par::Seq,
+            stack,
+            Default::default(),
+        );
+        let mut min_pivot = f64::INFINITY;
+        for i in 0..n {
+            min_pivot = min_pivot.min(self.data[i * n + i].abs());
+        }
+        self.min_pivot_ratio = if n == 0 { 1.0 } else { min_pivot / scale.max(f64::MIN_POSITIVE) };
+        self.min_pivot_ratio > 0.0 && self.min_pivot_ratio.is_finite()
+    }
+
+    /// Solves in place for the columns of `rhs` (after [`DenseLu::factor`]).
+    pub fn solve_in_place(&mut self, rhs: MatMut<'_, f64>) {
+        let n = self.dim;
+        let ncols = rhs.ncols();
+        if self.stack_dim < n || ncols > 8 {
+            let req = solve::solve_in_place_scratch::<usize, f64>(n, ncols.max(8), Par::Seq)
+                .or(factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default()));
+            self.stack = Some(MemBuffer::new(req));
+            self.stack_dim = n;
+        }
+        let Some(buffer) = self.stack.as_mut() else {
+            return;
+        };
+        let stack = MemStack::new(buffer);
+        let lu = MatRef::from_column_major_slice(&self.data[..n * n], n, n);
+        let perm = PermRef::new_checked(&self.perm[..n], &self.perm_inv[..n], n);
+        solve::solve_in_place_with_conj(lu, lu, perm, Conj::No, rhs, Par::Seq, stack);
+    }
+
+    /// Solves in place for one right-hand side stored in a slice.
+    pub fn solve_slice(&mut self, rhs: &mut [f64]) {
+        let n = rhs.len();
+        let m = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        self.solve_in_place(m);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lu_solves_a_small_system() {
+        // [[4,1,0],[1,3,1],[0,1,2]] x = [1,2,3]; solution from exact rational arithmetic.
+        let mut lu = DenseLu::default();
+        {
+            let mut a = lu.matrix(3);
+            let v = [[4.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 2.0]];
+            for i in 0..3 {
+                for j in 0..3 {
+                    a[(i, j)] = v[i][j];
+                }
+            }
+        }
+        assert!(lu.factor());
+        let mut x = [1.0, 2.0, 3.0];
+        lu.solve_slice(&mut x);
+        // det = 18; Cramer's rule gives x = [4, 2, 26] / 18.
+        let expected = [4.0 / 18.0, 2.0 / 18.0, 26.0 / 18.0];
+        for i in 0..3 {
+            assert!((x[i] - expected[i]).abs() < 1e-14, "{x:?}");
+        }
+    }
+
+    #[test]
+    fn generalized_eigen_of_a_two_mass_chain() {
+        // M = diag(1, 2), K = [[3,-1],[-1,1]]: det(K - l M) = 2 l^2 - 5 l + 2 = 0 -> l = 1/2, 2.
+        let k = Mat::from_fn(2, 2, |i, j| [[3.0, -1.0], [-1.0, 1.0]][i][j]);
+        let m = Mat::from_fn(2, 2, |i, j| [[1.0, 0.0], [0.0, 2.0]][i][j]);
+        let e = generalized_eigen(k.as_ref(), m.as_ref(), "M").expect("eigen");
+        assert!((e.values[0] - 0.5).abs() < 1e-14);
+        assert!((e.values[1] - 2.0).abs() < 1e-14);
+        let phi = &e.vectors;
+        let gram = phi.transpose() * &m * phi;
+        for i in 0..2 {
+            for j in 0..2 {
+                let target = if i == j { 1.0 } else { 0.0 };
+                assert!((gram[(i, j)] - target).abs() < 1e-14);
+            }
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! Typed errors of the nonlinear-mode solver.
+//!
+//! Every message names the offending input (matrix, row, parameter) and what was expected, so that
+//! the command-line program can show it as is.
+
+/// Errors returned by `nlmodes-nnm`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NnmError {
+    /// A matrix that must be square (or of a given size) is not.
+    #[error("matrix {name} is {rows}x{cols}, expected {expected}x{expected}")]
+    Shape {
+        /// Which matrix (`M`, `K`, ...).
+        name: &'static str,
+        /// Rows found.
+        rows: usize,
+        /// Columns found.
+        cols: usize,
+        /// Expected dimension.
+        expected: usize,
+    },
+    /// The system has no degree of freedom.
+    #[error("the system has no degree of freedom (M and K are 0x0)")]
+    Empty,
+    /// A matrix entry is NaN or infinite.
+    #[error("matrix {name} has a non-finite entry {value} at ({row}, {col})")]
+    NonFinite {
+        /// Which matrix.
+        name: &'static str,
+        /// Row of the entry.
+        row: usize,
+        /// Column of the entry.
+        col: usize,
+        /// The value found.
+        value: f64,
+    },
+    /// A matrix that must be symmetric is clearly not.
+    #[error(
+        "matrix {name} is not symmetric: |a({row},{col}) - a({col},{row})| = {difference:e} exceeds \
+         {tolerance:e} x max|a| = {scale:e}"
+    )]
+    NotSymmetric {
+        /// Which matrix.
+        name: &'static str,
+        /// Row of the worst pair.
+        row: usize,
+        /// Column of the worst pair.
+        col: usize,
+        /// The absolute asymmetry found.
+        difference: f64,
+        /// Relative tolerance that was applied.
+        tolerance: f64,
+        /// Largest absolute entry of the matrix.
+        scale: f64,
+    },
+    /// A matrix that must be symmetric positive definite is not.
+    #[error("matrix {name} is not positive definite: {detail}")]
+    NotPositiveDefinite {
+        /// Which matrix.
+        name: &'static str,
+        /// What the factorization reported.
+        detail: String,
+    },
+    /// Contact rows whose width differs from the number of degrees of freedom.
+    #[error("contact rows have {cols} columns, expected {expected} (the number of DOFs of M and K)")]
+    ContactRowsWidth {
+        /// Columns found.
+        cols: usize,
+        /// Number of DOFs.
+        expected: usize,
+    },
+    /// A contact row is zero or not finite.
+    #[error("contact row {row} is invalid: {detail}")]
+    InvalidContactRow {
+        /// Index of the row.
+        row: usize,
+        /// What is wrong.
+        detail: String,
+    },
+    /// Number of gaps differs from the number of contact rows.
+    #[error("{gaps} initial gaps given for {rows} contact rows (one gap per row expected)")]
+    GapCount {
+        /// Gaps given.
+        gaps: usize,
+        /// Contact rows.
+        rows: usize,
+    },
+    /// An initial gap is not finite and positive.
+    #[error("initial gap {index} is {value}; every initial gap g0 must be finite and > 0 (Eq. 17)")]
+    NonPositiveGap {
+        /// Index of the contact row.
+        index: usize,
+        /// Value found.
+        value: f64,
+    },
+    /// Master coordinate index out of range.
+    #[error("master coordinate {master} is out of range: the system has {dofs} DOFs (valid 0..{dofs})")]
+    MasterOutOfRange {
+        /// Index given.
+        master: usize,
+        /// Number of DOFs.
+        dofs: usize,
+    },
+    /// Mode index out of range.
+    #[error("linear mode {mode} requested but the system has only {count} modes")]
+    ModeOutOfRange {
+        /// Index given.
+        mode: usize,
+        /// Number of modes.
+        count: usize,
+    },
+    /// The master coordinate does not move in the requested linear mode.
+    #[error(
+        "the master coordinate {master} does not move in linear mode {mode} (|phi_master| = {value:e} \
+         relative to max |phi|): choose another master coordinate"
+    )]
+    MasterNotInMode {
+        /// Master coordinate.
+        master: usize,
+        /// Mode index.
+        mode: usize,
+        /// Relative master component.
+        value: f64,
+    },
+    /// Harmonic settings that cannot work.
+    #[error("harmonic settings: {detail}")]
+    HarmonicSettings {
+        /// What is wrong.
+        detail: String,
+    },
+    /// An algorithm or continuation parameter out of range.
+    #[error("parameter {name} = {value} is invalid: expected {expected}")]
+    InvalidParameter {
+        /// Parameter name as in the settings file.
+        name: &'static str,
+        /// Value given.
+        value: f64,
+        /// What is expected.
+        expected: &'static str,
+    },
+    /// A warm start whose sizes do not match the solver.
+    #[error("warm start does not match the solver: {detail}")]
+    WarmStart {
+        /// What differs.
+        detail: String,
+    },
+    /// Contact rows that are linearly dependent (the exact condensation needs independent rows).
+    #[error(
+        "contact rows are linearly dependent (numerical rank {rank} of {rows} rows): the condensed \
+         Newton needs independent rows; use condensation = \"none\""
+    )]
+    DependentContactRows {
+        /// Numerical rank found.
+        rank: usize,
+        /// Number of rows.
+        rows: usize,
+    },
+    /// A dense decomposition failed.
+    #[error("{what} failed: {detail}")]
+    Decomposition {
+        /// Which decomposition.
+        what: &'static str,
+        /// Details.
+        detail: String,
+    },
+    /// The inner semi-smooth Newton solve of Eq. (20) did not converge.
+    #[error(
+        "Newton solve of the harmonic balance (Eq. 20) failed after {iterations} iterations: {reason} \
+         (relative residual {residual:e}, tolerance {tolerance:e})"
+    )]
+    NewtonFailed {
+        /// Iterations performed.
+        iterations: usize,
+        /// Relative residual reached.
+        residual: f64,
+        /// Tolerance required.
+        tolerance: f64,
+        /// Why it stopped.
+        reason: String,
+    },
+    /// Algorithm 1 stopped without reaching G <= epsilon.
+    #[error(
+        "augmented Lagrangian (Algorithm 1) did not converge at q = {q:e}: {reason}; last Powell \
+         measure G = {measure:e} (epsilon = {epsilon:e}), {accepted} accepted iterations, {solves} \
+         inner solves, {newton_iterations} Newton iterations"
+    )]
+    NotConverged {
+        /// Amplitude of the master coordinate.
+        q: f64,
+        /// Why it stopped.
+        reason: String,
+        /// Last Powell measure G (Eq. 21), in units of g0.
+        measure: f64,
+        /// Required epsilon.
+        epsilon: f64,
+        /// Accepted iterations i.
+        accepted: usize,
+        /// Inner solves performed.
+        solves: usize,
+        /// Newton iterations performed in total.
+        newton_iterations: usize,
+    },
+    /// A time integration step that is too large for explicit RK4 stability.
+    #[error(
+        "time step {step:e} s is too large for RK4: the highest frequency {omega_max:e} rad/s needs at \
+         most {max_step:e} s (use at least {min_steps} steps)"
+    )]
+    StepTooLarge {
+        /// Step requested.
+        step: f64,
+        /// Highest circular frequency of the penalized system.
+        omega_max: f64,
+        /// Largest stable step used as a limit.
+        max_step: f64,
+        /// Minimal number of steps.
+        min_steps: usize,
+    },
+    /// A computation produced a NaN or infinity.
+    #[error("non-finite value produced in {what}")]
+    NonFiniteResult {
+        /// Where.
+        what: &'static str,
+    },
+}

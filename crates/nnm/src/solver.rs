@@ -1,0 +1,439 @@
+//! The nonlinear-mode solver at one amplitude: Algorithm 1 around the inner Newton solve, and the
+//! assembly of a [`BackbonePoint`] from the converged state.
+
+use crate::augmented_lagrangian::{
+    run_algorithm1, AlgorithmParams, Condensation, ContactMethod, OuterReport,
+};
+use crate::condensed::CondensedModel;
+use crate::contact::{powell_measure, Multipliers};
+use crate::error::NnmError;
+use crate::fourier::{Aft, HarmonicSettings};
+use crate::full::FullModel;
+use crate::newton::{
+    solve_inner_robust, InnerProblem, LinearModel, NewtonState, NewtonWork, ParameterRow,
+};
+use crate::point::BackbonePoint;
+use crate::system::System;
+
+/// Where a solve starts from.
+#[derive(Clone, Copy, Debug)]
+pub enum Start<'a> {
+    /// Linear mode `mode` (0-based) scaled to the requested q, w = its linear frequency, theta = 0,
+    /// kappa = kappa^(1). Exact below grazing.
+    LinearMode(usize),
+    /// A previously computed point: coefficients, w, theta and kappa (warm start).
+    Point(&'a BackbonePoint),
+}
+
+/// An initial guess in physical coordinates.
+#[derive(Clone)]
+pub(crate) struct Guess {
+    pub mode: usize,
+    pub coefficients: Vec<Vec<f64>>,
+    pub omega: f64,
+    pub q: f64,
+    pub multipliers: Multipliers,
+}
+
+/// Reusable solver for one system, harmonic settings and algorithm parameters: FFT plans,
+/// condensation basis and Newton buffers are built once.
+pub struct Solver<'s> {
+    system: &'s System,
+    settings: HarmonicSettings,
+    params: AlgorithmParams,
+    model: Box<dyn LinearModel + 's>,
+    aft: Aft,
+    work: NewtonWork,
+    kappa_initial: Vec<f64>,
+    kappa_cap: Vec<f64>,
+    norm_scale: f64,
+    omegas: Vec<f64>,
+}
+
+impl<'s> Solver<'s> {
+    /// Validates the settings and precomputes what does not change between amplitudes.
+    pub fn new(
+        system: &'s System,
+        settings: HarmonicSettings,
+        params: AlgorithmParams,
+    ) -> Result<Self, NnmError> {
+        settings.validate()?;
+        params.validate()?;
+        let model: Box<dyn LinearModel> = match params.condensation {
+            Condensation::Exact => {
+                Box::new(CondensedModel::new(system, params.newton.resonance_window)?)
+            }
+            Condensation::None => Box::new(FullModel::new(system)),
+        };
+        let ks = system.contact_stiffness();
+        let kappa_initial = ks.iter().map(|k| k * params.initial_penalty).collect();
+        let kappa_cap = ks.iter().map(|k| k * params.max_penalty).collect();
+        let master = system.master();
+        Ok(Self {
+            system,
+            settings,
+            aft: Aft::new(settings),
+            params,
+            model,
+            work: NewtonWork::default(),
+            kappa_initial,
+            kappa_cap,
+            norm_scale: system.stiffness()[(master, master)].sqrt(),
+            omegas: system.linear_frequencies(),
+        })
+    }
+
+    /// The system solved.
+    pub fn system(&self) -> &'s System {
+        self.system
+    }
+
+    /// Harmonic settings in use.
+    pub fn settings(&self) -> HarmonicSettings {
+        self.settings
+    }
+
+    /// Algorithm parameters in use.
+    pub fn params(&self) -> &AlgorithmParams {
+        &self.params
+    }
+
+    /// Linear circular frequency of `mode` (rad/s).
+    pub fn linear_frequency(&self, mode: usize) -> Result<f64, NnmError> {
+        self.omegas
+            .get(mode)
+            .copied()
+            .ok_or(NnmError::ModeOutOfRange { mode, count: self.omegas.len() })
+    }
+
+    /// Solves the nonlinear mode at master amplitude `q` > 0 (Algorithm 1, or one penalty solve).
+    pub fn solve_point(&mut self, q: f64, start: Start<'_>) -> Result<BackbonePoint, NnmError> {
+        if !(q.is_finite() && q > 0.0) {
+            return Err(NnmError::InvalidParameter {
+                name: "q",
+                value: q,
+                expected: "a finite master amplitude > 0",
+            });
+        }
+        let guess = self.guess(start, q)?;
+        let w_ref = self.linear_frequency(guess.mode)?;
+        let row = ParameterRow::fixed_amplitude(q, self.system.gap_reference(), w_ref);
+        self.solve_with_row(row, guess)
+    }
+
+    /// Initial guess from a start, scaled to amplitude q for a linear mode.
+    pub(crate) fn guess(&self, start: Start<'_>, q: f64) -> Result<Guess, NnmError> {
+        let (n, nh, m) = (self.system.n_dofs(), self.settings.harmonics + 1, self.settings.samples);
+        match start {
+            Start::LinearMode(mode) => {
+                let phi = self.system.linear_mode(mode)?;
+                let scale = q / phi[self.system.master()];
+                let mut coefficients = vec![vec![0.0; n]; nh];
+                coefficients[1] = phi.iter().map(|v| v * scale).collect();
+                Ok(Guess {
+                    mode,
+                    coefficients,
+                    omega: self.linear_frequency(mode)?,
+                    q,
+                    multipliers: Multipliers::uniform(&self.kappa_initial, m),
+                })
+            }
+            Start::Point(p) => {
+                if p.coefficients.iter().any(|c| c.len() != n) || p.coefficients.len() < 2 {
+                    return Err(NnmError::WarmStart {
+                        detail: format!(
+                            "the point has {} coefficient vectors of length {}, the system has {n} DOFs",
+                            p.coefficients.len(),
+                            p.coefficients.first().map_or(0, Vec::len)
+                        ),
+                    });
+                }
+                self.linear_frequency(p.mode)?;
+                let mut coefficients = p.coefficients.clone();
+                coefficients.resize(nh, vec![0.0; n]);
+                let c = self.system.n_contacts();
+                let multipliers = if p.multipliers.samples == m && p.multipliers.theta.len() == c * m
+                {
+                    p.multipliers.clone()
+                } else {
+                    Multipliers::uniform(&self.kappa_initial, m)
+                };
+                Ok(Guess { mode: p.mode, coefficients, omega: p.omega, q: p.q, multipliers })
+            }
+        }
+    }
+
+    /// Solves with a general parameter row (fixed q or pseudo-arc-length) from a guess.
+    pub(crate) fn solve_with_row(
+        &mut self,
+        row: ParameterRow,
+        guess: Guess,
+    ) -> Result<BackbonePoint, NnmError> {
+        let (nh, m) = (self.settings.harmonics + 1, self.settings.samples);
+        let d = self.model.dim();
+        let mut x = vec![0.0; d * nh];
+        for (h, u) in guess.coefficients.iter().enumerate().take(nh) {
+            self.model.from_physical(u, &mut x[h * d..(h + 1) * d]);
+        }
+        let mut state = NewtonState { x, omega: guess.omega, q: guess.q };
+        let mut multipliers = guess.multipliers;
+        let g0 = self.system.gaps();
+        let norm_scale = self.norm_scale;
+        let arc_scale = norm_scale * self.system.gap_reference();
+        let harmonics = self.settings.harmonics;
+        let g_ref = self.system.gap_reference();
+        let newton = self.params.newton.clone();
+        let model = &mut self.model;
+        let aft = &mut self.aft;
+        let work = &mut self.work;
+        // Last converged inner solution of this point and its multipliers: if a later inner solve
+        // fails from its warm start, the multipliers are moved there by a homotopy instead.
+        let mut last_good: Option<(NewtonState, Multipliers)> = None;
+        let mut inner = |mu: &Multipliers, gaps: &mut Vec<f64>| -> Result<usize, NnmError> {
+            let mut solve = |mu: &Multipliers, state: &mut NewtonState| {
+                let problem = InnerProblem {
+                    harmonics,
+                    samples: m,
+                    g0,
+                    multipliers: mu,
+                    row: &row,
+                    norm_scale,
+                    arc_scale,
+                    smoothing: 0.0,
+                };
+                solve_inner_robust(model.as_mut(), aft, &problem, g_ref, &newton, state, work)
+            };
+            let start = state.clone();
+            let iterations = match solve(mu, &mut state) {
+                Ok(rep) => rep.iterations,
+                Err(e) => match &last_good {
+                    Some((good_state, good_mu)) => {
+                        state = good_state.clone();
+                        multiplier_homotopy(good_mu, mu, &mut state, &mut solve).map_err(|_| e)?
+                    }
+                    None => {
+                        // First solve of the point: penalty homotopy from a softer contact.
+                        let mut done = None;
+                        for softening in SOFT_START {
+                            state = start.clone();
+                            let mut soft = mu.clone();
+                            soft.kappa.iter_mut().for_each(|k| *k *= softening);
+                            if let Ok(rep) = solve(&soft, &mut state) {
+                                if let Ok(it) = multiplier_homotopy(&soft, mu, &mut state, &mut solve) {
+                                    done = Some(rep.iterations + it);
+                                    break;
+                                }
+                            }
+                        }
+                        match done {
+                            Some(it) => it,
+                            None => return Err(e),
+                        }
+                    }
+                },
+            };
+            last_good = Some((state.clone(), mu.clone()));
+            gaps.clear();
+            gaps.extend_from_slice(&work.current.gaps);
+            Ok(iterations)
+        };
+        let report = match self.params.method {
+            ContactMethod::Penalty { stiffness } => {
+                multipliers = Multipliers::uniform(&vec![stiffness; g0.len()], m);
+                let mut gaps = Vec::new();
+                let its = inner(&multipliers, &mut gaps).map_err(|e| NnmError::NotConverged {
+                    q: row.q_p,
+                    reason: format!("penalty solve failed: {e}"),
+                    measure: f64::INFINITY,
+                    epsilon: self.params.epsilon,
+                    accepted: 0,
+                    solves: 1,
+                    newton_iterations: 0,
+                })?;
+                OuterReport {
+                    measure: powell_measure(&gaps, &multipliers.theta, g0, m, self.params.measure),
+                    accepted: 1,
+                    solves: 1,
+                    newton_iterations: its,
+                }
+            }
+            ContactMethod::AugmentedLagrangian => {
+                match run_algorithm1(&self.params, g0, &self.kappa_cap, &mut multipliers, inner) {
+                    Ok(r) => r,
+                    Err(f) => {
+                        return Err(NnmError::NotConverged {
+                            q: state.q,
+                            reason: f.reason,
+                            measure: f.report.measure,
+                            epsilon: self.params.epsilon,
+                            accepted: f.report.accepted,
+                            solves: f.report.solves,
+                            newton_iterations: f.report.newton_iterations,
+                        })
+                    }
+                }
+            }
+        };
+        self.build_point(guess.mode, &state, multipliers, report)
+    }
+
+    fn build_point(
+        &self,
+        mode: usize,
+        state: &NewtonState,
+        multipliers: Multipliers,
+        report: OuterReport,
+    ) -> Result<BackbonePoint, NnmError> {
+        let sys = self.system;
+        let (n, nh, m, c) = (sys.n_dofs(), self.settings.harmonics + 1, self.settings.samples, sys.n_contacts());
+        let d = self.model.dim();
+        let mut coefficients = vec![vec![0.0; n]; nh];
+        for (h, u) in coefficients.iter_mut().enumerate() {
+            self.model.to_physical(&state.x[h * d..(h + 1) * d], u);
+        }
+        let ev = &self.work.current;
+        let mut mean_gap = Vec::with_capacity(c);
+        let mut max_gap = Vec::with_capacity(c);
+        let mut contact_fraction = Vec::with_capacity(c);
+        let mut contact_force = Vec::with_capacity(c);
+        for j in 0..c {
+            let g = &ev.gaps[j * m..(j + 1) * m];
+            let l = &ev.lambda[j * m..(j + 1) * m];
+            mean_gap.push(g.iter().sum::<f64>() / m as f64);
+            max_gap.push(g.iter().fold(f64::NEG_INFINITY, |a, &v| a.max(v)));
+            contact_fraction.push(l.iter().filter(|&&v| v > 0.0).count() as f64 / m as f64);
+            contact_force.push(l.to_vec());
+        }
+        let mean_gap_overall =
+            if c > 0 { mean_gap.iter().sum::<f64>() / c as f64 } else { 0.0 };
+        let max_gap_overall = max_gap.iter().fold(f64::NEG_INFINITY, |a: f64, &v| a.max(v));
+        let max_gap_overall = if c > 0 { max_gap_overall } else { 0.0 };
+        // Energy at the turning point t = 0.
+        let u0: Vec<f64> = (0..n).map(|i| coefficients.iter().map(|u| u[i]).sum()).collect();
+        let k = sys.stiffness();
+        let mut energy = 0.0;
+        for j in 0..n {
+            let mut kj = 0.0;
+            for i in 0..n {
+                kj += k[(i, j)] * u0[i];
+            }
+            energy += 0.5 * kj * u0[j];
+        }
+        if let ContactMethod::Penalty { stiffness } = self.params.method {
+            for j in 0..c {
+                energy += 0.5 * stiffness * ev.gaps[j * m].max(0.0).powi(2);
+            }
+        }
+        // Truncation indicator: top harmonic of the contact motion relative to its whole motion.
+        let mut top = 0.0_f64;
+        let mut total = 0.0_f64;
+        for j in 0..c {
+            let coef = &ev.coef[j * nh..(j + 1) * nh];
+            top = top.max(coef[nh - 1].abs());
+            total = total.max(coef[1..].iter().map(|v| v * v).sum::<f64>().sqrt());
+        }
+        let truncation_share = if total > 0.0 { top / total } else { 0.0 };
+        let truncation_warning = truncation_share > self.params.truncation_warning;
+        let w_ref = self.linear_frequency(mode)?;
+        let point = BackbonePoint {
+            mode,
+            q: state.q,
+            omega: state.omega,
+            omega_ratio: state.omega / w_ref,
+            frequency_hz: state.omega / (2.0 * std::f64::consts::PI),
+            energy,
+            mean_gap,
+            max_gap,
+            mean_gap_overall,
+            max_gap_overall,
+            max_penetration: max_gap_overall.max(0.0),
+            contact_fraction,
+            powell_measure: report.measure,
+            outer_iterations: report.accepted,
+            inner_solves: report.solves,
+            newton_iterations: report.newton_iterations,
+            fold: false,
+            jump: false,
+            truncation_share,
+            truncation_warning,
+            coefficients,
+            contact_force,
+            multipliers,
+        };
+        if !(point.omega.is_finite() && point.q.is_finite() && point.energy.is_finite())
+            || point.coefficients.iter().flatten().any(|v| !v.is_finite())
+        {
+            return Err(NnmError::NonFiniteResult { what: "the converged orbit" });
+        }
+        if truncation_warning {
+            tracing::warn!(
+                q = point.q,
+                share = truncation_share,
+                limit = self.params.truncation_warning,
+                "highest harmonic holds a large share of the contact motion: N = {} may be too small",
+                self.settings.harmonics
+            );
+        }
+        Ok(point)
+    }
+}
+
+/// Penalty factors tried, in order, as the soft start of a penalty homotopy when the first inner
+/// solve of a point fails from its warm start.
+const SOFT_START: [f64; 2] = [1e-2, 1e-4];
+
+/// Moves the multipliers from `from` to `to` in substeps (theta linearly, kappa geometrically),
+/// solving at each and halving a substep that fails (down to 1/64 of the path). The final substep
+/// uses `to` exactly. Returns the Newton iterations spent.
+fn multiplier_homotopy<F>(
+    from: &Multipliers,
+    to: &Multipliers,
+    state: &mut NewtonState,
+    solve: &mut F,
+) -> Result<usize, NnmError>
+where
+    F: FnMut(&Multipliers, &mut NewtonState) -> Result<crate::newton::NewtonReport, NnmError>,
+{
+    let (mut tau, mut dtau) = (0.0_f64, 0.25_f64);
+    let mut iterations = 0;
+    let mut mid = to.clone();
+    while tau < 1.0 {
+        let t1 = (tau + dtau).min(1.0);
+        let target = if t1 >= 1.0 {
+            to
+        } else {
+            for i in 0..mid.theta.len() {
+                mid.theta[i] = from.theta[i] + t1 * (to.theta[i] - from.theta[i]);
+                mid.kappa[i] = from.kappa[i] * (to.kappa[i] / from.kappa[i]).powf(t1);
+            }
+            &mid
+        };
+        let saved = state.clone();
+        match solve(target, state) {
+            Ok(rep) => {
+                iterations += rep.iterations;
+                tau = t1;
+                dtau = (2.0 * dtau).min(0.5);
+            }
+            Err(e) => {
+                *state = saved;
+                dtau *= 0.5;
+                if dtau < 1.0 / 64.0 {
+                    return Err(e);
+                }
+            }
+        }
+    }
+    Ok(iterations)
+}
+
+/// Convenience: builds a [`Solver`] and solves one point.
+pub fn solve_point(
+    system: &System,
+    settings: HarmonicSettings,
+    params: AlgorithmParams,
+    q: f64,
+    start: Start<'_>,
+) -> Result<BackbonePoint, NnmError> {
+    Solver::new(system, settings, params)?.solve_point(q, start)
+}

@@ -1,0 +1,230 @@
+//! The mechanical system: mass and stiffness matrices, contact rows and initial gaps (Eq. 17).
+//!
+//! `System` knows nothing of meshes: any symmetric positive definite pair (M, K) of size n, with c
+//! contact rows A (c x n) and initial gaps g0 (c values), defines the gap
+//! g(u) = A u - g0 (Eq. 17), admissible iff g <= 0, and the contact force on the structure
+//! -A^T lambda with lambda >= 0 (Eqs. 2, 11b). Units are whatever the matrices use (SI for the
+//! blade: kg, N/m, m); frequencies are circular, in rad/s when M is in kg and K in N/m.
+//!
+//! The matrices are dense: this crate works on reduced models (Craig-Bampton, a few hundred DOFs).
+
+use faer::{Mat, MatRef};
+
+use crate::dense::{checked_symmetric, cholesky_lower, generalized_eigen};
+use crate::error::NnmError;
+
+/// A linear elastic structure with frictionless unilateral contact rows.
+#[derive(Clone)]
+pub struct System {
+    m: Mat<f64>,
+    k: Mat<f64>,
+    contact_rows: Mat<f64>,
+    gaps: Vec<f64>,
+    master: usize,
+    eigenvalues: Vec<f64>,
+    modes: Mat<f64>,
+    contact_stiffness: Vec<f64>,
+}
+
+impl std::fmt::Debug for System {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("System")
+            .field("dofs", &self.n_dofs())
+            .field("contact_rows", &self.n_contacts())
+            .field("master", &self.master)
+            .finish()
+    }
+}
+
+impl System {
+    /// Validates and builds a system.
+    ///
+    /// * `m`, `k`: n x n mass and stiffness, symmetric (asymmetry up to 1e-9 x max|a| is treated as
+    ///   round-off and removed by symmetrization) and positive definite (checked by Cholesky; the
+    ///   error names the matrix).
+    /// * `contact_rows`: c x n; row j gives the normal displacement of contact DOF j as `A_j . u`
+    ///   (the radial unit vector of a contact node on its three DOFs, or any nonzero row).
+    /// * `gaps`: the c initial gaps g0 > 0, same length unit as u.
+    /// * `master`: index in 0..n of the master coordinate whose first-harmonic amplitude is q
+    ///   (Sec. 2.6).
+    pub fn new(
+        m: Mat<f64>,
+        k: Mat<f64>,
+        contact_rows: Mat<f64>,
+        gaps: Vec<f64>,
+        master: usize,
+    ) -> Result<Self, NnmError> {
+        let n = m.nrows();
+        if n == 0 {
+            return Err(NnmError::Empty);
+        }
+        let m = checked_symmetric("M", &m, n)?;
+        let k = checked_symmetric("K", &k, n)?;
+        if contact_rows.ncols() != n {
+            return Err(NnmError::ContactRowsWidth { cols: contact_rows.ncols(), expected: n });
+        }
+        let c = contact_rows.nrows();
+        for j in 0..c {
+            let mut norm = 0.0;
+            for i in 0..n {
+                let v = contact_rows[(j, i)];
+                if !v.is_finite() {
+                    return Err(NnmError::InvalidContactRow {
+                        row: j,
+                        detail: format!("non-finite entry {v} in column {i}"),
+                    });
+                }
+                norm += v * v;
+            }
+            if norm == 0.0 {
+                return Err(NnmError::InvalidContactRow {
+                    row: j,
+                    detail: "the row is zero".to_string(),
+                });
+            }
+        }
+        if gaps.len() != c {
+            return Err(NnmError::GapCount { gaps: gaps.len(), rows: c });
+        }
+        for (index, &value) in gaps.iter().enumerate() {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(NnmError::NonPositiveGap { index, value });
+            }
+        }
+        if master >= n {
+            return Err(NnmError::MasterOutOfRange { master, dofs: n });
+        }
+        // SPD checks with named errors (the eigen-solver would only report M).
+        cholesky_lower("M", m.as_ref())?;
+        let lk = cholesky_lower("K", k.as_ref())?;
+        let eig = generalized_eigen(k.as_ref(), m.as_ref(), "M")?;
+        if eig.values.iter().any(|&v| v <= 0.0) {
+            return Err(NnmError::NotPositiveDefinite {
+                name: "K",
+                detail: "a generalized eigenvalue of (K, M) is not positive".to_string(),
+            });
+        }
+        // Static stiffness seen by each contact row: 1 / (A_j K^-1 A_j^T).
+        let mut contact_stiffness = Vec::with_capacity(c);
+        for j in 0..c {
+            let mut x = Mat::from_fn(n, 1, |i, _| contact_rows[(j, i)]);
+            faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                lk.as_ref(),
+                x.as_mut(),
+                faer::Par::Seq,
+            );
+            let flex: f64 = (0..n).map(|i| x[(i, 0)] * x[(i, 0)]).sum();
+            contact_stiffness.push(1.0 / flex);
+        }
+        Ok(Self {
+            m,
+            k,
+            contact_rows,
+            gaps,
+            master,
+            eigenvalues: eig.values,
+            modes: eig.vectors,
+            contact_stiffness,
+        })
+    }
+
+    /// Number of degrees of freedom n.
+    pub fn n_dofs(&self) -> usize {
+        self.m.nrows()
+    }
+
+    /// Number of contact rows c.
+    pub fn n_contacts(&self) -> usize {
+        self.contact_rows.nrows()
+    }
+
+    /// Mass matrix M (symmetrized).
+    pub fn mass(&self) -> MatRef<'_, f64> {
+        self.m.as_ref()
+    }
+
+    /// Stiffness matrix K (symmetrized).
+    pub fn stiffness(&self) -> MatRef<'_, f64> {
+        self.k.as_ref()
+    }
+
+    /// Contact rows A (c x n), Eq. (17).
+    pub fn contact_rows(&self) -> MatRef<'_, f64> {
+        self.contact_rows.as_ref()
+    }
+
+    /// Initial gaps g0 (c values).
+    pub fn gaps(&self) -> &[f64] {
+        &self.gaps
+    }
+
+    /// Index of the master coordinate.
+    pub fn master(&self) -> usize {
+        self.master
+    }
+
+    /// Reference gap used to scale amplitudes (q / g_ref): the mean initial gap, or 1 when the system
+    /// has no contact row.
+    pub fn gap_reference(&self) -> f64 {
+        if self.gaps.is_empty() {
+            1.0
+        } else {
+            self.gaps.iter().sum::<f64>() / self.gaps.len() as f64
+        }
+    }
+
+    /// Circular frequencies of the linear modes of (K, M), ascending (rad/s).
+    pub fn linear_frequencies(&self) -> Vec<f64> {
+        self.eigenvalues.iter().map(|v| v.sqrt()).collect()
+    }
+
+    /// Linear mode `mode` (0-based), mass-normalized, with a positive master component.
+    pub fn linear_mode(&self, mode: usize) -> Result<Vec<f64>, NnmError> {
+        let n = self.n_dofs();
+        if mode >= n {
+            return Err(NnmError::ModeOutOfRange { mode, count: n });
+        }
+        let mut phi: Vec<f64> = (0..n).map(|i| self.modes[(i, mode)]).collect();
+        let max = phi.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        let pm = phi[self.master];
+        if pm.abs() <= 1e-8 * max {
+            return Err(NnmError::MasterNotInMode {
+                master: self.master,
+                mode,
+                value: pm.abs() / max,
+            });
+        }
+        if pm < 0.0 {
+            phi.iter_mut().for_each(|v| *v = -*v);
+        }
+        Ok(phi)
+    }
+
+    /// Master amplitude q at which linear mode `mode` first touches the obstacle:
+    /// min_j g0_j phi_master / |A_j phi|; `None` if no contact row moves in that mode.
+    pub fn grazing_amplitude(&self, mode: usize) -> Result<Option<f64>, NnmError> {
+        let phi = self.linear_mode(mode)?;
+        let pm = phi[self.master];
+        let mut best: Option<f64> = None;
+        for j in 0..self.n_contacts() {
+            let aphi: f64 = (0..self.n_dofs()).map(|i| self.contact_rows[(j, i)] * phi[i]).sum();
+            if aphi.abs() > 0.0 {
+                let q = self.gaps[j] * pm / aphi.abs();
+                best = Some(best.map_or(q, |b: f64| b.min(q)));
+            }
+        }
+        Ok(best)
+    }
+
+    /// Static stiffness seen by each contact row, 1 / (A_j K^-1 A_j^T) (force per length): the scale
+    /// of the initial augmented-Lagrangian penalties.
+    pub fn contact_stiffness(&self) -> &[f64] {
+        &self.contact_stiffness
+    }
+
+    /// Contact displacement A_j . u.
+    pub(crate) fn contact_displacement(&self, j: usize, u: &[f64]) -> f64 {
+        let n = self.n_dofs();
+        (0..n).map(|i| self.contact_rows[(j, i)] * u[i]).sum()
+    }
+}

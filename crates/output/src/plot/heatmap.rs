@@ -1,0 +1,362 @@
+//! Heat maps: a matrix of values drawn as colored cells, with a color bar.
+//! Used for the contact map (contact node x time over one period).
+
+use std::path::{Path, PathBuf};
+
+use super::color::Colormap;
+use super::prefix;
+use super::raster::{svg_to_png, PNG_SCALE};
+use super::svg::{text_width, Anchor, Svg, TextStyle};
+use super::ticks::{nice_ticks, tick_label};
+use super::with_appended_extension;
+use crate::atomic::write_atomic;
+use crate::finite::check_finite;
+use crate::OutputError;
+
+/// A `rows` x `cols` matrix of values on the rectangle `x_extent` x `y_extent`.
+///
+/// `values[r * cols + c]` is the cell of row `r` (drawn from the bottom: row 0 is lowest) and
+/// column `c` (from the left). For the contact map: rows = contact nodes (leading to trailing
+/// edge), columns = time samples of one period, `y_extent = (0.5, n + 0.5)` to center node `k`
+/// on y = `k`, `x_extent = (0, 1)` for t / T.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeatMap {
+    /// Title above the plot.
+    pub title: String,
+    /// Label of the x axis.
+    pub x_label: String,
+    /// Label of the y axis.
+    pub y_label: String,
+    /// Label of the color bar.
+    pub value_label: String,
+    /// Number of rows (>= 1).
+    pub rows: usize,
+    /// Number of columns (>= 1).
+    pub cols: usize,
+    /// Row-major values, `rows * cols` finite numbers.
+    pub values: Vec<f64>,
+    /// x of the left edge of column 0 and of the right edge of the last column.
+    pub x_extent: (f64, f64),
+    /// y of the bottom edge of row 0 and of the top edge of the last row.
+    pub y_extent: (f64, f64),
+    /// Values mapped to the ends of the colormap (clamped outside); `None`: data min and max.
+    pub value_range: Option<(f64, f64)>,
+    /// Colormap.
+    pub colormap: Colormap,
+    /// Image width (px).
+    pub width: f64,
+    /// Image height (px).
+    pub height: f64,
+}
+
+const TICK_FONT: f64 = 12.0;
+const LABEL_FONT: f64 = 14.0;
+const TITLE_FONT: f64 = 16.0;
+
+impl HeatMap {
+    /// An 800 x 520 heat map with extents (0, cols) x (0, rows) and the viridis colormap.
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+        value_label: impl Into<String>,
+        rows: usize,
+        cols: usize,
+        values: Vec<f64>,
+    ) -> Self {
+        HeatMap {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            value_label: value_label.into(),
+            rows,
+            cols,
+            values,
+            x_extent: (0.0, cols as f64),
+            y_extent: (0.0, rows as f64),
+            value_range: None,
+            colormap: Colormap::Viridis,
+            width: 800.0,
+            height: 520.0,
+        }
+    }
+
+    /// Sets the x extent (builder form).
+    pub fn with_x_extent(mut self, lo: f64, hi: f64) -> Self {
+        self.x_extent = (lo, hi);
+        self
+    }
+
+    /// Sets the y extent (builder form).
+    pub fn with_y_extent(mut self, lo: f64, hi: f64) -> Self {
+        self.y_extent = (lo, hi);
+        self
+    }
+
+    /// Fixes the value range of the colormap.
+    pub fn with_value_range(mut self, lo: f64, hi: f64) -> Self {
+        self.value_range = Some((lo, hi));
+        self
+    }
+
+    /// Sets the colormap.
+    pub fn with_colormap(mut self, c: Colormap) -> Self {
+        self.colormap = c;
+        self
+    }
+
+    fn what(&self) -> String {
+        format!("heat map `{}`", self.title)
+    }
+
+    fn check(&self) -> Result<(f64, f64), OutputError> {
+        let what = self.what();
+        if self.rows == 0 || self.cols == 0 || self.values.len() != self.rows * self.cols {
+            return Err(OutputError::invalid(
+                what,
+                format!(
+                    "{} values for {} rows x {} columns; expected rows, columns >= 1 and \
+                     rows x columns values",
+                    self.values.len(),
+                    self.rows,
+                    self.cols
+                ),
+            ));
+        }
+        if !(self.width.is_finite()
+            && self.height.is_finite()
+            && self.width >= 250.0
+            && self.height >= 150.0)
+        {
+            return Err(OutputError::invalid(
+                what,
+                format!(
+                    "size {} x {} px; expected at least 250 x 150",
+                    self.width, self.height
+                ),
+            ));
+        }
+        check_finite(&format!("values of {what}"), &self.values)?;
+        for (name, (lo, hi)) in [("x extent", self.x_extent), ("y extent", self.y_extent)] {
+            check_finite(&format!("{name} of {what}"), &[lo, hi])?;
+            if lo >= hi {
+                return Err(OutputError::invalid(
+                    format!("{name} of {what}"),
+                    format!("({lo}, {hi}) is empty; expected lo < hi"),
+                ));
+            }
+        }
+        match self.value_range {
+            Some((lo, hi)) => {
+                check_finite(&format!("value range of {what}"), &[lo, hi])?;
+                if lo >= hi {
+                    return Err(OutputError::invalid(
+                        format!("value range of {what}"),
+                        format!("({lo}, {hi}) is empty; expected lo < hi"),
+                    ));
+                }
+                Ok((lo, hi))
+            }
+            None => {
+                let lo = self.values.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = self
+                    .values
+                    .iter()
+                    .copied()
+                    .fold(f64::NEG_INFINITY, f64::max);
+                if hi > lo {
+                    Ok((lo, hi))
+                } else {
+                    // Constant data (e.g. no contact at all): the value sits at the low end.
+                    Ok((lo, lo + lo.abs().max(1.0)))
+                }
+            }
+        }
+    }
+
+    /// Renders the heat map as an SVG document.
+    pub fn to_svg(&self) -> Result<String, OutputError> {
+        let (vlo, vhi) = self.check()?;
+        let (xlo, xhi) = self.x_extent;
+        let (ylo, yhi) = self.y_extent;
+        let within = |t: &[f64], lo: f64, hi: f64| -> Vec<f64> {
+            let eps = 1e-9 * (hi - lo);
+            t.iter()
+                .copied()
+                .filter(|v| *v >= lo - eps && *v <= hi + eps)
+                .collect()
+        };
+        let xt = nice_ticks(xlo, xhi, 6);
+        let yt = nice_ticks(ylo, yhi, 6);
+        let vt = nice_ticks(vlo, vhi, 5);
+        let xticks = within(&xt.values, xlo, xhi);
+        let yticks = within(&yt.values, ylo, yhi);
+        let vticks = within(&vt.values, vlo, vhi);
+        let xmax = xlo.abs().max(xhi.abs());
+        let ymax = ylo.abs().max(yhi.abs());
+        let vmax = vlo.abs().max(vhi.abs());
+
+        let y_tick_w = yticks
+            .iter()
+            .map(|&v| text_width(&tick_label(v, yt.step, ymax), TICK_FONT))
+            .fold(0.0, f64::max);
+        let v_tick_w = vticks
+            .iter()
+            .map(|&v| text_width(&tick_label(v, vt.step, vmax), TICK_FONT))
+            .fold(0.0, f64::max);
+        let left = 16.0 + LABEL_FONT + 10.0 + y_tick_w + 8.0;
+        let bar_w = 16.0;
+        let right = 20.0 + bar_w + 8.0 + v_tick_w + 10.0 + LABEL_FONT + 12.0;
+        let top = if self.title.is_empty() {
+            16.0
+        } else {
+            20.0 + TITLE_FONT + 10.0
+        };
+        let bottom = 8.0 + TICK_FONT + 12.0 + LABEL_FONT + 14.0;
+        let (x0, x1, y0, y1) = (left, self.width - right, top, self.height - bottom);
+        if x1 - x0 < 20.0 || y1 - y0 < 20.0 {
+            return Err(OutputError::invalid(
+                self.what(),
+                format!(
+                    "size {} x {} px leaves no room for the cells",
+                    self.width, self.height
+                ),
+            ));
+        }
+        let px = |x: f64| x0 + (x - xlo) / (xhi - xlo) * (x1 - x0);
+        let py = |y: f64| y1 - (y - ylo) / (yhi - ylo) * (y1 - y0);
+        let color_of = |v: f64| self.colormap.at((v - vlo) / (vhi - vlo)).hex();
+
+        let mut svg = Svg::new(self.width, self.height);
+        // Cells: runs of equal color within a row become one rectangle.
+        svg.open_group("shape-rendering=\"crispEdges\"");
+        let dx = (xhi - xlo) / self.cols as f64;
+        let dy = (yhi - ylo) / self.rows as f64;
+        for r in 0..self.rows {
+            let (top_y, bot_y) = (py(ylo + (r + 1) as f64 * dy), py(ylo + r as f64 * dy));
+            let row = &self.values[r * self.cols..(r + 1) * self.cols];
+            let mut c = 0;
+            while c < self.cols {
+                let color = color_of(row[c]);
+                let mut end = c + 1;
+                while end < self.cols && color_of(row[end]) == color {
+                    end += 1;
+                }
+                let (l, rr) = (px(xlo + c as f64 * dx), px(xlo + end as f64 * dx));
+                svg.rect(l, top_y, rr - l, bot_y - top_y, &color, None);
+                c = end;
+            }
+        }
+        svg.close_group();
+        svg.rect(x0, y0, x1 - x0, y1 - y0, "none", Some("#333333"));
+
+        let tick = TextStyle {
+            size: TICK_FONT,
+            ..TextStyle::default()
+        };
+        for &v in &xticks {
+            let x = px(v);
+            svg.line(x, y1, x, y1 + 5.0, "#333333", 1.0, None);
+            svg.text(x, y1 + 8.0 + TICK_FONT, &tick_label(v, xt.step, xmax), tick);
+        }
+        for &v in &yticks {
+            let y = py(v);
+            svg.line(x0 - 5.0, y, x0, y, "#333333", 1.0, None);
+            svg.text(
+                x0 - 8.0,
+                y + 0.35 * TICK_FONT,
+                &tick_label(v, yt.step, ymax),
+                TextStyle {
+                    anchor: Anchor::End,
+                    ..tick
+                },
+            );
+        }
+
+        // Color bar.
+        let bx = x1 + 20.0;
+        let slices = 128;
+        svg.open_group("shape-rendering=\"crispEdges\"");
+        for k in 0..slices {
+            let t0 = k as f64 / slices as f64;
+            let t1 = (k + 1) as f64 / slices as f64;
+            let (ya, yb) = (y1 - t1 * (y1 - y0), y1 - t0 * (y1 - y0));
+            let color = self.colormap.at(0.5 * (t0 + t1)).hex();
+            svg.rect(bx, ya, bar_w, yb - ya, &color, None);
+        }
+        svg.close_group();
+        svg.rect(bx, y0, bar_w, y1 - y0, "none", Some("#333333"));
+        for &v in &vticks {
+            let y = y1 - (v - vlo) / (vhi - vlo) * (y1 - y0);
+            svg.line(bx + bar_w, y, bx + bar_w + 4.0, y, "#333333", 1.0, None);
+            svg.text(
+                bx + bar_w + 7.0,
+                y + 0.35 * TICK_FONT,
+                &tick_label(v, vt.step, vmax),
+                TextStyle {
+                    anchor: Anchor::Start,
+                    ..tick
+                },
+            );
+        }
+
+        let label = TextStyle {
+            size: LABEL_FONT,
+            ..TextStyle::default()
+        };
+        svg.text(0.5 * (x0 + x1), self.height - 14.0, &self.x_label, label);
+        svg.text(
+            16.0 + LABEL_FONT * 0.8,
+            0.5 * (y0 + y1),
+            &self.y_label,
+            TextStyle {
+                rotate: -90.0,
+                ..label
+            },
+        );
+        svg.text(
+            self.width - 12.0 - LABEL_FONT * 0.2,
+            0.5 * (y0 + y1),
+            &self.value_label,
+            TextStyle {
+                rotate: -90.0,
+                ..label
+            },
+        );
+        if !self.title.is_empty() {
+            svg.text(
+                0.5 * (x0 + x1),
+                20.0 + TITLE_FONT * 0.8,
+                &self.title,
+                TextStyle {
+                    size: TITLE_FONT,
+                    bold: true,
+                    ..TextStyle::default()
+                },
+            );
+        }
+        Ok(svg.finish())
+    }
+
+    /// Writes the SVG to `path` atomically.
+    pub fn write_svg(&self, path: &Path) -> Result<(), OutputError> {
+        let svg = self.to_svg().map_err(|e| prefix(e, path))?;
+        write_atomic(path, svg.as_bytes())
+    }
+
+    /// Writes the heat map as PNG ([`PNG_SCALE`] px per SVG px) to `path` atomically.
+    pub fn write_png(&self, path: &Path) -> Result<(), OutputError> {
+        let svg = self.to_svg().map_err(|e| prefix(e, path))?;
+        svg_to_png(&svg, path, PNG_SCALE)
+    }
+
+    /// Writes `<base>.svg` and `<base>.png`; returns their paths.
+    pub fn write_svg_and_png(&self, base: &Path) -> Result<(PathBuf, PathBuf), OutputError> {
+        let svg_path = with_appended_extension(base, "svg");
+        let png_path = with_appended_extension(base, "png");
+        let svg = self.to_svg().map_err(|e| prefix(e, &svg_path))?;
+        write_atomic(&svg_path, svg.as_bytes())?;
+        svg_to_png(&svg, &png_path, PNG_SCALE)?;
+        Ok((svg_path, png_path))
+    }
+}

@@ -1,0 +1,141 @@
+//! Data and decorations of line plots: series, line styles, reference lines, legend placement.
+
+use super::color::Color;
+
+/// How a series' points are joined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LineStyle {
+    /// Continuous line.
+    #[default]
+    Solid,
+    /// Long dashes.
+    Dashed,
+    /// Dots.
+    Dotted,
+    /// No line (use markers).
+    None,
+}
+
+impl LineStyle {
+    pub(crate) fn dash(&self) -> Option<&'static str> {
+        match self {
+            LineStyle::Dashed => Some("7 4"),
+            LineStyle::Dotted => Some("1.5 3.5"),
+            LineStyle::Solid | LineStyle::None => None,
+        }
+    }
+}
+
+/// A curve y(x).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text (empty: not in the legend).
+    pub label: String,
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Ordinates, same length as `x`.
+    pub y: Vec<f64>,
+    /// Color; `None` takes the next palette color.
+    pub color: Option<Color>,
+    /// Line style.
+    pub style: LineStyle,
+    /// Draw a marker at every point.
+    pub markers: bool,
+    /// Line width (px).
+    pub width: f64,
+}
+
+impl Series {
+    /// A solid series without markers.
+    pub fn new(label: impl Into<String>, x: impl Into<Vec<f64>>, y: impl Into<Vec<f64>>) -> Self {
+        Series {
+            label: label.into(),
+            x: x.into(),
+            y: y.into(),
+            color: None,
+            style: LineStyle::Solid,
+            markers: false,
+            width: 2.0,
+        }
+    }
+
+    /// Sets the color.
+    pub fn color(mut self, c: Color) -> Self {
+        self.color = Some(c);
+        self
+    }
+
+    /// Sets the line style.
+    pub fn style(mut self, s: LineStyle) -> Self {
+        self.style = s;
+        self
+    }
+
+    /// Turns markers on or off.
+    pub fn markers(mut self, on: bool) -> Self {
+        self.markers = on;
+        self
+    }
+
+    /// Sets the line width (px).
+    pub fn width(mut self, w: f64) -> Self {
+        self.width = w;
+        self
+    }
+}
+
+/// Direction of a reference line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Orientation {
+    /// y = value.
+    Horizontal,
+    /// x = value.
+    Vertical,
+}
+
+/// A dashed gray reference line across the plot, with a label (e.g. "contact at 1").
+#[derive(Debug, Clone, PartialEq)]
+pub struct RefLine {
+    /// Horizontal (y = value) or vertical (x = value).
+    pub orientation: Orientation,
+    /// Position in data units.
+    pub value: f64,
+    /// Text written next to the line (may be empty).
+    pub label: String,
+}
+
+impl RefLine {
+    /// y = `value`.
+    pub fn horizontal(value: f64, label: impl Into<String>) -> Self {
+        RefLine {
+            orientation: Orientation::Horizontal,
+            value,
+            label: label.into(),
+        }
+    }
+
+    /// x = `value`.
+    pub fn vertical(value: f64, label: impl Into<String>) -> Self {
+        RefLine {
+            orientation: Orientation::Vertical,
+            value,
+            label: label.into(),
+        }
+    }
+}
+
+/// Where the legend box goes (inside the plot area).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LegendPosition {
+    /// Top right corner.
+    #[default]
+    TopRight,
+    /// Top left corner.
+    TopLeft,
+    /// Bottom right corner.
+    BottomRight,
+    /// Bottom left corner.
+    BottomLeft,
+    /// No legend.
+    Hidden,
+}

@@ -1,0 +1,141 @@
+//! `report.md`: the inputs, linear frequencies, Craig-Bampton accuracy, the backbone table,
+//! convergence figures and the plots of a case, in one page.
+
+use anyhow::Result;
+use nlmodes_modal::ReducedModel;
+use nlmodes_output::{LegendPosition, LinePlot, Series};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::case::Case;
+use crate::post::{BackboneFile, Orbit};
+use crate::run::Layout;
+
+fn rel(root: &Path, p: &Path) -> String {
+    p.strip_prefix(root).unwrap_or(p).display().to_string()
+}
+
+/// Convergence figure: Powell's measure G and the Newton iterations at every backbone point.
+fn convergence_figure(b: &BackboneFile, out: &Path) -> Result<()> {
+    let g0 = b.gap_reference;
+    let q: Vec<f64> = b.points.iter().map(|p| p.q / g0).collect();
+    let g: Vec<f64> = b.points.iter().map(|p| p.powell_measure.max(1e-300).log10()).collect();
+    let it: Vec<f64> = b.points.iter().map(|p| p.newton_iterations as f64).collect();
+    LinePlot::new("Convergence of Algorithm 1", "q / g0", "log10 G (units of g0)")
+        .with_series(Series::new("log10 G", q.clone(), g).markers(true))
+        .with_legend(LegendPosition::Hidden)
+        .write_svg_and_png(&out.join("convergence_powell"))?;
+    LinePlot::new("Newton iterations per point", "q / g0", "Newton iterations")
+        .with_series(Series::new("Newton iterations", q, it).markers(true))
+        .with_legend(LegendPosition::Hidden)
+        .write_svg_and_png(&out.join("convergence_newton"))?;
+    Ok(())
+}
+
+pub fn write_report(
+    case: &Case,
+    layout: &Layout,
+    model: &ReducedModel,
+    b: &BackboneFile,
+    kept: &[(Orbit, PathBuf)],
+) -> Result<()> {
+    let root = &layout.root;
+    convergence_figure(b, root)?;
+    let g0 = b.gap_reference;
+    let f1 = b.omega_linear / (2.0 * std::f64::consts::PI);
+    let mut s = String::new();
+    let _ = writeln!(s, "# nlmodes report: case `{}`\n", case.name());
+    let _ = writeln!(
+        s,
+        "Nonlinear normal mode of a structure with frictionless unilateral contact (Laxalde, Legrand & \
+         Pierre 2009). Displacements are normalized by the initial gap g0 = {:.4e} m, frequencies by \
+         the first linear frequency f1 = {f1:.4} Hz.\n",
+        g0
+    );
+    let _ = writeln!(s, "## Inputs\n\n```toml\n{}```\n", toml::to_string(case).unwrap_or_default());
+    let full = crate::fe_model::read_frequencies(&layout.modes().join("frequencies.csv"));
+    let _ = writeln!(s, "## Linear modes and Craig-Bampton accuracy\n");
+    let _ = writeln!(
+        s,
+        "Reduced model: {} coordinates ({} contact nodes x 3 constraint modes + {} fixed-interface \
+         modes). Master coordinate: {} (reduced DOF {}).\n",
+        model.n(),
+        model.contact_nodes.len(),
+        model.n() - 3 * model.contact_nodes.len(),
+        model.master.description,
+        model.master.dof
+    );
+    let _ = writeln!(s, "| mode | full model [Hz] | reduced [Hz] | relative error |\n|---|---|---|---|");
+    for (i, r) in model.linear_frequencies_hz.iter().take(10).enumerate() {
+        match full.as_ref().and_then(|f| f.get(i)) {
+            Some(f) => {
+                let _ = writeln!(s, "| {} | {f:.4} | {r:.4} | {:.2e} |", i + 1, (r - f) / f);
+            }
+            None => {
+                let _ = writeln!(s, "| {} | | {r:.4} | |", i + 1);
+            }
+        }
+    }
+    let _ = writeln!(s, "\nLinear mode shapes: `modes/modes.vtu`.\n");
+    let _ = writeln!(s, "## Backbone (Fig. 3a)\n\n![backbone](backbone.png)\n");
+    let _ = writeln!(
+        s,
+        "Grazing amplitude: q/g0 = {}. Termination: `{}`.\n",
+        b.grazing_amplitude.map(|q| format!("{:.4}", q / g0)).unwrap_or_else(|| "none".into()),
+        b.termination
+    );
+    let _ = writeln!(
+        s,
+        "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | flags |\n|---|---|---|---|---|---|---|---|"
+    );
+    let stride = (b.points.len() / 25).max(1);
+    for (i, p) in b.points.iter().enumerate() {
+        if i % stride != 0 && i + 1 != b.points.len() && !p.fold && !p.jump {
+            continue;
+        }
+        let share = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
+        let flags = [(p.fold, "fold"), (p.jump, "jump"), (p.truncation_warning, "N too small")]
+            .iter()
+            .filter(|f| f.0)
+            .map(|f| f.1)
+            .collect::<Vec<_>>()
+            .join(", ");
+        let _ = writeln!(
+            s,
+            "| {:.3} | {:.6} | {:.3} | {} | {:.3} | {:.1e} | {} | {} |",
+            p.q / g0,
+            p.omega_ratio,
+            p.frequency_hz,
+            p.touching(),
+            share,
+            p.powell_measure,
+            p.newton_iterations,
+            flags
+        );
+    }
+    let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
+    let _ = writeln!(s, "## Manifold (Fig. 3b)\n\n![manifold displacement](manifold_displacement.png)\n![manifold velocity](manifold_velocity.png)\n\nData: `manifold.csv`.\n");
+    let _ = writeln!(s, "## Contact at the kept amplitudes (Figs. 4 and 5)\n");
+    for (o, dir) in kept {
+        let tag = format!("q{:.1}", o.q / g0);
+        let d = rel(root, dir);
+        let touching: Vec<String> = o
+            .contact_fraction
+            .iter()
+            .enumerate()
+            .filter(|(_, &f)| f > 0.0)
+            .map(|(j, f)| format!("{} ({:.0} %)", j + 1, 100.0 * f))
+            .collect();
+        let _ = writeln!(
+            s,
+            "### q/g0 = {:.2}: w/w1 = {:.5}\n\nNodes in contact (share of the period): {}.\n\n\
+             ![radial]({d}/radial_{tag}.png)\n![contact map]({d}/contact_map_{tag}.png)\n\n\
+             ParaView: `{d}/mode_{tag}.pvd` (warp by `displacement_m`).\n",
+            o.q / g0,
+            o.omega_ratio,
+            if touching.is_empty() { "none".to_string() } else { touching.join(", ") }
+        );
+    }
+    let _ = writeln!(s, "## Convergence\n\n![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n");
+    crate::output::write_atomic(&root.join("report.md"), s.as_bytes())
+}
