@@ -47,8 +47,8 @@ fn mirror_upper(out: &mut [f64], n: usize) {
 /// Element stiffness (N/m) with a given tabulated rule, into `out` (row-major,
 /// `(3 npe)^2`, overwritten). Errors if det J is not positive (or negligible) at a point.
 ///
-/// The quadrature accumulates H = sum_q w_q det J_q v_q v_q^T with v_q the 3 npe physical
-/// gradients (v[3a + k] = dN_a/dx_k), one symmetric rank-one update per point; then
+/// The quadrature computes H = sum_q w_q det J_q v_q v_q^T with v_q the 3 npe physical
+/// gradients (v[3a + k] = dN_a/dx_k), node-pair block by node-pair block; then
 /// K_(a,i),(b,j) = lambda H_(a,i),(b,j) + mu H_(a,j),(b,i) + mu delta_ij sum_k H_(a,k),(b,k).
 pub fn stiffness_with_rule(
     coords: &[[f64; 3]],
@@ -61,7 +61,7 @@ pub fn stiffness_with_rule(
     let n = 3 * npe;
     let out = &mut out[..n * n];
     let mut hm = [0.0; 900];
-    // Fixed sizes let the compiler vectorize the rank-one updates.
+    // Fixed sizes let the compiler unroll the per-node loops.
     match tab.kind {
         TetKind::Tet4 => gradient_products::<4, 12>(coords, tab, element_tag, &mut hm)?,
         TetKind::Tet10 => gradient_products::<10, 30>(coords, tab, element_tag, &mut hm)?,
