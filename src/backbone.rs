@@ -110,8 +110,7 @@ pub fn write(b: &Backbone, dir: &Path) -> Result<()> {
         );
     }
     write_atomic(&dir.join("backbone.csv"), backbone_csv(b).as_bytes())?;
-    let json = serde_json::to_vec(b).context("serializing the backbone")?;
-    write_atomic(&dir.join("backbone.json"), &json)?;
+    nlmodes_output::write_json(&dir.join("backbone.json"), b)?;
     Ok(())
 }
 

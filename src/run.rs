@@ -177,10 +177,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         let b = backbone::trace(&system, hs, &case.algorithm, &case.continuation)?;
         backbone::write(&b, &layout.backbone())?;
         let kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
-        crate::output::write_atomic(
-            &layout.backbone().join("kept.json"),
-            &serde_json::to_vec(&kept).context("serializing the kept orbits")?,
-        )?;
+        nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;
         ui::say(&backbone::summary(&b));
         stamp(&layout, "backbone", &bb_hash)?;
     } else if needs_bb {
