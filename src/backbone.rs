@@ -25,6 +25,23 @@ pub fn system_of(model: &ReducedModel, master: Option<usize>) -> Result<System> 
     )?)
 }
 
+/// An amplitude range that stays below grazing has no contact: the mode is linear there, and the
+/// run is almost certainly a mistake (wrong gap, wrong master or wrong q_max). Error naming both.
+pub fn check_reaches_contact(system: &System, cont: &ContinuationSettings) -> Result<()> {
+    let g = system.gap_reference();
+    match system.grazing_amplitude(cont.mode)? {
+        Some(q) if cont.q_max * g < q.abs() => anyhow::bail!(
+            "the amplitude range q/g0 = {} .. {} stays below grazing (contact starts at q/g0 = {:.4}): \
+             raise q_max above it",
+            cont.q_start,
+            cont.q_max,
+            q.abs() / g
+        ),
+        None => anyhow::bail!("no contact row moves in mode {}: the mode never touches", cont.mode),
+        _ => Ok(()),
+    }
+}
+
 /// Trace the backbone with a progress bar over q / g0.
 pub fn trace(
     system: &System,

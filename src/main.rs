@@ -272,6 +272,7 @@ fn run(command: Command) -> Result<()> {
             cont.q_start = q_start;
             let reduced = backbone::load_model(&model)?;
             let system = backbone::system_of(&reduced, master)?;
+            backbone::check_reaches_contact(&system, &cont)?;
             let hs = nlmodes_nnm::HarmonicSettings::new(harmonics, samples)?;
             let b = backbone::trace(&system, hs, &params, &cont)?;
             backbone::write(&b, &out)?;

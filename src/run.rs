@@ -173,6 +173,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     if needs_bb && (force || !up_to_date(&layout, "backbone", &bb_hash, &bb_out)) {
         let model = backbone::load_model(&layout.model())?;
         let system = backbone::system_of(&model, None)?;
+        backbone::check_reaches_contact(&system, &case.continuation)?;
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
         let b = backbone::trace(&system, hs, &case.algorithm, &case.continuation)?;
         backbone::write(&b, &layout.backbone())?;

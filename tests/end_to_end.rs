@@ -1,0 +1,239 @@
+//! The blade study end to end (issue 5) on a coarse mesh: `nlmodes run` from the .geo to the
+//! figures, then checks of the physics (backbone flat below grazing, stiffening after it, contact
+//! growing with amplitude), of the VTU files by an independent reader (meshio), of the make-like
+//! reruns, and of the errors on bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn nlmodes(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_nlmodes"));
+    cmd.args(args).env("RUST_LOG", "info");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("cannot start nlmodes")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+/// A coarse version of cases/blade.toml (about 8k DOFs) writing into `dir`.
+fn coarse_case(dir: &Path, extra: &str) -> PathBuf {
+    let geo = root().join("meshes/blade.geo");
+    let case = format!(
+        r#"name = "coarse"
+results_dir = "{results}"
+[mesh]
+geo = "{geo}"
+order = 2
+[mesh.parameters]
+mesh_size = 0.012
+[model]
+fixed_interface_modes = 20
+linear_modes = 6
+[nnm]
+harmonics = 10
+samples = 128
+keep = [3.0, 12.0]
+frames = 6
+[continuation]
+q_start = 0.5
+q_max = 14.0
+{extra}
+"#,
+        results = dir.join("results").display(),
+        geo = geo.display(),
+    );
+    let path = dir.join("coarse.toml");
+    std::fs::write(&path, case).unwrap();
+    path
+}
+
+struct Row {
+    q: f64,
+    ratio: f64,
+    touching: usize,
+    share: f64,
+    fold: bool,
+    jump: bool,
+}
+
+fn read_backbone(path: &Path) -> Vec<Row> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (iq, ir, it, is, ifo, ij) = (
+        col("q_over_g0"),
+        col("omega_ratio"),
+        col("nodes_in_contact"),
+        col("max_contact_fraction"),
+        col("fold"),
+        col("jump"),
+    );
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            Row {
+                q: f[iq].parse().unwrap(),
+                ratio: f[ir].parse().unwrap(),
+                touching: f[it].parse().unwrap(),
+                share: f[is].parse().unwrap(),
+                fold: f[ifo] == "1",
+                jump: f[ij] == "1",
+            }
+        })
+        .collect()
+}
+
+fn grazing(dir: &Path) -> f64 {
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("backbone/backbone.json")).unwrap()).unwrap();
+    v["grazing_amplitude"].as_f64().unwrap() / v["gap_reference"].as_f64().unwrap()
+}
+
+#[test]
+fn coarse_blade_study_end_to_end() {
+    let tmp = tempfile::tempdir().unwrap();
+    let case = coarse_case(tmp.path(), "");
+    let out = nlmodes(&["run", case.to_str().unwrap()], &[]);
+    assert!(out.status.success(), "nlmodes run failed:\n{}", text(&out));
+    let res = tmp.path().join("results/coarse");
+
+    // Physics of the backbone (Fig. 3a), on the stretch before the first fold or jump.
+    let rows = read_backbone(&res.join("backbone/backbone.csv"));
+    let qg = grazing(&res);
+    assert!(qg > 0.5 && qg < 14.0, "grazing amplitude {qg} outside the range");
+    let below: Vec<&Row> = rows.iter().filter(|r| r.q < qg * (1.0 - 1e-6)).collect();
+    assert!(below.len() >= 2, "too few points below grazing");
+    for r in &below {
+        // Below grazing the orbit is the linear mode: w = w1 to the Newton tolerance.
+        assert!((r.ratio - 1.0).abs() < 1e-9, "q/g0 = {}: w/w1 = {} below grazing", r.q, r.ratio);
+        assert_eq!(r.touching, 0);
+    }
+    let first_stretch: Vec<&Row> = rows
+        .iter()
+        .take_while(|r| !r.fold && !r.jump)
+        .filter(|r| r.q > qg * 1.05)
+        .collect();
+    assert!(first_stretch.len() >= 3, "too few points after grazing before a fold or jump");
+    for w in first_stretch.windows(2) {
+        assert!(w[1].q > w[0].q, "q not increasing on the first stretch");
+        // Stiffening: the frequency grows with amplitude after contact (1e-9 allows the solver
+        // tolerance on nearly flat stretches right after grazing).
+        assert!(w[1].ratio >= w[0].ratio - 1e-9, "w/w1 decreases: {} -> {}", w[0].ratio, w[1].ratio);
+        assert!(w[1].ratio > 1.0);
+    }
+    // Contact grows with amplitude: more nodes and a longer contact at the end of the stretch.
+    let (a, b) = (first_stretch[0], first_stretch[first_stretch.len() - 1]);
+    assert!(b.touching >= a.touching && b.touching >= 1, "{} -> {}", a.touching, b.touching);
+    assert!(b.share > a.share, "contact share {} -> {}", a.share, b.share);
+    assert!(b.ratio > a.ratio);
+
+    // Outputs of every stage.
+    for f in [
+        "report.md",
+        "backbone.png",
+        "backbone.svg",
+        "manifold.csv",
+        "manifold_displacement.png",
+        "modes/frequencies.csv",
+        "modes/modes.vtu",
+        "model/K.mtx",
+        "model/model.json",
+    ] {
+        assert!(res.join(f).is_file(), "missing {f}");
+    }
+    let kept = res.join("amplitude_q12.0");
+    for f in ["radial_q12.0.csv", "radial_q12.0.png", "contact_map_q12.0.png", "mode_q12.0.pvd"] {
+        assert!(kept.join(f).is_file(), "missing {f}");
+    }
+    // VTU files through an independent reader (meshio): cell type, VTK edge-node order, fields.
+    for (file, fields) in [
+        (kept.join("frame_002.vtu"), vec!["displacement_m", "radial_gap_m", "contact_force_n"]),
+        (res.join("modes/modes.vtu"), vec!["mode_01"]),
+    ] {
+        let py = Command::new("/usr/bin/python3")
+            .arg(root().join("scripts/check_vtu.py"))
+            .arg(&file)
+            .args(&fields)
+            .output()
+            .expect("/usr/bin/python3 with python3-meshio is needed (scripts/deps installs it)");
+        assert!(py.status.success(), "meshio check failed: {}", text(&py));
+    }
+    // No temporary file left behind.
+    let leftovers: Vec<_> = walk(&res).into_iter().filter(|p| p.to_string_lossy().contains(".tmp")).collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+
+    // Make-like rerun: nothing to do, then only the nonlinear stages after changing q_max.
+    let model_time = std::fs::metadata(res.join("model/K.mtx")).unwrap().modified().unwrap();
+    let out = nlmodes(&["run", case.to_str().unwrap()], &[]);
+    assert!(out.status.success(), "{}", text(&out));
+    for stage in ["mesh", "modes", "reduce", "backbone"] {
+        assert!(text(&out).contains(&format!("stage {stage}: up to date")), "{}", text(&out));
+    }
+    let case2 = coarse_case(tmp.path(), "max_points = 999");
+    let out = nlmodes(&["run", case2.to_str().unwrap()], &[]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(text(&out).contains("stage reduce: up to date"), "{}", text(&out));
+    assert!(text(&out).contains("stage backbone: started"), "{}", text(&out));
+    assert_eq!(std::fs::metadata(res.join("model/K.mtx")).unwrap().modified().unwrap(), model_time);
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    if let Ok(rd) = std::fs::read_dir(dir) {
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                out.extend(walk(&p));
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn bad_inputs_give_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    // gmsh missing
+    let case = coarse_case(tmp.path(), "");
+    let out = nlmodes(&["run", case.to_str().unwrap(), "--only", "mesh"], &[("NLMODES_GMSH", "/nonexistent/gmsh")]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("gmsh not found"), "{}", text(&out));
+    // a parameter the .geo does not define
+    let geo = root().join("meshes/blade.geo");
+    let out = nlmodes(
+        &["mesh", geo.to_str().unwrap(), "-o", tmp.path().join("x.msh").to_str().unwrap(), "--set", "wingspan=3"],
+        &[],
+    );
+    assert!(!out.status.success());
+    assert!(text(&out).contains("`wingspan` is not defined"), "{}", text(&out));
+    // an unknown key in the case file
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, "[nnm]\nharmonix = 3\n").unwrap();
+    let out = nlmodes(&["run", bad.to_str().unwrap()], &[]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("harmonix"), "{}", text(&out));
+    // a missing group, and an amplitude range below grazing only (reuses the coarse mesh)
+    let nogroup = coarse_case(tmp.path(), "");
+    let s = std::fs::read_to_string(&nogroup).unwrap().replace("[model]\n", "[model]\ncontact_group = \"tip_rim\"\n");
+    std::fs::write(&nogroup, s).unwrap();
+    let out = nlmodes(&["run", nogroup.to_str().unwrap()], &[]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("tip_rim") && text(&out).contains("tip_edge"), "{}", text(&out));
+    let low = coarse_case(tmp.path(), "").to_str().unwrap().to_string();
+    let s = std::fs::read_to_string(&low).unwrap().replace("q_max = 14.0", "q_max = 1.0");
+    std::fs::write(&low, s).unwrap();
+    let out = nlmodes(&["run", &low], &[]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("stays below grazing"), "{}", text(&out));
+}
