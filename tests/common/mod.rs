@@ -1,0 +1,219 @@
+//! Helpers shared by the workspace integration tests (`tests/*.rs`): gmsh meshing of the
+//! project's geometry files (each mesh generated once per test binary), the materials, the
+//! clamped finite-element systems and mode-shape measures.
+//!
+//! gmsh (>= 4.8) is required: the project's set-up script installs it, so a missing gmsh is a
+//! test failure with an explanation, never a silent skip.
+
+// Every test binary compiles this module and uses a different subset of it.
+#![allow(dead_code)]
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use nlmodes_fem::{assemble, fixed_dofs, read_msh, DofMap, Isotropic, Mesh};
+use nlmodes_modal::sparse_ops::spmv;
+use sprs::CsMat;
+
+/// Steel for the beam tests: E = 210 GPa, nu = 0.3, rho = 7800 kg/m^3.
+pub fn steel() -> Isotropic {
+    Isotropic::new(210e9, 0.3, 7800.0).expect("steel constants are valid")
+}
+
+/// Titanium (Ti-6Al-4V) for the blade: E = 113.8 GPa, nu = 0.342, rho = 4430 kg/m^3.
+pub fn titanium() -> Isotropic {
+    Isotropic::new(113.8e9, 0.342, 4430.0).expect("titanium constants are valid")
+}
+
+/// `tests/data/beam.geo`: box cantilever L = 1 m (x), b = 0.1 m (y), h = 0.05 m (z);
+/// groups `beam` (volume), `clamp` (x = 0), `free` (x = L); size parameter `h_mesh` (m).
+pub fn beam_geo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/beam.geo")
+}
+
+/// `meshes/blade.geo`: the blade; groups `blade`, `root`, `tip`, `tip_edge` (24 points);
+/// parameters `mesh_size` (m) and `order` (1 = TET4, 2 = TET10).
+pub fn blade_geo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo")
+}
+
+/// Beam dimensions in beam.geo's defaults (m).
+pub const BEAM_L: f64 = 1.0;
+pub const BEAM_B: f64 = 0.1;
+pub const BEAM_H: f64 = 0.05;
+
+/// Blade hub radius and span in blade.geo's defaults (m): the tip face is z = 0.37 m.
+pub const BLADE_HUB_RADIUS: f64 = 0.25;
+pub const BLADE_SPAN: f64 = 0.12;
+
+/// Runs `gmsh -3 -order ORDER -format FORMAT [-setnumber NAME VALUE]... GEO -o OUT`.
+/// Panics with gmsh's output when gmsh is missing or fails.
+pub fn run_gmsh(geo: &Path, order: usize, format: &str, settings: &[(&str, f64)], out: &Path) {
+    let mut cmd = Command::new("gmsh");
+    cmd.arg("-3")
+        .arg("-order")
+        .arg(order.to_string())
+        .arg("-format")
+        .arg(format);
+    for (name, value) in settings {
+        cmd.arg("-setnumber").arg(name).arg(value.to_string());
+    }
+    cmd.arg(geo).arg("-o").arg(out);
+    let output = match cmd.output() {
+        Ok(o) => o,
+        Err(e) => panic!(
+            "cannot run gmsh ({e}): the integration tests mesh {} with the gmsh CLI (>= 4.8); \
+             install it (Debian: apt-get install gmsh, as the project's set-up script does)",
+            geo.display()
+        ),
+    };
+    let tail = |bytes: &[u8]| {
+        let text = String::from_utf8_lossy(bytes);
+        let lines: Vec<&str> = text.lines().collect();
+        lines[lines.len().saturating_sub(15)..].join("\n")
+    };
+    assert!(
+        output.status.success() && out.is_file(),
+        "gmsh failed on {} (order {order}, {settings:?}) with {}:\n{}\n{}",
+        geo.display(),
+        output.status,
+        tail(&output.stdout),
+        tail(&output.stderr)
+    );
+}
+
+/// A per-test-binary memo: `get(key, init)` runs `init` once per key, even when tests ask
+/// concurrently (the others wait for that one computation); different keys run in parallel.
+pub struct Memo<V>(OnceLock<Mutex<HashMap<String, MemoCell<V>>>>);
+
+/// One memoized value, computed at most once.
+type MemoCell<V> = Arc<OnceLock<Arc<V>>>;
+
+impl<V> Memo<V> {
+    pub const fn new() -> Self {
+        Memo(OnceLock::new())
+    }
+
+    pub fn get(&self, key: String, init: impl FnOnce() -> V) -> Arc<V> {
+        let cell = {
+            let mut map = self
+                .0
+                .get_or_init(Default::default)
+                .lock()
+                .expect("memo lock (poisoned by a panicking test)");
+            map.entry(key).or_default().clone()
+        };
+        cell.get_or_init(|| Arc::new(init())).clone()
+    }
+}
+
+impl<V> Default for Memo<V> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+static MESHES: Memo<Mesh> = Memo::new();
+
+/// The MSH 4.1 mesh of `geo` at element `order` with the given `-setnumber` settings, read
+/// by `nlmodes_fem::read_msh`. Generated once per test binary (the .msh file lives in a
+/// temporary directory removed after reading).
+pub fn gmsh_mesh(geo: &Path, order: usize, settings: &[(&str, f64)]) -> Arc<Mesh> {
+    let key = format!("{}|{order}|{settings:?}", geo.display());
+    MESHES.get(key, || {
+        let dir = tempfile::tempdir().expect("temporary directory for gmsh");
+        let out = dir.path().join("mesh.msh");
+        let start = std::time::Instant::now();
+        run_gmsh(geo, order, "msh41", settings, &out);
+        let mesh = read_msh(&out)
+            .unwrap_or_else(|e| panic!("reading the gmsh output of {}: {e}", geo.display()));
+        eprintln!(
+            "meshed {} order {order} {settings:?}: {} nodes, {} tets, {:.2} s",
+            geo.file_name()
+                .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
+            mesh.n_nodes(),
+            mesh.n_elements(),
+            start.elapsed().as_secs_f64()
+        );
+        mesh
+    })
+}
+
+/// The beam at element `order` (1 = TET4, 2 = TET10) and target size `h_mesh` (m).
+pub fn beam_mesh(order: usize, h_mesh: f64) -> Arc<Mesh> {
+    gmsh_mesh(&beam_geo(), order, &[("h_mesh", h_mesh)])
+}
+
+/// The blade at element `order` and `mesh_size` (m). blade.geo sets Mesh.ElementOrder from
+/// its `order` variable, so the order goes through `-setnumber order` as well.
+pub fn blade_mesh(order: usize, mesh_size: f64) -> Arc<Mesh> {
+    gmsh_mesh(
+        &blade_geo(),
+        order,
+        &[("mesh_size", mesh_size), ("order", order as f64)],
+    )
+}
+
+/// A finite-element model with the DOFs of some groups fixed (eliminated).
+pub struct FeSystem {
+    pub mesh: Arc<Mesh>,
+    /// Map between the 3 n global DOFs (3 node + component) and the free ones.
+    pub dofs: DofMap,
+    /// Stiffness on the free DOFs (N/m).
+    pub k: CsMat<f64>,
+    /// Consistent mass on the free DOFs (kg).
+    pub m: CsMat<f64>,
+}
+
+/// Assembles K and M of `mesh` and eliminates every DOF of the groups in `clamped` (none:
+/// the unconstrained model).
+pub fn fe_system(mesh: Arc<Mesh>, material: &Isotropic, clamped: &[&str]) -> FeSystem {
+    let (k, m) = assemble(&mesh, material).expect("assembly");
+    let fixed = fixed_dofs(&mesh, clamped).expect("clamped groups exist");
+    let dofs = DofMap::new(mesh.n_nodes(), &fixed).expect("fixed DOFs in range");
+    let k = dofs.try_restrict(&k).expect("K is 3n x 3n");
+    let m = dofs.try_restrict(&m).expect("M is 3n x 3n");
+    FeSystem { mesh, dofs, k, m }
+}
+
+/// y = A x.
+pub fn mul(a: &CsMat<f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; a.rows()];
+    spmv(a, x, &mut y).expect("sizes match");
+    y
+}
+
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+pub fn norm(a: &[f64]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+pub fn max_abs(a: &[f64]) -> f64 {
+    a.iter().fold(0.0_f64, |acc, v| acc.max(v.abs()))
+}
+
+/// Mass-weighted modal assurance criterion (a^T M b)^2 / ((a^T M a)(b^T M b)), in [0, 1]:
+/// 1 for identical shapes up to scale, independent of the mesh's node density.
+pub fn mac_mass(m: &CsMat<f64>, a: &[f64], b: &[f64]) -> f64 {
+    let mb = mul(m, b);
+    let ma = mul(m, a);
+    dot(a, &mb).powi(2) / (dot(a, &ma) * dot(b, &mb))
+}
+
+/// f = sqrt(lambda) / (2 pi) (Hz) for lambda >= 0 in rad^2/s^2.
+pub fn hz(lambda: f64) -> f64 {
+    lambda.max(0.0).sqrt() / (2.0 * std::f64::consts::PI)
+}
+
+/// Runs `f`, prints its wall time under `label` (shown with `--nocapture`).
+pub fn timed<T>(label: &str, f: impl FnOnce() -> T) -> T {
+    let start = std::time::Instant::now();
+    let out = f();
+    eprintln!("{label}: {:.2} s", start.elapsed().as_secs_f64());
+    out
+}
