@@ -1,8 +1,10 @@
 //! Cost of one Newton step of the nonlinear-mode solver against the number of interior
 //! (non-contact) modes, at a fixed number of contact rows (24) and harmonics.
 //!
-//! System: a clamped chain of 2000 unit masses and springs, reduced by Craig-Bampton onto 24 DOFs
-//! near its free end with 40 to 400 fixed-interface modes; contact on those 24 DOFs, gap 1.
+//! System: a clamped chain of 600 unit masses and springs, reduced by Craig-Bampton onto 24 DOFs
+//! spread along it (every 25th: the constrained segments are stiff, so the harmonics of the first
+//! mode stay clear of their resonances) with 40 to 400 fixed-interface modes; contact on those 24
+//! DOFs, gap 1.
 //! Prints a Markdown table (median of RUNS solves; `cargo run --release --example bench_nnm -- RUNS`).
 
 use nlmodes_modal::{craig_bampton, EigenOptions};
@@ -27,9 +29,9 @@ fn chain(n: usize) -> (sprs::CsMat<f64>, sprs::CsMat<f64>) {
 
 fn main() {
     let runs: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(3);
-    let n = 2000;
+    let n = 600;
     let (k, m) = chain(n);
-    let boundary: Vec<usize> = (0..24).map(|j| n - 1 - 3 * j).collect();
+    let boundary: Vec<usize> = (0..24).map(|j| n - 1 - 25 * j).collect();
     let harmonics = HarmonicSettings::new(10, 128).expect("settings");
     println!("| interior modes | reduced size | Newton iterations | time per Newton step [ms] |");
     println!("|---|---|---|---|");
@@ -49,12 +51,21 @@ fn main() {
         for _ in 0..runs {
             let mut solver = Solver::new(&system, harmonics, AlgorithmParams::default()).expect("solver");
             let t = Instant::now();
-            let p = solver.solve_point(q, Start::LinearMode(0)).expect("solve");
-            let dt = t.elapsed().as_secs_f64();
-            iterations = p.newton_iterations.max(1);
-            per_step.push(1e3 * dt / iterations as f64);
+            match solver.solve_point(q, Start::LinearMode(0)) {
+                Ok(p) => {
+                    let dt = t.elapsed().as_secs_f64();
+                    iterations = p.newton_iterations.max(1);
+                    per_step.push(1e3 * dt / iterations as f64);
+                }
+                Err(e) => {
+                    println!("| {modes} | {nr} | failed: {e} | |");
+                    break;
+                }
+            }
         }
-        per_step.sort_by(f64::total_cmp);
-        println!("| {modes} | {nr} | {iterations} | {:.3} |", per_step[per_step.len() / 2]);
+        if per_step.len() == runs {
+            per_step.sort_by(f64::total_cmp);
+            println!("| {modes} | {nr} | {iterations} | {:.3} |", per_step[per_step.len() / 2]);
+        }
     }
 }

@@ -91,13 +91,18 @@ pub(crate) fn generalized_eigen(
     faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), c.as_mut(), Par::Seq);
     let mut ct = c.transpose().to_owned();
     faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), ct.as_mut(), Par::Seq);
-    let c = Mat::from_fn(n, n, |i, j| 0.5 * (ct[(i, j)] + ct[(j, i)]));
+    // faer 0.24's divide-and-conquer eigensolver (order >= 128) loses accuracy in proportion to
+    // max|C| (it does not scale the tridiagonal matrix as LAPACK's dstedc does): scale C by a power
+    // of two (exact) to max|C| ~ 1 and scale the eigenvalues back.
+    let max = (0..n).flat_map(|j| (0..n).map(move |i| (i, j))).fold(0.0f64, |a, (i, j)| a.max(ct[(i, j)].abs()));
+    let scale = if max > 0.0 && max.is_finite() { 2f64.powi(-(max.log2().round() as i32)) } else { 1.0 };
+    let c = Mat::from_fn(n, n, |i, j| scale * 0.5 * (ct[(i, j)] + ct[(j, i)]));
     let evd = c.self_adjoint_eigen(Side::Lower).map_err(|e| NnmError::Decomposition {
         what: "symmetric eigen-decomposition",
         detail: format!("{e:?}"),
     })?;
     let s = evd.S().column_vector();
-    let values: Vec<f64> = (0..n).map(|i| s[i]).collect();
+    let values: Vec<f64> = (0..n).map(|i| s[i] / scale).collect();
     let mut vectors = evd.U().to_owned();
     faer::linalg::triangular_solve::solve_upper_triangular_in_place(
         l.transpose(),
