@@ -28,7 +28,10 @@ fn chain(n: usize) -> (sprs::CsMat<f64>, sprs::CsMat<f64>) {
 }
 
 fn main() {
-    let runs: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(3);
+    let runs: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3);
     let n = 600;
     let (k, m) = chain(n);
     let boundary: Vec<usize> = (0..24).map(|j| n - 1 - 25 * j).collect();
@@ -36,7 +39,8 @@ fn main() {
     println!("| interior modes | reduced size | Newton iterations | time per Newton step [ms] |");
     println!("|---|---|---|---|");
     for modes in [40, 100, 200, 400] {
-        let cb = craig_bampton(&k, &m, &boundary, modes, &EigenOptions::default()).expect("reduction");
+        let cb =
+            craig_bampton(&k, &m, &boundary, modes, &EigenOptions::default()).expect("reduction");
         let nr = cb.n_reduced();
         let mut a = faer::Mat::<f64>::zeros(24, nr);
         for j in 0..24 {
@@ -44,12 +48,16 @@ fn main() {
         }
         let gaps = vec![1.0; 24];
         let system = System::new(cb.m_r.clone(), cb.k_r.clone(), a, gaps, 0).expect("system");
-        let grazing = system.grazing_amplitude(0).expect("grazing").expect("touches");
+        let grazing = system
+            .grazing_amplitude(0)
+            .expect("grazing")
+            .expect("touches");
         let q = 1.1 * grazing.abs();
         let mut per_step = Vec::new();
         let mut iterations = 0;
         for _ in 0..runs {
-            let mut solver = Solver::new(&system, harmonics, AlgorithmParams::default()).expect("solver");
+            let mut solver =
+                Solver::new(&system, harmonics, AlgorithmParams::default()).expect("solver");
             let t = Instant::now();
             match solver.solve_point(q, Start::LinearMode(0)) {
                 Ok(p) => {
@@ -65,7 +73,10 @@ fn main() {
         }
         if per_step.len() == runs {
             per_step.sort_by(f64::total_cmp);
-            println!("| {modes} | {nr} | {iterations} | {:.3} |", per_step[per_step.len() / 2]);
+            println!(
+                "| {modes} | {nr} | {iterations} | {:.3} |",
+                per_step[per_step.len() / 2]
+            );
         }
     }
 }

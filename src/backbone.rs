@@ -4,7 +4,8 @@
 use anyhow::{Context, Result};
 use nlmodes_modal::ReducedModel;
 use nlmodes_nnm::{
-    backbone, AlgorithmParams, Backbone, ContinuationSettings, HarmonicSettings, System, Termination,
+    backbone, AlgorithmParams, Backbone, ContinuationSettings, HarmonicSettings, System,
+    Termination,
 };
 use std::fmt::Write as _;
 use std::path::Path;
@@ -55,7 +56,11 @@ pub fn trace(
     let g = system.gap_reference();
     let result = backbone(system, harmonics, params.clone(), cont, |p| {
         bar.set_position(((p.q / g).max(0.0) * scale) as u64);
-        bar.set_message(format!("q/g0 = {:.3}, w/w1 = {:.5}", p.q / g, p.omega_ratio));
+        bar.set_message(format!(
+            "q/g0 = {:.3}, w/w1 = {:.5}",
+            p.q / g,
+            p.omega_ratio
+        ));
     })
     .context("tracing the backbone")?;
     bar.finish_and_clear();
@@ -147,8 +152,8 @@ pub fn load_settings(path: &Path) -> Result<(AlgorithmParams, ContinuationSettin
     }
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read settings file {}", path.display()))?;
-    let f: File =
-        toml::from_str(&text).with_context(|| format!("invalid settings file {}", path.display()))?;
+    let f: File = toml::from_str(&text)
+        .with_context(|| format!("invalid settings file {}", path.display()))?;
     Ok((f.algorithm, f.continuation))
 }
 
@@ -189,7 +194,11 @@ pub fn summary(b: &Backbone) -> String {
             flags
         );
     }
-    let _ = writeln!(s, "termination: {:?}   (flags: F fold, J jump, N harmonics too few)", b.termination);
+    let _ = writeln!(
+        s,
+        "termination: {:?}   (flags: F fold, J jump, N harmonics too few)",
+        b.termination
+    );
     s
 }
 
@@ -218,7 +227,11 @@ pub fn kept_points(
             continue;
         };
         let (a, c) = (&b.points[i], &b.points[i + 1]);
-        let start = if (a.q - target).abs() <= (c.q - target).abs() { a } else { c };
+        let start = if (a.q - target).abs() <= (c.q - target).abs() {
+            a
+        } else {
+            c
+        };
         let p = solver
             .solve_point(target, nlmodes_nnm::Start::Point(start))
             .with_context(|| format!("solving the orbit at the kept amplitude q/g0 = {k}"))?;

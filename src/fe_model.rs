@@ -41,7 +41,9 @@ impl FeModel {
             k.nnz()
         ));
         if fix.is_empty() {
-            tracing::warn!("no Dirichlet condition: the model has rigid-body modes; use a negative --sigma");
+            tracing::warn!(
+                "no Dirichlet condition: the model has rigid-body modes; use a negative --sigma"
+            );
         }
         Ok(Self { mesh, dofs, k, m })
     }
@@ -75,11 +77,22 @@ impl FeModel {
         );
         let t = std::time::Instant::now();
         let modes = eigs_shift_invert_factored(&self.k, &self.m, sigma, &factor, n, &opts)
-            .with_context(|| format!("computing {n} modes of the {}-DOF model", self.dofs.n_free()))?;
-        tracing::info!("eigensolver: {n} modes in {:.2} s", t.elapsed().as_secs_f64());
+            .with_context(|| {
+                format!(
+                    "computing {n} modes of the {}-DOF model",
+                    self.dofs.n_free()
+                )
+            })?;
+        tracing::info!(
+            "eigensolver: {n} modes in {:.2} s",
+            t.elapsed().as_secs_f64()
+        );
         spinner.finish_and_clear();
         let worst = modes.residuals.iter().cloned().fold(0.0, f64::max);
-        stage.done(&format!("{} modes, largest relative residual {worst:.2e}", modes.len()));
+        stage.done(&format!(
+            "{} modes, largest relative residual {worst:.2e}",
+            modes.len()
+        ));
         Ok(modes)
     }
 
@@ -105,7 +118,10 @@ pub fn frequencies_csv(modes: &Modes) -> String {
 
 /// The frequency table printed on the terminal.
 pub fn frequency_table(modes: &Modes) -> String {
-    let mut s = format!("{:>5} {:>14} {:>16} {:>10}\n", "mode", "frequency [Hz]", "eigenvalue [rad²/s²]", "residual");
+    let mut s = format!(
+        "{:>5} {:>14} {:>16} {:>10}\n",
+        "mode", "frequency [Hz]", "eigenvalue [rad²/s²]", "residual"
+    );
     for (i, f) in modes.frequencies_hz().iter().enumerate() {
         s.push_str(&format!(
             "{:>5} {:>14.4} {:>16.6e} {:>10.2e}\n",
@@ -121,10 +137,15 @@ pub fn frequency_table(modes: &Modes) -> String {
 /// Write `frequencies.csv` and `modes.vtu` (one point vector field per mode, m, mass-normalized).
 pub fn write_modes(fe: &FeModel, modes: &Modes, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    crate::output::write_atomic(&dir.join("frequencies.csv"), frequencies_csv(modes).as_bytes())?;
+    crate::output::write_atomic(
+        &dir.join("frequencies.csv"),
+        frequencies_csv(modes).as_bytes(),
+    )?;
     let mut fields = Vec::with_capacity(modes.len());
     for j in 0..modes.len() {
-        let free: Vec<f64> = (0..modes.vectors.nrows()).map(|i| modes.vectors[(i, j)]).collect();
+        let free: Vec<f64> = (0..modes.vectors.nrows())
+            .map(|i| modes.vectors[(i, j)])
+            .collect();
         fields.push((format!("mode_{:02}", j + 1), fe.nodal(&free)?));
     }
     crate::output::write_mesh_vtu(&fe.mesh, &dir.join("modes.vtu"), &fields)

@@ -17,7 +17,11 @@ pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
         "modal amplitude q / g0",
         "frequency ratio w / w1",
     )
-    .with_series(Series::new("backbone", x, y).color(PALETTE[0]).markers(true))
+    .with_series(
+        Series::new("backbone", x, y)
+            .color(PALETTE[0])
+            .markers(true),
+    )
     .with_legend(LegendPosition::TopLeft);
     let marks: Vec<(f64, f64)> = b
         .points
@@ -44,7 +48,11 @@ pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
 
 /// Fig. 3b, as projections: the contact node's radial displacement against the master's
 /// displacement, and against its velocity, one closed curve per amplitude.
-pub fn manifold_figure(orbits: &[(f64, Vec<(f64, f64, f64)>)], node: usize, out: &Path) -> Result<()> {
+pub fn manifold_figure(
+    orbits: &[(f64, Vec<(f64, f64, f64)>)],
+    node: usize,
+    out: &Path,
+) -> Result<()> {
     let ylabel = format!("radial displacement of contact node {} / g0", node + 1);
     let mut disp = LinePlot::new(
         "Manifold of the first nonlinear mode (displacement)",
@@ -62,12 +70,20 @@ pub fn manifold_figure(orbits: &[(f64, Vec<(f64, f64, f64)>)], node: usize, out:
         let color = PALETTE[i % PALETTE.len()];
         let label = format!("q/g0 = {q:.2}");
         disp = disp.with_series(
-            Series::new(label.clone(), c.iter().map(|p| p.0).collect::<Vec<_>>(), c.iter().map(|p| p.2).collect::<Vec<_>>())
-                .color(color),
+            Series::new(
+                label.clone(),
+                c.iter().map(|p| p.0).collect::<Vec<_>>(),
+                c.iter().map(|p| p.2).collect::<Vec<_>>(),
+            )
+            .color(color),
         );
         vel = vel.with_series(
-            Series::new(label, c.iter().map(|p| p.1).collect::<Vec<_>>(), c.iter().map(|p| p.2).collect::<Vec<_>>())
-                .color(color),
+            Series::new(
+                label,
+                c.iter().map(|p| p.1).collect::<Vec<_>>(),
+                c.iter().map(|p| p.2).collect::<Vec<_>>(),
+            )
+            .color(color),
         );
     }
     disp = disp.with_ref_line(RefLine::horizontal(1.0, "contact"));
@@ -88,11 +104,19 @@ pub fn radial_figure(series: &[Vec<(f64, f64)>], q: f64, dir: &Path, tag: &str) 
     let c = series.len();
     for (j, s) in series.iter().enumerate() {
         // Leading edge blue to trailing edge red.
-        let t = if c > 1 { j as f64 / (c - 1) as f64 } else { 0.0 };
+        let t = if c > 1 {
+            j as f64 / (c - 1) as f64
+        } else {
+            0.0
+        };
         let color = Colormap::Viridis.at(t);
         plot = plot.with_series(
-            Series::new(format!("node {}", j + 1), s.iter().map(|p| p.0).collect::<Vec<_>>(), s.iter().map(|p| p.1).collect::<Vec<_>>())
-                .color(color),
+            Series::new(
+                format!("node {}", j + 1),
+                s.iter().map(|p| p.0).collect::<Vec<_>>(),
+                s.iter().map(|p| p.1).collect::<Vec<_>>(),
+            )
+            .color(color),
         );
     }
     plot = plot.with_ref_line(RefLine::horizontal(1.0, "contact"));

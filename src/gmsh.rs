@@ -120,6 +120,9 @@ mod tests {
     #[test]
     fn parameters_found_from_define_number_and_exists_guards() {
         let geo = "span = DefineNumber[0.12, Name \"span\"];\nIf (!Exists(twist)) twist = 30; EndIf\nx = 3;";
-        assert_eq!(geo_parameters(geo), vec!["span".to_string(), "twist".to_string()]);
+        assert_eq!(
+            geo_parameters(geo),
+            vec!["span".to_string(), "twist".to_string()]
+        );
     }
 }

@@ -250,7 +250,10 @@ fn run(command: Command) -> Result<()> {
             reduce::write_model(&mut model, &out, &mesh)?;
             if compare > 0 {
                 let full = fe.modes(compare, 0.0)?;
-                ui::say(&reduce::comparison_table(&full.frequencies_hz(), &model.linear_frequencies_hz));
+                ui::say(&reduce::comparison_table(
+                    &full.frequencies_hz(),
+                    &model.linear_frequencies_hz,
+                ));
             }
             Ok(())
         }

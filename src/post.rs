@@ -98,7 +98,10 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
         .with_context(|| format!("reading the reduced model {}", layout.model().display()))?;
     let b: BackboneFile = read_json(&layout.backbone().join("backbone.json"))?;
     let kept: Vec<Orbit> = read_json(&layout.backbone().join("kept.json"))?;
-    anyhow::ensure!(!b.points.is_empty(), "the backbone has no point: nothing to post-process");
+    anyhow::ensure!(
+        !b.points.is_empty(),
+        "the backbone has no point: nothing to post-process"
+    );
     let out = &layout.root;
     let g0 = b.gap_reference;
 
@@ -109,7 +112,8 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     for orbit in &kept {
         let tag = format!("q{:.1}", orbit.q / g0);
         let dir = out.join(format!("amplitude_{tag}"));
-        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("cannot create {}", dir.display()))?;
         radial_history(&model, orbit, g0, &dir, &tag)?;
         contact_map(orbit, &dir, &tag)?;
         if model.recovery.is_some() && model.mesh.is_some() {
@@ -120,14 +124,22 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
         written.push((orbit.clone(), dir));
     }
     crate::report::write_report(case, layout, &model, &b, &written)?;
-    stage.done(&format!("figures, tables and {} VTU series in {}", written.len(), out.display()));
+    stage.done(&format!(
+        "figures, tables and {} VTU series in {}",
+        written.len(),
+        out.display()
+    ));
     Ok(())
 }
 
 /// The "nonlinear coordinate" of Fig. 3b: the radial displacement of the contact node that is in
 /// contact longest at the largest amplitude.
 fn manifold_coordinate(b: &BackboneFile) -> usize {
-    let last = b.points.iter().max_by(|x, y| x.q.total_cmp(&y.q)).unwrap_or(&b.points[0]);
+    let last = b
+        .points
+        .iter()
+        .max_by(|x, y| x.q.total_cmp(&y.q))
+        .unwrap_or(&b.points[0]);
     last.contact_fraction
         .iter()
         .enumerate()
@@ -226,7 +238,10 @@ fn vtu_series(case: &Case, model: &ReducedModel, o: &Orbit, dir: &Path, tag: &st
     let mut is_contact = vec![0.0; mesh.n_nodes()];
     let mut node_of = Vec::new();
     for cn in &model.contact_nodes {
-        let n = cn.mesh_node.map(|t| t as usize - 1).context("contact node without mesh node")?;
+        let n = cn
+            .mesh_node
+            .map(|t| t as usize - 1)
+            .context("contact node without mesh node")?;
         is_contact[n] = 1.0;
         node_of.push(n);
     }
@@ -258,8 +273,11 @@ fn vtu_series(case: &Case, model: &ReducedModel, o: &Orbit, dir: &Path, tag: &st
         files.push(PathBuf::from(name));
         times.push(t);
     }
-    let entries: Vec<PvdEntry> =
-        files.iter().zip(&times).map(|(f, &t)| PvdEntry { time: t, file: f }).collect();
+    let entries: Vec<PvdEntry> = files
+        .iter()
+        .zip(&times)
+        .map(|(f, &t)| PvdEntry { time: t, file: f })
+        .collect();
     write_pvd(&dir.join(format!("mode_{tag}.pvd")), &entries)?;
     Ok(())
 }

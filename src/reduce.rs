@@ -118,7 +118,9 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBa
         })
         .collect::<Result<Vec<_>>>()?;
     let master = master_coordinate(s.master, &vectors, &contact_nodes, cb.n_reduced())?;
-    let fixed: Vec<usize> = (0..fe.dofs.n_global()).filter(|&d| fe.dofs.is_fixed(d)).collect();
+    let fixed: Vec<usize> = (0..fe.dofs.n_global())
+        .filter(|&d| fe.dofs.is_fixed(d))
+        .collect();
     let model = ReducedModel {
         k: cb.k_r.clone(),
         m: cb.m_r.clone(),
@@ -164,7 +166,9 @@ fn master_coordinate(
     };
     let dof = match given {
         Some(d) if d < n => d,
-        Some(d) => bail!("master coordinate {d} is out of range: the reduced model has {n} coordinates"),
+        Some(d) => {
+            bail!("master coordinate {d} is out of range: the reduced model has {n} coordinates")
+        }
         None => contact
             .iter()
             .flat_map(|c| c.dofs)
@@ -196,7 +200,11 @@ pub fn comparison_table(full_hz: &[f64], reduced_hz: &[f64]) -> String {
         "mode", "full [Hz]", "reduced [Hz]", "rel. error"
     );
     for (i, (f, r)) in full_hz.iter().zip(reduced_hz).take(10).enumerate() {
-        s.push_str(&format!("{:>5} {f:>14.4} {r:>14.4} {:>12.2e}\n", i + 1, (r - f) / f));
+        s.push_str(&format!(
+            "{:>5} {f:>14.4} {r:>14.4} {:>12.2e}\n",
+            i + 1,
+            (r - f) / f
+        ));
     }
     s
 }

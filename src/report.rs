@@ -19,12 +19,24 @@ fn rel(root: &Path, p: &Path) -> String {
 fn convergence_figure(b: &BackboneFile, out: &Path) -> Result<()> {
     let g0 = b.gap_reference;
     let q: Vec<f64> = b.points.iter().map(|p| p.q / g0).collect();
-    let g: Vec<f64> = b.points.iter().map(|p| p.powell_measure.max(1e-300).log10()).collect();
-    let it: Vec<f64> = b.points.iter().map(|p| p.newton_iterations as f64).collect();
-    LinePlot::new("Convergence of Algorithm 1", "q / g0", "log10 G (units of g0)")
-        .with_series(Series::new("log10 G", q.clone(), g).markers(true))
-        .with_legend(LegendPosition::Hidden)
-        .write_svg_and_png(&out.join("convergence_powell"))?;
+    let g: Vec<f64> = b
+        .points
+        .iter()
+        .map(|p| p.powell_measure.max(1e-300).log10())
+        .collect();
+    let it: Vec<f64> = b
+        .points
+        .iter()
+        .map(|p| p.newton_iterations as f64)
+        .collect();
+    LinePlot::new(
+        "Convergence of Algorithm 1",
+        "q / g0",
+        "log10 G (units of g0)",
+    )
+    .with_series(Series::new("log10 G", q.clone(), g).markers(true))
+    .with_legend(LegendPosition::Hidden)
+    .write_svg_and_png(&out.join("convergence_powell"))?;
     LinePlot::new("Newton iterations per point", "q / g0", "Newton iterations")
         .with_series(Series::new("Newton iterations", q, it).markers(true))
         .with_legend(LegendPosition::Hidden)
@@ -52,7 +64,11 @@ pub fn write_report(
          the first linear frequency f1 = {f1:.4} Hz.\n",
         g0
     );
-    let _ = writeln!(s, "## Inputs\n\n```toml\n{}```\n", toml::to_string(case).unwrap_or_default());
+    let _ = writeln!(
+        s,
+        "## Inputs\n\n```toml\n{}```\n",
+        toml::to_string(case).unwrap_or_default()
+    );
     let full = crate::fe_model::read_frequencies(&layout.modes().join("frequencies.csv"));
     let _ = writeln!(s, "## Linear modes and Craig-Bampton accuracy\n");
     let _ = writeln!(
@@ -65,7 +81,10 @@ pub fn write_report(
         model.master.description,
         model.master.dof
     );
-    let _ = writeln!(s, "| mode | full model [Hz] | reduced [Hz] | relative error |\n|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "| mode | full model [Hz] | reduced [Hz] | relative error |\n|---|---|---|---|"
+    );
     for (i, r) in model.linear_frequencies_hz.iter().take(10).enumerate() {
         match full.as_ref().and_then(|f| f.get(i)) {
             Some(f) => {
@@ -81,7 +100,9 @@ pub fn write_report(
     let _ = writeln!(
         s,
         "Grazing amplitude: q/g0 = {}. Termination: `{}`.\n",
-        b.grazing_amplitude.map(|q| format!("{:.4}", q / g0)).unwrap_or_else(|| "none".into()),
+        b.grazing_amplitude
+            .map(|q| format!("{:.4}", q / g0))
+            .unwrap_or_else(|| "none".into()),
         b.termination
     );
     let _ = writeln!(
@@ -94,12 +115,16 @@ pub fn write_report(
             continue;
         }
         let share = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
-        let flags = [(p.fold, "fold"), (p.jump, "jump"), (p.truncation_warning, "N too small")]
-            .iter()
-            .filter(|f| f.0)
-            .map(|f| f.1)
-            .collect::<Vec<_>>()
-            .join(", ");
+        let flags = [
+            (p.fold, "fold"),
+            (p.jump, "jump"),
+            (p.truncation_warning, "N too small"),
+        ]
+        .iter()
+        .filter(|f| f.0)
+        .map(|f| f.1)
+        .collect::<Vec<_>>()
+        .join(", ");
         let _ = writeln!(
             s,
             "| {:.3} | {:.6} | {:.3} | {} | {:.3} | {:.1e} | {} | {} |",
@@ -133,9 +158,16 @@ pub fn write_report(
              ParaView: `{d}/mode_{tag}.pvd` (warp by `displacement_m`).\n",
             o.q / g0,
             o.omega_ratio,
-            if touching.is_empty() { "none".to_string() } else { touching.join(", ") }
+            if touching.is_empty() {
+                "none".to_string()
+            } else {
+                touching.join(", ")
+            }
         );
     }
-    let _ = writeln!(s, "## Convergence\n\n![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n");
+    let _ = writeln!(
+        s,
+        "## Convergence\n\n![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n"
+    );
     crate::output::write_atomic(&root.join("report.md"), s.as_bytes())
 }

@@ -78,7 +78,9 @@ pub enum Only {
 /// every stage that runs.
 pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     let case = Case::load(case_path)?;
-    let layout = Layout { root: case.out_dir() };
+    let layout = Layout {
+        root: case.out_dir(),
+    };
     std::fs::create_dir_all(&layout.root)
         .with_context(|| format!("cannot create {}", layout.root.display()))?;
     tracing::info!("case {} -> {}", case_path.display(), layout.root.display());
@@ -88,10 +90,19 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     // mesh
     let geo_bytes = std::fs::read(&case.mesh.geo)
         .with_context(|| format!("cannot read the geometry {}", case.mesh.geo.display()))?;
-    let mesh_hash = fnv1a(&[&geo_bytes, &json(&case.mesh.parameters), &json(&case.mesh.order)]);
+    let mesh_hash = fnv1a(&[
+        &geo_bytes,
+        &json(&case.mesh.parameters),
+        &json(&case.mesh.order),
+    ]);
     if force || !up_to_date(&layout, "mesh", &mesh_hash, &[layout.mesh()]) {
         let st = ui::Stage::start("mesh");
-        gmsh::mesh(&case.mesh.geo, &case.mesh.parameters, case.mesh.order, &layout.mesh())?;
+        gmsh::mesh(
+            &case.mesh.geo,
+            &case.mesh.parameters,
+            case.mesh.order,
+            &layout.mesh(),
+        )?;
         stamp(&layout, "mesh", &mesh_hash)?;
         st.done(&format!("wrote {}", layout.mesh().display()));
     } else {
@@ -101,20 +112,35 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         return Ok(());
     }
 
-    let material = Isotropic::new(case.material.young, case.material.poisson, case.material.density)
-        .context("[material] of the case file")?;
-    let fe_hash = fnv1a(&[mesh_hash.as_bytes(), &json(&case.material), &json(&case.model.clamp)]);
+    let material = Isotropic::new(
+        case.material.young,
+        case.material.poisson,
+        case.material.density,
+    )
+    .context("[material] of the case file")?;
+    let fe_hash = fnv1a(&[
+        mesh_hash.as_bytes(),
+        &json(&case.material),
+        &json(&case.model.clamp),
+    ]);
     let mut fe: Option<FeModel> = None;
     let fe_model = |fe: &mut Option<FeModel>| -> Result<()> {
         if fe.is_none() {
-            *fe = Some(FeModel::build(&layout.mesh(), &material, &case.model.clamp)?);
+            *fe = Some(FeModel::build(
+                &layout.mesh(),
+                &material,
+                &case.model.clamp,
+            )?);
         }
         Ok(())
     };
 
     // modes
     let modes_hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model.linear_modes)]);
-    let modes_out = [layout.modes().join("frequencies.csv"), layout.modes().join("modes.vtu")];
+    let modes_out = [
+        layout.modes().join("frequencies.csv"),
+        layout.modes().join("modes.vtu"),
+    ];
     if wants(Only::Modes) && (force || !up_to_date(&layout, "modes", &modes_hash, &modes_out)) {
         fe_model(&mut fe)?;
         let fe = fe.as_ref().context("FE model")?;
@@ -153,7 +179,10 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         reduce::write_model(&mut model, &layout.model(), &layout.mesh())?;
         let full = crate::fe_model::read_frequencies(&layout.modes().join("frequencies.csv"));
         if let Some(full) = full {
-            ui::say(&reduce::comparison_table(&full, &model.linear_frequencies_hz));
+            ui::say(&reduce::comparison_table(
+                &full,
+                &model.linear_frequencies_hz,
+            ));
         }
         stamp(&layout, "reduce", &reduce_hash)?;
     } else if needs_model {
@@ -168,7 +197,10 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         &json(&case.continuation),
         &json(&case.algorithm),
     ]);
-    let bb_out = [layout.backbone().join("backbone.json"), layout.backbone().join("kept.json")];
+    let bb_out = [
+        layout.backbone().join("backbone.json"),
+        layout.backbone().join("kept.json"),
+    ];
     let needs_bb = wants(Only::Backbone) || wants(Only::Post);
     if needs_bb && (force || !up_to_date(&layout, "backbone", &bb_hash, &bb_out)) {
         let model = backbone::load_model(&layout.model())?;

@@ -20,7 +20,11 @@ fn nlmodes(args: &[&str], env: &[(&str, &str)]) -> Output {
 }
 
 fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
 
 /// A coarse version of cases/blade.toml (about 8k DOFs) writing into `dir`.
@@ -94,7 +98,8 @@ fn read_backbone(path: &Path) -> Vec<Row> {
 
 fn grazing(dir: &Path) -> f64 {
     let v: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("backbone/backbone.json")).unwrap()).unwrap();
+        serde_json::from_slice(&std::fs::read(dir.join("backbone/backbone.json")).unwrap())
+            .unwrap();
     v["grazing_amplitude"].as_f64().unwrap() / v["gap_reference"].as_f64().unwrap()
 }
 
@@ -109,12 +114,20 @@ fn coarse_blade_study_end_to_end() {
     // Physics of the backbone (Fig. 3a), on the stretch before the first fold or jump.
     let rows = read_backbone(&res.join("backbone/backbone.csv"));
     let qg = grazing(&res);
-    assert!(qg > 0.5 && qg < 14.0, "grazing amplitude {qg} outside the range");
+    assert!(
+        qg > 0.5 && qg < 14.0,
+        "grazing amplitude {qg} outside the range"
+    );
     let below: Vec<&Row> = rows.iter().filter(|r| r.q < qg * (1.0 - 1e-6)).collect();
     assert!(below.len() >= 2, "too few points below grazing");
     for r in &below {
         // Below grazing the orbit is the linear mode: w = w1 to the Newton tolerance.
-        assert!((r.ratio - 1.0).abs() < 1e-9, "q/g0 = {}: w/w1 = {} below grazing", r.q, r.ratio);
+        assert!(
+            (r.ratio - 1.0).abs() < 1e-9,
+            "q/g0 = {}: w/w1 = {} below grazing",
+            r.q,
+            r.ratio
+        );
         assert_eq!(r.touching, 0);
     }
     let first_stretch: Vec<&Row> = rows
@@ -122,18 +135,36 @@ fn coarse_blade_study_end_to_end() {
         .take_while(|r| !r.fold && !r.jump)
         .filter(|r| r.q > qg * 1.05)
         .collect();
-    assert!(first_stretch.len() >= 3, "too few points after grazing before a fold or jump");
+    assert!(
+        first_stretch.len() >= 3,
+        "too few points after grazing before a fold or jump"
+    );
     for w in first_stretch.windows(2) {
         assert!(w[1].q > w[0].q, "q not increasing on the first stretch");
         // Stiffening: the frequency grows with amplitude after contact (1e-9 allows the solver
         // tolerance on nearly flat stretches right after grazing).
-        assert!(w[1].ratio >= w[0].ratio - 1e-9, "w/w1 decreases: {} -> {}", w[0].ratio, w[1].ratio);
+        assert!(
+            w[1].ratio >= w[0].ratio - 1e-9,
+            "w/w1 decreases: {} -> {}",
+            w[0].ratio,
+            w[1].ratio
+        );
         assert!(w[1].ratio > 1.0);
     }
     // Contact grows with amplitude: more nodes and a longer contact at the end of the stretch.
     let (a, b) = (first_stretch[0], first_stretch[first_stretch.len() - 1]);
-    assert!(b.touching >= a.touching && b.touching >= 1, "{} -> {}", a.touching, b.touching);
-    assert!(b.share > a.share, "contact share {} -> {}", a.share, b.share);
+    assert!(
+        b.touching >= a.touching && b.touching >= 1,
+        "{} -> {}",
+        a.touching,
+        b.touching
+    );
+    assert!(
+        b.share > a.share,
+        "contact share {} -> {}",
+        a.share,
+        b.share
+    );
     assert!(b.ratio > a.ratio);
 
     // Outputs of every stage.
@@ -151,12 +182,20 @@ fn coarse_blade_study_end_to_end() {
         assert!(res.join(f).is_file(), "missing {f}");
     }
     let kept = res.join("amplitude_q12.0");
-    for f in ["radial_q12.0.csv", "radial_q12.0.png", "contact_map_q12.0.png", "mode_q12.0.pvd"] {
+    for f in [
+        "radial_q12.0.csv",
+        "radial_q12.0.png",
+        "contact_map_q12.0.png",
+        "mode_q12.0.pvd",
+    ] {
         assert!(kept.join(f).is_file(), "missing {f}");
     }
     // VTU files through an independent reader (meshio): cell type, VTK edge-node order, fields.
     for (file, fields) in [
-        (kept.join("frame_002.vtu"), vec!["displacement_m", "radial_gap_m", "contact_force_n"]),
+        (
+            kept.join("frame_002.vtu"),
+            vec!["displacement_m", "radial_gap_m", "contact_force_n"],
+        ),
         (res.join("modes/modes.vtu"), vec!["mode_01"]),
     ] {
         let py = Command::new("/usr/bin/python3")
@@ -168,22 +207,46 @@ fn coarse_blade_study_end_to_end() {
         assert!(py.status.success(), "meshio check failed: {}", text(&py));
     }
     // No temporary file left behind.
-    let leftovers: Vec<_> = walk(&res).into_iter().filter(|p| p.to_string_lossy().contains(".tmp")).collect();
+    let leftovers: Vec<_> = walk(&res)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().contains(".tmp"))
+        .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 
     // Make-like rerun: nothing to do, then only the nonlinear stages after changing q_max.
-    let model_time = std::fs::metadata(res.join("model/K.mtx")).unwrap().modified().unwrap();
+    let model_time = std::fs::metadata(res.join("model/K.mtx"))
+        .unwrap()
+        .modified()
+        .unwrap();
     let out = nlmodes(&["run", case.to_str().unwrap()], &[]);
     assert!(out.status.success(), "{}", text(&out));
     for stage in ["mesh", "modes", "reduce", "backbone"] {
-        assert!(text(&out).contains(&format!("stage {stage}: up to date")), "{}", text(&out));
+        assert!(
+            text(&out).contains(&format!("stage {stage}: up to date")),
+            "{}",
+            text(&out)
+        );
     }
     let case2 = coarse_case(tmp.path(), "max_points = 999");
     let out = nlmodes(&["run", case2.to_str().unwrap()], &[]);
     assert!(out.status.success(), "{}", text(&out));
-    assert!(text(&out).contains("stage reduce: up to date"), "{}", text(&out));
-    assert!(text(&out).contains("stage backbone: started"), "{}", text(&out));
-    assert_eq!(std::fs::metadata(res.join("model/K.mtx")).unwrap().modified().unwrap(), model_time);
+    assert!(
+        text(&out).contains("stage reduce: up to date"),
+        "{}",
+        text(&out)
+    );
+    assert!(
+        text(&out).contains("stage backbone: started"),
+        "{}",
+        text(&out)
+    );
+    assert_eq!(
+        std::fs::metadata(res.join("model/K.mtx"))
+            .unwrap()
+            .modified()
+            .unwrap(),
+        model_time
+    );
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {
@@ -206,17 +269,31 @@ fn bad_inputs_give_clear_errors() {
     let tmp = tempfile::tempdir().unwrap();
     // gmsh missing
     let case = coarse_case(tmp.path(), "");
-    let out = nlmodes(&["run", case.to_str().unwrap(), "--only", "mesh"], &[("NLMODES_GMSH", "/nonexistent/gmsh")]);
+    let out = nlmodes(
+        &["run", case.to_str().unwrap(), "--only", "mesh"],
+        &[("NLMODES_GMSH", "/nonexistent/gmsh")],
+    );
     assert!(!out.status.success());
     assert!(text(&out).contains("gmsh not found"), "{}", text(&out));
     // a parameter the .geo does not define
     let geo = root().join("meshes/blade.geo");
     let out = nlmodes(
-        &["mesh", geo.to_str().unwrap(), "-o", tmp.path().join("x.msh").to_str().unwrap(), "--set", "wingspan=3"],
+        &[
+            "mesh",
+            geo.to_str().unwrap(),
+            "-o",
+            tmp.path().join("x.msh").to_str().unwrap(),
+            "--set",
+            "wingspan=3",
+        ],
         &[],
     );
     assert!(!out.status.success());
-    assert!(text(&out).contains("`wingspan` is not defined"), "{}", text(&out));
+    assert!(
+        text(&out).contains("`wingspan` is not defined"),
+        "{}",
+        text(&out)
+    );
     // an unknown key in the case file
     let bad = tmp.path().join("bad.toml");
     std::fs::write(&bad, "[nnm]\nharmonix = 3\n").unwrap();
@@ -225,13 +302,21 @@ fn bad_inputs_give_clear_errors() {
     assert!(text(&out).contains("harmonix"), "{}", text(&out));
     // a missing group, and an amplitude range below grazing only (reuses the coarse mesh)
     let nogroup = coarse_case(tmp.path(), "");
-    let s = std::fs::read_to_string(&nogroup).unwrap().replace("[model]\n", "[model]\ncontact_group = \"tip_rim\"\n");
+    let s = std::fs::read_to_string(&nogroup)
+        .unwrap()
+        .replace("[model]\n", "[model]\ncontact_group = \"tip_rim\"\n");
     std::fs::write(&nogroup, s).unwrap();
     let out = nlmodes(&["run", nogroup.to_str().unwrap()], &[]);
     assert!(!out.status.success());
-    assert!(text(&out).contains("tip_rim") && text(&out).contains("tip_edge"), "{}", text(&out));
+    assert!(
+        text(&out).contains("tip_rim") && text(&out).contains("tip_edge"),
+        "{}",
+        text(&out)
+    );
     let low = coarse_case(tmp.path(), "").to_str().unwrap().to_string();
-    let s = std::fs::read_to_string(&low).unwrap().replace("q_max = 14.0", "q_max = 1.0");
+    let s = std::fs::read_to_string(&low)
+        .unwrap()
+        .replace("q_max = 14.0", "q_max = 1.0");
     std::fs::write(&low, s).unwrap();
     let out = nlmodes(&["run", &low], &[]);
     assert!(!out.status.success());
