@@ -120,11 +120,21 @@ fn coarse_blade_study_end_to_end() {
     );
     let below: Vec<&Row> = rows.iter().filter(|r| r.q < qg * (1.0 - 1e-6)).collect();
     assert!(below.len() >= 2, "too few points below grazing");
+    // Below grazing the orbit is the linear mode: w = w1 up to the accuracy with which a
+    // frequency of this reduced model can be computed at all. A backward-stable symmetric
+    // eigensolver gets lambda to eps lambda_max, so w1 / w1 is known to (1/2) eps lambda_max /
+    // lambda_1 (about 7e-9 here: the constraint modes make lambda_max / lambda_1 ~ 6e7); the
+    // solver's w and the reference w1 each carry that error, hence eps lambda_max / lambda_1.
+    // (The 1e-10 of issue 4 holds on well-conditioned systems: tests/nnm_oracles.rs.)
+    let model = nlmodes_modal::ReducedModel::read(&res.join("model")).unwrap();
+    let (values, _) =
+        nlmodes_modal::dense_generalized_eigen(model.k.as_ref(), model.m.as_ref()).unwrap();
+    let tol = f64::EPSILON * values[values.len() - 1] / values[0];
+    assert!(tol < 1e-7, "reduced model unexpectedly ill-conditioned: tol {tol:e}");
     for r in &below {
-        // Below grazing the orbit is the linear mode: w = w1 to the Newton tolerance.
         assert!(
-            (r.ratio - 1.0).abs() < 1e-9,
-            "q/g0 = {}: w/w1 = {} below grazing",
+            (r.ratio - 1.0).abs() < tol,
+            "q/g0 = {}: w/w1 = {} below grazing (tolerance {tol:e})",
             r.q,
             r.ratio
         );
@@ -209,7 +219,7 @@ fn coarse_blade_study_end_to_end() {
     // No temporary file left behind.
     let leftovers: Vec<_> = walk(&res)
         .into_iter()
-        .filter(|p| p.to_string_lossy().contains(".tmp"))
+        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().contains(".tmp")))
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 
