@@ -7,6 +7,10 @@ use std::path::Path;
 
 use crate::post::BackboneFile;
 
+/// One closed orbit of Fig. 3b: q / g0 and (master displacement, master velocity, contact-node
+/// radial displacement) samples, all normalized.
+pub type ManifoldOrbit = (f64, Vec<(f64, f64, f64)>);
+
 /// Fig. 3a: w / w1 against q / g0, grazing amplitude marked, folds and jumps as markers.
 pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
     let g0 = b.gap_reference;
@@ -48,11 +52,7 @@ pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
 
 /// Fig. 3b, as projections: the contact node's radial displacement against the master's
 /// displacement, and against its velocity, one closed curve per amplitude.
-pub fn manifold_figure(
-    orbits: &[(f64, Vec<(f64, f64, f64)>)],
-    node: usize,
-    out: &Path,
-) -> Result<()> {
+pub fn manifold_figure(orbits: &[ManifoldOrbit], node: usize, out: &Path) -> Result<()> {
     let ylabel = format!("radial displacement of contact node {} / g0", node + 1);
     let mut disp = LinePlot::new(
         "Manifold of the first nonlinear mode (displacement)",

@@ -130,7 +130,10 @@ fn coarse_blade_study_end_to_end() {
     let (values, _) =
         nlmodes_modal::dense_generalized_eigen(model.k.as_ref(), model.m.as_ref()).unwrap();
     let tol = f64::EPSILON * values[values.len() - 1] / values[0];
-    assert!(tol < 1e-7, "reduced model unexpectedly ill-conditioned: tol {tol:e}");
+    assert!(
+        tol < 1e-7,
+        "reduced model unexpectedly ill-conditioned: tol {tol:e}"
+    );
     for r in &below {
         assert!(
             (r.ratio - 1.0).abs() < tol,
@@ -219,7 +222,10 @@ fn coarse_blade_study_end_to_end() {
     // No temporary file left behind.
     let leftovers: Vec<_> = walk(&res)
         .into_iter()
-        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().contains(".tmp")))
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().contains(".tmp"))
+        })
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 

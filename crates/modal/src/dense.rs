@@ -191,6 +191,21 @@ pub fn fix_sign(v: &mut [f64]) -> bool {
     false
 }
 
+/// 2^-round(log2 max|C|): multiplying by it is exact and brings max|C| to [0.7, 1.4].
+fn power_of_two_scale(c: &Mat<f64>) -> f64 {
+    let mut max = 0.0f64;
+    for j in 0..c.ncols() {
+        for i in 0..c.nrows() {
+            max = max.max(c[(i, j)].abs());
+        }
+    }
+    if max > 0.0 && max.is_finite() {
+        2f64.powi(-(max.log2().round() as i32))
+    } else {
+        1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -226,20 +241,5 @@ mod tests {
             matches!(err, ModalError::NotPositiveDefinite { index: 1, .. }),
             "{err}"
         );
-    }
-}
-
-/// 2^-round(log2 max|C|): multiplying by it is exact and brings max|C| to [0.7, 1.4].
-fn power_of_two_scale(c: &Mat<f64>) -> f64 {
-    let mut max = 0.0f64;
-    for j in 0..c.ncols() {
-        for i in 0..c.nrows() {
-            max = max.max(c[(i, j)].abs());
-        }
-    }
-    if max > 0.0 && max.is_finite() {
-        2f64.powi(-(max.log2().round() as i32))
-    } else {
-        1.0
     }
 }

@@ -1,6 +1,6 @@
 //! Regression: the dense generalized eigensolver stays accurate on badly scaled matrices of order
-//! >= 128, where faer 0.24 switches to divide and conquer without scaling the tridiagonal matrix
-//! (before the fix, residual / max|K| reached 2e-3 at max|K| ~ 1e9).
+//! 128 and above, where faer 0.24 switches to divide and conquer without scaling the tridiagonal
+//! matrix (before the fix, residual / max|K| reached 2e-3 at max|K| ~ 1e9).
 
 use faer::Mat;
 use nlmodes_modal::dense_generalized_eigen;

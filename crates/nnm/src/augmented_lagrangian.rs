@@ -21,9 +21,12 @@
 //! The rejection branch scales kappa up and theta down by the same factor, which keeps the
 //! multiplier estimate kappa * theta unchanged. Initial penalties: kappa^(1)_j =
 //! `initial_penalty` x (static stiffness seen by contact row j, 1 / (A_j K^-1 A_j^T)); theta^(1) = 0
-//! (or the warm start). Penalties are capped at `max_penalty` x that stiffness, to bound the
-//! conditioning of the Newton matrix over a long continuation (when the cap binds, theta is divided
-//! by the factor actually applied, so kappa * theta is still conserved).
+//! (or the warm start). Penalties are capped at `max_penalty` x that stiffness: a very stiff
+//! penalty makes the inner problem nearly a degenerate complementarity problem (more sampled
+//! constraints than harmonics per contact row) on which Newton cycles. Where the cap binds, the
+//! rejection branch updates the multiplier by Eq. (16) instead of raising kappa (the method of
+//! multipliers at fixed penalty), and kappa * theta is conserved when kappa is raised by less than
+//! beta.
 
 use serde::{Deserialize, Serialize};
 
@@ -80,7 +83,8 @@ pub struct AlgorithmParams {
     pub alpha: f64,
     /// beta > 1: penalty growth factor (default 10).
     pub beta: f64,
-    /// epsilon > 0: convergence when G <= epsilon, G in units of g0 (default 1e-6).
+    /// epsilon > 0: convergence when G <= epsilon, G in units of g0 (default 1e-4: penetration and
+    /// complementarity error below 1e-4 g0).
     pub epsilon: f64,
     /// Reading of Eq. (21) (default entrywise, see [`PowellMeasure`]).
     pub measure: PowellMeasure,
@@ -89,12 +93,12 @@ pub struct AlgorithmParams {
     pub penalty_update: PenaltyUpdate,
     /// i_max: maximum accepted iterations (default 50).
     pub max_iterations: usize,
-    /// Maximum inner solves, accepted or not, per point (default 200): a guard the printed
+    /// Maximum inner solves, accepted or not, per point (default 100): a guard the printed
     /// algorithm does not need in theory.
     pub max_inner_solves: usize,
     /// kappa^(1) as a multiple of the static stiffness seen by each contact row (default 10).
     pub initial_penalty: f64,
-    /// Cap of kappa as a multiple of the same stiffness (default 1e8).
+    /// Cap of kappa as a multiple of the same stiffness (default 1e3).
     pub max_penalty: f64,
     /// Augmented Lagrangian (default) or plain penalty.
     pub method: ContactMethod,
@@ -102,6 +106,9 @@ pub struct AlgorithmParams {
     pub condensation: Condensation,
     /// Inner Newton settings.
     pub newton: NewtonSettings,
+    /// Newton iterations allowed per point, all inner solves and fallbacks included (default 400):
+    /// bounds the cost of a point that does not converge.
+    pub newton_budget: usize,
     /// Warning threshold on the highest harmonic's share of the contact-row motion,
     /// max_j |A_j u_N| / max_j (sum_{n>=1} |A_j u_n|^2)^(1/2) (default 1e-3): above it the point is
     /// flagged and a tracing warning says N is too small for this amplitude.
@@ -113,16 +120,17 @@ impl Default for AlgorithmParams {
         Self {
             alpha: 4.0,
             beta: 10.0,
-            epsilon: 1e-6,
+            epsilon: 1e-4,
             measure: PowellMeasure::Entrywise,
             penalty_update: PenaltyUpdate::KeepMultiplier,
             max_iterations: 50,
-            max_inner_solves: 200,
+            max_inner_solves: 100,
             initial_penalty: 10.0,
-            max_penalty: 1e8,
+            max_penalty: 1e3,
             method: ContactMethod::AugmentedLagrangian,
             condensation: Condensation::Exact,
             newton: NewtonSettings::default(),
+            newton_budget: 400,
             truncation_warning: 1e-3,
         }
     }
@@ -135,14 +143,22 @@ impl AlgorithmParams {
             if v.is_finite() && v > 1.0 {
                 Ok(())
             } else {
-                Err(NnmError::InvalidParameter { name, value: v, expected: "a finite value > 1" })
+                Err(NnmError::InvalidParameter {
+                    name,
+                    value: v,
+                    expected: "a finite value > 1",
+                })
             }
         };
         let pos = |name, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(NnmError::InvalidParameter { name, value: v, expected: "a finite value > 0" })
+                Err(NnmError::InvalidParameter {
+                    name,
+                    value: v,
+                    expected: "a finite value > 0",
+                })
             }
         };
         gt1("alpha", self.alpha)?;
@@ -161,6 +177,13 @@ impl AlgorithmParams {
         if self.max_iterations == 0 {
             return Err(NnmError::InvalidParameter {
                 name: "max_iterations",
+                value: 0.0,
+                expected: ">= 1",
+            });
+        }
+        if self.newton_budget == 0 {
+            return Err(NnmError::InvalidParameter {
+                name: "newton_budget",
                 value: 0.0,
                 expected: ">= 1",
             });
@@ -214,7 +237,10 @@ where
     let c = g0.len();
     let mut gaps = vec![0.0; c * m];
     let mut v = vec![0.0; c * m];
-    let mut rep = OuterReport { measure: f64::INFINITY, ..Default::default() };
+    let mut rep = OuterReport {
+        measure: f64::INFINITY,
+        ..Default::default()
+    };
     let mut g_accepted = f64::INFINITY; // G^(i)
     let (alpha, beta) = (params.alpha, params.beta);
     while rep.accepted < params.max_iterations {
@@ -228,21 +254,30 @@ where
         match inner(multipliers, &mut gaps) {
             Ok(it) => rep.newton_iterations += it,
             Err(e) => {
-                if std::env::var("NNM_AL").is_ok() { eprintln!("AL solve {} FAILED {e}", rep.solves); }
-                return Err(OuterFailure { report: rep, reason: format!("inner solve failed: {e}") })
+                return Err(OuterFailure {
+                    report: rep,
+                    reason: format!("inner solve failed: {e}"),
+                });
             }
         }
         violations(&gaps, &multipliers.theta, g0, m, &mut v);
         let g_bar = powell_measure_of(&v, m, params.measure);
         rep.measure = g_bar;
-        if std::env::var("NNM_AL").is_ok() { eprintln!("AL solve {} G={g_bar:.3e} accepted G={g_accepted:.3e} kmax={:.3e}", rep.solves, multipliers.kappa.iter().cloned().fold(0.0, f64::max)); }
         let threshold = g_accepted / alpha;
         if g_bar >= g_accepted {
             for i in 0..c * m {
                 if v[i].abs() >= threshold {
-                    let cap = kappa_cap[i / m];
-                    multipliers.kappa[i] = (multipliers.kappa[i] * beta).min(cap).max(multipliers.kappa[i]);
-                    multipliers.theta[i] /= beta;
+                    let (j, cap) = (i / m, kappa_cap[i / m]);
+                    if multipliers.kappa[i] >= cap {
+                        // The penalty cannot grow any more: update the multiplier instead
+                        // (method of multipliers at fixed penalty), Eq. (16).
+                        multipliers.theta[i] += v[i] * g0[j];
+                    } else {
+                        let old = multipliers.kappa[i];
+                        let new = (old * beta).min(cap);
+                        multipliers.kappa[i] = new;
+                        multipliers.theta[i] *= old / new;
+                    }
                 }
             }
         } else {
@@ -275,6 +310,9 @@ where
     }
     Err(OuterFailure {
         report: rep,
-        reason: format!("i_max = {} accepted iterations reached", params.max_iterations),
+        reason: format!(
+            "i_max = {} accepted iterations reached",
+            params.max_iterations
+        ),
     })
 }

@@ -23,7 +23,9 @@
 //! singular) that mode is not eliminated but kept in the small per-harmonic block, so no pole is
 //! ever divided by; no perturbation is introduced.
 
-use faer::{Mat, MatRef};
+use faer::linalg::matmul::matmul;
+use faer::prelude::ReborrowMut;
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::dense::generalized_eigen;
 use crate::error::NnmError;
@@ -116,10 +118,15 @@ impl CondensedBasis {
         })?;
         let (u, s, v) = (svd.U(), svd.S().column_vector(), svd.V());
         if s[r - 1] <= RANK_TOLERANCE * s[0] {
-            return Err(NnmError::DependentContactRows { rank: r - 1, rows: r });
+            return Err(NnmError::DependentContactRows {
+                rank: r - 1,
+                rows: r,
+            });
         }
         // P = V_r diag(1/s) U^T
-        let p = Mat::from_fn(n, r, |i, j| (0..r).map(|l| v[(i, l)] / s[l] * u[(j, l)]).sum::<f64>());
+        let p = Mat::from_fn(n, r, |i, j| {
+            (0..r).map(|l| v[(i, l)] / s[l] * u[(j, l)]).sum::<f64>()
+        });
         let n_o = n - r;
         let q = v.get(.., r..).to_owned();
         let k = system.stiffness();
@@ -168,36 +175,53 @@ impl CondensedBasis {
         })
     }
 
-    /// Model coordinates (y, z) of a physical vector u.
-    pub fn from_physical(&self, u: &[f64], x: &mut [f64]) {
-        let n = u.len();
-        let um = MatRef::from_column_major_slice(u, n, 1);
+    /// Model coordinates (y, z) of `count` physical vectors u (n x count, column-major), written
+    /// to `x` (d x count): y = B u, z = (Q Phi)^T M (u - P y).
+    pub fn physical_to_model(&self, u: &[f64], count: usize, x: &mut [f64]) {
+        let n = self.p.nrows();
+        let d = self.r + self.n_o;
+        let um = MatRef::from_column_major_slice(&u[..n * count], n, count);
         let y = &self.b * um;
-        let pu = &self.p * &y;
-        let diff = Mat::from_fn(n, 1, |i, _| u[i] - pu[(i, 0)]);
+        let mut diff = um.to_owned();
+        matmul(
+            diff.as_mut(),
+            Accum::Add,
+            self.p.as_ref(),
+            y.as_ref(),
+            -1.0,
+            Par::Seq,
+        );
         let z = &self.etm * &diff;
-        for i in 0..self.r {
-            x[i] = y[(i, 0)];
-        }
-        for i in 0..self.n_o {
-            x[self.r + i] = z[(i, 0)];
-        }
+        let mut xm = MatMut::from_column_major_slice_mut(&mut x[..d * count], d, count);
+        xm.rb_mut().get_mut(..self.r, ..).copy_from(&y);
+        xm.get_mut(self.r.., ..).copy_from(&z);
     }
 
-    /// Physical vector u = P y + Q Phi z.
-    pub fn to_physical(&self, x: &[f64], u: &mut [f64]) {
-        let n = u.len();
-        for (i, ui) in u.iter_mut().enumerate() {
-            let mut v = 0.0;
-            for l in 0..self.r {
-                v += self.p[(i, l)] * x[l];
-            }
-            for l in 0..self.n_o {
-                v += self.e[(i, l)] * x[self.r + l];
-            }
-            *ui = v;
+    /// Physical vectors u = P y + Q Phi z of `count` model-coordinate vectors (d x count), written
+    /// to `u` (n x count).
+    pub fn model_to_physical(&self, x: &[f64], count: usize, u: &mut [f64]) {
+        let n = self.p.nrows();
+        let d = self.r + self.n_o;
+        let xm = MatRef::from_column_major_slice(&x[..d * count], d, count);
+        let mut um = MatMut::from_column_major_slice_mut(&mut u[..n * count], n, count);
+        matmul(
+            um.rb_mut(),
+            Accum::Replace,
+            self.p.as_ref(),
+            xm.get(..self.r, ..),
+            1.0,
+            Par::Seq,
+        );
+        if self.n_o > 0 {
+            matmul(
+                um,
+                Accum::Add,
+                self.e.as_ref(),
+                xm.get(self.r.., ..),
+                1.0,
+                Par::Seq,
+            );
         }
-        debug_assert_eq!(n, self.p.nrows());
     }
 }
 

@@ -63,6 +63,9 @@ pub(crate) struct CondensedModel {
     dt: Mat<f64>,
     dw: Mat<f64>,
     s_mat: Mat<f64>,
+    /// Scratch: [wz, rhs_z] of one harmonic and [cw, b] of its kept block.
+    wzb: Vec<f64>,
+    cwb: Vec<f64>,
     /// Number of steps redone with the full kept system (diagnostics).
     pub fallbacks: usize,
 }
@@ -89,6 +92,8 @@ impl CondensedModel {
             dt: Mat::zeros(r, n_o),
             dw: Mat::zeros(r, n_o),
             s_mat: Mat::zeros(r, r),
+            wzb: Vec::new(),
+            cwb: Vec::new(),
             fallbacks: 0,
         })
     }
@@ -130,15 +135,22 @@ impl CondensedModel {
             }
             // Dt = Kt - s Mt, DW = Dt diag(wt), S = K_kk - s M_kk - DW Dt^T
             for jcol in 0..n_o {
+                let (kt, mt) = (bs.kt.col_as_slice(jcol), bs.mt.col_as_slice(jcol));
+                let wt = blk.wt[jcol];
+                let dt = self.dt.col_as_slice_mut(jcol);
                 for i in 0..r {
-                    let v = bs.kt[(i, jcol)] - s * bs.mt[(i, jcol)];
-                    self.dt[(i, jcol)] = v;
-                    self.dw[(i, jcol)] = v * blk.wt[jcol];
+                    dt[i] = kt[i] - s * mt[i];
+                }
+                let dw = self.dw.col_as_slice_mut(jcol);
+                for i in 0..r {
+                    dw[i] = (kt[i] - s * mt[i]) * wt;
                 }
             }
             for jcol in 0..r {
+                let (kk, mk) = (bs.k_kk.col_as_slice(jcol), bs.m_kk.col_as_slice(jcol));
+                let sm = self.s_mat.col_as_slice_mut(jcol);
                 for i in 0..r {
-                    self.s_mat[(i, jcol)] = bs.k_kk[(i, jcol)] - s * bs.m_kk[(i, jcol)];
+                    sm[i] = kk[i] - s * mk[i];
                 }
             }
             if n_o > 0 {
@@ -170,20 +182,26 @@ impl CondensedModel {
                 a[(r + t, r + t)] = bs.lambda[mode] - s;
             }
             // cw = [wy - DW wz; wz_near], b = [rhs_y - DW rhs_z; rhs_z_near]
+            let rz = &rhs[h * d + r..(h + 1) * d];
+            self.wzb.resize(2 * n_o, 0.0);
+            for l in 0..n_o {
+                self.wzb[l] = wz[(l, h)];
+                self.wzb[n_o + l] = rz[l];
+            }
+            self.cwb.resize(2 * r, 0.0);
+            for i in 0..r {
+                self.cwb[i] = wy[(i, h)];
+                self.cwb[r + i] = rhs[h * d + i];
+            }
+            if n_o > 0 {
+                let rhs2 = MatRef::from_column_major_slice(&self.wzb[..], n_o, 2);
+                let out = MatMut::from_column_major_slice_mut(&mut self.cwb[..], r, 2);
+                matmul(out, Accum::Add, self.dw.as_ref(), rhs2, -1.0, Par::Seq);
+            }
             blk.cw.clear();
             blk.b.clear();
-            let rz = &rhs[h * d + r..(h + 1) * d];
-            for i in 0..r {
-                let mut cwi = wy[(i, h)];
-                let mut bi = rhs[h * d + i];
-                for l in 0..n_o {
-                    let dwl = self.dw[(i, l)];
-                    cwi -= dwl * wz[(l, h)];
-                    bi -= dwl * rz[l];
-                }
-                blk.cw.push(cwi);
-                blk.b.push(bi);
-            }
+            blk.cw.extend_from_slice(&self.cwb[..r]);
+            blk.b.extend_from_slice(&self.cwb[r..2 * r]);
             for &mode in &blk.near {
                 blk.cw.push(wz[(mode, h)]);
                 blk.b.push(rz[mode]);
@@ -392,7 +410,12 @@ impl CondensedModel {
         num = num.max((vn - rhs[d * nh]).abs());
         let mut va = jac.arc_w * dw + jac.arc_q * dq;
         for blk in &self.blocks {
-            va += blk.arc.iter().zip(&blk.delta).map(|(a, b)| a * b).sum::<f64>();
+            va += blk
+                .arc
+                .iter()
+                .zip(&blk.delta)
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
         }
         num = num.max((va - rhs[d * nh + 1]).abs());
         if den > 0.0 {
@@ -466,7 +489,6 @@ impl LinearModel for CondensedModel {
             && self.kept_residual(jac, rhs) <= STEP_CHECK_TOLERANCE;
         if !fast_ok {
             self.fallbacks += 1;
-            if std::env::var("NNM_FB").is_ok() { eprintln!("fallback {} active {:?}", self.fallbacks, jac.active); }
             if !self.solve_reduced(jac, rhs, true) {
                 return Err(NnmError::Decomposition {
                     what: "LU of the condensed Newton matrix",
@@ -488,27 +510,26 @@ impl LinearModel for CondensedModel {
             let s = (h as f64 * jac.omega).powi(2);
             let f = -2.0 * (h * h) as f64 * jac.omega;
             let blk = &self.blocks[h];
-            let mut dz = vec![0.0; n_o];
+            rhs[h * d..h * d + r].copy_from_slice(&blk.delta[..r]);
+            let dz = &mut rhs[h * d + r..(h + 1) * d];
             for i in 0..n_o {
                 let wz = f * (mtyx[(i, h)] + z[(i, h)]);
-                dz[i] = blk.wt[i] * (rhs[h * d + r + i] - (kty[(i, h)] - s * mty[(i, h)]) - wz * dw);
+                dz[i] = blk.wt[i] * (dz[i] - (kty[(i, h)] - s * mty[(i, h)]) - wz * dw);
             }
             for (t, &mode) in blk.near.iter().enumerate() {
                 dz[mode] = blk.delta[r + t];
             }
-            rhs[h * d..h * d + r].copy_from_slice(&blk.delta[..r]);
-            rhs[h * d + r..(h + 1) * d].copy_from_slice(&dz);
         }
         rhs[d * nh] = dw;
         rhs[d * nh + 1] = dq;
         Ok(())
     }
 
-    fn to_physical(&self, x_n: &[f64], u_n: &mut [f64]) {
-        self.basis.to_physical(x_n, u_n);
+    fn model_to_physical(&self, x: &[f64], count: usize, u: &mut [f64]) {
+        self.basis.model_to_physical(x, count, u);
     }
 
-    fn from_physical(&self, u_n: &[f64], x_n: &mut [f64]) {
-        self.basis.from_physical(u_n, x_n);
+    fn physical_to_model(&self, u: &[f64], count: usize, x: &mut [f64]) {
+        self.basis.physical_to_model(u, count, x);
     }
 }

@@ -27,7 +27,11 @@ impl Multipliers {
         for &v in kappa {
             k.extend(std::iter::repeat_n(v, samples));
         }
-        Self { samples, theta: vec![0.0; c * samples], kappa: k }
+        Self {
+            samples,
+            theta: vec![0.0; c * samples],
+            kappa: k,
+        }
     }
 
     /// Number of contact rows.
@@ -134,7 +138,11 @@ mod tests {
 
     #[test]
     fn law_and_measure_on_hand_values() {
-        let m = Multipliers { samples: 3, theta: vec![0.0, 0.5, 0.0], kappa: vec![10.0; 3] };
+        let m = Multipliers {
+            samples: 3,
+            theta: vec![0.0, 0.5, 0.0],
+            kappa: vec![10.0; 3],
+        };
         let gaps = [0.2, -0.2, -1.0];
         let (mut l, mut s) = ([0.0; 3], [0.0; 3]);
         apply_contact_law(&gaps, &m, 0.0, &mut l, &mut s);
@@ -143,11 +151,14 @@ mod tests {
         // v = [0.2, max(-0.2,-0.5) = -0.2, max(-1, 0) = 0] / g0 (= 2) = [0.1, -0.1, 0]
         let g = powell_measure(&gaps, &m.theta, &[2.0], 3, PowellMeasure::RowMaximum);
         assert!((g - 0.1).abs() < 1e-15);
+        // Multipliers too large where the gap is open: theta = [0.8, 0.5, 0],
+        // v = [max(-0.6, -0.8), max(-0.2, -0.5), max(-1, 0)] / 2 = [-0.3, -0.1, 0]:
+        // row maximum 0 (the violation is invisible), entrywise 0.3.
         let gaps = [-0.6, -0.2, -1.0];
-        // v = [-0.3, -0.1, 0]: row maximum 0, entrywise 0.3
-        let g = powell_measure(&gaps, &m.theta, &[2.0], 3, PowellMeasure::RowMaximum);
+        let theta = [0.8, 0.5, 0.0];
+        let g = powell_measure(&gaps, &theta, &[2.0], 3, PowellMeasure::RowMaximum);
         assert_eq!(g, 0.0);
-        let g = powell_measure(&gaps, &m.theta, &[2.0], 3, PowellMeasure::Entrywise);
+        let g = powell_measure(&gaps, &theta, &[2.0], 3, PowellMeasure::Entrywise);
         assert!((g - 0.3).abs() < 1e-15);
     }
 }

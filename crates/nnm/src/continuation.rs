@@ -83,7 +83,11 @@ impl ContinuationSettings {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(NnmError::InvalidParameter { name, value: v, expected: "a finite value > 0" })
+                Err(NnmError::InvalidParameter {
+                    name,
+                    value: v,
+                    expected: "a finite value > 0",
+                })
             }
         };
         pos("q_start", self.q_start)?;
@@ -174,7 +178,7 @@ pub struct Backbone {
     pub skipped: Vec<SkippedLevel>,
 }
 
-/// An amplitude level of [`amplitude_sweep`] that did not converge.
+/// An amplitude level of [`crate::amplitude_sweep`] that did not converge.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SkippedLevel {
     /// Master amplitude q (length unit of the system).
@@ -215,7 +219,11 @@ where
     // Scaled branch coordinates X = (q / g_ref, w / w_lin, y / (g_ref sqrt(c + 1))).
     let scaled = |p: &BackbonePoint| -> Vec<f64> {
         let mut x = vec![p.q / g_ref, p.omega / w1];
-        x.extend(kept_coordinates(system, p, nh).iter().map(|y| y / (g_ref * y_norm)));
+        x.extend(
+            kept_coordinates(system, p, nh)
+                .iter()
+                .map(|y| y / (g_ref * y_norm)),
+        );
         x
     };
     match solver.solve_point(cont.q_start * g_ref, Start::LinearMode(cont.mode)) {
@@ -224,7 +232,9 @@ where
             result.points.push(p);
         }
         Err(e) => {
-            result.termination = Termination::StartFailed { reason: e.to_string() };
+            result.termination = Termination::StartFailed {
+                reason: e.to_string(),
+            };
             return Ok(result);
         }
     }
@@ -273,7 +283,12 @@ where
                 }
                 let mut delta: Vec<f64> = xn.iter().zip(&xl).map(|(a, b)| a - b).collect();
                 let len = normalize(&mut delta);
-                let miss = xn.iter().zip(&pred).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+                let miss = xn
+                    .iter()
+                    .zip(&pred)
+                    .map(|(a, b)| (a - b).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
                 p.jump = miss > cont.jump_factor * step;
                 if xn[0] != xl[0] {
                     let sign = (xn[0] - xl[0]).signum();
@@ -284,7 +299,11 @@ where
                     tracing::info!(q = p.q, omega = p.omega, "turning point of q (fold) passed");
                 }
                 if p.jump {
-                    tracing::warn!(q = p.q, omega = p.omega, "corrector far from predictor: jump?");
+                    tracing::warn!(
+                        q = p.q,
+                        omega = p.omega,
+                        "corrector far from predictor: jump?"
+                    );
                 }
                 if len > 0.0 {
                     tangent = delta;
@@ -325,7 +344,11 @@ where
                     }
                     match hopped {
                         Some(p) => {
-                            tracing::warn!(q = p.q, omega = p.omega, "hopped over a corner of the branch at fixed q");
+                            tracing::warn!(
+                                q = p.q,
+                                omega = p.omega,
+                                "hopped over a corner of the branch at fixed q"
+                            );
                             let xn = scaled(&p);
                             let mut delta: Vec<f64> =
                                 xn.iter().zip(&xl).map(|(a, b)| a - b).collect();
@@ -382,13 +405,7 @@ fn kept_coordinates(system: &System, p: &BackbonePoint, nh: usize) -> Vec<f64> {
 
 /// Warm start at the predictor: coefficients extrapolated along the secant of the last two points
 /// (ratio = predicted step / last step), theta and kappa of the last point.
-fn extrapolate(
-    points: &[BackbonePoint],
-    pred: &[f64],
-    g_ref: f64,
-    w1: f64,
-    ratio: f64,
-) -> Guess {
+fn extrapolate(points: &[BackbonePoint], pred: &[f64], g_ref: f64, w1: f64, ratio: f64) -> Guess {
     let last = &points[points.len() - 1];
     let coefficients = if points.len() >= 2 {
         let prev = &points[points.len() - 2];
@@ -399,7 +416,10 @@ fn extrapolate(
             .collect()
     } else {
         let s = pred[0] * g_ref / last.q;
-        last.coefficients.iter().map(|c| c.iter().map(|v| v * s).collect()).collect()
+        last.coefficients
+            .iter()
+            .map(|c| c.iter().map(|v| v * s).collect())
+            .collect()
     };
     Guess {
         mode: last.mode,
@@ -409,145 +429,3 @@ fn extrapolate(
         multipliers: last.multipliers.clone(),
     }
 }
-
-/// Natural-parameter sweep: solves at the given master amplitudes `levels` (units of g_ref, increasing),
-/// by a fixed-q continuation with adaptive sub-steps between levels (secant predictor of u and w
-/// from the last two converged points, theta and kappa of the last one; the sub-step starts at
-/// `cont.step`, grows by `cont.growth` after a success up to `cont.max_step` and shrinks by
-/// `cont.shrink` after a failure). Only the requested levels are returned. It does not follow folds
-/// (use [`backbone`] for that): where w(q) folds it may land on another branch, which the `jump`
-/// flag marks (w changed by more than 5 % between sub-steps). A level whose sub-step falls below
-/// `cont.min_step` is recorded in `skipped` and the sweep goes on towards the next level from the
-/// last converged point. Termination: `StartFailed` if nothing converged, `ReachedMaxAmplitude`
-/// if the last level converged, `StepTooSmall` otherwise. `cont.q_start`, `cont.q_max` are unused.
-pub fn amplitude_sweep<F>(
-    system: &System,
-    settings: HarmonicSettings,
-    params: AlgorithmParams,
-    cont: &ContinuationSettings,
-    levels: &[f64],
-    mut progress: F,
-) -> Result<Backbone, NnmError>
-where
-    F: FnMut(&BackbonePoint),
-{
-    cont.validate()?;
-    for (i, &l) in levels.iter().enumerate() {
-        if !(l.is_finite() && l > 0.0) || (i > 0 && l <= levels[i - 1]) {
-            return Err(NnmError::InvalidParameter {
-                name: "levels",
-                value: l,
-                expected: "finite, positive and increasing amplitudes",
-            });
-        }
-    }
-    let mode = cont.mode;
-    let mut solver = Solver::new(system, settings, params)?;
-    let w1 = solver.linear_frequency(mode)?;
-    let g_ref = system.gap_reference();
-    let mut result = Backbone {
-        points: Vec::new(),
-        termination: Termination::ReachedMaxAmplitude,
-        omega_linear: w1,
-        gap_reference: g_ref,
-        grazing_amplitude: system.grazing_amplitude(mode)?,
-        skipped: Vec::new(),
-    };
-    // Last two converged states (not necessarily at levels).
-    let mut history: Vec<BackbonePoint> = Vec::new();
-    let mut h = cont.step;
-    for (index, &level) in levels.iter().enumerate() {
-        let mut last_error = String::new();
-        let mut reached = None;
-        loop {
-            let from = history.last().map(|p| p.q / g_ref);
-            let target = match from {
-                None => level,
-                Some(f) => level.min(f + h),
-            };
-            let attempt = match history.len() {
-                0 => solver.solve_point(target * g_ref, Start::LinearMode(mode)),
-                _ => {
-                    let guess = extrapolate_in_q(&history, target * g_ref);
-                    let row = ParameterRow::fixed_amplitude(target * g_ref, g_ref, w1);
-                    solver.solve_with_row(row, guess)
-                }
-            };
-            match attempt {
-                Ok(mut p) => {
-                    if let Some(prev) = history.last() {
-                        p.jump = (p.omega - prev.omega).abs() > SWEEP_JUMP_RATIO * prev.omega;
-                        h = (h * cont.growth).min(cont.max_step);
-                    }
-                    history.push(p);
-                    if history.len() > 2 {
-                        history.remove(0);
-                    }
-                    if target >= level {
-                        reached = history.last().cloned();
-                        break;
-                    }
-                }
-                Err(e) => {
-                    last_error = e.to_string();
-                    if history.is_empty() {
-                        break;
-                    }
-                    h *= cont.shrink;
-                    if h < cont.min_step {
-                        h = cont.step;
-                        break;
-                    }
-                }
-            }
-        }
-        match reached {
-            Some(p) => {
-                progress(&p);
-                result.points.push(p);
-                if index + 1 == levels.len() {
-                    result.termination = Termination::ReachedMaxAmplitude;
-                }
-            }
-            None => {
-                tracing::warn!(q = level * g_ref, "amplitude level skipped: {last_error}");
-                result.skipped.push(SkippedLevel { q: level * g_ref, reason: last_error.clone() });
-                result.termination = match history.last() {
-                    None => Termination::StartFailed { reason: last_error.clone() },
-                    Some(p) => Termination::StepTooSmall {
-                        q: p.q,
-                        step: level - p.q / g_ref,
-                        reason: last_error.clone(),
-                    },
-                };
-                if history.is_empty() {
-                    return Ok(result);
-                }
-            }
-        }
-    }
-    Ok(result)
-}
-
-/// Warm start at amplitude `q` extrapolated linearly in q from the last two points of `history`.
-fn extrapolate_in_q(history: &[BackbonePoint], q: f64) -> Guess {
-    let last = &history[history.len() - 1];
-    let (coefficients, omega) = if history.len() >= 2 && history[0].q != last.q {
-        let prev = &history[0];
-        let r = (q - last.q) / (last.q - prev.q);
-        let c = last
-            .coefficients
-            .iter()
-            .zip(&prev.coefficients)
-            .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x + r * (x - y)).collect())
-            .collect();
-        (c, last.omega + r * (last.omega - prev.omega))
-    } else {
-        let s = q / last.q;
-        (last.coefficients.iter().map(|c| c.iter().map(|v| v * s).collect()).collect(), last.omega)
-    };
-    Guess { mode: last.mode, coefficients, omega, q, multipliers: last.multipliers.clone() }
-}
-
-/// Relative change of w between consecutive sweep levels flagged as a jump.
-const SWEEP_JUMP_RATIO: f64 = 0.05;

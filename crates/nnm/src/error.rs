@@ -61,7 +61,9 @@ pub enum NnmError {
         detail: String,
     },
     /// Contact rows whose width differs from the number of degrees of freedom.
-    #[error("contact rows have {cols} columns, expected {expected} (the number of DOFs of M and K)")]
+    #[error(
+        "contact rows have {cols} columns, expected {expected} (the number of DOFs of M and K)"
+    )]
     ContactRowsWidth {
         /// Columns found.
         cols: usize,
@@ -85,7 +87,9 @@ pub enum NnmError {
         rows: usize,
     },
     /// An initial gap is not finite and positive.
-    #[error("initial gap {index} is {value}; every initial gap g0 must be finite and > 0 (Eq. 17)")]
+    #[error(
+        "initial gap {index} is {value}; every initial gap g0 must be finite and > 0 (Eq. 17)"
+    )]
     NonPositiveGap {
         /// Index of the contact row.
         index: usize,
@@ -93,7 +97,9 @@ pub enum NnmError {
         value: f64,
     },
     /// Master coordinate index out of range.
-    #[error("master coordinate {master} is out of range: the system has {dofs} DOFs (valid 0..{dofs})")]
+    #[error(
+        "master coordinate {master} is out of range: the system has {dofs} DOFs (valid 0..{dofs})"
+    )]
     MasterOutOfRange {
         /// Index given.
         master: usize,

@@ -81,7 +81,9 @@ impl Aft {
         let mut planner = FftPlanner::new();
         let forward = planner.plan_fft_forward(settings.samples);
         let inverse = planner.plan_fft_inverse(settings.samples);
-        let scratch_len = forward.get_inplace_scratch_len().max(inverse.get_inplace_scratch_len());
+        let scratch_len = forward
+            .get_inplace_scratch_len()
+            .max(inverse.get_inplace_scratch_len());
         Self {
             harmonics: settings.harmonics,
             samples: settings.samples,
@@ -110,7 +112,8 @@ impl Aft {
                 b[m - n].re += h;
             }
         }
-        self.inverse.process_with_scratch(&mut self.buffer, &mut self.scratch);
+        self.inverse
+            .process_with_scratch(&mut self.buffer, &mut self.scratch);
         for (o, b) in out[..count * m].iter_mut().zip(&self.buffer) {
             *o = b.re;
         }
@@ -155,14 +158,20 @@ impl Aft {
     fn transform_forward(&mut self, samples: &[f64], count: usize) {
         let m = self.samples;
         self.buffer.clear();
-        self.buffer.extend(samples[..count * m].iter().map(|&v| Complex::new(v, 0.0)));
-        self.forward.process_with_scratch(&mut self.buffer, &mut self.scratch);
+        self.buffer
+            .extend(samples[..count * m].iter().map(|&v| Complex::new(v, 0.0)));
+        self.forward
+            .process_with_scratch(&mut self.buffer, &mut self.scratch);
     }
 }
 
 /// Value at phase `phase` (= w t, rad) of the cosine series with coefficients `coeffs`.
 pub fn cosine_series(coeffs: &[f64], phase: f64) -> f64 {
-    coeffs.iter().enumerate().map(|(n, c)| c * (n as f64 * phase).cos()).sum()
+    coeffs
+        .iter()
+        .enumerate()
+        .map(|(n, c)| c * (n as f64 * phase).cos())
+        .sum()
 }
 
 /// Derivative with respect to time of the cosine series at phase `phase`, for circular frequency
@@ -193,7 +202,9 @@ mod tests {
         // Independent check: direct evaluation of the cosine sums, to round-off (1e-13 on O(1) data).
         let s = HarmonicSettings::new(5, 16).expect("valid");
         let mut aft = Aft::new(s);
-        let coeffs = [0.3, 1.0, -0.5, 0.25, 0.1, -0.05, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let coeffs = [
+            0.3, 1.0, -0.5, 0.25, 0.1, -0.05, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ];
         let mut samples = vec![0.0; 32];
         aft.synthesize(&coeffs, 2, &mut samples);
         for sig in 0..2 {

@@ -26,7 +26,9 @@ impl FullModel {
         let n = system.n_dofs();
         let mut master_row = vec![0.0; n];
         master_row[system.master()] = 1.0;
-        let weights = (0..n).map(|i| 1.0 / system.stiffness()[(i, i)].sqrt()).collect();
+        let weights = (0..n)
+            .map(|i| 1.0 / system.stiffness()[(i, i)].sqrt())
+            .collect();
         Self {
             k: system.stiffness().to_owned(),
             m: system.mass().to_owned(),
@@ -50,7 +52,14 @@ impl LinearModel for FullModel {
         let xm = MatRef::from_column_major_slice(&x[..n * nh], n, nh);
         // out (c x nh, row-major j * nh + h) = A X, written through a transposed view.
         let mut o = MatMut::from_column_major_slice_mut(&mut out[..c * nh], nh, c);
-        matmul(o.as_mut(), Accum::Replace, xm.transpose(), self.a.transpose(), 1.0, Par::Seq);
+        matmul(
+            o.as_mut(),
+            Accum::Replace,
+            xm.transpose(),
+            self.a.transpose(),
+            1.0,
+            Par::Seq,
+        );
     }
 
     fn master_row(&self) -> &[f64] {
@@ -71,8 +80,22 @@ impl LinearModel for FullModel {
             self.kx = Mat::zeros(n, nh);
             self.mx = Mat::zeros(n, nh);
         }
-        matmul(self.kx.as_mut(), Accum::Replace, self.k.as_ref(), xm, 1.0, Par::Seq);
-        matmul(self.mx.as_mut(), Accum::Replace, self.m.as_ref(), xm, 1.0, Par::Seq);
+        matmul(
+            self.kx.as_mut(),
+            Accum::Replace,
+            self.k.as_ref(),
+            xm,
+            1.0,
+            Par::Seq,
+        );
+        matmul(
+            self.mx.as_mut(),
+            Accum::Replace,
+            self.m.as_ref(),
+            xm,
+            1.0,
+            Par::Seq,
+        );
         let mut o = MatMut::from_column_major_slice_mut(&mut out[..n * nh], n, nh);
         for h in 0..nh {
             let s = (h as f64 * omega).powi(2);
@@ -82,7 +105,14 @@ impl LinearModel for FullModel {
         }
         // + A^T lambda_n
         let lam = MatRef::from_column_major_slice(&lambda_coef[..c * nh], nh, c);
-        matmul(o.as_mut(), Accum::Add, self.a.transpose(), lam.transpose(), 1.0, Par::Seq);
+        matmul(
+            o.as_mut(),
+            Accum::Add,
+            self.a.transpose(),
+            lam.transpose(),
+            1.0,
+            Par::Seq,
+        );
     }
 
     fn row_weights(&self) -> &[f64] {
@@ -158,11 +188,13 @@ impl LinearModel for FullModel {
         Ok(())
     }
 
-    fn to_physical(&self, x_n: &[f64], u_n: &mut [f64]) {
-        u_n.copy_from_slice(x_n);
+    fn model_to_physical(&self, x: &[f64], count: usize, u: &mut [f64]) {
+        let n = self.dim() * count;
+        u[..n].copy_from_slice(&x[..n]);
     }
 
-    fn from_physical(&self, u_n: &[f64], x_n: &mut [f64]) {
-        x_n.copy_from_slice(u_n);
+    fn physical_to_model(&self, u: &[f64], count: usize, x: &mut [f64]) {
+        let n = self.dim() * count;
+        x[..n].copy_from_slice(&u[..n]);
     }
 }

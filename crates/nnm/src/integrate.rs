@@ -66,13 +66,20 @@ pub fn integrate_penalty(
         });
     }
     if steps == 0 {
-        return Err(NnmError::InvalidParameter { name: "steps", value: 0.0, expected: ">= 1" });
+        return Err(NnmError::InvalidParameter {
+            name: "steps",
+            value: 0.0,
+            expected: ">= 1",
+        });
     }
     let a = system.contact_rows();
     let h = duration / steps as f64;
     // Stiffest mode of the penalized system.
     let kp = Mat::from_fn(n, n, |i, j| {
-        system.stiffness()[(i, j)] + (0..c).map(|l| penalty[l] * a[(l, i)] * a[(l, j)]).sum::<f64>()
+        system.stiffness()[(i, j)]
+            + (0..c)
+                .map(|l| penalty[l] * a[(l, i)] * a[(l, j)])
+                .sum::<f64>()
     });
     let eig = generalized_eigen(kp.as_ref(), system.mass(), "M")?;
     let omega_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
@@ -88,7 +95,11 @@ pub fn integrate_penalty(
     // Precompute M^-1 K and M^-1 A^T.
     let l = cholesky_lower("M", system.mass())?;
     let solve_m = |mut b: Mat<f64>| {
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(l.as_ref(), b.as_mut(), Par::Seq);
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            l.as_ref(),
+            b.as_mut(),
+            Par::Seq,
+        );
         faer::linalg::triangular_solve::solve_upper_triangular_in_place(
             l.transpose(),
             b.as_mut(),
@@ -147,7 +158,9 @@ pub fn integrate_penalty(
         }
     }
     if u.iter().chain(&v).any(|x| !x.is_finite()) {
-        return Err(NnmError::NonFiniteResult { what: "time integration" });
+        return Err(NnmError::NonFiniteResult {
+            what: "time integration",
+        });
     }
     Ok(MotionState { u, v })
 }
@@ -178,10 +191,20 @@ pub fn check_periodicity(
             detail: format!("the point has {} DOFs, the system {n}", u0.len()),
         });
     }
-    let start = MotionState { u: u0.clone(), v: vec![0.0; n] };
+    let start = MotionState {
+        u: u0.clone(),
+        v: vec![0.0; n],
+    };
     let end = integrate_penalty(system, penalty, &start, point.period(), steps)?;
-    let scale = u0.iter().fold(0.0_f64, |a, v| a.max(v.abs())).max(f64::MIN_POSITIVE);
-    let du = end.u.iter().zip(&u0).fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+    let scale = u0
+        .iter()
+        .fold(0.0_f64, |a, v| a.max(v.abs()))
+        .max(f64::MIN_POSITIVE);
+    let du = end
+        .u
+        .iter()
+        .zip(&u0)
+        .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
     let dv = end.v.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
     Ok(PeriodicityCheck {
         displacement_error: du / scale,

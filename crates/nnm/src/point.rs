@@ -82,7 +82,9 @@ impl BackbonePoint {
     /// Displacements at `count` equally spaced times over one period, t_i = i T / count.
     pub fn displacement_over_period(&self, count: usize) -> Vec<Vec<f64>> {
         let t = self.period();
-        (0..count).map(|i| self.displacement_at(t * i as f64 / count as f64)).collect()
+        (0..count)
+            .map(|i| self.displacement_at(t * i as f64 / count as f64))
+            .collect()
     }
 
     /// Gaps g_j(t_i) = A_j u(t_i) - g0_j at `count` equally spaced times over one period,
@@ -92,8 +94,9 @@ impl BackbonePoint {
         let c = system.n_contacts();
         let mut out = Vec::with_capacity(c);
         for j in 0..c {
-            let coef: Vec<f64> =
-                (0..nh).map(|n| system.contact_displacement(j, &self.coefficients[n])).collect();
+            let coef: Vec<f64> = (0..nh)
+                .map(|n| system.contact_displacement(j, &self.coefficients[n]))
+                .collect();
             let g0 = system.gaps()[j];
             out.push(
                 (0..count)

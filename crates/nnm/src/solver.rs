@@ -9,9 +9,8 @@ use crate::contact::{powell_measure, Multipliers};
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
 use crate::full::FullModel;
-use crate::newton::{
-    solve_inner_robust, InnerProblem, LinearModel, NewtonState, NewtonWork, ParameterRow,
-};
+use crate::newton::{InnerProblem, LinearModel, NewtonState, NewtonWork, ParameterRow};
+use crate::newton_fallback::solve_inner_robust;
 use crate::point::BackbonePoint;
 use crate::system::System;
 
@@ -103,7 +102,10 @@ impl<'s> Solver<'s> {
         self.omegas
             .get(mode)
             .copied()
-            .ok_or(NnmError::ModeOutOfRange { mode, count: self.omegas.len() })
+            .ok_or(NnmError::ModeOutOfRange {
+                mode,
+                count: self.omegas.len(),
+            })
     }
 
     /// Solves the nonlinear mode at master amplitude `q` > 0 (Algorithm 1, or one penalty solve).
@@ -123,7 +125,11 @@ impl<'s> Solver<'s> {
 
     /// Initial guess from a start, scaled to amplitude q for a linear mode.
     pub(crate) fn guess(&self, start: Start<'_>, q: f64) -> Result<Guess, NnmError> {
-        let (n, nh, m) = (self.system.n_dofs(), self.settings.harmonics + 1, self.settings.samples);
+        let (n, nh, m) = (
+            self.system.n_dofs(),
+            self.settings.harmonics + 1,
+            self.settings.samples,
+        );
         match start {
             Start::LinearMode(mode) => {
                 let phi = self.system.linear_mode(mode)?;
@@ -152,13 +158,19 @@ impl<'s> Solver<'s> {
                 let mut coefficients = p.coefficients.clone();
                 coefficients.resize(nh, vec![0.0; n]);
                 let c = self.system.n_contacts();
-                let multipliers = if p.multipliers.samples == m && p.multipliers.theta.len() == c * m
-                {
-                    p.multipliers.clone()
-                } else {
-                    Multipliers::uniform(&self.kappa_initial, m)
-                };
-                Ok(Guess { mode: p.mode, coefficients, omega: p.omega, q: p.q, multipliers })
+                let multipliers =
+                    if p.multipliers.samples == m && p.multipliers.theta.len() == c * m {
+                        p.multipliers.clone()
+                    } else {
+                        Multipliers::uniform(&self.kappa_initial, m)
+                    };
+                Ok(Guess {
+                    mode: p.mode,
+                    coefficients,
+                    omega: p.omega,
+                    q: p.q,
+                    multipliers,
+                })
             }
         }
     }
@@ -171,11 +183,18 @@ impl<'s> Solver<'s> {
     ) -> Result<BackbonePoint, NnmError> {
         let (nh, m) = (self.settings.harmonics + 1, self.settings.samples);
         let d = self.model.dim();
-        let mut x = vec![0.0; d * nh];
-        for (h, u) in guess.coefficients.iter().enumerate().take(nh) {
-            self.model.from_physical(u, &mut x[h * d..(h + 1) * d]);
+        let n = self.system.n_dofs();
+        let mut u = vec![0.0; n * nh];
+        for (h, c) in guess.coefficients.iter().enumerate().take(nh) {
+            u[h * n..(h + 1) * n].copy_from_slice(c);
         }
-        let mut state = NewtonState { x, omega: guess.omega, q: guess.q };
+        let mut x = vec![0.0; d * nh];
+        self.model.physical_to_model(&u, nh, &mut x);
+        let mut state = NewtonState {
+            x,
+            omega: guess.omega,
+            q: guess.q,
+        };
         let mut multipliers = guess.multipliers;
         let g0 = self.system.gaps();
         let norm_scale = self.norm_scale;
@@ -189,8 +208,21 @@ impl<'s> Solver<'s> {
         // Last converged inner solution of this point and its multipliers: if a later inner solve
         // fails from its warm start, the multipliers are moved there by a homotopy instead.
         let mut last_good: Option<(NewtonState, Multipliers)> = None;
+        let budget = self.params.newton_budget;
+        let spent0 = work.spent;
         let mut inner = |mu: &Multipliers, gaps: &mut Vec<f64>| -> Result<usize, NnmError> {
-            let mut solve = |mu: &Multipliers, state: &mut NewtonState| {
+            // One inner solve; `fallback` allows the smoothing path of `solve_inner_robust`.
+            let mut solve = |mu: &Multipliers, state: &mut NewtonState, fallback: bool| {
+                if work.spent - spent0 > budget {
+                    return Err(NnmError::NewtonFailed {
+                        iterations: work.spent - spent0,
+                        residual: f64::INFINITY,
+                        tolerance: newton.tolerance,
+                        reason: format!(
+                            "Newton budget of {budget} iterations for the point exhausted"
+                        ),
+                    });
+                }
                 let problem = InnerProblem {
                     harmonics,
                     samples: m,
@@ -201,15 +233,25 @@ impl<'s> Solver<'s> {
                     arc_scale,
                     smoothing: 0.0,
                 };
-                solve_inner_robust(model.as_mut(), aft, &problem, g_ref, &newton, state, work)
+                solve_inner_robust(
+                    model.as_mut(),
+                    aft,
+                    &problem,
+                    g_ref,
+                    &newton,
+                    state,
+                    work,
+                    fallback,
+                )
             };
             let start = state.clone();
-            let iterations = match solve(mu, &mut state) {
+            let iterations = match solve(mu, &mut state, true) {
                 Ok(rep) => rep.iterations,
                 Err(e) => match &last_good {
                     Some((good_state, good_mu)) => {
                         state = good_state.clone();
-                        multiplier_homotopy(good_mu, mu, &mut state, &mut solve).map_err(|_| e)?
+                        let mut sub = |mu: &Multipliers, st: &mut NewtonState| solve(mu, st, false);
+                        multiplier_homotopy(good_mu, mu, &mut state, &mut sub).map_err(|_| e)?
                     }
                     None => {
                         // First solve of the point: penalty homotopy from a softer contact.
@@ -218,8 +260,11 @@ impl<'s> Solver<'s> {
                             state = start.clone();
                             let mut soft = mu.clone();
                             soft.kappa.iter_mut().for_each(|k| *k *= softening);
-                            if let Ok(rep) = solve(&soft, &mut state) {
-                                if let Ok(it) = multiplier_homotopy(&soft, mu, &mut state, &mut solve) {
+                            if let Ok(rep) = solve(&soft, &mut state, false) {
+                                let mut sub =
+                                    |mu: &Multipliers, st: &mut NewtonState| solve(mu, st, false);
+                                if let Ok(it) = multiplier_homotopy(&soft, mu, &mut state, &mut sub)
+                                {
                                     done = Some(rep.iterations + it);
                                     break;
                                 }
@@ -285,12 +330,17 @@ impl<'s> Solver<'s> {
         report: OuterReport,
     ) -> Result<BackbonePoint, NnmError> {
         let sys = self.system;
-        let (n, nh, m, c) = (sys.n_dofs(), self.settings.harmonics + 1, self.settings.samples, sys.n_contacts());
+        let (n, nh, m, c) = (
+            sys.n_dofs(),
+            self.settings.harmonics + 1,
+            self.settings.samples,
+            sys.n_contacts(),
+        );
         let d = self.model.dim();
-        let mut coefficients = vec![vec![0.0; n]; nh];
-        for (h, u) in coefficients.iter_mut().enumerate() {
-            self.model.to_physical(&state.x[h * d..(h + 1) * d], u);
-        }
+        let mut flat = vec![0.0; n * nh];
+        self.model
+            .model_to_physical(&state.x[..d * nh], nh, &mut flat);
+        let coefficients: Vec<Vec<f64>> = flat.chunks(n).map(<[f64]>::to_vec).collect();
         let ev = &self.work.current;
         let mut mean_gap = Vec::with_capacity(c);
         let mut max_gap = Vec::with_capacity(c);
@@ -304,12 +354,19 @@ impl<'s> Solver<'s> {
             contact_fraction.push(l.iter().filter(|&&v| v > 0.0).count() as f64 / m as f64);
             contact_force.push(l.to_vec());
         }
-        let mean_gap_overall =
-            if c > 0 { mean_gap.iter().sum::<f64>() / c as f64 } else { 0.0 };
-        let max_gap_overall = max_gap.iter().fold(f64::NEG_INFINITY, |a: f64, &v| a.max(v));
+        let mean_gap_overall = if c > 0 {
+            mean_gap.iter().sum::<f64>() / c as f64
+        } else {
+            0.0
+        };
+        let max_gap_overall = max_gap
+            .iter()
+            .fold(f64::NEG_INFINITY, |a: f64, &v| a.max(v));
         let max_gap_overall = if c > 0 { max_gap_overall } else { 0.0 };
         // Energy at the turning point t = 0.
-        let u0: Vec<f64> = (0..n).map(|i| coefficients.iter().map(|u| u[i]).sum()).collect();
+        let u0: Vec<f64> = (0..n)
+            .map(|i| coefficients.iter().map(|u| u[i]).sum())
+            .collect();
         let k = sys.stiffness();
         let mut energy = 0.0;
         for j in 0..n {
@@ -363,7 +420,9 @@ impl<'s> Solver<'s> {
         if !(point.omega.is_finite() && point.q.is_finite() && point.energy.is_finite())
             || point.coefficients.iter().flatten().any(|v| !v.is_finite())
         {
-            return Err(NnmError::NonFiniteResult { what: "the converged orbit" });
+            return Err(NnmError::NonFiniteResult {
+                what: "the converged orbit",
+            });
         }
         if truncation_warning {
             tracing::warn!(
@@ -383,7 +442,7 @@ impl<'s> Solver<'s> {
 const SOFT_START: [f64; 2] = [1e-2, 1e-4];
 
 /// Moves the multipliers from `from` to `to` in substeps (theta linearly, kappa geometrically),
-/// solving at each and halving a substep that fails (down to 1/64 of the path). The final substep
+/// solving at each and halving a substep that fails (down to 1/16 of the path). The final substep
 /// uses `to` exactly. Returns the Newton iterations spent.
 fn multiplier_homotopy<F>(
     from: &Multipliers,
@@ -418,7 +477,7 @@ where
             Err(e) => {
                 *state = saved;
                 dtau *= 0.5;
-                if dtau < 1.0 / 64.0 {
+                if dtau < 1.0 / 16.0 {
                     return Err(e);
                 }
             }

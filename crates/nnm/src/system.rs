@@ -61,7 +61,10 @@ impl System {
         let m = checked_symmetric("M", &m, n)?;
         let k = checked_symmetric("K", &k, n)?;
         if contact_rows.ncols() != n {
-            return Err(NnmError::ContactRowsWidth { cols: contact_rows.ncols(), expected: n });
+            return Err(NnmError::ContactRowsWidth {
+                cols: contact_rows.ncols(),
+                expected: n,
+            });
         }
         let c = contact_rows.nrows();
         for j in 0..c {
@@ -84,7 +87,10 @@ impl System {
             }
         }
         if gaps.len() != c {
-            return Err(NnmError::GapCount { gaps: gaps.len(), rows: c });
+            return Err(NnmError::GapCount {
+                gaps: gaps.len(),
+                rows: c,
+            });
         }
         for (index, &value) in gaps.iter().enumerate() {
             if !(value.is_finite() && value > 0.0) {
@@ -207,7 +213,9 @@ impl System {
         let pm = phi[self.master];
         let mut best: Option<f64> = None;
         for j in 0..self.n_contacts() {
-            let aphi: f64 = (0..self.n_dofs()).map(|i| self.contact_rows[(j, i)] * phi[i]).sum();
+            let aphi: f64 = (0..self.n_dofs())
+                .map(|i| self.contact_rows[(j, i)] * phi[i])
+                .sum();
             if aphi.abs() > 0.0 {
                 let q = self.gaps[j] * pm / aphi.abs();
                 best = Some(best.map_or(q, |b: f64| b.min(q)));

@@ -33,7 +33,11 @@ pub fn chain(n: usize, k: f64, contacts: &[usize], gap: f64, master: usize) -> S
             0.0
         }
     });
-    let a = Mat::from_fn(contacts.len(), n, |r, c| if contacts[r] == c { 1.0 } else { 0.0 });
+    let a = Mat::from_fn(
+        contacts.len(),
+        n,
+        |r, c| if contacts[r] == c { 1.0 } else { 0.0 },
+    );
     System::new(m, kk, a, vec![gap; contacts.len()], master).expect("valid chain")
 }
 
@@ -58,7 +62,11 @@ pub fn penalty_ratio(w0: f64, kc: f64, g: f64, a: f64) -> f64 {
 /// The first mode is the soft one; the others are far above it (no internal resonance of low order).
 pub fn soft_stiff_chain(stiff: f64, gap: f64, master: usize) -> System {
     let m = Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.0 });
-    let k = [[1.0 + stiff, -stiff, 0.0], [-stiff, 2.0 * stiff, -stiff], [0.0, -stiff, stiff]];
+    let k = [
+        [1.0 + stiff, -stiff, 0.0],
+        [-stiff, 2.0 * stiff, -stiff],
+        [0.0, -stiff, stiff],
+    ];
     let kk = Mat::from_fn(3, 3, |i, j| k[i][j]);
     let a = Mat::from_fn(1, 3, |_, c| if c == 2 { 1.0 } else { 0.0 });
     System::new(m, kk, a, vec![gap], master).expect("valid soft-stiff chain")
@@ -67,9 +75,10 @@ pub fn soft_stiff_chain(stiff: f64, gap: f64, master: usize) -> System {
 /// A blade-like reduced model: a lattice plate of `chord` x `span` nodes (3 DOFs each, lumped unit
 /// masses, springs to the 8 neighbours, 20 times stiffer in plane than out of plane, with a twist:
 /// the out-of-plane axis of span row s is rotated by 0.05 s rad about the span axis), clamped at span row 0, reduced by Craig-Bampton
-/// onto the `chord` tip nodes (3 DOFs each) plus `modes` fixed-interface modes. Contact rows: the
-/// direction (0.3, 0, 1)/|.| (a mix of radial and out-of-plane, as on a twisted blade) at every
-/// tip node; uniform gap `gap`. Master: the out-of-plane DOF of the middle tip node.
+/// onto the `chord` tip nodes (3 DOFs each) plus `modes` fixed-interface modes. Contact rows: a mix
+/// of radial and out-of-plane directions varying along the chord (see below); uniform gap `gap`.
+/// Master: the first fixed-interface modal coordinate (the bending of the blade body, which keeps
+/// growing when the tip is held by the casing). Master: the out-of-plane DOF of the middle tip node.
 pub fn lattice_blade(chord: usize, span: usize, modes: usize, gap: f64) -> System {
     let node = |s: usize, c: usize| (s - 1) * chord + c; // free nodes: span rows 1..span
     let nfree = (span - 1) * chord * 3;
@@ -126,7 +135,9 @@ pub fn lattice_blade(chord: usize, span: usize, modes: usize, gap: f64) -> Syste
     let m = Mat::<f64>::from_fn(nfree, nfree, |i, j| if i == j { 1.0 } else { 0.0 });
     // Craig-Bampton: boundary = tip row (span - 1).
     let nb = chord * 3;
-    let bdofs: Vec<usize> = (0..chord).flat_map(|c| (0..3).map(move |d| 3 * node(span - 1, c) + d)).collect();
+    let bdofs: Vec<usize> = (0..chord)
+        .flat_map(|c| (0..3).map(move |d| 3 * node(span - 1, c) + d))
+        .collect();
     let idofs: Vec<usize> = (0..nfree).filter(|i| !bdofs.contains(i)).collect();
     let ni = idofs.len();
     let kii = Mat::from_fn(ni, ni, |a, b| k[(idofs[a], idofs[b])]);
@@ -135,7 +146,9 @@ pub fn lattice_blade(chord: usize, span: usize, modes: usize, gap: f64) -> Syste
     use faer::linalg::solvers::Solve;
     let llt = kii.llt(faer::Side::Lower).expect("K_II SPD");
     let psi = -llt.solve(&kib);
-    let evd = Mat::from_fn(ni, ni, |a, b| kii[(a, b)] / mii[(a, a)]).self_adjoint_eigen(faer::Side::Lower).expect("eig");
+    let evd = Mat::from_fn(ni, ni, |a, b| kii[(a, b)] / mii[(a, a)])
+        .self_adjoint_eigen(faer::Side::Lower)
+        .expect("eig");
     let phi = evd.U().get(.., 0..modes).to_owned();
     let nr = nb + modes;
     // T maps reduced (boundary, modal) to full (boundary rows first, then interior).
@@ -153,15 +166,82 @@ pub fn lattice_blade(chord: usize, span: usize, modes: usize, gap: f64) -> Syste
     }
     let kr = t.transpose() * &k * &t;
     let mr = t.transpose() * &m * &t;
-    let nrm = (0.3f64 * 0.3 + 1.0).sqrt();
+    // Contact direction of tip node j: (1, 0, t_j) / |.|, t_j from 0.1 to 0.6 along the chord, so
+    // that the normal displacement of the first mode grows along the chord (the last node touches
+    // first, as on a twisted blade).
     let a = Mat::from_fn(chord, nr, |j, col| {
+        let t = 0.1 + 0.5 * j as f64 / (chord.max(2) - 1) as f64;
+        let nrm = (1.0 + t * t).sqrt();
         if col == 3 * j {
-            0.3 / nrm
-        } else if col == 3 * j + 2 {
             1.0 / nrm
+        } else if col == 3 * j + 2 {
+            t / nrm
         } else {
             0.0
         }
     });
-    System::new(mr, kr, a, vec![gap; chord], 3 * (chord / 2) + 2).expect("valid lattice blade")
+    System::new(mr, kr, a, vec![gap; chord], nb).expect("valid lattice blade")
+}
+
+/// Free-side amplitude A = -min_t x(t) of coordinate `dof` of a point (the cosine series is even
+/// about t = 0 and T/2, both turning points; the minimum is searched on 4096 samples, then refined
+/// by golden-section search around the best sample).
+pub fn free_side_amplitude(p: &nlmodes_nnm::BackbonePoint, dof: usize) -> f64 {
+    let coef: Vec<f64> = p.coefficients.iter().map(|u| u[dof]).collect();
+    let f = |phase: f64| nlmodes_nnm::cosine_series(&coef, phase);
+    let n = 4096;
+    let h = 2.0 * std::f64::consts::PI / n as f64;
+    let best = (0..n)
+        .min_by(|&a, &b| f(a as f64 * h).total_cmp(&f(b as f64 * h)))
+        .unwrap_or(0);
+    let (mut a, mut b) = ((best as f64 - 1.0) * h, (best as f64 + 1.0) * h);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..80 {
+        let c = b - g * (b - a);
+        let d = a + g * (b - a);
+        if f(c) < f(d) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    -f(0.5 * (a + b))
+}
+
+/// Solves `solver` at the master amplitude giving a free-side amplitude `target` (secant method on
+/// q from the starting amplitude `q0`, warm-started), to |A - target| <= 1e-11 target.
+pub fn solve_at_free_amplitude(
+    solver: &mut nlmodes_nnm::Solver<'_>,
+    start: &nlmodes_nnm::BackbonePoint,
+    target: f64,
+) -> nlmodes_nnm::BackbonePoint {
+    use nlmodes_nnm::Start;
+    let mut p0 = start.clone();
+    let mut a0 = free_side_amplitude(&p0, 0);
+    // march q towards the target in small relative steps so that warm starts stay close
+    while a0 < 0.9 * target {
+        let q = p0.q * (1.0 + 0.25 * (target / a0 - 1.0).min(0.2));
+        p0 = solver
+            .solve_point(q, Start::Point(&p0))
+            .expect("march towards target amplitude");
+        a0 = free_side_amplitude(&p0, 0);
+    }
+    let mut p1 = solver
+        .solve_point(p0.q * (1.0 + 0.5 * (target / a0 - 1.0)), Start::Point(&p0))
+        .expect("secant start");
+    let mut a1 = free_side_amplitude(&p1, 0);
+    for _ in 0..60 {
+        if (a1 - target).abs() <= 1e-11 * target || a1 == a0 {
+            return p1;
+        }
+        let q = p1.q + (target - a1) * (p1.q - p0.q) / (a1 - a0);
+        let next = solver
+            .solve_point(q, Start::Point(&p1))
+            .expect("secant step");
+        p0 = p1;
+        a0 = a1;
+        a1 = free_side_amplitude(&next, 0);
+        p1 = next;
+    }
+    panic!("secant on q did not reach A = {target}: last A = {a1}");
 }

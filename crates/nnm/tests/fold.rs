@@ -1,0 +1,109 @@
+//! The pseudo-arc-length continuation follows a turning point of q (a fold), where w(q) is not
+//! single-valued, and both orbits found at the same q are genuine (time integration).
+//!
+//! System: 3 unit masses, unit springs, wall on the left, penalty contact (kc = 0.3) on the free
+//! end, which is also the master. Linear frequencies w3 / w1 = 4.05, so as the contact stiffens
+//! the mode, 4 w crosses w3 at w = 1.0125 w1: a 4:1 internal resonance. There the backbone enters
+//! a tongue: the energy keeps growing (it flows into the third mode at 4 w) while the
+//! first-harmonic amplitude q of the master passes a maximum and decreases.
+
+mod common;
+
+use nlmodes_nnm::{
+    backbone, check_periodicity, AlgorithmParams, ContactMethod, ContinuationSettings,
+    HarmonicSettings, Solver, Start,
+};
+
+const KC: f64 = 0.3;
+
+#[test]
+fn continuation_passes_a_fold_of_q() {
+    let sys = common::chain(3, 1.0, &[2], 1.0, 2);
+    let settings = HarmonicSettings::with_default_samples(16).expect("settings");
+    let params = AlgorithmParams {
+        method: ContactMethod::Penalty { stiffness: KC },
+        ..AlgorithmParams::default()
+    };
+    // Steps up to 0.1 (scaled arc length) resolve the tongue; much larger steps can jump over it.
+    let cont = ContinuationSettings {
+        q_start: 0.5,
+        q_max: 10.0,
+        step: 0.05,
+        max_step: 0.1,
+        max_points: 80,
+        ..ContinuationSettings::default()
+    };
+    let b = backbone(&sys, settings, params.clone(), &cont, |_| {}).expect("backbone");
+    let pts = &b.points;
+    let fold = pts
+        .iter()
+        .position(|p| p.fold)
+        .expect("a fold of q is flagged");
+    assert!(
+        fold >= 2 && fold + 3 < pts.len(),
+        "fold at {fold} of {}",
+        pts.len()
+    );
+    // q rose before the fold and falls after it, while the energy keeps growing along the branch.
+    assert!(pts[fold - 1].q > pts[fold - 2].q && pts[fold + 1].q < pts[fold].q);
+    assert!(
+        pts.windows(2).all(|w| w[1].energy > w[0].energy),
+        "energy must grow along s"
+    );
+    // The turning point sits at the 4:1 resonance, w ~ w3 / 4 (within 1 % of it).
+    let w3_over_4 = sys.linear_frequencies()[2] / 4.0;
+    assert!(
+        (pts[fold].omega - w3_over_4).abs() < 0.01 * w3_over_4,
+        "w = {}",
+        pts[fold].omega
+    );
+
+    // Two orbits at the same q*, one on each side of the fold (the falling side's point after
+    // the fold whose q is closest to q*, a q reached on the rising side too).
+    let q_star = pts[fold + 3].q.max(pts[fold - 2].q);
+    let near = |range: &[nlmodes_nnm::BackbonePoint]| {
+        range
+            .iter()
+            .min_by(|a, b| (a.q - q_star).abs().total_cmp(&(b.q - q_star).abs()))
+            .cloned()
+            .expect("points")
+    };
+    let mut solver = Solver::new(&sys, settings, params).expect("solver");
+    let pa = solver
+        .solve_point(q_star, Start::Point(&near(&pts[..fold])))
+        .expect("rising side");
+    let pb = solver
+        .solve_point(q_star, Start::Point(&near(&pts[fold..])))
+        .expect("falling side");
+    println!(
+        "fold at q = {:.4}, w/w1 = {:.5}; q* = {q_star:.4}: (w/w1, energy) = ({:.6}, {:.4}) and ({:.6}, {:.4})",
+        pts[fold - 1].q,
+        pts[fold].omega_ratio,
+        pa.omega_ratio,
+        pa.energy,
+        pb.omega_ratio,
+        pb.energy
+    );
+    // Distinct orbits at the same q: the energies differ by far more than any solver tolerance.
+    assert!(
+        pb.energy > 1.2 * pa.energy,
+        "{} vs {}",
+        pa.energy,
+        pb.energy
+    );
+    // Both are genuine periodic orbits of the penalty system (independent of harmonic balance).
+    // Tolerances 2e-4 (displacement, relative to max |u(0)|) and 2e-3 (velocity, relative to
+    // w max |u(0)|): they cover the N = 16 truncation error in the resonant tongue (observed below)
+    // while a non-periodic initial state would miss by O(1).
+    for p in [&pa, &pb] {
+        let chk = check_periodicity(&sys, &[KC], p, 40_000).expect("integration");
+        println!(
+            "  w/w1 = {:.6}: du = {:.2e}, dv = {:.2e}",
+            p.omega_ratio, chk.displacement_error, chk.velocity_error
+        );
+        assert!(
+            chk.displacement_error <= 2e-4 && chk.velocity_error <= 2e-3,
+            "{chk:?}"
+        );
+    }
+}

@@ -1,0 +1,74 @@
+//! Settings deserialize with documented defaults; points serialize for the output stage.
+
+mod common;
+
+use nlmodes_nnm::{
+    AlgorithmParams, Condensation, ContactMethod, ContinuationSettings, HarmonicSettings,
+    PenaltyUpdate, PowellMeasure, Start,
+};
+
+#[test]
+fn algorithm_parameters_deserialize_with_defaults() {
+    let empty: AlgorithmParams = serde_json::from_str("{}").expect("empty object");
+    assert_eq!(empty, AlgorithmParams::default());
+    let p: AlgorithmParams = serde_json::from_str(
+        r#"{"alpha": 2.0, "epsilon": 1e-8, "measure": "row_maximum",
+            "penalty_update": "as_printed", "condensation": "none",
+            "method": {"kind": "penalty", "stiffness": 100.0},
+            "newton": {"tolerance": 1e-12}}"#,
+    )
+    .expect("parameters");
+    assert_eq!(p.alpha, 2.0);
+    assert_eq!(p.beta, AlgorithmParams::default().beta);
+    assert_eq!(p.measure, PowellMeasure::RowMaximum);
+    assert_eq!(p.penalty_update, PenaltyUpdate::AsPrinted);
+    assert_eq!(p.condensation, Condensation::None);
+    assert_eq!(p.method, ContactMethod::Penalty { stiffness: 100.0 });
+    assert_eq!(p.newton.tolerance, 1e-12);
+    assert_eq!(p.newton.max_iterations, 50);
+    // Unknown keys are errors that name the key.
+    let err = serde_json::from_str::<AlgorithmParams>(r#"{"alpah": 2.0}"#).expect_err("typo");
+    assert!(err.to_string().contains("alpah"), "{err}");
+    let c: ContinuationSettings = serde_json::from_str(r#"{"q_max": 35.0}"#).expect("continuation");
+    assert_eq!(c.q_max, 35.0);
+    assert_eq!(c.q_start, ContinuationSettings::default().q_start);
+    let h: HarmonicSettings =
+        serde_json::from_str(r#"{"harmonics": 10, "samples": 128}"#).expect("harmonics");
+    assert_eq!(h, HarmonicSettings::new(10, 128).expect("valid"));
+}
+
+#[test]
+fn points_serialize_without_the_warm_start_state() {
+    let sys = common::one_dof(1.0);
+    let settings = HarmonicSettings::with_default_samples(4).expect("settings");
+    let p = nlmodes_nnm::solve_point(
+        &sys,
+        settings,
+        AlgorithmParams::default(),
+        1.5,
+        Start::LinearMode(0),
+    )
+    .expect("point");
+    let json = serde_json::to_value(&p).expect("serialize");
+    for key in [
+        "q",
+        "omega",
+        "omega_ratio",
+        "frequency_hz",
+        "energy",
+        "mean_gap",
+        "max_gap",
+        "contact_fraction",
+        "powell_measure",
+        "fold",
+        "jump",
+        "coefficients",
+        "contact_force",
+        "truncation_share",
+    ] {
+        assert!(json.get(key).is_some(), "missing {key}");
+    }
+    assert!(json.get("multipliers").is_none());
+    assert_eq!(json["coefficients"].as_array().map(Vec::len), Some(5));
+    assert_eq!(json["contact_force"][0].as_array().map(Vec::len), Some(64));
+}
