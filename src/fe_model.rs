@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use nlmodes_fem::{assemble, fixed_dofs, read_msh, DofMap, Isotropic, Mesh};
-use nlmodes_modal::{eigs_shift_invert_factored, EigenOptions, Modes, SparseCholesky};
+use nlmodes_modal::{eigs_shift_invert_factored, Modes, SparseCholesky};
 use sprs::CsMat;
 use std::path::Path;
 
@@ -54,16 +54,6 @@ impl FeModel {
             bail!("the number of modes must be at least 1");
         }
         let stage = ui::Stage::start("modes");
-        let spinner = ui::spinner("modes");
-        let tick = |i: usize| {
-            if i % 10 == 0 {
-                spinner.set_message(format!("{i} solves"));
-            }
-        };
-        let opts = EigenOptions {
-            on_iteration: Some(&tick),
-            ..EigenOptions::default()
-        };
         let t = std::time::Instant::now();
         let shifted = nlmodes_modal::shifted(&self.k, &self.m, sigma)?;
         let factor = SparseCholesky::new(&shifted)
@@ -76,18 +66,19 @@ impl FeModel {
             t.elapsed().as_secs_f64()
         );
         let t = std::time::Instant::now();
-        let modes = eigs_shift_invert_factored(&self.k, &self.m, sigma, &factor, n, &opts)
-            .with_context(|| {
-                format!(
-                    "computing {n} modes of the {}-DOF model",
-                    self.dofs.n_free()
-                )
-            })?;
+        let modes = ui::with_solve_spinner("modes", |opts| {
+            eigs_shift_invert_factored(&self.k, &self.m, sigma, &factor, n, opts)
+        })
+        .with_context(|| {
+            format!(
+                "computing {n} modes of the {}-DOF model",
+                self.dofs.n_free()
+            )
+        })?;
         tracing::info!(
             "eigensolver: {n} modes in {:.2} s",
             t.elapsed().as_secs_f64()
         );
-        spinner.finish_and_clear();
         let worst = modes.residuals.iter().cloned().fold(0.0, f64::max);
         stage.done(&format!(
             "{} modes, largest relative residual {worst:.2e}",

@@ -4,8 +4,8 @@
 use anyhow::{bail, Context, Result};
 use faer::Mat;
 use nlmodes_modal::{
-    craig_bampton, reduced_eigen, ContactNode, CraigBampton, EigenOptions, MasterCoordinate,
-    MeshReference, ReducedModel, RotorAxis,
+    craig_bampton, reduced_eigen, ContactNode, CraigBampton, MasterCoordinate, MeshReference,
+    ReducedModel, RotorAxis,
 };
 use std::path::Path;
 
@@ -74,24 +74,16 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBa
         }
     }
     let stage = ui::Stage::start("reduce");
-    let spinner = ui::spinner("reduce");
-    let tick = |i: usize| {
-        if i % 10 == 0 {
-            spinner.set_message(format!("{i} solves"));
-        }
-    };
-    let opts = EigenOptions {
-        on_iteration: Some(&tick),
-        ..EigenOptions::default()
-    };
-    let cb = craig_bampton(&fe.k, &fe.m, &boundary, s.modes, &opts).with_context(|| {
+    let cb = ui::with_solve_spinner("reduce", |opts| {
+        craig_bampton(&fe.k, &fe.m, &boundary, s.modes, opts)
+    })
+    .with_context(|| {
         format!(
             "Craig-Bampton reduction onto {} contact nodes with {} fixed-interface modes",
             nodes.len(),
             s.modes
         )
     })?;
-    spinner.finish_and_clear();
     tracing::info!(
         "reduced model: {} coordinates; asymmetry before symmetrization K_r {:.1e}, M_r {:.1e}",
         cb.n_reduced(),

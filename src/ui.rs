@@ -53,6 +53,27 @@ pub fn spinner(what: &str) -> ProgressBar {
     pb
 }
 
+/// Run `f` with eigensolver options whose progress callback drives a spinner named `what`
+/// ("N solves" of (K - sigma M)^-1), cleared when `f` returns.
+pub fn with_solve_spinner<T>(
+    what: &str,
+    f: impl FnOnce(&nlmodes_modal::EigenOptions<'_>) -> T,
+) -> T {
+    let spinner = spinner(what);
+    let tick = |i: usize| {
+        if i % 10 == 0 {
+            spinner.set_message(format!("{i} solves"));
+        }
+    };
+    let opts = nlmodes_modal::EigenOptions {
+        on_iteration: Some(&tick),
+        ..nlmodes_modal::EigenOptions::default()
+    };
+    let out = f(&opts);
+    spinner.finish_and_clear();
+    out
+}
+
 /// Times a stage and logs one line when it ends.
 pub struct Stage {
     name: &'static str,
