@@ -99,9 +99,8 @@ impl Stage {
     }
 }
 
-/// Print a line to stdout unless quiet (tables and summaries).
+/// Print a result (a table or a summary) to stdout; results are printed even with `--quiet`,
+/// which silences progress bars and log lines only.
 pub fn say(line: &str) {
-    if !quiet() {
-        println!("{line}");
-    }
+    println!("{line}");
 }
