@@ -110,12 +110,12 @@ pub fn frequencies_csv(modes: &Modes) -> String {
 /// The frequency table printed on the terminal.
 pub fn frequency_table(modes: &Modes) -> String {
     let mut s = format!(
-        "{:>5} {:>14} {:>16} {:>10}\n",
+        "{:>5} {:>14} {:>22} {:>10}\n",
         "mode", "frequency [Hz]", "eigenvalue [rad²/s²]", "residual"
     );
     for (i, f) in modes.frequencies_hz().iter().enumerate() {
         s.push_str(&format!(
-            "{:>5} {:>14.4} {:>16.6e} {:>10.2e}\n",
+            "{:>5} {:>14.4} {:>22.6e} {:>10.2e}\n",
             i + 1,
             f,
             modes.eigenvalues[i],
