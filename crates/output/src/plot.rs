@@ -27,6 +27,7 @@ pub use ticks::{nice_ticks, Ticks};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
+use crate::atomic::write_atomic;
 use crate::OutputError;
 
 /// `base` with `.ext` appended (not replacing anything: `q_5.7` gives `q_5.7.svg`).
@@ -35,6 +36,37 @@ pub(crate) fn with_appended_extension(base: &Path, ext: &str) -> PathBuf {
     s.push(".");
     s.push(ext);
     PathBuf::from(s)
+}
+
+/// Writes a rendered SVG (or its rendering error, naming `path`) to `path` atomically.
+pub(crate) fn write_svg_file(
+    svg: Result<String, OutputError>,
+    path: &Path,
+) -> Result<(), OutputError> {
+    let svg = svg.map_err(|e| prefix(e, path))?;
+    write_atomic(path, svg.as_bytes())
+}
+
+/// Rasterizes a rendered SVG to a PNG at `path` ([`PNG_SCALE`] px per SVG px).
+pub(crate) fn write_png_file(
+    svg: Result<String, OutputError>,
+    path: &Path,
+) -> Result<(), OutputError> {
+    let svg = svg.map_err(|e| prefix(e, path))?;
+    svg_to_png(&svg, path, PNG_SCALE)
+}
+
+/// Writes `<base>.svg` and `<base>.png` from one rendering; returns their paths.
+pub(crate) fn write_svg_and_png_files(
+    svg: Result<String, OutputError>,
+    base: &Path,
+) -> Result<(PathBuf, PathBuf), OutputError> {
+    let svg_path = with_appended_extension(base, "svg");
+    let png_path = with_appended_extension(base, "png");
+    let svg = svg.map_err(|e| prefix(e, &svg_path))?;
+    write_atomic(&svg_path, svg.as_bytes())?;
+    svg_to_png(&svg, &png_path, PNG_SCALE)?;
+    Ok((svg_path, png_path))
 }
 
 /// Adds the output file to the "what" of an input error.

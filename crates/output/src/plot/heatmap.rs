@@ -4,12 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use super::color::Colormap;
-use super::prefix;
-use super::raster::{svg_to_png, PNG_SCALE};
 use super::svg::{text_width, Anchor, Svg, TextStyle};
 use super::ticks::{nice_ticks, tick_label};
-use super::with_appended_extension;
-use crate::atomic::write_atomic;
+use super::{write_png_file, write_svg_and_png_files, write_svg_file};
 use crate::finite::check_finite;
 use crate::OutputError;
 
@@ -340,23 +337,16 @@ impl HeatMap {
 
     /// Writes the SVG to `path` atomically.
     pub fn write_svg(&self, path: &Path) -> Result<(), OutputError> {
-        let svg = self.to_svg().map_err(|e| prefix(e, path))?;
-        write_atomic(path, svg.as_bytes())
+        write_svg_file(self.to_svg(), path)
     }
 
-    /// Writes the heat map as PNG ([`PNG_SCALE`] px per SVG px) to `path` atomically.
+    /// Writes the heat map as PNG ([`super::PNG_SCALE`] px per SVG px) to `path` atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), OutputError> {
-        let svg = self.to_svg().map_err(|e| prefix(e, path))?;
-        svg_to_png(&svg, path, PNG_SCALE)
+        write_png_file(self.to_svg(), path)
     }
 
     /// Writes `<base>.svg` and `<base>.png`; returns their paths.
     pub fn write_svg_and_png(&self, base: &Path) -> Result<(PathBuf, PathBuf), OutputError> {
-        let svg_path = with_appended_extension(base, "svg");
-        let png_path = with_appended_extension(base, "png");
-        let svg = self.to_svg().map_err(|e| prefix(e, &svg_path))?;
-        write_atomic(&svg_path, svg.as_bytes())?;
-        svg_to_png(&svg, &png_path, PNG_SCALE)?;
-        Ok((svg_path, png_path))
+        write_svg_and_png_files(self.to_svg(), base)
     }
 }
