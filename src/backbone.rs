@@ -72,6 +72,25 @@ pub fn trace(
             result.points.len()
         ),
     }
+    let flagged: Vec<f64> = result
+        .points
+        .iter()
+        .filter(|p| p.truncation_warning)
+        .map(|p| p.q / g)
+        .collect();
+    if let (Some(lo), Some(hi)) = (
+        flagged.iter().cloned().reduce(f64::min),
+        flagged.iter().cloned().reduce(f64::max),
+    ) {
+        tracing::warn!(
+            "at {} of {} points (q/g0 {lo:.2} .. {hi:.2}) the highest harmonic holds more than {} \
+             of the contact motion: N = {} may be too small there",
+            flagged.len(),
+            result.points.len(),
+            params.truncation_warning,
+            harmonics.harmonics
+        );
+    }
     stage.done(&format!(
         "{} points, last q/g0 = {:.3}, w/w1 = {:.5}",
         result.points.len(),
@@ -84,7 +103,8 @@ pub fn trace(
 /// Column header of `backbone.csv` (units in the names).
 pub const CSV_HEADER: &str = "point,q_over_g0,q_m,omega_rad_s,frequency_hz,omega_ratio,energy_j,\
 mean_gap_over_g0,max_gap_over_g0,max_penetration_over_g0,max_contact_fraction,nodes_in_contact,\
-powell_measure,outer_iterations,inner_solves,newton_iterations,fold,jump,truncation_warning";
+powell_measure,outer_iterations,inner_solves,newton_iterations,fold,jump,truncation_warning,\
+primary_share,secondary_mode,secondary_harmonic,secondary_share";
 
 /// `backbone.csv`: one row per point, in continuation order.
 pub fn backbone_csv(b: &Backbone) -> String {
@@ -96,7 +116,7 @@ pub fn backbone_csv(b: &Backbone) -> String {
         let max_frac = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
         let _ = writeln!(
             s,
-            "{i},{},{},{},{},{},{},{},{},{},{},{touching},{},{},{},{},{},{},{}",
+            "{i},{},{},{},{},{},{},{},{},{},{},{touching},{},{},{},{},{},{},{},{},{},{},{}",
             p.q / g,
             p.q,
             p.omega,
@@ -113,7 +133,11 @@ pub fn backbone_csv(b: &Backbone) -> String {
             p.newton_iterations,
             p.fold as u8,
             p.jump as u8,
-            p.truncation_warning as u8
+            p.truncation_warning as u8,
+            p.primary_share,
+            p.secondary_mode + 1,
+            p.secondary_harmonic,
+            p.secondary_share
         );
     }
     s
@@ -192,6 +216,24 @@ pub fn summary(b: &Backbone) -> String {
             p.frequency_hz,
             touching,
             flags
+        );
+    }
+    for r in &b.internal_resonances {
+        let _ = writeln!(
+            s,
+            "internal resonance at q/g0 = {:.3}, w/w1 = {:.4}: harmonic {} near linear mode {} \
+             (detuning {:+.1} %, {:.0} % of the energy), {}",
+            r.q / g,
+            r.omega_ratio,
+            r.harmonic,
+            r.mode + 1,
+            100.0 * r.detuning,
+            100.0 * r.share,
+            if r.hopped {
+                "tongue skipped by a fixed-q hop"
+            } else {
+                "no hop past it converged"
+            }
         );
     }
     let _ = writeln!(

@@ -102,7 +102,11 @@ impl Default for Case {
                 q_max: 35.0,
                 ..ContinuationSettings::default()
             },
-            algorithm: AlgorithmParams::default(),
+            // epsilon 1e-3 g0: see AlgorithmParams::epsilon and docs/VERIFICATION.md.
+            algorithm: AlgorithmParams {
+                epsilon: 1e-3,
+                ..AlgorithmParams::default()
+            },
         }
     }
 }
@@ -146,8 +150,8 @@ impl Default for ModelSection {
 impl Default for NnmSection {
     fn default() -> Self {
         Self {
-            harmonics: 15,
-            samples: 256,
+            harmonics: 10,
+            samples: 128,
             keep: vec![5.7, 9.3, 31.3],
             frames: 24,
         }

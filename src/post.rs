@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use crate::case::Case;
 use crate::run::Layout;
 use crate::{figures, ui};
+use rayon::prelude::*;
 
 /// What post-processing reads of a backbone point (a subset of `nlmodes_nnm::BackbonePoint`).
 #[derive(Debug, Clone, Deserialize)]
@@ -75,6 +76,21 @@ pub struct BackboneFile {
     pub omega_linear: f64,
     pub gap_reference: f64,
     pub grazing_amplitude: Option<f64>,
+    /// Internal-resonance tongues skipped by the continuation.
+    #[serde(default)]
+    pub internal_resonances: Vec<InternalResonanceRecord>,
+}
+
+/// An internal resonance recorded by the continuation (see `nlmodes_nnm::InternalResonance`).
+#[derive(Debug, Clone, Deserialize)]
+pub struct InternalResonanceRecord {
+    pub q: f64,
+    pub omega_ratio: f64,
+    pub mode: usize,
+    pub harmonic: usize,
+    pub share: f64,
+    pub detuning: f64,
+    pub hopped: bool,
 }
 
 fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T> {
@@ -108,6 +124,15 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     figures::backbone_figure(&b, out)?;
     let nonlinear = manifold_coordinate(&b);
     manifold(&model, &b, nonlinear, out)?;
+    // The full mesh, read once for every VTU series.
+    let mesh = match (&model.recovery, &model.mesh) {
+        (Some(_), Some(mref)) => Some(
+            nlmodes_fem::read_msh(Path::new(&mref.msh_file)).with_context(|| {
+                format!("reading the mesh of the reduced model {}", mref.msh_file)
+            })?,
+        ),
+        _ => None,
+    };
     let mut written = Vec::new();
     for orbit in &kept {
         let tag = format!("q{:.1}", orbit.q / g0);
@@ -116,8 +141,8 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
             .with_context(|| format!("cannot create {}", dir.display()))?;
         radial_history(&model, orbit, g0, &dir, &tag)?;
         contact_map(orbit, &dir, &tag)?;
-        if model.recovery.is_some() && model.mesh.is_some() {
-            vtu_series(case, &model, orbit, &dir, &tag)?;
+        if let Some(mesh) = &mesh {
+            vtu_series(case, &model, mesh, orbit, &dir, &tag)?;
         } else {
             tracing::warn!("the reduced model has no recovery basis or mesh: VTU output skipped");
         }
@@ -220,12 +245,17 @@ fn contact_map(o: &Orbit, dir: &Path, tag: &str) -> Result<()> {
 }
 
 /// Fig. 5: a VTU per frame over one period on the full FE mesh, and a PVD collection.
-fn vtu_series(case: &Case, model: &ReducedModel, o: &Orbit, dir: &Path, tag: &str) -> Result<()> {
+fn vtu_series(
+    case: &Case,
+    model: &ReducedModel,
+    mesh: &nlmodes_fem::Mesh,
+    o: &Orbit,
+    dir: &Path,
+    tag: &str,
+) -> Result<()> {
     let (Some(r), Some(mref)) = (&model.recovery, &model.mesh) else {
         return Ok(());
     };
-    let mesh = nlmodes_fem::read_msh(Path::new(&mref.msh_file))
-        .with_context(|| format!("reading the mesh of the reduced model {}", mref.msh_file))?;
     anyhow::ensure!(
         3 * mesh.n_nodes() == mref.n_full_dofs,
         "mesh {} has {} DOFs but the reduced model was built on {}",
@@ -245,34 +275,37 @@ fn vtu_series(case: &Case, model: &ReducedModel, o: &Orbit, dir: &Path, tag: &st
         is_contact[n] = 1.0;
         node_of.push(n);
     }
-    let mut files: Vec<PathBuf> = Vec::new();
-    let mut times = Vec::new();
-    for f in 0..frames {
-        let t = f as f64 / frames as f64;
-        let u = o.at_phase(2.0 * PI * t);
-        let free: Vec<f64> = (0..r.nrows())
-            .map(|i| (0..r.ncols()).map(|j| r[(i, j)] * u[j]).sum())
-            .collect();
-        let full = mref.expand_to_full(&free)?;
-        let radial_disp = radial(model, &u);
-        let k = ((t * m as f64).round() as usize) % m;
-        let mut gap = vec![0.0; mesh.n_nodes()];
-        let mut force = vec![0.0; mesh.n_nodes()];
-        for (j, &n) in node_of.iter().enumerate() {
-            gap[n] = radial_disp[j] - model.contact_nodes[j].gap;
-            force[n] = o.contact_force[j][k];
-        }
-        let name = format!("frame_{f:03}.vtu");
-        let fields = [
-            Field::vector("displacement_m", &full),
-            Field::scalar("radial_gap_m", &gap),
-            Field::scalar("contact_force_n", &force),
-            Field::scalar("contact_node", &is_contact),
-        ];
-        nlmodes_output::write_vtu(&dir.join(&name), &crate::output::vtu_mesh(&mesh), &fields)?;
-        files.push(PathBuf::from(name));
-        times.push(t);
-    }
+    // Reduced states of every frame as columns, recovered in one product.
+    let times: Vec<f64> = (0..frames).map(|f| f as f64 / frames as f64).collect();
+    let states: Vec<Vec<f64>> = times.iter().map(|t| o.at_phase(2.0 * PI * t)).collect();
+    let reduced = faer::Mat::from_fn(r.ncols(), frames, |j, f| states[f][j]);
+    let recovered = r * &reduced;
+    let vtu = crate::output::vtu_mesh(mesh);
+    let files: Vec<PathBuf> = (0..frames)
+        .into_par_iter()
+        .map(|f| -> Result<PathBuf> {
+            let u = &states[f];
+            let free = recovered.col(f).iter().copied().collect::<Vec<f64>>();
+            let full = mref.expand_to_full(&free)?;
+            let radial_disp = radial(model, u);
+            let k = ((times[f] * m as f64).round() as usize) % m;
+            let mut gap = vec![0.0; mesh.n_nodes()];
+            let mut force = vec![0.0; mesh.n_nodes()];
+            for (j, &n) in node_of.iter().enumerate() {
+                gap[n] = radial_disp[j] - model.contact_nodes[j].gap;
+                force[n] = o.contact_force[j][k];
+            }
+            let name = format!("frame_{f:03}.vtu");
+            let fields = [
+                Field::vector("displacement_m", &full),
+                Field::scalar("radial_gap_m", &gap),
+                Field::scalar("contact_force_n", &force),
+                Field::scalar("contact_node", &is_contact),
+            ];
+            nlmodes_output::write_vtu(&dir.join(&name), &vtu, &fields)?;
+            Ok(PathBuf::from(name))
+        })
+        .collect::<Result<_>>()?;
     let entries: Vec<PvdEntry> = files
         .iter()
         .zip(&times)

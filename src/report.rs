@@ -105,6 +105,30 @@ pub fn write_report(
             .unwrap_or_else(|| "none".into()),
         b.termination
     );
+    if !b.internal_resonances.is_empty() {
+        let _ = writeln!(
+            s,
+            "Internal resonances met by the continuation (the branch turned into a tongue where \
+             harmonic n of the orbit drives linear mode k; the tongue is not followed, a fixed-q \
+             hop resumes the backbone past it and the next point is flagged as a jump):\n\n\
+             | q/g0 | w/w1 | mode k | harmonic n | detuning (n w - w_k)/w_k | energy share | hop |\n\
+             |---|---|---|---|---|---|---|"
+        );
+        for r in &b.internal_resonances {
+            let _ = writeln!(
+                s,
+                "| {:.3} | {:.4} | {} | {} | {:+.2} % | {:.0} % | {} |",
+                r.q / g0,
+                r.omega_ratio,
+                r.mode + 1,
+                r.harmonic,
+                100.0 * r.detuning,
+                100.0 * r.share,
+                if r.hopped { "yes" } else { "failed" }
+            );
+        }
+        let _ = writeln!(s);
+    }
     let _ = writeln!(
         s,
         "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | flags |\n|---|---|---|---|---|---|---|---|"

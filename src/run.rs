@@ -84,6 +84,10 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     std::fs::create_dir_all(&layout.root)
         .with_context(|| format!("cannot create {}", layout.root.display()))?;
     tracing::info!("case {} -> {}", case_path.display(), layout.root.display());
+    let stale = nlmodes_output::remove_stale_temporaries(&layout.root)?;
+    if stale > 0 {
+        tracing::info!("removed {stale} temporary files left by an interrupted run");
+    }
     let wants = |s: Only| only.is_none_or(|o| o == s);
     let total = std::time::Instant::now();
 

@@ -263,6 +263,80 @@ fn coarse_blade_study_end_to_end() {
             .unwrap(),
         model_time
     );
+
+    // A run killed while writing leaves no half-written file; the next run completes.
+    interrupted_run_leaves_no_half_written_file(&case2, &res);
+}
+
+/// Every final (non-temporary) file under `dir` is complete: JSON parses, CSV has a header and
+/// a row, VTU and PVD end with their closing tag, PNG ends with the IEND chunk.
+fn assert_complete_outputs(dir: &Path) {
+    for p in walk(dir) {
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if name.contains(".tmp-") {
+            continue;
+        }
+        let bytes = std::fs::read(&p).unwrap();
+        let tail = String::from_utf8_lossy(&bytes[bytes.len().saturating_sub(64)..]).into_owned();
+        let ok = match p.extension().and_then(|e| e.to_str()) {
+            Some("json") => serde_json::from_slice::<serde_json::Value>(&bytes).is_ok(),
+            Some("csv") => String::from_utf8_lossy(&bytes).lines().count() >= 2,
+            Some("vtu") | Some("pvd") => tail.trim_end().ends_with("</VTKFile>"),
+            Some("png") => bytes.len() > 12 && &bytes[bytes.len() - 8..bytes.len() - 4] == b"IEND",
+            _ => true,
+        };
+        assert!(ok, "{} is incomplete", p.display());
+    }
+}
+
+/// Kills `nlmodes run --only post --force` while it is writing (a temporary file exists), then
+/// checks that no final file is half-written and that the next run cleans up and completes.
+fn interrupted_run_leaves_no_half_written_file(case: &Path, res: &Path) {
+    let has_temporary = |dir: &Path| {
+        walk(dir)
+            .iter()
+            .any(|p| p.file_name().unwrap().to_string_lossy().contains(".tmp-"))
+    };
+    let mut caught = false;
+    for _attempt in 0..10 {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_nlmodes"))
+            .args([
+                "run",
+                case.to_str().unwrap(),
+                "--only",
+                "post",
+                "--force",
+                "--quiet",
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        loop {
+            if has_temporary(res) {
+                child.kill().unwrap();
+                child.wait().unwrap();
+                caught = true;
+                break;
+            }
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        }
+        if caught {
+            break;
+        }
+    }
+    assert!(
+        caught,
+        "never caught the post stage while it was writing a file"
+    );
+    assert_complete_outputs(res);
+    let out = nlmodes(&["run", case.to_str().unwrap()], &[]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(!has_temporary(res), "temporary files survived the rerun");
+    assert_complete_outputs(res);
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {

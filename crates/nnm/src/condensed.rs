@@ -4,7 +4,9 @@
 //! A Newton step is solved in two exact levels:
 //! 1. per harmonic n, every other-mode z_i away from resonance (|Lambda_i - s| >= window Lambda_i,
 //!    s = (n w)^2) is eliminated through the diagonal D_oo: the Schur complement
-//!    S_n = D_kk - D_ko D_oo^-1 D_ok costs O(r^2 n_o), plus O(r n_o) for the w column and the
+//!    S_n = D_kk - D_ko D_oo^-1 D_ok costs O(r^2 n_o) summed term by term; the high modes
+//!    (Lambda_i >= 4 s) are summed by a precomputed series exact to round-off (`modal_tail`), so
+//!    only the modes below the cut cost O(r^2) each, plus O(r n_o) for the w column and the
 //!    right-hand side. Modes near resonance stay explicit unknowns of the small per-harmonic block.
 //! 2. per harmonic, the coordinates that carry no active contact and are not the master are
 //!    eliminated from that block by a small LU; what remains (active contact coordinates and the
@@ -20,6 +22,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 use crate::condensation::CondensedBasis;
 use crate::dense::DenseLu;
 use crate::error::NnmError;
+use crate::modal_tail::ModalTail;
 use crate::newton::{contact_jacobian, JacobianData, LinearModel};
 use crate::system::System;
 
@@ -54,6 +57,7 @@ struct HarmonicBlock {
 
 pub(crate) struct CondensedModel {
     basis: CondensedBasis,
+    tail: ModalTail,
     weights: Vec<f64>,
     window: f64,
     blocks: Vec<HarmonicBlock>,
@@ -81,8 +85,13 @@ impl CondensedModel {
             weights.push(1.0 / l.sqrt());
         }
         let (r, n_o) = (basis.r, basis.n_o);
+        // Series ratio: s <= rho Lambda also keeps the tail modes out of the resonance window
+        // (|Lambda - s| < window Lambda needs s > (1 - window) Lambda).
+        let rho = (0.5 * (1.0 - window)).min(0.25);
+        let tail = ModalTail::new(&basis.lambda, &basis.kt, &basis.mt, rho);
         Ok(Self {
             basis,
+            tail,
             weights,
             window,
             blocks: Vec::new(),
@@ -124,9 +133,11 @@ impl CondensedModel {
             let blk = &mut self.blocks[h];
             blk.near.clear();
             blk.wt.resize(n_o, 0.0);
+            // Modes from `cut` on are summed by the precomputed series (`modal_tail`).
+            let (cut, tail) = self.tail.split(&bs.lambda, s);
             for i in 0..n_o {
                 let l = bs.lambda[i];
-                if (l - s).abs() < self.window * l {
+                if i < cut && (l - s).abs() < self.window * l {
                     blk.near.push(i);
                     blk.wt[i] = 0.0;
                 } else {
@@ -153,15 +164,18 @@ impl CondensedModel {
                     sm[i] = kk[i] - s * mk[i];
                 }
             }
-            if n_o > 0 {
+            if cut > 0 {
                 matmul(
                     self.s_mat.as_mut(),
                     Accum::Add,
-                    self.dw.as_ref(),
-                    self.dt.transpose(),
+                    self.dw.get(.., ..cut),
+                    self.dt.get(.., ..cut).transpose(),
                     -1.0,
                     Par::Seq,
                 );
+            }
+            if let Some(which) = tail {
+                self.tail.subtract(which, s, self.s_mat.as_mut());
             }
             let nn = blk.near.len();
             let size = r + nn;

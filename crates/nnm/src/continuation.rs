@@ -56,6 +56,15 @@ pub struct ContinuationSettings {
     /// A point is flagged as a jump when the corrector lands farther than this times the step from
     /// the predictor (default 1).
     pub jump_factor: f64,
+    /// Skip internal-resonance tongues (default true): a point whose largest secondary component
+    /// (linear mode k, harmonic n >= 2) holds more energy than the primary one (starting mode,
+    /// n = 1) while n w is within `resonance_tolerance` of w_k has left the backbone along a tongue
+    /// where energy flows into mode k at a frequency locked to w_k / n. It is not kept; the run
+    /// returns to the last point and hops ahead at fixed q (the point reached is a jump), and the
+    /// skipped resonance is recorded in [`Backbone::internal_resonances`].
+    pub skip_internal_resonances: bool,
+    /// Relative detuning |n w - w_k| / w_k below which a component counts as resonant (default 0.02).
+    pub resonance_tolerance: f64,
 }
 
 impl Default for ContinuationSettings {
@@ -72,6 +81,8 @@ impl Default for ContinuationSettings {
             shrink: 0.5,
             easy_iterations: 8,
             jump_factor: 1.0,
+            skip_internal_resonances: true,
+            resonance_tolerance: 0.02,
         }
     }
 }
@@ -96,6 +107,7 @@ impl ContinuationSettings {
         pos("min_step", self.min_step)?;
         pos("max_step", self.max_step)?;
         pos("jump_factor", self.jump_factor)?;
+        pos("resonance_tolerance", self.resonance_tolerance)?;
         if self.q_max <= self.q_start {
             return Err(NnmError::InvalidParameter {
                 name: "q_max",
@@ -154,6 +166,15 @@ pub enum Termination {
     },
     /// The branch turned back and reached q <= 0 (the normalization degenerates).
     AmplitudeNotPositive,
+    /// The branch entered an internal-resonance tongue and no hop past it converged.
+    InternalResonance {
+        /// Master amplitude of the last point before the tongue.
+        q: f64,
+        /// The resonating linear mode (0-based).
+        mode: usize,
+        /// The harmonic close to it.
+        harmonic: usize,
+    },
     /// The first point could not be computed.
     StartFailed {
         /// The error.
@@ -176,6 +197,29 @@ pub struct Backbone {
     pub grazing_amplitude: Option<f64>,
     /// Amplitude levels that could not be solved (amplitude sweep only), with the error.
     pub skipped: Vec<SkippedLevel>,
+    /// Internal-resonance tongues met and skipped by [`crate::backbone`].
+    pub internal_resonances: Vec<InternalResonance>,
+}
+
+/// An internal resonance met by the continuation: the branch turned into a tongue where linear
+/// mode `mode` at harmonic `harmonic` took over the orbit (`harmonic` x w close to w_mode).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct InternalResonance {
+    /// Master amplitude of the tongue point (length unit of the system).
+    pub q: f64,
+    /// w / w_lin at the tongue point.
+    pub omega_ratio: f64,
+    /// The resonating linear mode (0-based).
+    pub mode: usize,
+    /// The harmonic n with n w close to its frequency.
+    pub harmonic: usize,
+    /// Its share of the orbit's energy.
+    pub share: f64,
+    /// Relative detuning (n w - w_k) / w_k from the linear frequency of the mode (contact stiffens
+    /// the modes, so the tongue may sit a few percent away from it).
+    pub detuning: f64,
+    /// Whether a hop past the tongue succeeded (the next point is flagged as a jump).
+    pub hopped: bool,
 }
 
 /// An amplitude level of [`crate::amplitude_sweep`] that did not converge.
@@ -212,6 +256,7 @@ where
         gap_reference: g_ref,
         grazing_amplitude: grazing,
         skipped: Vec::new(),
+        internal_resonances: Vec::new(),
     };
     let c = system.n_contacts();
     let y_norm = ((c + 1) as f64).sqrt();
@@ -245,6 +290,7 @@ where
     let mut ds = cont.step;
     let mut last_ds = ds;
     let mut last_dq_sign = 1.0;
+    let omegas = system.linear_frequencies();
     loop {
         if result.points.len() >= cont.max_points {
             result.termination = Termination::MaxPoints;
@@ -274,112 +320,206 @@ where
                 y_scale: g_ref,
             }
         };
-        match solver.solve_with_row(row, guess) {
+        // A point accepted by a fixed-q hop (past a tongue or a corner of the branch).
+        let hopped = match solver.solve_with_row(row, guess) {
             Ok(mut p) => {
                 let xn = scaled(&p);
                 if xn[0] <= 0.0 {
                     result.termination = Termination::AmplitudeNotPositive;
                     return Ok(result);
                 }
-                let mut delta: Vec<f64> = xn.iter().zip(&xl).map(|(a, b)| a - b).collect();
-                let len = normalize(&mut delta);
-                let miss = xn
-                    .iter()
-                    .zip(&pred)
-                    .map(|(a, b)| (a - b).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                p.jump = miss > cont.jump_factor * step;
-                if xn[0] != xl[0] {
-                    let sign = (xn[0] - xl[0]).signum();
-                    p.fold = sign != last_dq_sign;
-                    last_dq_sign = sign;
-                }
-                if p.fold {
-                    tracing::info!(q = p.q, omega = p.omega, "turning point of q (fold) passed");
-                }
-                if p.jump {
+                if let Some(res) = cont.tongue(&p, &omegas) {
+                    // The branch left the backbone along an internal-resonance tongue: drop the
+                    // point and hop ahead at fixed q from the last point of the backbone.
                     tracing::warn!(
-                        q = p.q,
-                        omega = p.omega,
-                        "corrector far from predictor: jump?"
+                        q_over_g0 = p.q / g_ref,
+                        omega_ratio = p.omega_ratio,
+                        mode = res.mode + 1,
+                        harmonic = res.harmonic,
+                        share = res.share,
+                        "internal resonance: harmonic {} of the orbit is close to linear mode {}; \
+                         skipping the tongue",
+                        res.harmonic,
+                        res.mode + 1
                     );
-                }
-                if len > 0.0 {
-                    tangent = delta;
-                }
-                last_ds = len.max(f64::MIN_POSITIVE);
-                if p.newton_iterations <= cont.easy_iterations {
-                    ds = (ds * cont.growth).min(cont.max_step);
-                }
-                progress(&p);
-                let reached = final_step || xn[0] >= cont.q_max;
-                result.points.push(p);
-                if reached {
-                    result.termination = Termination::ReachedMaxAmplitude;
-                    return Ok(result);
+                    let last = &result.points[result.points.len() - 1];
+                    let base = (last_ds * tangent[0].abs()).max(cont.step);
+                    let hop = hop_ahead(&mut solver, last, 1.0, base, cont, &omegas);
+                    result.internal_resonances.push(InternalResonance {
+                        hopped: hop.is_some(),
+                        ..res
+                    });
+                    match hop {
+                        Some(h) => h,
+                        None => {
+                            result.termination = Termination::InternalResonance {
+                                q: last.q,
+                                mode: res.mode,
+                                harmonic: res.harmonic,
+                            };
+                            return Ok(result);
+                        }
+                    }
+                } else {
+                    let mut delta: Vec<f64> = xn.iter().zip(&xl).map(|(a, b)| a - b).collect();
+                    let len = normalize(&mut delta);
+                    let miss = xn
+                        .iter()
+                        .zip(&pred)
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    p.jump = miss > cont.jump_factor * step;
+                    if xn[0] != xl[0] {
+                        let sign = (xn[0] - xl[0]).signum();
+                        p.fold = sign != last_dq_sign;
+                        last_dq_sign = sign;
+                    }
+                    if p.fold {
+                        tracing::info!(
+                            q = p.q,
+                            omega = p.omega,
+                            "turning point of q (fold) passed"
+                        );
+                    }
+                    if p.jump {
+                        tracing::warn!(
+                            q = p.q,
+                            omega = p.omega,
+                            "corrector far from predictor: jump?"
+                        );
+                    }
+                    if len > 0.0 {
+                        tangent = delta;
+                    }
+                    last_ds = len.max(f64::MIN_POSITIVE);
+                    if p.newton_iterations <= cont.easy_iterations {
+                        ds = (ds * cont.growth).min(cont.max_step);
+                    }
+                    progress(&p);
+                    let reached = final_step || xn[0] >= cont.q_max;
+                    result.points.push(p);
+                    if reached {
+                        result.termination = Termination::ReachedMaxAmplitude;
+                        return Ok(result);
+                    }
+                    continue;
                 }
             }
             Err(e) => {
                 ds *= cont.shrink;
                 tracing::debug!(step = ds, error = %e, "continuation step failed, retrying");
-                if ds < cont.min_step {
-                    // Last resort at a corner of the branch (a sample entering contact where
-                    // the branch is not smooth): hop over it at fixed q, in the current direction
-                    // of q, with growing increments.
-                    let last = &result.points[result.points.len() - 1];
-                    let base = (last_ds * tangent[0].abs()).max(cont.min_step);
-                    let mut hopped = None;
-                    for i in 0..JUMP_ATTEMPTS {
-                        let dq = last_dq_sign * base * f64::from(1u32 << i);
-                        let q = last.q + dq * g_ref;
-                        if q <= 0.0 || q / g_ref > cont.q_max {
-                            break;
-                        }
-                        if let Ok(mut p) = solver.solve_point(q, Start::Point(last)) {
-                            p.jump = true;
-                            hopped = Some(p);
-                            break;
-                        }
+                if ds >= cont.min_step {
+                    continue;
+                }
+                // Last resort at a corner of the branch (a sample entering contact where the
+                // branch is not smooth): hop over it at fixed q, in the current direction of q.
+                let last = &result.points[result.points.len() - 1];
+                let base = (last_ds * tangent[0].abs()).max(cont.min_step);
+                match hop_ahead(&mut solver, last, last_dq_sign, base, cont, &omegas) {
+                    Some(h) => {
+                        tracing::warn!(
+                            q = h.q,
+                            omega = h.omega,
+                            "hopped over a corner of the branch at fixed q"
+                        );
+                        h
                     }
-                    match hopped {
-                        Some(p) => {
-                            tracing::warn!(
-                                q = p.q,
-                                omega = p.omega,
-                                "hopped over a corner of the branch at fixed q"
-                            );
-                            let xn = scaled(&p);
-                            let mut delta: Vec<f64> =
-                                xn.iter().zip(&xl).map(|(a, b)| a - b).collect();
-                            last_ds = normalize(&mut delta).max(f64::MIN_POSITIVE);
-                            tangent = delta;
-                            ds = cont.step.min(cont.max_step).max(cont.min_step);
-                            progress(&p);
-                            let reached = xn[0] >= cont.q_max;
-                            result.points.push(p);
-                            if reached {
-                                result.termination = Termination::ReachedMaxAmplitude;
-                                return Ok(result);
-                            }
-                        }
-                        None => {
-                            result.termination = Termination::StepTooSmall {
-                                q: result.points[result.points.len() - 1].q,
-                                step: ds,
-                                reason: e.to_string(),
-                            };
-                            return Ok(result);
-                        }
+                    None => {
+                        result.termination = Termination::StepTooSmall {
+                            q: last.q,
+                            step: ds,
+                            reason: e.to_string(),
+                        };
+                        return Ok(result);
                     }
                 }
             }
+        };
+        // Restart the arc length from the hopped point, along the secant of the hop.
+        let xn = scaled(&hopped);
+        let mut delta: Vec<f64> = xn.iter().zip(&xl).map(|(a, b)| a - b).collect();
+        last_ds = normalize(&mut delta).max(f64::MIN_POSITIVE);
+        last_dq_sign = delta[0].signum();
+        tangent = delta;
+        ds = cont.step.min(cont.max_step).max(cont.min_step);
+        progress(&hopped);
+        let reached = xn[0] >= cont.q_max;
+        result.points.push(hopped);
+        if reached {
+            result.termination = Termination::ReachedMaxAmplitude;
+            return Ok(result);
         }
     }
 }
 
-/// Fixed-q hops tried when the arc-length step has shrunk below `min_step`.
-const JUMP_ATTEMPTS: u32 = 5;
+impl ContinuationSettings {
+    /// The internal resonance a point sits in, if tongues are skipped and the point's largest
+    /// secondary component (mode k, harmonic n >= 2) outweighs the primary one (starting mode,
+    /// n = 1): the orbit is then no longer the primary mode's. `omegas`: linear circular
+    /// frequencies, for the detuning |n w - w_k| / w_k recorded with it.
+    fn tongue(&self, p: &BackbonePoint, omegas: &[f64]) -> Option<InternalResonance> {
+        let (k, n) = (p.secondary_mode, p.secondary_harmonic);
+        if !self.skip_internal_resonances || n < 2 || p.secondary_share <= p.primary_share {
+            return None;
+        }
+        let wk = *omegas.get(k)?;
+        Some(InternalResonance {
+            q: p.q,
+            omega_ratio: p.omega_ratio,
+            mode: k,
+            harmonic: n,
+            share: p.secondary_share,
+            detuning: (n as f64 * p.omega - wk) / wk,
+            hopped: false,
+        })
+    }
+}
+
+/// Fixed-q hops from `last`: q = last.q + sign base 2^i g_ref for i < `JUMP_ATTEMPTS` (within
+/// (0, q_max]), warm-started from `last`, then, for a forward hop that failed, from the linear mode
+/// scaled to q (with the penalty homotopy of the solver); the first converged point outside a
+/// tongue is returned, flagged as a jump.
+fn hop_ahead(
+    solver: &mut Solver<'_>,
+    last: &BackbonePoint,
+    sign: f64,
+    base: f64,
+    cont: &ContinuationSettings,
+    omegas: &[f64],
+) -> Option<BackbonePoint> {
+    let g_ref = solver.system().gap_reference();
+    for i in 0..JUMP_ATTEMPTS {
+        let q = last.q + sign * base * f64::from(1u32 << i) * g_ref;
+        let q = if sign > 0.0 {
+            q.min(cont.q_max * g_ref)
+        } else {
+            q
+        };
+        if q <= 0.0 || (sign > 0.0 && q <= last.q) {
+            return None;
+        }
+        let mut starts = vec![Start::Point(last)];
+        if sign > 0.0 {
+            starts.push(Start::LinearMode(last.mode));
+        }
+        for start in starts {
+            match solver.solve_point(q, start) {
+                Ok(mut p) if cont.tongue(&p, omegas).is_none() => {
+                    p.jump = true;
+                    return Some(p);
+                }
+                Ok(p) => tracing::debug!(q = p.q, "hop landed in a tongue, hopping farther"),
+                Err(e) => tracing::debug!(q, error = %e, "hop failed"),
+            }
+        }
+    }
+    None
+}
+
+/// Fixed-q hops tried when the arc-length step has shrunk below `min_step` or the branch entered
+/// a tongue (the last one is 2^5 = 32 base steps ahead).
+const JUMP_ATTEMPTS: u32 = 6;
 
 /// Normalizes `v` to unit length in place and returns its former length.
 fn normalize(v: &mut [f64]) -> f64 {

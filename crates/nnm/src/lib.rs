@@ -47,6 +47,7 @@ mod error;
 mod fourier;
 mod full;
 mod integrate;
+mod modal_tail;
 mod newton;
 mod newton_fallback;
 mod point;
@@ -56,7 +57,9 @@ mod system;
 
 pub use augmented_lagrangian::{AlgorithmParams, Condensation, ContactMethod, PenaltyUpdate};
 pub use contact::{powell_measure, Multipliers, PowellMeasure};
-pub use continuation::{backbone, Backbone, ContinuationSettings, SkippedLevel, Termination};
+pub use continuation::{
+    backbone, Backbone, ContinuationSettings, InternalResonance, SkippedLevel, Termination,
+};
 pub use error::NnmError;
 pub use fourier::{cosine_series, cosine_series_rate, HarmonicSettings};
 pub use integrate::{check_periodicity, integrate_penalty, MotionState, PeriodicityCheck};
@@ -64,4 +67,4 @@ pub use newton::NewtonSettings;
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
 pub use sweep::amplitude_sweep;
-pub use system::System;
+pub use system::{ModalShares, System};

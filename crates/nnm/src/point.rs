@@ -54,6 +54,16 @@ pub struct BackbonePoint {
     pub truncation_share: f64,
     /// `truncation_share` exceeds `AlgorithmParams::truncation_warning`: N is too small here.
     pub truncation_warning: bool,
+    /// Modal purity: share of the orbit's energy in the starting linear mode at harmonic 1 (see
+    /// [`crate::System::modal_shares`]); 1 below grazing, lower as contact spreads the motion.
+    pub primary_share: f64,
+    /// The linear mode (0-based) holding the largest other share.
+    pub secondary_mode: usize,
+    /// The harmonic of that largest other share.
+    pub secondary_harmonic: usize,
+    /// The largest other share; close to `primary_share` or above it in an internal resonance
+    /// (`secondary_harmonic` x w close to the frequency of `secondary_mode`).
+    pub secondary_share: f64,
     /// Fourier coefficients u_n, n = 0..N, each a full n-vector (physical coordinates).
     pub coefficients: Vec<Vec<f64>>,
     /// Contact force samples lambda_{j,k} at t_k = k T / m, one vector of m per contact row.

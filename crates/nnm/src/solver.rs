@@ -392,6 +392,8 @@ impl<'s> Solver<'s> {
         let truncation_share = if total > 0.0 { top / total } else { 0.0 };
         let truncation_warning = truncation_share > self.params.truncation_warning;
         let w_ref = self.linear_frequency(mode)?;
+        let shares = sys.modal_shares(&coefficients);
+        let (secondary_mode, secondary_harmonic, secondary_share) = shares.largest_other(mode);
         let point = BackbonePoint {
             mode,
             q: state.q,
@@ -413,6 +415,10 @@ impl<'s> Solver<'s> {
             jump: false,
             truncation_share,
             truncation_warning,
+            primary_share: shares.share(mode, 1),
+            secondary_mode,
+            secondary_harmonic,
+            secondary_share,
             coefficients,
             contact_force,
             multipliers,
@@ -425,7 +431,7 @@ impl<'s> Solver<'s> {
             });
         }
         if truncation_warning {
-            tracing::warn!(
+            tracing::debug!(
                 q = point.q,
                 share = truncation_share,
                 limit = self.params.truncation_warning,

@@ -54,6 +54,7 @@ where
         gap_reference: g_ref,
         grazing_amplitude: system.grazing_amplitude(mode)?,
         skipped: Vec::new(),
+        internal_resonances: Vec::new(),
     };
     // Last two converged states (not necessarily at levels).
     let mut history: Vec<BackbonePoint> = Vec::new();

@@ -13,6 +13,39 @@ use faer::{Mat, MatRef};
 use crate::dense::{checked_symmetric, cholesky_lower, generalized_eigen};
 use crate::error::NnmError;
 
+/// Energy shares of an orbit by linear mode and harmonic (see [`System::modal_shares`]).
+#[derive(Clone, Debug)]
+pub struct ModalShares {
+    /// shares[(k, n)]: share of linear mode k (0-based, ascending frequency) at harmonic n; the
+    /// entries sum to 1 (all zero for a zero orbit).
+    pub shares: Mat<f64>,
+}
+
+impl ModalShares {
+    /// Share of linear mode `mode` at harmonic `harmonic` (0 if out of range).
+    pub fn share(&self, mode: usize, harmonic: usize) -> f64 {
+        if mode < self.shares.nrows() && harmonic < self.shares.ncols() {
+            self.shares[(mode, harmonic)]
+        } else {
+            0.0
+        }
+    }
+
+    /// The largest share other than (`mode`, 1): (mode k, harmonic n, share).
+    pub fn largest_other(&self, mode: usize) -> (usize, usize, f64) {
+        let mut best = (0, 0, 0.0);
+        for h in 0..self.shares.ncols() {
+            for k in 0..self.shares.nrows() {
+                let v = self.shares[(k, h)];
+                if (k, h) != (mode, 1) && v > best.2 {
+                    best = (k, h, v);
+                }
+            }
+        }
+        best
+    }
+}
+
 /// A linear elastic structure with frictionless unilateral contact rows.
 #[derive(Clone)]
 pub struct System {
@@ -228,6 +261,29 @@ impl System {
     /// of the initial augmented-Lagrangian penalties.
     pub fn contact_stiffness(&self) -> &[f64] {
         &self.contact_stiffness
+    }
+
+    /// Where the energy of an orbit sits among the linear modes and harmonics: for the cosine
+    /// coefficients u_n (n = 0..N) and each mass-normalized linear mode phi_k, the modal amplitude
+    /// eta_kn = phi_k^T M u_n and the share e_kn / sum e of e_kn = w_k^2 eta_kn^2 (the potential
+    /// energy of the linear mode at the amplitude of that harmonic, J for SI matrices). The
+    /// backbone uses the share of (starting mode, n = 1), the "modal purity", to tell the primary
+    /// branch from an internal-resonance tongue, where the energy flows into (k, n) with
+    /// n w close to w_k.
+    pub fn modal_shares(&self, coefficients: &[Vec<f64>]) -> ModalShares {
+        let n = self.n_dofs();
+        let nh = coefficients.len();
+        let u = Mat::from_fn(n, nh, |i, h| coefficients[h][i]);
+        let mu = &self.m * &u;
+        let eta = self.modes.transpose() * &mu;
+        let energy = |k: usize, h: usize| self.eigenvalues[k] * eta[(k, h)].powi(2);
+        let total: f64 = (0..nh)
+            .map(|h| (0..n).map(|k| energy(k, h)).sum::<f64>())
+            .sum();
+        let scale = if total > 0.0 { 1.0 / total } else { 0.0 };
+        ModalShares {
+            shares: Mat::from_fn(n, nh, |k, h| energy(k, h) * scale),
+        }
     }
 
     /// Contact displacement A_j . u.

@@ -11,10 +11,53 @@ mod common;
 
 use nlmodes_nnm::{
     backbone, check_periodicity, AlgorithmParams, ContactMethod, ContinuationSettings,
-    HarmonicSettings, Solver, Start,
+    HarmonicSettings, Solver, Start, Termination,
 };
 
 const KC: f64 = 0.3;
+
+/// With the default settings the same tongue is detected by its modal energy shares (mode 3 at
+/// harmonic 4 outweighs mode 1 at harmonic 1), not followed, and hopped over at fixed q: every kept
+/// point is dominated by the primary component and q keeps growing past the tongue.
+#[test]
+fn continuation_skips_an_internal_resonance_tongue() {
+    let sys = common::chain(3, 1.0, &[2], 1.0, 2);
+    let settings = HarmonicSettings::with_default_samples(16).expect("settings");
+    let params = AlgorithmParams {
+        method: ContactMethod::Penalty { stiffness: KC },
+        ..AlgorithmParams::default()
+    };
+    let cont = ContinuationSettings {
+        q_start: 0.5,
+        q_max: 10.0,
+        step: 0.05,
+        max_step: 0.1,
+        max_points: 200,
+        ..ContinuationSettings::default()
+    };
+    let b = backbone(&sys, settings, params, &cont, |_| {}).expect("backbone");
+    println!(
+        "termination {:?}, resonances {:?}",
+        b.termination, b.internal_resonances
+    );
+    let first = b
+        .internal_resonances
+        .first()
+        .expect("the tongue is detected");
+    assert_eq!((first.mode, first.harmonic), (2, 4), "{first:?}");
+    assert!(first.hopped, "{first:?}");
+    assert!(first.detuning.abs() < 0.02, "{first:?}");
+    for p in &b.points {
+        assert!(
+            p.secondary_harmonic < 2 || p.secondary_share <= p.primary_share,
+            "a tongue point was kept at q = {}",
+            p.q
+        );
+    }
+    let last = b.points.last().expect("points");
+    assert!(last.q > first.q, "the backbone did not go past the tongue");
+    assert_eq!(b.termination, Termination::ReachedMaxAmplitude);
+}
 
 #[test]
 fn continuation_passes_a_fold_of_q() {
@@ -31,6 +74,8 @@ fn continuation_passes_a_fold_of_q() {
         step: 0.05,
         max_step: 0.1,
         max_points: 80,
+        // Follow the tongue (the default skips it: see the next test).
+        skip_internal_resonances: false,
         ..ContinuationSettings::default()
     };
     let b = backbone(&sys, settings, params.clone(), &cont, |_| {}).expect("backbone");
