@@ -11,16 +11,22 @@ mod common;
 
 use nlmodes_nnm::{
     backbone, check_periodicity, AlgorithmParams, ContactMethod, ContinuationSettings,
-    HarmonicSettings, Solver, Start, Termination,
+    HarmonicSettings, Solver, Start, System, Termination,
 };
 
 const KC: f64 = 0.3;
 
-/// With the default settings the same tongue is detected by its modal energy shares (mode 3 at
-/// harmonic 4 outweighs mode 1 at harmonic 1), not followed, and hopped over at fixed q: every kept
-/// point is dominated by the primary component and q keeps growing past the tongue.
-#[test]
-fn continuation_skips_an_internal_resonance_tongue() {
+/// The 3-mass chain with penalty contact, N = 16, and continuation steps up to 0.1 (scaled arc
+/// length), which resolve the tongue; much larger steps can jump over it.
+fn tongue_chain(
+    max_points: usize,
+    skip: bool,
+) -> (
+    System,
+    HarmonicSettings,
+    AlgorithmParams,
+    ContinuationSettings,
+) {
     let sys = common::chain(3, 1.0, &[2], 1.0, 2);
     let settings = HarmonicSettings::with_default_samples(16).expect("settings");
     let params = AlgorithmParams {
@@ -32,9 +38,19 @@ fn continuation_skips_an_internal_resonance_tongue() {
         q_max: 10.0,
         step: 0.05,
         max_step: 0.1,
-        max_points: 200,
+        max_points,
+        skip_internal_resonances: skip,
         ..ContinuationSettings::default()
     };
+    (sys, settings, params, cont)
+}
+
+/// With the default settings the same tongue is detected by its modal energy shares (mode 3 at
+/// harmonic 4 outweighs mode 1 at harmonic 1), not followed, and hopped over at fixed q: every kept
+/// point is dominated by the primary component and q keeps growing past the tongue.
+#[test]
+fn continuation_skips_an_internal_resonance_tongue() {
+    let (sys, settings, params, cont) = tongue_chain(200, true);
     let b = backbone(&sys, settings, params, &cont, |_| {}).expect("backbone");
     println!(
         "termination {:?}, resonances {:?}",
@@ -61,23 +77,8 @@ fn continuation_skips_an_internal_resonance_tongue() {
 
 #[test]
 fn continuation_passes_a_fold_of_q() {
-    let sys = common::chain(3, 1.0, &[2], 1.0, 2);
-    let settings = HarmonicSettings::with_default_samples(16).expect("settings");
-    let params = AlgorithmParams {
-        method: ContactMethod::Penalty { stiffness: KC },
-        ..AlgorithmParams::default()
-    };
-    // Steps up to 0.1 (scaled arc length) resolve the tongue; much larger steps can jump over it.
-    let cont = ContinuationSettings {
-        q_start: 0.5,
-        q_max: 10.0,
-        step: 0.05,
-        max_step: 0.1,
-        max_points: 80,
-        // Follow the tongue (the default skips it: see the next test).
-        skip_internal_resonances: false,
-        ..ContinuationSettings::default()
-    };
+    // Follow the tongue (the default skips it: see the test above).
+    let (sys, settings, params, cont) = tongue_chain(80, false);
     let b = backbone(&sys, settings, params.clone(), &cont, |_| {}).expect("backbone");
     let pts = &b.points;
     let fold = pts
