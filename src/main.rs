@@ -152,7 +152,8 @@ enum Command {
         /// Run only this stage (and the out-of-date stages it needs).
         #[arg(long, value_enum)]
         only: Option<run::Only>,
-        /// Rerun the stages even when up to date.
+        /// Rerun even when up to date: the `--only` stage, or every stage without `--only`
+        /// (the stages an `--only` stage needs still rerun only when out of date).
         #[arg(long)]
         force: bool,
     },

@@ -75,7 +75,8 @@ pub enum Only {
 }
 
 /// Run the case; `only` runs that stage (and whatever it needs that is out of date); `force` reruns
-/// every stage that runs.
+/// the `only` stage even when it is up to date, or every stage when `only` is not given (the stages
+/// an `--only` stage depends on still rerun only when out of date).
 pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     let case = Case::load(case_path)?;
     let layout = Layout {
@@ -89,6 +90,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         tracing::info!("removed {stale} temporary files left by an interrupted run");
     }
     let wants = |s: Only| only.is_none_or(|o| o == s);
+    let forced = |s: Only| force && wants(s);
     let total = std::time::Instant::now();
 
     // mesh
@@ -99,7 +101,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         &json(&case.mesh.parameters),
         &json(&case.mesh.order),
     ]);
-    if force || !up_to_date(&layout, "mesh", &mesh_hash, &[layout.mesh()]) {
+    if forced(Only::Mesh) || !up_to_date(&layout, "mesh", &mesh_hash, &[layout.mesh()]) {
         let st = ui::Stage::start("mesh");
         gmsh::mesh(
             &case.mesh.geo,
@@ -145,7 +147,9 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         layout.modes().join("frequencies.csv"),
         layout.modes().join("modes.vtu"),
     ];
-    if wants(Only::Modes) && (force || !up_to_date(&layout, "modes", &modes_hash, &modes_out)) {
+    if wants(Only::Modes)
+        && (forced(Only::Modes) || !up_to_date(&layout, "modes", &modes_hash, &modes_out))
+    {
         fe_model(&mut fe)?;
         let fe = fe.as_ref().context("FE model")?;
         let m = fe.modes(case.model.linear_modes, 0.0)?;
@@ -160,7 +164,9 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     let reduce_hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model)]);
     let model_out = [layout.model().join("model.json")];
     let needs_model = wants(Only::Reduce) || wants(Only::Backbone) || wants(Only::Post);
-    if needs_model && (force || !up_to_date(&layout, "reduce", &reduce_hash, &model_out)) {
+    if needs_model
+        && (forced(Only::Reduce) || !up_to_date(&layout, "reduce", &reduce_hash, &model_out))
+    {
         fe_model(&mut fe)?;
         let fe = fe.as_ref().context("FE model")?;
         let settings = reduce::ReduceSettings {
@@ -206,7 +212,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         layout.backbone().join("kept.json"),
     ];
     let needs_bb = wants(Only::Backbone) || wants(Only::Post);
-    if needs_bb && (force || !up_to_date(&layout, "backbone", &bb_hash, &bb_out)) {
+    if needs_bb && (forced(Only::Backbone) || !up_to_date(&layout, "backbone", &bb_hash, &bb_out)) {
         let model = backbone::load_model(&layout.model())?;
         let system = backbone::system_of(&model, None)?;
         backbone::check_reaches_contact(&system, &case.continuation)?;

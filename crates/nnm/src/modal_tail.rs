@@ -36,10 +36,16 @@ const SERIES_TOLERANCE: f64 = 1e-17;
 pub(crate) struct ModalTail {
     /// Convergence ratio bound: the tail is used only where s <= rho Lambda_cut.
     rho: f64,
+    /// Kept coordinates r (each coefficient is r x r).
+    r: usize,
+    /// Series order P for the worst ratio rho (C_0 .. C_{P+2} are stored).
+    order: usize,
     /// Cut indices, ascending.
     cuts: Vec<usize>,
-    /// For each cut, C_0 .. C_{P+2} (r x r).
-    coeffs: Vec<Vec<Mat<f64>>>,
+    /// Lambda at each cut (the smallest eigenvalue summed by that ladder entry).
+    cut_lambda: Vec<f64>,
+    /// For each cut, C_0 .. C_{P+2}, each r x r column-major, stored one after the other.
+    coeffs: Vec<Vec<f64>>,
 }
 
 impl ModalTail {
@@ -56,7 +62,7 @@ impl ModalTail {
             .take_while(|&c| c < n_o)
             .collect();
         let mut running: Vec<Mat<f64>> = (0..terms).map(|_| Mat::zeros(r, r)).collect();
-        let mut coeffs: Vec<Vec<Mat<f64>>> = vec![Vec::new(); cuts.len()];
+        let mut coeffs: Vec<Vec<f64>> = vec![Vec::new(); cuts.len()];
         let mut next_cut = cuts.len();
         for i in (0..n_o).rev() {
             let l = lambda[i];
@@ -80,10 +86,31 @@ impl ModalTail {
             }
             if next_cut > 0 && cuts[next_cut - 1] == i {
                 next_cut -= 1;
-                coeffs[next_cut] = running.clone();
+                coeffs[next_cut] = running
+                    .iter()
+                    .flat_map(|c| (0..r).flat_map(move |col| (0..r).map(move |row| c[(row, col)])))
+                    .collect();
             }
         }
-        Self { rho, cuts, coeffs }
+        let cut_lambda = cuts.iter().map(|&c| lambda[c]).collect();
+        Self {
+            rho,
+            r,
+            order,
+            cuts,
+            cut_lambda,
+            coeffs,
+        }
+    }
+
+    /// Series order for s / Lambda_cut = `ratio` <= rho, by the same rule as the stored order
+    /// (ratio^(P+1) / (1 - ratio) <= tolerance, rounded up), never above the stored order.
+    fn order_for(&self, ratio: f64) -> usize {
+        if ratio <= 0.0 {
+            return 0;
+        }
+        let p = ((SERIES_TOLERANCE * (1.0 - ratio)).ln() / ratio.ln()).ceil();
+        (p.max(0.0) as usize).min(self.order)
     }
 
     /// The first mode summed by the series at s: the lowest cut with Lambda_cut >= s / rho, with
@@ -98,17 +125,32 @@ impl ModalTail {
     }
 
     /// out -= sum_{i >= cut} (kt_i - s mt_i)(kt_i - s mt_i)^T / (Lambda_i - s) for ladder entry
-    /// `which` (from [`ModalTail::split`] at the same s).
+    /// `which` (from [`ModalTail::split`] at the same s). Only the terms the actual ratio
+    /// s / Lambda_cut needs are summed (one term at s = 0): the truncation bound is the same as for
+    /// the full series, ratio^(P+1) / (1 - ratio) <= 1e-17, with P chosen for this s.
     pub fn subtract(&self, which: usize, s: f64, mut out: MatMut<'_, f64>) {
+        let rr = self.r * self.r;
+        let ratio = s / self.cut_lambda[which];
+        // C_q holds kt kt^T terms of order q, cross terms of order q - 1 and mt mt^T terms of
+        // order q - 2: a series of order P needs C_0 .. C_{P+2}.
+        let terms = self.order_for(ratio) + 3;
+        let coeffs = &self.coeffs[which];
+        let mut sum = vec![0.0; rr];
         let mut power = 1.0;
-        for c in &self.coeffs[which] {
-            let r = c.nrows();
-            for col in 0..r {
-                for row in 0..r {
-                    out[(row, col)] -= power * c[(row, col)];
-                }
+        for c in coeffs.chunks_exact(rr).take(terms) {
+            for (acc, v) in sum.iter_mut().zip(c) {
+                *acc += power * v;
             }
             power *= s;
+            if power == 0.0 {
+                break;
+            }
+        }
+        for col in 0..self.r {
+            let column = &sum[col * self.r..(col + 1) * self.r];
+            for (row, v) in column.iter().enumerate() {
+                out[(row, col)] -= v;
+            }
         }
     }
 }
