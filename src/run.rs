@@ -129,36 +129,32 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         &json(&case.material),
         &json(&case.model.clamp),
     ]);
-    let mut fe: Option<FeModel> = None;
-    let fe_model = |fe: &mut Option<FeModel>| -> Result<()> {
-        if fe.is_none() {
-            *fe = Some(FeModel::build(
-                &layout.mesh(),
-                &material,
-                &case.model.clamp,
-            )?);
-        }
-        Ok(())
-    };
 
-    // modes
+    // modes: the full model's clamped modes, in a child process (`nlmodes modes`) so that its
+    // eigensolver runs on the second core while this process reduces the model. A process, not a
+    // thread: ARPACK keeps its state in Fortran SAVE variables and is not re-entrant.
     let modes_hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model.linear_modes)]);
     let modes_out = [
         layout.modes().join("frequencies.csv"),
         layout.modes().join("modes.vtu"),
     ];
+    let mut modes_child = None;
     if wants(Only::Modes)
         && (forced(Only::Modes) || !up_to_date(&layout, "modes", &modes_hash, &modes_out))
     {
-        fe_model(&mut fe)?;
-        let fe = fe.as_ref().context("FE model")?;
-        let m = fe.modes(case.model.linear_modes, 0.0)?;
-        crate::fe_model::write_modes(fe, &m, &layout.modes())?;
-        ui::say(&crate::fe_model::frequency_table(&m));
-        stamp(&layout, "modes", &modes_hash)?;
+        modes_child = Some(ModesChild::spawn(&case, &layout)?);
     } else if wants(Only::Modes) {
         tracing::info!("stage modes: up to date");
     }
+    // Waits for the modes and stamps them; on every path out of this function the child is
+    // waited for (or killed, on error), never left running.
+    let finish_modes = |child: Option<ModesChild>| -> Result<()> {
+        if let Some(child) = child {
+            child.wait()?;
+            stamp(&layout, "modes", &modes_hash)?;
+        }
+        Ok(())
+    };
 
     // reduce
     let reduce_hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model)]);
@@ -167,38 +163,29 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     if needs_model
         && (forced(Only::Reduce) || !up_to_date(&layout, "reduce", &reduce_hash, &model_out))
     {
-        fe_model(&mut fe)?;
-        let fe = fe.as_ref().context("FE model")?;
-        let settings = reduce::ReduceSettings {
-            contact_group: &case.model.contact_group,
-            axis: nlmodes_modal::RotorAxis::new(
-                case.model.rotor_axis_point,
-                case.model.rotor_axis_direction,
-            )?,
-            gap: case.model.gap,
-            modes: case.model.fixed_interface_modes,
-            master: match &case.model.master {
-                MasterChoice::Index(i) => Some(*i),
-                MasterChoice::Auto(s) if s == "auto" => None,
-                MasterChoice::Auto(s) => anyhow::bail!(
-                    "[model] master = \"{s}\": expected \"auto\" or a reduced DOF index"
-                ),
-            },
+        let reduced = reduce_stage(&case, &layout, &material);
+        let reduced = match reduced {
+            Ok(model) => model,
+            Err(e) => {
+                if let Some(child) = modes_child.take() {
+                    child.kill();
+                }
+                return Err(e);
+            }
         };
-        let (mut model, _) = reduce::reduce(fe, &settings)?;
-        reduce::write_model(&mut model, &layout.model(), &layout.mesh())?;
+        finish_modes(modes_child.take())?;
         let full = crate::fe_model::read_frequencies(&layout.modes().join("frequencies.csv"));
         if let Some(full) = full {
             ui::say(&reduce::comparison_table(
                 &full,
-                &model.linear_frequencies_hz,
+                &reduced.linear_frequencies_hz,
             ));
         }
         stamp(&layout, "reduce", &reduce_hash)?;
     } else if needs_model {
         tracing::info!("stage reduce: up to date");
     }
-    drop(fe);
+    finish_modes(modes_child.take())?;
 
     // backbone
     let bb_hash = fnv1a(&[
@@ -238,4 +225,97 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         layout.root.display()
     );
     Ok(())
+}
+
+/// The reduce stage: builds the FE model if needed, reduces it and writes the reduced model.
+fn reduce_stage(
+    case: &Case,
+    layout: &Layout,
+    material: &Isotropic,
+) -> Result<nlmodes_modal::ReducedModel> {
+    let fe = FeModel::build(&layout.mesh(), material, &case.model.clamp)?;
+    let settings = reduce::ReduceSettings {
+        contact_group: &case.model.contact_group,
+        axis: nlmodes_modal::RotorAxis::new(
+            case.model.rotor_axis_point,
+            case.model.rotor_axis_direction,
+        )?,
+        gap: case.model.gap,
+        modes: case.model.fixed_interface_modes,
+        master: match &case.model.master {
+            MasterChoice::Index(i) => Some(*i),
+            MasterChoice::Auto(s) if s == "auto" => None,
+            MasterChoice::Auto(s) => {
+                anyhow::bail!("[model] master = \"{s}\": expected \"auto\" or a reduced DOF index")
+            }
+        },
+    };
+    let (mut model, _) = reduce::reduce(&fe, &settings)?;
+    reduce::write_model(&mut model, &layout.model(), &layout.mesh())?;
+    Ok(model)
+}
+
+/// The modes stage running as `nlmodes --quiet modes ...` in a child process.
+struct ModesChild {
+    child: std::process::Child,
+    stage: ui::Stage,
+}
+
+impl ModesChild {
+    fn spawn(case: &Case, layout: &Layout) -> Result<Self> {
+        let exe = std::env::current_exe().context("cannot locate the nlmodes executable")?;
+        let mut cmd = std::process::Command::new(&exe);
+        cmd.arg("--quiet")
+            .arg("modes")
+            .arg(layout.mesh())
+            .arg("--young")
+            .arg(format!("{:e}", case.material.young))
+            .arg("--poisson")
+            .arg(format!("{:e}", case.material.poisson))
+            .arg("--density")
+            .arg(format!("{:e}", case.material.density))
+            .arg("--modes")
+            .arg(case.model.linear_modes.to_string())
+            .arg("--out")
+            .arg(layout.modes());
+        for f in &case.model.clamp {
+            cmd.arg("--fix").arg(f);
+        }
+        // RUST_LOG would override --quiet and could fill the pipe read only at the end.
+        cmd.env_remove("RUST_LOG")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped());
+        let stage = ui::Stage::start("modes");
+        tracing::info!(
+            "stage modes: {} clamped modes of the full model, in a child process alongside the reduction",
+            case.model.linear_modes
+        );
+        let child = cmd
+            .spawn()
+            .with_context(|| format!("cannot start {} modes", exe.display()))?;
+        Ok(Self { child, stage })
+    }
+
+    /// Waits for the child; its frequency table goes to stdout, its errors into ours.
+    fn wait(self) -> Result<()> {
+        let out = self
+            .child
+            .wait_with_output()
+            .context("waiting for the modes stage")?;
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if !out.status.success() {
+            anyhow::bail!("stage modes failed ({}): {}", out.status, stderr.trim());
+        }
+        if !stderr.trim().is_empty() {
+            tracing::warn!("stage modes: {}", stderr.trim());
+        }
+        ui::say(String::from_utf8_lossy(&out.stdout).trim_end());
+        self.stage.done("modes.vtu and frequencies.csv written");
+        Ok(())
+    }
+
+    fn kill(mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
 }

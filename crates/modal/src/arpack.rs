@@ -12,6 +12,10 @@
 //! The factorization of K - sigma M is an LL^T Cholesky: sigma must lie below
 //! the lowest eigenvalue (sigma = 0 for a clamped structure, a negative sigma
 //! for a free one).
+//!
+//! [`EigenMethod::Auto`] uses the block Lanczos of [`crate::block_lanczos`] for large problems
+//! (several right-hand sides per pass over the factor) and falls back to ARPACK if it does
+//! not converge.
 
 use std::ffi::CStr;
 use std::sync::Mutex;
@@ -19,6 +23,7 @@ use std::sync::Mutex;
 use faer::Mat;
 use sprs::CsMat;
 
+use crate::block_lanczos::block_lanczos;
 use crate::cholesky::{CholeskyOptions, SparseCholesky};
 use crate::dense::{csmat_to_dense, dense_generalized_eigen};
 use crate::error::ModalError;
@@ -31,11 +36,15 @@ static ARPACK_LOCK: Mutex<()> = Mutex::new(());
 /// Which algorithm computes the eigenpairs.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub enum EigenMethod {
-    /// Dense solver when n <= 2 ncv or nev >= n (ARPACK needs ncv < n), ARPACK otherwise.
+    /// Dense solver when n <= 2 ncv or nev >= n (ARPACK needs ncv < n); otherwise block
+    /// Lanczos, and ARPACK if block Lanczos does not converge (logged).
     #[default]
     Auto,
     /// Always ARPACK (error when nev >= n).
     Arpack,
+    /// Always the shift-invert block Lanczos of [`crate::block_lanczos`] (error when it does not
+    /// converge).
+    BlockLanczos,
     /// Always the dense solver (all n eigenpairs, then the nev nearest sigma).
     Dense,
 }
@@ -43,9 +52,10 @@ pub enum EigenMethod {
 /// Options of the shift-invert eigensolver.
 #[derive(Clone, Copy)]
 pub struct EigenOptions<'a> {
-    /// Number of Lanczos vectors; default max(2 nev + 1, 20), capped at n.
+    /// Number of Lanczos vectors of ARPACK; default max(2 nev + 1, 20), capped at n (block
+    /// Lanczos sizes its own basis: [`crate::block_lanczos`]).
     pub ncv: Option<usize>,
-    /// ARPACK's convergence tolerance: the Ritz estimates of
+    /// Convergence tolerance (ARPACK's, and the same test in block Lanczos): the Ritz estimates of
     /// OP = (K - sigma M)^-1 M must fall below tol times the Ritz value; 0
     /// means machine precision. Default 1e-10: eigenvalues converge
     /// quadratically in it (relative errors ~1e-14 observed), mode shapes to
@@ -57,7 +67,7 @@ pub struct EigenOptions<'a> {
     pub tol: f64,
     /// Maximum number of implicit restarts (ARPACK's `iparam[2]`).
     pub max_iterations: usize,
-    /// Dense or ARPACK.
+    /// Dense, block Lanczos or ARPACK.
     pub method: EigenMethod,
     /// Factorization options of K - sigma M.
     pub cholesky: CholeskyOptions,
@@ -114,7 +124,7 @@ pub fn eigs_shift_invert(
     let a = shifted(k, m, sigma)?;
     let factor = SparseCholesky::with_options(&a, &what, opts.cholesky).map_err(add_shift_hint)?;
     drop(a);
-    run_arpack(k, m, sigma, &factor, nev, ncv, opts)
+    run_iterative(k, m, sigma, &factor, nev, ncv, opts)
 }
 
 /// Same as [`eigs_shift_invert`] with an existing Cholesky factorization of
@@ -140,7 +150,32 @@ pub fn eigs_shift_invert_factored(
     if use_dense(nev, n, ncv, opts.method) {
         return dense_nearest(k, m, nev, sigma);
     }
-    run_arpack(k, m, sigma, factor, nev, ncv, opts)
+    run_iterative(k, m, sigma, factor, nev, ncv, opts)
+}
+
+/// Block Lanczos or ARPACK, as `opts.method` says (Auto: block Lanczos, ARPACK if it fails).
+fn run_iterative(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    sigma: f64,
+    factor: &SparseCholesky,
+    nev: usize,
+    ncv: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<Modes, ModalError> {
+    match opts.method {
+        EigenMethod::Arpack => run_arpack(k, m, sigma, factor, nev, ncv, opts),
+        EigenMethod::BlockLanczos => block_lanczos(k, m, sigma, factor, nev, opts),
+        EigenMethod::Auto | EigenMethod::Dense => {
+            match block_lanczos(k, m, sigma, factor, nev, opts) {
+                Err(e @ ModalError::BlockLanczosNoConvergence { .. }) => {
+                    tracing::info!("{e}; falling back to ARPACK");
+                    run_arpack(k, m, sigma, factor, nev, ncv, opts)
+                }
+                other => other,
+            }
+        }
+    }
 }
 
 fn add_shift_hint(e: ModalError) -> ModalError {
@@ -223,7 +258,7 @@ fn resolve_ncv(nev: usize, n: usize, opts: &EigenOptions<'_>) -> Result<usize, M
 fn use_dense(nev: usize, n: usize, ncv: usize, method: EigenMethod) -> bool {
     match method {
         EigenMethod::Dense => true,
-        EigenMethod::Arpack => false,
+        EigenMethod::Arpack | EigenMethod::BlockLanczos => false,
         EigenMethod::Auto => nev >= n || n <= 2 * ncv,
     }
 }

@@ -24,7 +24,7 @@ use crate::arpack::{eigs_shift_invert_factored, EigenOptions};
 use crate::cholesky::SparseCholesky;
 use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
 use crate::error::ModalError;
-use crate::sparse_ops::{check_symmetric_input, spmv_unchecked, submatrix_unchecked};
+use crate::sparse_ops::{check_symmetric_input, spmm_symmetric, submatrix_unchecked};
 
 /// A Craig-Bampton reduced model and the basis that produced it.
 #[derive(Clone, Debug)]
@@ -261,36 +261,39 @@ fn project(
     let n = k.rows();
     let (n_b, n_i, n_modes) = (boundary.len(), interior.len(), phi.ncols());
     let n_r = n_b + n_modes;
-    let mut yk_i = Mat::<f64>::zeros(n_i, n_r);
-    let mut ym_i = Mat::<f64>::zeros(n_i, n_r);
-    let mut k_r = Mat::<f64>::zeros(n_r, n_r);
-    let mut m_r = Mat::<f64>::zeros(n_r, n_r);
-    let mut t = vec![0.0; n];
-    let mut yk = vec![0.0; n];
-    let mut ym = vec![0.0; n];
+    // The reduction basis T (n x n_r) in the input numbering, then K T and M T in one pass
+    // over each matrix (symmetric inputs, checked by the caller).
+    let mut t = Mat::<f64>::zeros(n, n_r);
     for j in 0..n_r {
-        t.iter_mut().for_each(|v| *v = 0.0);
         if j < n_b {
-            t[boundary[j]] = 1.0;
-            for (r, &dof) in interior.iter().enumerate() {
-                t[dof] = psi[(r, j)];
-            }
-        } else {
-            for (r, &dof) in interior.iter().enumerate() {
-                t[dof] = phi[(r, j - n_b)];
-            }
+            t[(boundary[j], j)] = 1.0;
         }
-        spmv_unchecked(k, &t, &mut yk);
-        spmv_unchecked(m, &t, &mut ym);
         for (r, &dof) in interior.iter().enumerate() {
-            yk_i[(r, j)] = yk[dof];
-            ym_i[(r, j)] = ym[dof];
-        }
-        for (p, &dof) in boundary.iter().enumerate() {
-            k_r[(p, j)] = yk[dof];
-            m_r[(p, j)] = ym[dof];
+            t[(dof, j)] = if j < n_b {
+                psi[(r, j)]
+            } else {
+                phi[(r, j - n_b)]
+            };
         }
     }
+    let mut yk = Mat::<f64>::zeros(n, n_r);
+    let mut ym = Mat::<f64>::zeros(n, n_r);
+    spmm_symmetric(k, t.as_ref(), yk.as_mut());
+    spmm_symmetric(m, t.as_ref(), ym.as_mut());
+    drop(t);
+    let yk_i = Mat::<f64>::from_fn(n_i, n_r, |r, j| yk[(interior[r], j)]);
+    let ym_i = Mat::<f64>::from_fn(n_i, n_r, |r, j| ym[(interior[r], j)]);
+    let mut k_r = Mat::<f64>::from_fn(
+        n_r,
+        n_r,
+        |p, j| if p < n_b { yk[(boundary[p], j)] } else { 0.0 },
+    );
+    let mut m_r = Mat::<f64>::from_fn(
+        n_r,
+        n_r,
+        |p, j| if p < n_b { ym[(boundary[p], j)] } else { 0.0 },
+    );
+    drop((yk, ym));
     for (reduced, y_i) in [(&mut k_r, &yk_i), (&mut m_r, &ym_i)] {
         // Rows 0..n_b: y_b (already there) + Psi^T y_i.
         matmul(

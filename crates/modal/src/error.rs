@@ -126,6 +126,23 @@ pub enum ModalError {
         ncv: usize,
     },
 
+    /// The block Lanczos eigensolver reached its largest basis, or met a rank-deficient block,
+    /// before all requested eigenpairs converged.
+    #[error(
+        "block Lanczos did not converge: {converged} of {requested} requested eigenpairs \
+         converged after {solves} solves (largest basis {max_basis}); use the ARPACK method"
+    )]
+    BlockLanczosNoConvergence {
+        /// Number of converged Ritz pairs.
+        converged: usize,
+        /// Number requested.
+        requested: usize,
+        /// Applications of (K - sigma M)^-1.
+        solves: usize,
+        /// Largest basis allowed.
+        max_basis: usize,
+    },
+
     /// A dense eigen decomposition failed.
     #[error("dense eigen decomposition of {what} did not converge")]
     DenseEigen {

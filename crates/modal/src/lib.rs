@@ -7,6 +7,7 @@
 //! are in rad^2/s^2 and frequencies in Hz.
 
 pub mod arpack;
+pub mod block_lanczos;
 pub mod cholesky;
 pub mod contact_geometry;
 pub mod craig_bampton;

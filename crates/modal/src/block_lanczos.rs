@@ -1,0 +1,313 @@
+//! Shift-invert block Lanczos for the lowest eigenpairs of K phi = lambda M phi.
+//!
+//! Operator OP = (K - sigma M)^-1 M, self-adjoint in the M inner product; its largest eigenvalues
+//! theta = 1 / (lambda - sigma) are the eigenvalues lambda nearest above sigma. The Krylov basis
+//! V (M-orthonormal, V^T M V = I) grows by blocks of b vectors: W = OP V_j, fully
+//! reorthogonalized against all of V in two classical Gram-Schmidt passes (M inner product), then
+//! M-orthonormalized by two Cholesky-QR passes, W = V_{j+1} R_j. The projected matrix
+//! T = V^T M OP V is built from the coefficients of these steps (block tridiagonal in exact
+//! arithmetic, kept whole here), and a Ritz pair (theta, V y) has the residual
+//! || OP V y - theta V y ||_M = || R_j y_j || (y_j: the last block of y).
+//!
+//! Convergence: the same criterion as ARPACK's, || R_j y_j || <= tol |theta| for each of the nev
+//! wanted Ritz values, so results match ARPACK's to its tolerance (checked in
+//! `tests/arpack.rs`). Why a block method: each block step solves b right-hand sides in one pass
+//! over the Cholesky factor, and a supernodal solve with 16 right-hand sides costs about 2.5 times
+//! one with a single right-hand side (0.21 s against 0.085 s on the 93k-DOF blade), while ARPACK's
+//! reverse communication asks for one vector at a time.
+//!
+//! No restart: the basis grows until the wanted pairs converge or `max_basis` is reached, which
+//! is an error ([`ModalError::NoConvergence`]); [`crate::EigenMethod::Auto`] then falls back to
+//! ARPACK.
+
+use faer::linalg::matmul::matmul;
+use faer::prelude::ReborrowMut;
+use faer::{Accum, Mat, MatMut, Par, Side};
+use sprs::CsMat;
+
+use crate::arpack::EigenOptions;
+use crate::cholesky::SparseCholesky;
+use crate::error::ModalError;
+use crate::modes::{finalize_modes, Modes};
+use crate::sparse_ops::spmm_symmetric;
+
+/// Block size for `nev` wanted pairs: about nev / 2, between 4 and 16 (16 right-hand sides
+/// already amortize the pass over the factor; larger blocks only grow the basis).
+pub fn block_size(nev: usize) -> usize {
+    nev.div_ceil(2).clamp(4, 16)
+}
+
+/// The largest basis for `nev` pairs with blocks of `b` on an n-DOF problem (the basis and M
+/// times it are stored: 2 n max_basis values).
+fn max_basis(nev: usize, b: usize, n: usize) -> usize {
+    (4 * nev + 4 * b).min(n)
+}
+
+/// Thick restarts allowed before giving up.
+const MAX_RESTARTS: usize = 50;
+
+/// The `nev` eigenpairs nearest above `sigma`, using the factorization `factor` of K - sigma M.
+/// `k`, `m`: symmetric, checked by the caller; `opts.tol` is the convergence tolerance (as for
+/// ARPACK) and `opts.on_iteration` is called after each block with the number of applications
+/// of (K - sigma M)^-1 so far.
+pub(crate) fn block_lanczos(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    sigma: f64,
+    factor: &SparseCholesky,
+    nev: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<Modes, ModalError> {
+    let n = k.rows();
+    let b = block_size(nev).min(n);
+    let cap = max_basis(nev, b, n);
+    let tol = if opts.tol > 0.0 {
+        opts.tol
+    } else {
+        f64::EPSILON
+    };
+    let mut v = Mat::<f64>::zeros(n, cap);
+    // M V, kept so that each step needs one block product with M (b sparse products).
+    let mut mv = Mat::<f64>::zeros(n, cap);
+    let mut t = Mat::<f64>::zeros(cap, cap);
+    let mut r = Mat::<f64>::zeros(b, b);
+    let mut w = starting_block(n, b);
+    let mut mw = Mat::<f64>::zeros(n, b);
+    spmm_symmetric(m, w.as_ref(), mw.as_mut());
+    if !m_orthonormalize(w.as_mut(), mw.as_mut(), &mut r) {
+        return Err(no_convergence(0, nev, 0, cap));
+    }
+    v.get_mut(.., ..b).copy_from(&w);
+    mv.get_mut(.., ..b).copy_from(&mw);
+    let mut filled = b;
+    let mut solves = 0;
+    let mut restarts = 0;
+    // Ritz vectors kept at a restart: half-way between nev and the largest basis, leaving room
+    // for at least two blocks.
+    let keep = ((nev + cap) / 2)
+        .min(cap.saturating_sub(2 * b))
+        .max(nev.min(cap - b));
+    loop {
+        let j0 = filled - b;
+        // W = OP V_j = (K - sigma M)^-1 (M V_j).
+        w.copy_from(mv.get(.., j0..filled));
+        factor.solve_many(w.as_mut())?;
+        solves += b;
+        if let Some(cb) = opts.on_iteration {
+            cb(solves);
+        }
+        spmm_symmetric(m, w.as_ref(), mw.as_mut());
+        // Full reorthogonalization: two classical Gram-Schmidt passes in the M inner product,
+        // updating M W alongside W.
+        let mut h = Mat::<f64>::zeros(filled, b);
+        for _ in 0..2 {
+            let c = v.get(.., ..filled).transpose() * &mw;
+            let (vb, mvb) = (v.get(.., ..filled), mv.get(.., ..filled));
+            matmul(w.as_mut(), Accum::Add, vb, c.as_ref(), -1.0, Par::rayon(0));
+            matmul(
+                mw.as_mut(),
+                Accum::Add,
+                mvb,
+                c.as_ref(),
+                -1.0,
+                Par::rayon(0),
+            );
+            h += &c;
+        }
+        t.get_mut(..filled, j0..filled).copy_from(&h);
+        // W = V_{j+1} R_j. A rank-deficient W (an invariant subspace, or a block too large for
+        // the spectrum) is reported as non-convergence: `EigenMethod::Auto` then uses ARPACK.
+        if !m_orthonormalize(w.as_mut(), mw.as_mut(), &mut r) {
+            let count = ritz_converged(&t, filled, b, nev, tol, None).unwrap_or(0);
+            return Err(no_convergence(count, nev, solves, cap));
+        }
+        let converged = if filled >= nev {
+            ritz_converged(&t, filled, b, nev, tol, Some(&r)).unwrap_or(0)
+        } else {
+            0
+        };
+        if converged == nev {
+            let modes = extract(k, m, sigma, factor, (&v, &mv), &t, filled, nev)?;
+            tracing::debug!("block Lanczos: {nev} pairs, basis {filled}, {solves} solves");
+            return Ok(modes);
+        }
+        if filled + b > cap {
+            restarts += 1;
+            if restarts > MAX_RESTARTS {
+                return Err(no_convergence(converged, nev, solves, cap));
+            }
+            filled = thick_restart(&mut v, &mut mv, &mut t, filled, b, keep, &r)?;
+            v.get_mut(.., filled - b..filled).copy_from(&w);
+            mv.get_mut(.., filled - b..filled).copy_from(&mw);
+            continue;
+        }
+        v.get_mut(.., filled..filled + b).copy_from(&w);
+        mv.get_mut(.., filled..filled + b).copy_from(&mw);
+        t.get_mut(filled..filled + b, j0..filled).copy_from(&r);
+        filled += b;
+    }
+}
+
+/// Thick restart (Wu & Simon): the basis V (`filled` columns, last block current) is replaced
+/// by its `keep` Ritz vectors of largest theta, followed by room for the next block. Since
+/// OP V = V T + V_next R E_last^T, the Ritz vectors X = V Y satisfy
+/// OP X = X diag(theta) + V_next (R Y_last), so the new projected matrix is diag(theta) bordered
+/// by the coupling R Y_last to the next block; the relation keeps its form and the iteration goes
+/// on from the next block. Returns the new `filled` (keep + b); the caller stores the next block
+/// (and M times it) in the last b columns.
+fn thick_restart(
+    v: &mut Mat<f64>,
+    mv: &mut Mat<f64>,
+    t: &mut Mat<f64>,
+    filled: usize,
+    b: usize,
+    keep: usize,
+    r: &Mat<f64>,
+) -> Result<usize, ModalError> {
+    let (theta, y) = projected_eigen(t, filled).ok_or_else(|| ModalError::DenseEigen {
+        what: "the block Lanczos projected matrix".to_string(),
+    })?;
+    let cols: Vec<usize> = (0..keep).map(|i| filled - 1 - i).collect();
+    let yk = Mat::from_fn(filled, keep, |row, c| y[(row, cols[c])]);
+    let xv = v.get(.., ..filled) * &yk;
+    let xm = mv.get(.., ..filled) * &yk;
+    v.get_mut(.., ..keep).copy_from(&xv);
+    mv.get_mut(.., ..keep).copy_from(&xm);
+    let coupling = r * yk.get(filled - b..filled, ..);
+    t.fill(0.0);
+    for (c, &col) in cols.iter().enumerate() {
+        t[(c, c)] = theta[col];
+    }
+    t.get_mut(keep..keep + b, ..keep).copy_from(&coupling);
+    t.get_mut(..keep, keep..keep + b)
+        .copy_from(coupling.transpose());
+    Ok(keep + b)
+}
+
+/// Number of the `nev` largest Ritz values of the symmetric part of T[..filled, ..filled] whose
+/// residual || r y_last || is at most tol |theta| (`r` = None: zero residual). None if the
+/// eigen decomposition fails.
+fn ritz_converged(
+    t: &Mat<f64>,
+    filled: usize,
+    b: usize,
+    nev: usize,
+    tol: f64,
+    r: Option<&Mat<f64>>,
+) -> Option<usize> {
+    let (theta, y) = projected_eigen(t, filled)?;
+    let count = nev.min(filled);
+    let mut ok = 0;
+    for i in 0..count {
+        let col = filled - 1 - i;
+        let est = match r {
+            None => 0.0,
+            Some(r) => {
+                let last = y.get(filled - b..filled, col);
+                let ry = r * last;
+                ry.norm_l2()
+            }
+        };
+        if est <= tol * theta[col].abs() {
+            ok += 1;
+        } else {
+            break;
+        }
+    }
+    Some(if count == nev { ok } else { ok.min(count) })
+}
+
+/// Eigenvalues (ascending) and eigenvectors of the symmetric part of T[..filled, ..filled].
+fn projected_eigen(t: &Mat<f64>, filled: usize) -> Option<(Vec<f64>, Mat<f64>)> {
+    let tt = t.get(..filled, ..filled);
+    let sym = Mat::from_fn(filled, filled, |i, j| 0.5 * (tt[(i, j)] + tt[(j, i)]));
+    let eig = sym.self_adjoint_eigen(Side::Lower).ok()?;
+    let s = eig.S();
+    let theta: Vec<f64> = (0..filled).map(|i| s[i]).collect();
+    Some((theta, eig.U().to_owned()))
+}
+
+/// Ritz vectors of the `nev` largest theta, as eigenpairs of (K, M), each improved by one more
+/// application of OP (x <- OP x, one block solve with nev right-hand sides): the Ritz vector's
+/// error in the modes far above sigma, which dominates the residual K x - lambda M x, is damped
+/// by (lambda - sigma) / (lambda_far - sigma); the eigenvalue is the Ritz value.
+#[allow(clippy::too_many_arguments)]
+fn extract(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    sigma: f64,
+    factor: &SparseCholesky,
+    (v, mv): (&Mat<f64>, &Mat<f64>),
+    t: &Mat<f64>,
+    filled: usize,
+    nev: usize,
+) -> Result<Modes, ModalError> {
+    let (theta, y) = projected_eigen(t, filled).ok_or_else(|| ModalError::DenseEigen {
+        what: "the block Lanczos projected matrix".to_string(),
+    })?;
+    let cols: Vec<usize> = (0..nev).map(|i| filled - 1 - i).collect();
+    let yw = Mat::from_fn(filled, nev, |r, c| y[(r, cols[c])]);
+    let mut x = mv.get(.., ..filled) * &yw;
+    factor.solve_many(x.as_mut())?;
+    let _ = v;
+    let values: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
+    Ok(finalize_modes(k, m, &values, &x))
+}
+
+/// M-orthonormalizes the columns of `w` in place by two Cholesky-QR passes (CholeskyQR2), `mw`
+/// (= M w on entry) updated alongside, with `r` set so that w_in = w_out r. Returns false if the
+/// block is numerically rank deficient: a Gram matrix that is not positive definite, a pivot
+/// below round-off of the largest, or a second pass far from the identity (conditioning beyond
+/// what CholeskyQR2 handles, about 1e8).
+fn m_orthonormalize(mut w: MatMut<'_, f64>, mut mw: MatMut<'_, f64>, r: &mut Mat<f64>) -> bool {
+    let b = w.ncols();
+    let mut total = Mat::<f64>::identity(b, b);
+    for pass in 0..2 {
+        let g = w.as_ref().transpose() * mw.as_ref();
+        let g = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
+        let scale = (0..b).map(|i| g[(i, i)]).fold(0.0_f64, f64::max);
+        let Ok(llt) = g.llt(Side::Lower) else {
+            return false;
+        };
+        let l = llt.L().to_owned();
+        let min_pivot = (0..b)
+            .map(|i| l[(i, i)] * l[(i, i)])
+            .fold(f64::MAX, f64::min);
+        let deficient = min_pivot.is_nan() || min_pivot <= 1e-16 * scale;
+        if deficient || (pass == 1 && min_pivot < 0.5) {
+            return false;
+        }
+        // w <- w L^-T (solve L X = w^T), likewise M w; r <- L^T r.
+        for x in [w.rb_mut(), mw.rb_mut()] {
+            faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                l.as_ref(),
+                x.transpose_mut(),
+                Par::Seq,
+            );
+        }
+        total = l.transpose() * &total;
+    }
+    r.copy_from(&total);
+    true
+}
+
+/// A deterministic pseudo-random starting block (a fixed linear congruential sequence), so that
+/// runs are reproducible.
+fn starting_block(n: usize, b: usize) -> Mat<f64> {
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    Mat::from_fn(n, b, |_, _| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    })
+}
+
+fn no_convergence(converged: usize, requested: usize, solves: usize, cap: usize) -> ModalError {
+    ModalError::BlockLanczosNoConvergence {
+        converged,
+        requested,
+        solves,
+        max_basis: cap,
+    }
+}
