@@ -263,6 +263,31 @@ fn coarse_blade_study_end_to_end() {
             .unwrap(),
         model_time
     );
+    // `--only backbone --force` reruns the backbone only: the stages it needs are up to date.
+    let out = nlmodes(
+        &[
+            "run",
+            case2.to_str().unwrap(),
+            "--only",
+            "backbone",
+            "--force",
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "{}", text(&out));
+    for stage in ["mesh", "reduce"] {
+        assert!(
+            text(&out).contains(&format!("stage {stage}: up to date")),
+            "--force reran {stage}: {}",
+            text(&out)
+        );
+    }
+    assert!(
+        text(&out).contains("stage backbone: started"),
+        "{}",
+        text(&out)
+    );
+    assert!(!text(&out).contains("stage post"), "{}", text(&out));
 
     // A run killed while writing leaves no half-written file; the next run completes.
     interrupted_run_leaves_no_half_written_file(&case2, &res);
