@@ -10,6 +10,8 @@
 //! condensation and with the uncondensed dense LU, and a whole Newton iteration of a solve at
 //! 1.1 x grazing for comparison.
 //! Prints a Markdown table (medians over RUNS repeats; `cargo run --release --example bench_nnm -- RUNS`).
+//! With reduced-model directories after RUNS (`-- RUNS DIR...`), times the same linear solve on
+//! those models instead (`scripts/bench nnm` passes the coarse blade reduced with 40 to 400 modes).
 
 use nlmodes_modal::{craig_bampton, EigenOptions};
 use nlmodes_nnm::{
@@ -39,6 +41,11 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(3);
+    let models: Vec<String> = std::env::args().skip(2).collect();
+    if !models.is_empty() {
+        reduced_models(runs, &models);
+        return;
+    }
     let n = 600;
     let (k, m) = chain(n);
     let boundary: Vec<usize> = (0..24).map(|j| n - 1 - 25 * j).collect();
@@ -112,4 +119,59 @@ fn whole_iteration(system: &System, harmonics: HarmonicSettings, runs: usize) ->
     }
     per_step.sort_by(f64::total_cmp);
     format!("{:.3}", per_step[per_step.len() / 2])
+}
+
+/// The linear algebra of one Newton step on reduced-model directories (`nlmodes reduce` output,
+/// e.g. the coarse blade reduced with 40 to 400 fixed-interface modes by `scripts/bench nnm`),
+/// every contact row active over 15 % of the period at w = 1.5 w1, N = 10, m = 128.
+fn reduced_models(runs: usize, dirs: &[String]) {
+    let harmonics = HarmonicSettings::new(10, 128).expect("settings");
+    let window = NewtonSettings::default().resonance_window;
+    println!(
+        "| model | reduced size | contact rows | interior modes | Newton unknowns | \
+         linear solve, condensed [ms] | linear solve, uncondensed [ms] |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for dir in dirs {
+        let model = match nlmodes_modal::ReducedModel::read(std::path::Path::new(dir)) {
+            Ok(m) => m,
+            Err(e) => {
+                eprintln!("{dir}: {e}");
+                std::process::exit(2);
+            }
+        };
+        let system = System::new(
+            model.m.clone(),
+            model.k.clone(),
+            model.contact_rows(),
+            model.gaps(),
+            model.master.dof,
+        )
+        .expect("system");
+        let w1 = system.linear_frequencies()[0];
+        let step = |condensation| {
+            let mut medians: Vec<f64> = (0..runs)
+                .map(|_| {
+                    newton_step_timing(&system, harmonics, condensation, window, 1.5 * w1, 0.15, 25)
+                        .expect("step timing")
+                        .median_seconds
+                })
+                .collect();
+            medians.sort_by(f64::total_cmp);
+            1e3 * medians[medians.len() / 2]
+        };
+        let n = system.n_dofs();
+        let c = system.n_contacts();
+        let full = if n <= 200 {
+            format!("{:.3}", step(Condensation::None))
+        } else {
+            "-".to_string()
+        };
+        println!(
+            "| {dir} | {n} | {c} | {} | {} | {:.3} | {full} |",
+            n - 3 * c,
+            (harmonics.harmonics + 1) * n + 2,
+            step(Condensation::Exact)
+        );
+    }
 }

@@ -22,7 +22,7 @@
 
 use faer::linalg::matmul::matmul;
 use faer::prelude::ReborrowMut;
-use faer::{Accum, Mat, MatMut, Par, Side};
+use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
 use crate::arpack::EigenOptions;
@@ -30,6 +30,14 @@ use crate::cholesky::SparseCholesky;
 use crate::error::ModalError;
 use crate::modes::{finalize_modes, Modes};
 use crate::sparse_ops::spmm_symmetric;
+
+/// Largest `nev` for which [`crate::EigenMethod::Auto`] uses block Lanczos. A block Krylov space
+/// of the same size has a lower polynomial degree than ARPACK's single-vector one: measured on
+/// the coarse blade (8979 interior DOFs), 100 fixed-interface modes took 800 solves without
+/// restart against ARPACK's 202, and with thick restarts did not converge in 9000; for 40 modes
+/// of the 93k-DOF blade, 240 block solves (15 blocks of 16) against ARPACK's 145 single ones,
+/// which the cheaper block solves (0.013 s against 0.085 s per vector) turn into a gain.
+pub const AUTO_MAX_NEV: usize = 48;
 
 /// Block size for `nev` wanted pairs: about nev / 2, between 4 and 16 (16 right-hand sides
 /// already amortize the pass over the factor; larger blocks only grow the basis).
@@ -44,7 +52,7 @@ fn max_basis(nev: usize, b: usize, n: usize) -> usize {
 }
 
 /// Thick restarts allowed before giving up.
-const MAX_RESTARTS: usize = 50;
+const MAX_RESTARTS: usize = 10;
 
 /// The `nev` eigenpairs nearest above `sigma`, using the factorization `factor` of K - sigma M.
 /// `k`, `m`: symmetric, checked by the caller; `opts.tol` is the convergence tolerance (as for
@@ -74,7 +82,7 @@ pub(crate) fn block_lanczos(
     let mut w = starting_block(n, b);
     let mut mw = Mat::<f64>::zeros(n, b);
     spmm_symmetric(m, w.as_ref(), mw.as_mut());
-    if !m_orthonormalize(w.as_mut(), mw.as_mut(), &mut r) {
+    if !m_orthonormalize(None, w.as_mut(), mw.as_mut(), &mut r) {
         return Err(no_convergence(0, nev, 0, cap));
     }
     v.get_mut(.., ..b).copy_from(&w);
@@ -117,7 +125,8 @@ pub(crate) fn block_lanczos(
         t.get_mut(..filled, j0..filled).copy_from(&h);
         // W = V_{j+1} R_j. A rank-deficient W (an invariant subspace, or a block too large for
         // the spectrum) is reported as non-convergence: `EigenMethod::Auto` then uses ARPACK.
-        if !m_orthonormalize(w.as_mut(), mw.as_mut(), &mut r) {
+        let basis = (v.get(.., ..filled), mv.get(.., ..filled));
+        if !m_orthonormalize(Some(basis), w.as_mut(), mw.as_mut(), &mut r) {
             let count = ritz_converged(&t, filled, b, nev, tol, None).unwrap_or(0);
             return Err(no_convergence(count, nev, solves, cap));
         }
@@ -128,7 +137,9 @@ pub(crate) fn block_lanczos(
         };
         if converged == nev {
             let modes = extract(k, m, sigma, factor, (&v, &mv), &t, filled, nev)?;
-            tracing::debug!("block Lanczos: {nev} pairs, basis {filled}, {solves} solves");
+            tracing::debug!(
+                "block Lanczos: {nev} pairs, basis {filled}, {solves} solves, {restarts} restarts"
+            );
             return Ok(modes);
         }
         if filled + b > cap {
@@ -259,10 +270,24 @@ fn extract(
 /// block is numerically rank deficient: a Gram matrix that is not positive definite, a pivot
 /// below round-off of the largest, or a second pass far from the identity (conditioning beyond
 /// what CholeskyQR2 handles, about 1e8).
-fn m_orthonormalize(mut w: MatMut<'_, f64>, mut mw: MatMut<'_, f64>, r: &mut Mat<f64>) -> bool {
+fn m_orthonormalize(
+    basis: Option<(MatRef<'_, f64>, MatRef<'_, f64>)>,
+    mut w: MatMut<'_, f64>,
+    mut mw: MatMut<'_, f64>,
+    r: &mut Mat<f64>,
+) -> bool {
     let b = w.ncols();
     let mut total = Mat::<f64>::identity(b, b);
     for pass in 0..2 {
+        if let (1, Some((v, mv))) = (pass, basis) {
+            // Once normalized, the block's round-off components along the basis are magnified
+            // by the norm it lost in the Gram-Schmidt passes (large once Ritz vectors converge):
+            // remove them again. Their coefficients, times the first R, are round-off of OP V
+            // and are not added to T.
+            let c = v.transpose() * mw.as_ref();
+            matmul(w.rb_mut(), Accum::Add, v, c.as_ref(), -1.0, Par::rayon(0));
+            matmul(mw.rb_mut(), Accum::Add, mv, c.as_ref(), -1.0, Par::rayon(0));
+        }
         let g = w.as_ref().transpose() * mw.as_ref();
         let g = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
         let scale = (0..b).map(|i| g[(i, i)]).fold(0.0_f64, f64::max);
