@@ -126,17 +126,18 @@ enum Command {
         /// First amplitude, in gaps; below grazing.
         #[arg(long, default_value_t = 0.5)]
         q_start: f64,
-        /// Highest harmonic N.
-        #[arg(long, default_value_t = 15)]
+        /// Highest harmonic N (default: the study's, cases/blade.toml).
+        #[arg(long, default_value_t = 10)]
         harmonics: usize,
         /// Time samples per period m (>= 2N + 1).
-        #[arg(long, default_value_t = 256)]
+        #[arg(long, default_value_t = 128)]
         samples: usize,
         /// Master coordinate (reduced DOF index); default: the model's.
         #[arg(long)]
         master: Option<usize>,
         /// Algorithm 1 parameters and continuation settings as a TOML file with [algorithm] and
-        /// [continuation] tables (see cases/blade.toml); flags above override it.
+        /// [continuation] tables (see cases/blade.toml); flags above override it. Without it, the
+        /// defaults of a case file (epsilon = 1e-3 g0 among them).
         #[arg(long)]
         settings: Option<PathBuf>,
         /// Output directory.
@@ -270,7 +271,10 @@ fn run(command: Command) -> Result<()> {
         } => {
             let (params, mut cont) = match settings {
                 Some(p) => backbone::load_settings(&p)?,
-                None => Default::default(),
+                None => {
+                    let study = case::Case::default();
+                    (study.algorithm, study.continuation)
+                }
             };
             cont.q_max = q_max;
             cont.q_start = q_start;
