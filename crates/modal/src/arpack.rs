@@ -23,7 +23,7 @@ use std::sync::Mutex;
 use faer::Mat;
 use sprs::CsMat;
 
-use crate::block_lanczos::{block_lanczos, AUTO_MAX_NEV};
+use crate::block_lanczos::{basis_bytes, block_lanczos, AUTO_MAX_BASIS_BYTES, AUTO_MAX_NEV};
 use crate::cholesky::{CholeskyOptions, SparseCholesky};
 use crate::dense::{csmat_to_dense, dense_generalized_eigen};
 use crate::error::ModalError;
@@ -37,8 +37,9 @@ static ARPACK_LOCK: Mutex<()> = Mutex::new(());
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub enum EigenMethod {
     /// Dense solver when n <= 2 ncv or nev >= n (ARPACK needs ncv < n); otherwise block
-    /// Lanczos for nev <= [`crate::block_lanczos::AUTO_MAX_NEV`] (ARPACK if it does not
-    /// converge, logged), ARPACK for more.
+    /// Lanczos for nev <= [`crate::block_lanczos::AUTO_MAX_NEV`] when its basis fits in
+    /// [`crate::block_lanczos::AUTO_MAX_BASIS_BYTES`] (ARPACK if it does not converge, logged),
+    /// ARPACK otherwise.
     #[default]
     Auto,
     /// Always ARPACK (error when nev >= n).
@@ -167,7 +168,11 @@ fn run_iterative(
     match opts.method {
         EigenMethod::Arpack => run_arpack(k, m, sigma, factor, nev, ncv, opts),
         EigenMethod::BlockLanczos => block_lanczos(k, m, sigma, factor, nev, opts),
-        EigenMethod::Auto if nev > AUTO_MAX_NEV => run_arpack(k, m, sigma, factor, nev, ncv, opts),
+        EigenMethod::Auto
+            if nev > AUTO_MAX_NEV || basis_bytes(k.rows(), nev) > AUTO_MAX_BASIS_BYTES =>
+        {
+            run_arpack(k, m, sigma, factor, nev, ncv, opts)
+        }
         EigenMethod::Auto | EigenMethod::Dense => {
             match block_lanczos(k, m, sigma, factor, nev, opts) {
                 Err(e @ ModalError::BlockLanczosNoConvergence { .. }) => {

@@ -39,6 +39,17 @@ use crate::sparse_ops::spmm_symmetric;
 /// which the cheaper block solves (0.013 s against 0.085 s per vector) turn into a gain.
 pub const AUTO_MAX_NEV: usize = 48;
 
+/// Largest memory (bytes) the basis and M times it may take for [`crate::EigenMethod::Auto`] to
+/// choose block Lanczos: 1 GiB keeps the 93k-DOF blade (450 MB for 40 modes) on block Lanczos
+/// and sends the 234k-DOF one (1.1 GB) to ARPACK, whose basis is 3 times smaller, so that peak
+/// memory stays as measured with ARPACK (docs/BENCHMARKS.md).
+pub const AUTO_MAX_BASIS_BYTES: usize = 1 << 30;
+
+/// Bytes of the basis and M times it for `nev` pairs on an n-DOF problem.
+pub fn basis_bytes(n: usize, nev: usize) -> usize {
+    2 * n * max_basis(nev, block_size(nev).min(n), n) * std::mem::size_of::<f64>()
+}
+
 /// Block size for `nev` wanted pairs: about nev / 2, between 4 and 16 (16 right-hand sides
 /// already amortize the pass over the factor; larger blocks only grow the basis).
 pub fn block_size(nev: usize) -> usize {
