@@ -50,7 +50,6 @@ fn main() {
     let (k, m) = chain(n);
     let boundary: Vec<usize> = (0..24).map(|j| n - 1 - 25 * j).collect();
     let harmonics = HarmonicSettings::new(10, 128).expect("settings");
-    let window = NewtonSettings::default().resonance_window;
     println!(
         "| interior modes | reduced size | Newton unknowns | linear solve, condensed [ms] | \
          linear solve, uncondensed [ms] | whole Newton iteration [ms] |"
@@ -66,19 +65,7 @@ fn main() {
         }
         let gaps = vec![1.0; 24];
         let system = System::new(cb.m_r.clone(), cb.k_r.clone(), a, gaps, 0).expect("system");
-        let w1 = system.linear_frequencies()[0];
-        // The linear algebra of one step alone: median of 25 solves, repeated RUNS times.
-        let step = |condensation| {
-            let mut medians: Vec<f64> = (0..runs)
-                .map(|_| {
-                    newton_step_timing(&system, harmonics, condensation, window, 1.5 * w1, 0.15, 25)
-                        .expect("step timing")
-                        .median_seconds
-                })
-                .collect();
-            medians.sort_by(f64::total_cmp);
-            1e3 * medians[medians.len() / 2]
-        };
+        let step = |condensation| step_ms(&system, harmonics, condensation, runs);
         let condensed = step(Condensation::Exact);
         // The dense uncondensed LU grows as ((N + 1) n)^3: measured up to 100 modes only.
         let full = if modes <= 100 {
@@ -126,7 +113,6 @@ fn whole_iteration(system: &System, harmonics: HarmonicSettings, runs: usize) ->
 /// every contact row active over 15 % of the period at w = 1.5 w1, N = 10, m = 128.
 fn reduced_models(runs: usize, dirs: &[String]) {
     let harmonics = HarmonicSettings::new(10, 128).expect("settings");
-    let window = NewtonSettings::default().resonance_window;
     println!(
         "| model | reduced size | contact rows | interior modes | Newton unknowns | \
          linear solve, condensed [ms] | linear solve, uncondensed [ms] |"
@@ -148,18 +134,7 @@ fn reduced_models(runs: usize, dirs: &[String]) {
             model.master.dof,
         )
         .expect("system");
-        let w1 = system.linear_frequencies()[0];
-        let step = |condensation| {
-            let mut medians: Vec<f64> = (0..runs)
-                .map(|_| {
-                    newton_step_timing(&system, harmonics, condensation, window, 1.5 * w1, 0.15, 25)
-                        .expect("step timing")
-                        .median_seconds
-                })
-                .collect();
-            medians.sort_by(f64::total_cmp);
-            1e3 * medians[medians.len() / 2]
-        };
+        let step = |condensation| step_ms(&system, harmonics, condensation, runs);
         let n = system.n_dofs();
         let c = system.n_contacts();
         let full = if n <= 200 {
@@ -174,4 +149,25 @@ fn reduced_models(runs: usize, dirs: &[String]) {
             step(Condensation::Exact)
         );
     }
+}
+
+/// The linear algebra of one Newton step alone (every contact row active over 15 % of the
+/// period, w = 1.5 w1): median of 25 solves, then median over `runs` repeats, in ms.
+fn step_ms(
+    system: &System,
+    harmonics: HarmonicSettings,
+    condensation: Condensation,
+    runs: usize,
+) -> f64 {
+    let window = NewtonSettings::default().resonance_window;
+    let w1 = system.linear_frequencies()[0];
+    let mut medians: Vec<f64> = (0..runs)
+        .map(|_| {
+            newton_step_timing(system, harmonics, condensation, window, 1.5 * w1, 0.15, 25)
+                .expect("step timing")
+                .median_seconds
+        })
+        .collect();
+    medians.sort_by(f64::total_cmp);
+    1e3 * medians[medians.len() / 2]
 }
