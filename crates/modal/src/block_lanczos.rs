@@ -164,7 +164,7 @@ pub(crate) fn block_lanczos(
             0
         };
         if converged == nev {
-            let modes = extract(k, m, sigma, factor, (&v, &mv), &t, filled, nev)?;
+            let modes = extract(k, m, sigma, factor, &mv, &t, filled, nev)?;
             tracing::debug!(
                 "block Lanczos: {nev} pairs, basis {filled}, {solves} solves, {restarts} restarts"
             );
@@ -289,7 +289,7 @@ fn extract(
     m: &CsMat<f64>,
     sigma: f64,
     factor: &SparseCholesky,
-    (v, mv): (&Mat<f64>, &Mat<f64>),
+    mv: &Mat<f64>,
     t: &Mat<f64>,
     filled: usize,
     nev: usize,
@@ -301,7 +301,6 @@ fn extract(
     let yw = Mat::from_fn(filled, nev, |r, c| y[(r, cols[c])]);
     let mut x = mv.get(.., ..filled) * &yw;
     factor.solve_many(x.as_mut())?;
-    let _ = v;
     let values: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
     Ok(finalize_modes(k, m, &values, &x))
 }
