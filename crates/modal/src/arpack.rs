@@ -5,7 +5,7 @@
 //!
 //! Reverse communication (DESIGN 6): ido = -1: y = (K - sigma M)^-1 M x;
 //! ido = 1: y = (K - sigma M)^-1 (M x) with M x already in
-//! workd[ipntr[2] - 1 ..]; ido = 2: y = M x. `ipntr` is 1-based, strings are
+//! `workd[ipntr[2] - 1 ..]`; ido = 2: y = M x. `ipntr` is 1-based, strings are
 //! NUL-terminated, integers are `a_int` = i32. ARPACK keeps state in Fortran
 //! SAVE variables, so every session runs under one process-wide lock.
 //!

@@ -2,7 +2,7 @@
 //!
 //! METIS nested dissection (`METIS_NodeND`) on the adjacency graph of the
 //! matrix (its pattern without the diagonal, made symmetric). METIS returns
-//! `perm` and `iperm` with "row i of the permuted matrix is row perm[i] of the
+//! `perm` and `iperm` with "row i of the permuted matrix is row `perm[i]` of the
 //! original" (METIS 5 manual, Sec. 5.6); faer's forward permutation has the
 //! same meaning (its solve gathers `x[i] = rhs[fwd[i]]`), so `perm` is passed
 //! as faer's forward array and `iperm` as its inverse. Swapping them still
