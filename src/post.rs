@@ -78,19 +78,7 @@ pub struct BackboneFile {
     pub grazing_amplitude: Option<f64>,
     /// Internal-resonance tongues skipped by the continuation.
     #[serde(default)]
-    pub internal_resonances: Vec<InternalResonanceRecord>,
-}
-
-/// An internal resonance recorded by the continuation (see `nlmodes_nnm::InternalResonance`).
-#[derive(Debug, Clone, Deserialize)]
-pub struct InternalResonanceRecord {
-    pub q: f64,
-    pub omega_ratio: f64,
-    pub mode: usize,
-    pub harmonic: usize,
-    pub share: f64,
-    pub detuning: f64,
-    pub hopped: bool,
+    pub internal_resonances: Vec<nlmodes_nnm::InternalResonance>,
 }
 
 fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T> {

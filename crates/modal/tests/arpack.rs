@@ -36,37 +36,7 @@ fn arpack_matches_dense_on_spring_grid() {
         dense_generalized_eigen(csmat_to_dense(&k).as_ref(), csmat_to_dense(&m).as_ref()).unwrap();
 
     assert_eq!(modes.eigenvalues.len(), nev);
-    for j in 0..nev {
-        let (a, d) = (modes.eigenvalues[j], dense_values[j]);
-        let gap = (dense_values[j + 1] - d).min(if j > 0 {
-            d - dense_values[j - 1]
-        } else {
-            f64::MAX
-        });
-        println!(
-            "mode {j}: ARPACK {a:.15e} dense {d:.15e} rel diff {:.1e} gap {:.1e} residual {:.1e}",
-            (a - d).abs() / d,
-            gap / d,
-            modes.residuals[j]
-        );
-        assert!((a - d).abs() <= 1e-8 * d.abs(), "mode {j}: {a} vs {d}");
-        assert!(
-            modes.residuals[j] < 1e-9,
-            "mode {j}: residual {}",
-            modes.residuals[j]
-        );
-        let mac_value = mac(&column(&modes.vectors, j), &column(&dense_vectors, j));
-        assert!(mac_value > 1.0 - 1e-8, "mode {j}: MAC {mac_value}");
-    }
-    // Phi^T M Phi = I.
-    for i in 0..nev {
-        let m_phi = mul(&m, &column(&modes.vectors, i));
-        for j in 0..nev {
-            let g = dot(&column(&modes.vectors, j), &m_phi);
-            let expected = if i == j { 1.0 } else { 0.0 };
-            assert!((g - expected).abs() < 1e-10, "({i}, {j}): {g}");
-        }
-    }
+    common::assert_matches_dense("ARPACK", &modes, &dense_values, &dense_vectors, &m);
     // Residuals recomputed independently: below 1e-9, and equal to the
     // crate's to 1e-12 absolute (both are round-off-level numbers ~1e-14 whose
     // computation differs only by the rescaling of phi, i.e. in the last bits

@@ -35,31 +35,7 @@ fn block_lanczos_matches_dense_on_spring_grid() {
         dense_generalized_eigen(csmat_to_dense(&k).as_ref(), csmat_to_dense(&m).as_ref())
             .expect("dense eigen");
     assert_eq!(modes.eigenvalues.len(), nev);
-    for j in 0..nev {
-        let (a, d) = (modes.eigenvalues[j], dense_values[j]);
-        println!(
-            "mode {j}: block Lanczos {a:.15e} dense {d:.15e} rel diff {:.1e} gap {:.1e} residual {:.1e}",
-            (a - d).abs() / d,
-            (dense_values[j + 1] - d) / d,
-            modes.residuals[j]
-        );
-        assert!((a - d).abs() <= 1e-8 * d.abs(), "mode {j}: {a} vs {d}");
-        assert!(
-            modes.residuals[j] < 1e-9,
-            "mode {j}: residual {}",
-            modes.residuals[j]
-        );
-        let mac_value = mac(&column(&modes.vectors, j), &column(&dense_vectors, j));
-        assert!(mac_value > 1.0 - 1e-8, "mode {j}: MAC {mac_value}");
-    }
-    for i in 0..nev {
-        let m_phi = mul(&m, &column(&modes.vectors, i));
-        for j in 0..nev {
-            let g = dot(&column(&modes.vectors, j), &m_phi);
-            let expected = if i == j { 1.0 } else { 0.0 };
-            assert!((g - expected).abs() < 1e-10, "({i}, {j}): {g}");
-        }
-    }
+    common::assert_matches_dense("block Lanczos", &modes, &dense_values, &dense_vectors, &m);
 }
 
 /// 40 eigenpairs of a 14 x 14 x 14 grid (n = 2548 free DOFs, above the dense threshold) by block

@@ -203,7 +203,7 @@ pub struct Backbone {
 
 /// An internal resonance met by the continuation: the branch turned into a tongue where linear
 /// mode `mode` at harmonic `harmonic` took over the orbit (`harmonic` x w close to w_mode).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct InternalResonance {
     /// Master amplitude of the tongue point (length unit of the system).
     pub q: f64,

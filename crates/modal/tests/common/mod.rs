@@ -149,3 +149,48 @@ pub fn mac(a: &[f64], b: &[f64]) -> f64 {
 pub fn column(a: &Mat<f64>, j: usize) -> Vec<f64> {
     a.col_as_slice(j).to_vec()
 }
+
+/// Checks `modes` (the first nev pairs, by the solver named `label`) against the dense
+/// reference: eigenvalues to 1e-8 relative, residuals below 1e-9, MAC against the dense vectors
+/// above 1 - 1e-8, and Phi^T M Phi = I to 1e-10 (the tolerances are justified in the callers).
+/// Prints each mode's relative difference, relative gap and residual.
+pub fn assert_matches_dense(
+    label: &str,
+    modes: &nlmodes_modal::Modes,
+    dense_values: &[f64],
+    dense_vectors: &Mat<f64>,
+    m: &CsMat<f64>,
+) {
+    let nev = modes.eigenvalues.len();
+    for j in 0..nev {
+        let (a, d) = (modes.eigenvalues[j], dense_values[j]);
+        let gap = (dense_values[j + 1] - d).min(if j > 0 {
+            d - dense_values[j - 1]
+        } else {
+            f64::MAX
+        });
+        println!(
+            "mode {j}: {label} {a:.15e} dense {d:.15e} rel diff {:.1e} gap {:.1e} residual {:.1e}",
+            (a - d).abs() / d,
+            gap / d,
+            modes.residuals[j]
+        );
+        assert!((a - d).abs() <= 1e-8 * d.abs(), "mode {j}: {a} vs {d}");
+        assert!(
+            modes.residuals[j] < 1e-9,
+            "mode {j}: residual {}",
+            modes.residuals[j]
+        );
+        let mac_value = mac(&column(&modes.vectors, j), &column(dense_vectors, j));
+        assert!(mac_value > 1.0 - 1e-8, "mode {j}: MAC {mac_value}");
+    }
+    // Phi^T M Phi = I.
+    for i in 0..nev {
+        let m_phi = mul(m, &column(&modes.vectors, i));
+        for j in 0..nev {
+            let g = dot(&column(&modes.vectors, j), &m_phi);
+            let expected = if i == j { 1.0 } else { 0.0 };
+            assert!((g - expected).abs() < 1e-10, "({i}, {j}): {g}");
+        }
+    }
+}
