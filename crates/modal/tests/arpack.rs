@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{column, dot, free_chain, mac, mul, spring_grid};
+use common::{column, free_chain, mac, mul, spring_grid};
 use nlmodes_modal::{
     csmat_to_dense, dense_generalized_eigen, eigs_shift_invert, EigenMethod, EigenOptions,
     ModalError,
