@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::augmented_lagrangian::AlgorithmParams;
 use crate::error::NnmError;
 use crate::fourier::HarmonicSettings;
-use crate::newton::ParameterRow;
+use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
 use crate::system::System;
@@ -260,7 +260,7 @@ where
     };
     let c = system.n_contacts();
     let y_norm = ((c + 1) as f64).sqrt();
-    let nh = settings.harmonics + 1;
+    let nh = settings.terms();
     // Scaled branch coordinates X = (q / g_ref, w / w_lin, y / (g_ref sqrt(c + 1))).
     let scaled = |p: &BackbonePoint| -> Vec<f64> {
         let mut x = vec![p.q / g_ref, p.omega / w1];

@@ -34,6 +34,11 @@ impl HarmonicSettings {
         Ok(s)
     }
 
+    /// Number of cosine terms N + 1 (the mean included).
+    pub fn terms(&self) -> usize {
+        self.harmonics + 1
+    }
+
     /// N harmonics with the default sampling [`HarmonicSettings::default_samples`].
     pub fn with_default_samples(harmonics: usize) -> Result<Self, NnmError> {
         Self::new(harmonics, Self::default_samples(harmonics))

@@ -3,14 +3,16 @@
 //! systems (`Condensation::None`).
 
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatMut, MatRef, Par};
+use faer::{Accum, Mat, Par};
 
 use crate::dense::DenseLu;
 use crate::error::NnmError;
-use crate::newton::{contact_jacobian, JacobianData, LinearModel};
+use crate::layout::HarmonicLayout;
+use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::system::System;
 
 pub(crate) struct FullModel {
+    layout: HarmonicLayout,
     k: Mat<f64>,
     m: Mat<f64>,
     a: Mat<f64>,
@@ -22,7 +24,8 @@ pub(crate) struct FullModel {
 }
 
 impl FullModel {
-    pub fn new(system: &System) -> Self {
+    /// The model of `system` for harmonics 0..=`harmonics`.
+    pub fn new(system: &System, harmonics: usize) -> Self {
         let n = system.n_dofs();
         let mut master_row = vec![0.0; n];
         master_row[system.master()] = 1.0;
@@ -30,6 +33,7 @@ impl FullModel {
             .map(|i| 1.0 / system.stiffness()[(i, i)].sqrt())
             .collect();
         Self {
+            layout: HarmonicLayout::new(harmonics, n),
             k: system.stiffness().to_owned(),
             m: system.mass().to_owned(),
             a: system.contact_rows().to_owned(),
@@ -43,19 +47,17 @@ impl FullModel {
 }
 
 impl LinearModel for FullModel {
-    fn dim(&self) -> usize {
-        self.k.nrows()
+    fn layout(&self) -> HarmonicLayout {
+        self.layout
     }
 
-    fn contact_coefficients(&self, x: &[f64], harmonics: usize, out: &mut [f64]) {
-        let (n, nh, c) = (self.dim(), harmonics + 1, self.a.nrows());
-        let xm = MatRef::from_column_major_slice(&x[..n * nh], n, nh);
-        // out (c x nh, row-major j * nh + h) = A X, written through a transposed view.
-        let mut o = MatMut::from_column_major_slice_mut(&mut out[..c * nh], nh, c);
+    fn contact_coefficients(&self, x: &[f64], out: &mut [f64]) {
+        let l = self.layout;
+        // out (signal-major) = (A X)^T, written through its (N+1) x c view.
         matmul(
-            o.as_mut(),
+            l.signals(self.a.nrows()).view_mut(out),
             Accum::Replace,
-            xm.transpose(),
+            l.view(x).transpose(),
             self.a.transpose(),
             1.0,
             Par::Seq,
@@ -66,16 +68,10 @@ impl LinearModel for FullModel {
         &self.master_row
     }
 
-    fn harmonic_residual(
-        &mut self,
-        omega: f64,
-        x: &[f64],
-        harmonics: usize,
-        lambda_coef: &[f64],
-        out: &mut [f64],
-    ) {
-        let (n, nh, c) = (self.dim(), harmonics + 1, self.a.nrows());
-        let xm = MatRef::from_column_major_slice(&x[..n * nh], n, nh);
+    fn harmonic_residual(&mut self, omega: f64, x: &[f64], lambda_coef: &[f64], out: &mut [f64]) {
+        let l = self.layout;
+        let (n, nh, c) = (l.dim(), l.count(), self.a.nrows());
+        let xm = l.view(x);
         if self.kx.nrows() != n || self.kx.ncols() != nh {
             self.kx = Mat::zeros(n, nh);
             self.mx = Mat::zeros(n, nh);
@@ -96,7 +92,7 @@ impl LinearModel for FullModel {
             1.0,
             Par::Seq,
         );
-        let mut o = MatMut::from_column_major_slice_mut(&mut out[..n * nh], n, nh);
+        let mut o = l.view_mut(out);
         for h in 0..nh {
             let s = (h as f64 * omega).powi(2);
             for i in 0..n {
@@ -104,7 +100,7 @@ impl LinearModel for FullModel {
             }
         }
         // + A^T lambda_n
-        let lam = MatRef::from_column_major_slice(&lambda_coef[..c * nh], nh, c);
+        let lam = l.signals(c).view(lambda_coef);
         matmul(
             o.as_mut(),
             Accum::Add,
@@ -120,12 +116,12 @@ impl LinearModel for FullModel {
     }
 
     fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError> {
-        let (n, nh) = (self.dim(), jac.harmonics + 1);
-        let size = n * nh + 2;
-        let (iw, iq) = (n * nh, n * nh + 1);
-        let np = 2 * jac.harmonics + 1;
+        let l = self.layout;
+        let (n, nh, np) = (l.dim(), l.count(), l.moments());
+        let size = l.newton_len();
+        let (iw, iq) = (l.omega_index(), l.omega_index() + 1);
         let w = jac.omega;
-        let xm = MatRef::from_column_major_slice(&jac.x[..n * nh], n, nh);
+        let xm = l.view(jac.x);
         let mx = &self.m * xm;
         let mut a = self.lu.matrix(size);
         for h in 0..nh {
@@ -133,11 +129,11 @@ impl LinearModel for FullModel {
             let ds = -2.0 * (h * h) as f64 * w;
             for j in 0..n {
                 for i in 0..n {
-                    a[(h * n + i, h * n + j)] = self.k[(i, j)] - s * self.m[(i, j)];
+                    a[(l.at(h, i), l.at(h, j))] = self.k[(i, j)] - s * self.m[(i, j)];
                 }
             }
             for i in 0..n {
-                a[(h * n + i, iw)] = ds * mx[(i, h)];
+                a[(l.at(h, i), iw)] = ds * mx[(i, h)];
             }
         }
         for (ai, &jrow) in jac.active.iter().enumerate() {
@@ -154,27 +150,28 @@ impl LinearModel for FullModel {
                             continue;
                         }
                         for i in 0..n {
-                            a[(h * n + i, hp * n + j)] += self.a[(jrow, i)] * aj;
+                            a[(l.at(h, i), l.at(hp, j))] += self.a[(jrow, i)] * aj;
                         }
                     }
                 }
             }
         }
         for i in 0..n {
-            a[(iw, n + i)] = jac.norm_scale * self.master_row[i];
+            a[(iw, l.at(1, i))] = jac.norm_scale * self.master_row[i];
         }
         a[(iw, iq)] = -jac.norm_scale;
         a[(iq, iw)] = jac.arc_w;
         a[(iq, iq)] = jac.arc_q;
         if !jac.arc_y.is_empty() {
+            let kept = l.signals(self.a.nrows() + 1);
             let c = self.a.nrows();
             for h in 0..nh {
                 for i in 0..n {
-                    let mut v = jac.arc_y[c * nh + h] * self.master_row[i];
+                    let mut v = jac.arc_y[kept.at(c, h)] * self.master_row[i];
                     for j in 0..c {
-                        v += jac.arc_y[j * nh + h] * self.a[(j, i)];
+                        v += jac.arc_y[kept.at(j, h)] * self.a[(j, i)];
                     }
-                    a[(iq, h * n + i)] = v;
+                    a[(iq, l.at(h, i))] = v;
                 }
             }
         }

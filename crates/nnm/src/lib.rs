@@ -38,8 +38,8 @@
 //! helpers), `error`.
 
 mod augmented_lagrangian;
-mod condensation;
-mod condensed;
+mod condensation_basis;
+mod condensed_newton;
 mod contact;
 mod continuation;
 mod dense;
@@ -47,6 +47,8 @@ mod error;
 mod fourier;
 mod full;
 mod integrate;
+mod layout;
+mod linear_model;
 mod modal_tail;
 mod newton;
 mod newton_fallback;

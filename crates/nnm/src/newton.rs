@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::contact::{apply_contact_law, Multipliers};
 use crate::error::NnmError;
 use crate::fourier::Aft;
+use crate::linear_model::{JacobianData, LinearModel, ParameterRow};
 
 /// Settings of the inner semi-smooth Newton solver.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -86,41 +87,6 @@ impl NewtonSettings {
     }
 }
 
-/// The parameter row a_q (q - q_p)/q_s + a_w (w - w_p)/w_s + a_y . (y - y_p)/y_s = 0.
-///
-/// y are the kept coordinates of every harmonic: the contact coefficients A_j u_n (layout
-/// j (N+1) + n) followed by the master coefficients e . u_n (layout c (N+1) + n). Fixed q:
-/// a_q = 1, everything else 0 (a_y empty). Pseudo-arc-length: (a_q, a_w, a_y) is the unit tangent
-/// of the branch in the scaled space (q / g_ref, w / w_lin, y / (g_ref sqrt(c + 1))).
-#[derive(Clone, Debug)]
-pub(crate) struct ParameterRow {
-    pub a_q: f64,
-    pub a_w: f64,
-    pub a_y: Vec<f64>,
-    pub q_p: f64,
-    pub w_p: f64,
-    pub y_p: Vec<f64>,
-    pub q_scale: f64,
-    pub w_scale: f64,
-    pub y_scale: f64,
-}
-
-impl ParameterRow {
-    pub fn fixed_amplitude(q: f64, q_scale: f64, w_scale: f64) -> Self {
-        Self {
-            a_q: 1.0,
-            a_w: 0.0,
-            a_y: Vec::new(),
-            q_p: q,
-            w_p: 0.0,
-            y_p: Vec::new(),
-            q_scale,
-            w_scale,
-            y_scale: 1.0,
-        }
-    }
-}
-
 /// Newton unknowns: coefficients (model coordinates, harmonic-major: x[n * d + i]), w, q.
 #[derive(Clone, Debug)]
 pub(crate) struct NewtonState {
@@ -129,67 +95,10 @@ pub(crate) struct NewtonState {
     pub q: f64,
 }
 
-/// What a Jacobian solve needs besides the model's own data.
-pub(crate) struct JacobianData<'a> {
-    pub harmonics: usize,
-    pub omega: f64,
-    pub x: &'a [f64],
-    /// Contact rows with at least one active sample.
-    pub active: &'a [usize],
-    /// Cosine moments D_p (p = 0..=2N) of kappa * active, one block of 2N + 1 per active row.
-    pub moments: &'a [f64],
-    /// d R_norm / d(e . u_1) (and minus d R_norm / dq).
-    pub norm_scale: f64,
-    /// d R_arc / dw.
-    pub arc_w: f64,
-    /// d R_arc / dq.
-    pub arc_q: f64,
-    /// d R_arc / dy (layout of [`ParameterRow`]; empty when the row does not involve y).
-    pub arc_y: &'a [f64],
-}
-
-/// Contact Jacobian entry J_{n,n'} of one contact row from its cosine moments (see module docs).
-#[inline]
-pub(crate) fn contact_jacobian(moments: &[f64], n: usize, np: usize) -> f64 {
-    if n == 0 {
-        moments[np]
-    } else {
-        moments[n + np] + moments[n.abs_diff(np)]
-    }
-}
-
-/// The linear part of Eq. (20) in some coordinates (physical, or the exact condensation).
-pub(crate) trait LinearModel {
-    /// Coordinates per harmonic d.
-    fn dim(&self) -> usize;
-    /// Contact coefficients A_j u_n -> `out[j * (N+1) + n]`.
-    fn contact_coefficients(&self, x: &[f64], harmonics: usize, out: &mut [f64]);
-    /// e_master in model coordinates (length d).
-    fn master_row(&self) -> &[f64];
-    /// Harmonic rows (K - (n w)^2 M) x_n + A^T lambda_n, `lambda_coef[j * (N+1) + n]`.
-    fn harmonic_residual(
-        &mut self,
-        omega: f64,
-        x: &[f64],
-        harmonics: usize,
-        lambda_coef: &[f64],
-        out: &mut [f64],
-    );
-    /// Merit weights of the harmonic rows (1 / sqrt(diagonal stiffness)), length d.
-    fn row_weights(&self) -> &[f64];
-    /// Solves J step = rhs in place (`rhs` has d (N+1) + 2 entries: harmonic rows, norm, arc).
-    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError>;
-    /// Physical coefficient vectors of `count` harmonics (n x count, column-major) from model
-    /// coordinates (d x count).
-    fn model_to_physical(&self, x: &[f64], count: usize, u: &mut [f64]);
-    /// Model coordinates (d x count) of `count` physical coefficient vectors (n x count).
-    fn physical_to_model(&self, u: &[f64], count: usize, x: &mut [f64]);
-}
-
 /// Residual and contact samples at one Newton iterate.
 #[derive(Clone, Default)]
 pub(crate) struct Evaluation {
-    /// Contact coefficients, c x (N+1).
+    /// Contact coefficients A_j u_n, signal-major c x (N+1).
     pub coef: Vec<f64>,
     /// Gap samples g_{j,k} = A_j u(t_k) - g0_j, c x m.
     pub gaps: Vec<f64>,
@@ -197,7 +106,7 @@ pub(crate) struct Evaluation {
     pub lambda: Vec<f64>,
     /// Slopes d lambda / d g, c x m.
     pub slope: Vec<f64>,
-    /// Cosine coefficients of lambda, c x (N+1).
+    /// Cosine coefficients of lambda, signal-major c x (N+1).
     pub lambda_coef: Vec<f64>,
     /// Residual: d (N+1) harmonic rows, then normalization, then parameter row.
     pub residual: Vec<f64>,
@@ -212,16 +121,30 @@ pub(crate) struct NewtonWork {
     pub spent: usize,
     pub current: Evaluation,
     trial: Evaluation,
+    /// The latest Newton step (coefficients, dw, dq).
     step: Vec<f64>,
+    /// The plain semi-smooth step of the iteration, kept while secant steps are tried.
     first_step: Vec<f64>,
     trial_x: Vec<f64>,
+    /// Per-sample slopes d lambda / d g the next direction is computed with.
     slopes: Vec<f64>,
     direction: DirectionWork,
 }
 
+/// Buffers of the direction computations.
+#[derive(Default)]
+pub(crate) struct DirectionWork {
+    active: Vec<usize>,
+    slopes_active: Vec<f64>,
+    moments: Vec<f64>,
+    dcoef: Vec<f64>,
+    dgap: Vec<f64>,
+    arc_y: Vec<f64>,
+}
+
 /// Fixed data of an inner problem.
 pub(crate) struct InnerProblem<'a> {
-    pub harmonics: usize,
+    /// Time samples per period m.
     pub samples: usize,
     pub g0: &'a [f64],
     pub multipliers: &'a Multipliers,
@@ -240,6 +163,9 @@ pub(crate) struct NewtonReport {
     pub iterations: usize,
 }
 
+/// Residual of the inner problem at (x, w, q), written to `ev`: AFT of the contact coefficients,
+/// the sampled law (Eqs. 13-15), back to cosine coefficients (Eq. 19), harmonic rows, the
+/// normalization row and the parameter row, and the weighted merit.
 fn evaluate(
     model: &mut dyn LinearModel,
     aft: &mut Aft,
@@ -249,14 +175,16 @@ fn evaluate(
     q: f64,
     ev: &mut Evaluation,
 ) {
-    let (nh, m, c, d) = (p.harmonics + 1, p.samples, p.g0.len(), model.dim());
-    ev.coef.resize(c * nh, 0.0);
+    let layout = model.layout();
+    let (m, c, d) = (p.samples, p.g0.len(), layout.dim());
+    let signals = layout.signals(c);
+    ev.coef.resize(signals.len(), 0.0);
     ev.gaps.resize(c * m, 0.0);
     ev.lambda.resize(c * m, 0.0);
     ev.slope.resize(c * m, 0.0);
-    ev.lambda_coef.resize(c * nh, 0.0);
-    ev.residual.resize(d * nh + 2, 0.0);
-    model.contact_coefficients(x, p.harmonics, &mut ev.coef);
+    ev.lambda_coef.resize(signals.len(), 0.0);
+    ev.residual.resize(layout.newton_len(), 0.0);
+    model.contact_coefficients(x, &mut ev.coef);
     aft.synthesize(&ev.coef, c, &mut ev.gaps);
     for (j, g0) in p.g0.iter().enumerate() {
         ev.gaps[j * m..(j + 1) * m]
@@ -271,195 +199,36 @@ fn evaluate(
         &mut ev.slope,
     );
     aft.analyze(&ev.lambda, c, &mut ev.lambda_coef);
-    model.harmonic_residual(
-        omega,
-        x,
-        p.harmonics,
-        &ev.lambda_coef,
-        &mut ev.residual[..d * nh],
-    );
-    let master: f64 = model
-        .master_row()
-        .iter()
-        .zip(&x[d..2 * d])
-        .map(|(e, v)| e * v)
-        .sum();
-    ev.residual[d * nh] = p.norm_scale * (master - q);
+    let (rows, tail) = ev.residual.split_at_mut(layout.len());
+    model.harmonic_residual(omega, x, &ev.lambda_coef, rows);
+    let e = model.master_row();
+    let dot = |v: &[f64]| -> f64 { e.iter().zip(v).map(|(a, b)| a * b).sum() };
+    tail[0] = p.norm_scale * (dot(layout.harmonic(x, 1)) - q);
     let r = p.row;
     let mut arc = r.a_q * (q - r.q_p) / r.q_scale + r.a_w * (omega - r.w_p) / r.w_scale;
     if !r.a_y.is_empty() {
-        let e = model.master_row();
+        let nh = layout.count();
         for h in 0..nh {
-            let mh: f64 = e
-                .iter()
-                .zip(&x[h * d..(h + 1) * d])
-                .map(|(a, b)| a * b)
-                .sum();
-            arc += r.a_y[c * nh + h] * (mh - r.y_p[c * nh + h]) / r.y_scale;
+            arc += r.a_y[c * nh + h] * (dot(layout.harmonic(x, h)) - r.y_p[c * nh + h]) / r.y_scale;
         }
-        for i in 0..c * nh {
+        for i in 0..signals.len() {
             arc += r.a_y[i] * (ev.coef[i] - r.y_p[i]) / r.y_scale;
         }
     }
-    ev.residual[d * nh + 1] = p.arc_scale * arc;
+    tail[1] = p.arc_scale * arc;
     let w = model.row_weights();
     let mut sum = 0.0;
-    for block in ev.residual[..d * nh].chunks(d) {
+    for block in rows.chunks(d) {
         for (r, wi) in block.iter().zip(w) {
             sum += (r * wi) * (r * wi);
         }
     }
-    sum += ev.residual[d * nh].powi(2) + ev.residual[d * nh + 1].powi(2);
+    sum += tail[0].powi(2) + tail[1].powi(2);
     ev.merit = if sum.is_finite() {
         sum.sqrt()
     } else {
         f64::INFINITY
     };
-}
-
-/// Newton direction for the given per-sample slopes (d lambda / d g, c x m): J step = -R.
-#[allow(clippy::too_many_arguments)]
-fn newton_direction(
-    model: &mut dyn LinearModel,
-    aft: &mut Aft,
-    p: &InnerProblem<'_>,
-    state: &NewtonState,
-    residual: &[f64],
-    slopes: &[f64],
-    work: &mut DirectionWork,
-    step: &mut Vec<f64>,
-) -> Result<(), NnmError> {
-    let (m, np, c) = (p.samples, 2 * p.harmonics + 1, p.g0.len());
-    work.active.clear();
-    for j in 0..c {
-        if slopes[j * m..(j + 1) * m].iter().any(|&s| s > 0.0) {
-            work.active.push(j);
-        }
-    }
-    work.slopes_active.clear();
-    for &j in &work.active {
-        work.slopes_active
-            .extend_from_slice(&slopes[j * m..(j + 1) * m]);
-    }
-    work.moments.resize(work.active.len() * np, 0.0);
-    aft.cosine_moments(&work.slopes_active, work.active.len(), &mut work.moments);
-    step.clear();
-    step.extend(residual.iter().map(|r| -r));
-    let r = p.row;
-    work.arc_y.clear();
-    work.arc_y
-        .extend(r.a_y.iter().map(|a| p.arc_scale * a / r.y_scale));
-    let jac = JacobianData {
-        harmonics: p.harmonics,
-        omega: state.omega,
-        x: &state.x,
-        active: &work.active,
-        moments: &work.moments,
-        norm_scale: p.norm_scale,
-        arc_w: p.arc_scale * r.a_w / r.w_scale,
-        arc_q: p.arc_scale * r.a_q / r.q_scale,
-        arc_y: &work.arc_y,
-    };
-    model.solve_step(&jac, step)?;
-    if step.iter().any(|v| !v.is_finite()) {
-        return Err(NnmError::Decomposition {
-            what: "Newton step",
-            detail: "non-finite step (singular Newton matrix)".to_string(),
-        });
-    }
-    Ok(())
-}
-
-/// Secant slopes along a step: for each sample, kappa times the fraction of the segment
-/// [s, s + ds] (s = g + theta) on which the sample is in contact, so that the linear model of
-/// lambda is exact at the end of the step. Returns how many samples differ from `slopes`.
-fn secant_slopes(
-    model: &dyn LinearModel,
-    aft: &mut Aft,
-    p: &InnerProblem<'_>,
-    ev: &Evaluation,
-    step: &[f64],
-    work: &mut DirectionWork,
-    slopes: &mut [f64],
-) -> usize {
-    let (nh, m, c) = (p.harmonics + 1, p.samples, p.g0.len());
-    work.dcoef.resize(c * nh, 0.0);
-    work.dgap.resize(c * m, 0.0);
-    model.contact_coefficients(step, p.harmonics, &mut work.dcoef);
-    aft.synthesize(&work.dcoef, c, &mut work.dgap);
-    let mut changed = 0;
-    for (i, slope) in slopes.iter_mut().enumerate().take(c * m) {
-        let s0 = ev.gaps[i] + p.multipliers.theta[i];
-        let s1 = s0 + work.dgap[i];
-        let fraction = if s0 > 0.0 && s1 >= 0.0 {
-            1.0
-        } else if s0 <= 0.0 && s1 <= 0.0 {
-            0.0
-        } else if s0 > 0.0 {
-            s0 / (s0 - s1)
-        } else {
-            s1 / (s1 - s0)
-        };
-        let new = p.multipliers.kappa[i] * fraction;
-        if new != *slope {
-            changed += 1;
-        }
-        *slope = new;
-    }
-    changed
-}
-
-/// Buffers of the direction computations.
-#[derive(Default)]
-pub(crate) struct DirectionWork {
-    active: Vec<usize>,
-    slopes_active: Vec<f64>,
-    moments: Vec<f64>,
-    dcoef: Vec<f64>,
-    dgap: Vec<f64>,
-    arc_y: Vec<f64>,
-}
-
-/// Backtracking line search along `step`; on success the state and `current` are updated.
-#[allow(clippy::too_many_arguments)]
-fn line_search(
-    model: &mut dyn LinearModel,
-    aft: &mut Aft,
-    p: &InnerProblem<'_>,
-    settings: &NewtonSettings,
-    state: &mut NewtonState,
-    current: &mut Evaluation,
-    trial: &mut Evaluation,
-    trial_x: &mut Vec<f64>,
-    step: &[f64],
-    full_step_only: bool,
-) -> bool {
-    let len = step.len();
-    let merit0 = current.merit;
-    let mut alpha = 1.0;
-    let halvings = if full_step_only {
-        0
-    } else {
-        settings.max_halvings
-    };
-    for _ in 0..=halvings {
-        let omega = state.omega + alpha * step[len - 2];
-        if omega > 0.0 {
-            let q = state.q + alpha * step[len - 1];
-            trial_x.clear();
-            trial_x.extend(state.x.iter().zip(step).map(|(x, s)| x + alpha * s));
-            evaluate(model, aft, p, trial_x, omega, q, trial);
-            if trial.merit <= (1.0 - 1e-4 * alpha) * merit0 {
-                std::mem::swap(&mut state.x, trial_x);
-                state.omega = omega;
-                state.q = q;
-                std::mem::swap(current, trial);
-                return true;
-            }
-        }
-        alpha *= 0.5;
-    }
-    false
 }
 
 /// Iterations over which the residual must at least halve.
@@ -468,187 +237,283 @@ const STAGNATION_WINDOW: usize = 5;
 /// Number of secant-slope refinements of a rejected Newton step.
 const SECANT_PASSES: usize = 4;
 
-/// Solves the inner problem from `state` (updated in place). On success `work.current` holds the
-/// gap and force samples of the solution.
-///
-/// Each iteration takes the semi-smooth Newton step; if the full step does not decrease the
-/// residual (typically a sample changing contact state within the step, where the one-sided
-/// generalized Jacobian mispredicts and can even fail to give a descent direction at a kink), the
-/// step is recomputed with secant slopes (see `secant_slopes`), a few passes, before backtracking.
+/// Which stored step a line search follows.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum StepKind {
+    /// The latest direction (`NewtonWork::step`).
+    Latest,
+    /// The plain semi-smooth direction of this iteration (`NewtonWork::first_step`).
+    First,
+}
+
+/// One inner solve in progress: the model, the transforms, the problem and the buffers that
+/// every step of the semi-smooth Newton iteration uses.
+pub(crate) struct NewtonSolve<'a, 'p> {
+    pub model: &'a mut dyn LinearModel,
+    pub aft: &'a mut Aft,
+    pub problem: &'a InnerProblem<'p>,
+    pub settings: &'a NewtonSettings,
+    pub work: &'a mut NewtonWork,
+}
+
+impl NewtonSolve<'_, '_> {
+    /// Evaluates the residual at `state` into `work.current`.
+    fn evaluate_current(&mut self, state: &NewtonState) {
+        evaluate(
+            self.model,
+            self.aft,
+            self.problem,
+            &state.x,
+            state.omega,
+            state.q,
+            &mut self.work.current,
+        );
+    }
+
+    /// Newton direction J step = -R at `state` for the per-sample slopes `work.slopes`
+    /// (d lambda / d g, c x m), written to `work.step`.
+    fn direction(&mut self, state: &NewtonState) -> Result<(), NnmError> {
+        let p = self.problem;
+        let layout = self.model.layout();
+        let (m, np, c) = (p.samples, layout.moments(), p.g0.len());
+        let (w, slopes) = (&mut self.work.direction, &self.work.slopes);
+        w.active.clear();
+        w.active
+            .extend((0..c).filter(|&j| slopes[j * m..(j + 1) * m].iter().any(|&s| s > 0.0)));
+        w.slopes_active.clear();
+        for &j in &w.active {
+            w.slopes_active
+                .extend_from_slice(&slopes[j * m..(j + 1) * m]);
+        }
+        w.moments.resize(w.active.len() * np, 0.0);
+        self.aft
+            .cosine_moments(&w.slopes_active, w.active.len(), &mut w.moments);
+        let step = &mut self.work.step;
+        step.clear();
+        step.extend(self.work.current.residual.iter().map(|r| -r));
+        let r = p.row;
+        w.arc_y.clear();
+        w.arc_y
+            .extend(r.a_y.iter().map(|a| p.arc_scale * a / r.y_scale));
+        let jac = JacobianData {
+            omega: state.omega,
+            x: &state.x,
+            active: &w.active,
+            moments: &w.moments,
+            norm_scale: p.norm_scale,
+            arc_w: p.arc_scale * r.a_w / r.w_scale,
+            arc_q: p.arc_scale * r.a_q / r.q_scale,
+            arc_y: &w.arc_y,
+        };
+        self.model.solve_step(&jac, step)?;
+        if step.iter().any(|v| !v.is_finite()) {
+            return Err(NnmError::Decomposition {
+                what: "Newton step",
+                detail: "non-finite step (singular Newton matrix)".to_string(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Secant slopes along `work.step`: for each sample, kappa times the fraction of the segment
+    /// [s, s + ds] (s = g + theta) on which the sample is in contact, so that the linear model of
+    /// lambda is exact at the end of the step. Returns how many samples changed slope.
+    fn secant_slopes(&mut self) -> usize {
+        let p = self.problem;
+        let layout = self.model.layout();
+        let (m, c) = (p.samples, p.g0.len());
+        let w = &mut self.work.direction;
+        w.dcoef.resize(layout.signals(c).len(), 0.0);
+        w.dgap.resize(c * m, 0.0);
+        self.model
+            .contact_coefficients(&self.work.step, &mut w.dcoef);
+        self.aft.synthesize(&w.dcoef, c, &mut w.dgap);
+        let gaps = &self.work.current.gaps;
+        let mut changed = 0;
+        for (i, slope) in self.work.slopes.iter_mut().enumerate().take(c * m) {
+            let s0 = gaps[i] + p.multipliers.theta[i];
+            let s1 = s0 + w.dgap[i];
+            let fraction = if s0 > 0.0 && s1 >= 0.0 {
+                1.0
+            } else if s0 <= 0.0 && s1 <= 0.0 {
+                0.0
+            } else if s0 > 0.0 {
+                s0 / (s0 - s1)
+            } else {
+                s1 / (s1 - s0)
+            };
+            let new = p.multipliers.kappa[i] * fraction;
+            if new != *slope {
+                changed += 1;
+            }
+            *slope = new;
+        }
+        changed
+    }
+
+    /// Line search along a stored step: the full step only, or backtracking by halvings (Armijo
+    /// on the merit). On success `state` and `work.current` move to the accepted point.
+    fn line_search(&mut self, state: &mut NewtonState, kind: StepKind, backtrack: bool) -> bool {
+        let work = &mut *self.work;
+        let step = match kind {
+            StepKind::Latest => &work.step,
+            StepKind::First => &work.first_step,
+        };
+        let len = step.len();
+        let merit0 = work.current.merit;
+        let mut alpha = 1.0;
+        let halvings = if backtrack {
+            self.settings.max_halvings
+        } else {
+            0
+        };
+        for _ in 0..=halvings {
+            let omega = state.omega + alpha * step[len - 2];
+            if omega > 0.0 {
+                let q = state.q + alpha * step[len - 1];
+                work.trial_x.clear();
+                work.trial_x
+                    .extend(state.x.iter().zip(step).map(|(x, s)| x + alpha * s));
+                evaluate(
+                    self.model,
+                    self.aft,
+                    self.problem,
+                    &work.trial_x,
+                    omega,
+                    q,
+                    &mut work.trial,
+                );
+                if work.trial.merit <= (1.0 - 1e-4 * alpha) * merit0 {
+                    std::mem::swap(&mut state.x, &mut work.trial_x);
+                    state.omega = omega;
+                    state.q = q;
+                    std::mem::swap(&mut work.current, &mut work.trial);
+                    return true;
+                }
+            }
+            alpha *= 0.5;
+        }
+        false
+    }
+
+    /// After the full semi-smooth step was rejected: recompute the step with secant slopes (a few
+    /// passes, each tried as a full step). Returns whether a step was accepted.
+    fn secant_refinement(&mut self, state: &mut NewtonState) -> Result<bool, NnmError> {
+        self.work.first_step.clone_from(&self.work.step);
+        for pass in 0..SECANT_PASSES {
+            if self.secant_slopes() == 0 && pass > 0 {
+                break;
+            }
+            self.direction(state)?;
+            if self.line_search(state, StepKind::Latest, false) {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    /// One Newton iteration from `state`: the semi-smooth step, then (exact law) secant steps,
+    /// then backtracking along the last step and along the plain one. Returns whether a step
+    /// decreased the merit.
+    fn iterate(&mut self, state: &mut NewtonState) -> Result<bool, NnmError> {
+        self.work.slopes.clone_from(&self.work.current.slope);
+        self.direction(state)?;
+        if self.line_search(state, StepKind::Latest, false) {
+            return Ok(true);
+        }
+        if self.problem.smoothing > 0.0 {
+            return Ok(self.line_search(state, StepKind::Latest, true));
+        }
+        if self.secant_refinement(state)? {
+            return Ok(true);
+        }
+        Ok(self.line_search(state, StepKind::Latest, true)
+            || self.line_search(state, StepKind::First, true))
+    }
+
+    /// Solves the inner problem from `state` (updated in place). On success `work.current` holds
+    /// the gap and force samples of the solution.
+    ///
+    /// Each iteration takes the semi-smooth Newton step; if the full step does not decrease the
+    /// residual (typically a sample changing contact state within the step, where the one-sided
+    /// generalized Jacobian mispredicts and can even fail to give a descent direction at a kink),
+    /// the step is recomputed with secant slopes, a few passes, before backtracking.
+    pub fn run(&mut self, state: &mut NewtonState) -> Result<NewtonReport, NnmError> {
+        self.evaluate_current(state);
+        let mut iterations = 0;
+        let mut history: Vec<f64> = Vec::new();
+        loop {
+            let reference = self.problem.norm_scale * state.q.abs().max(f64::MIN_POSITIVE);
+            let rel = self.work.current.merit / reference;
+            let tolerance = self.settings.tolerance;
+            let fail = |reason: String, iterations: usize| NnmError::NewtonFailed {
+                iterations,
+                residual: rel,
+                tolerance,
+                reason,
+            };
+            if !rel.is_finite() {
+                return Err(fail("non-finite residual".to_string(), iterations));
+            }
+            if rel <= tolerance {
+                return Ok(NewtonReport { iterations });
+            }
+            if iterations >= self.settings.max_iterations {
+                return Err(fail(
+                    "maximum number of iterations reached".to_string(),
+                    iterations,
+                ));
+            }
+            // Stagnation: a semi-smooth Newton that converges does so fast; five iterations that
+            // do not halve the residual mean it is cycling between contact states.
+            history.push(self.work.current.merit);
+            if history.len() > STAGNATION_WINDOW
+                && self.work.current.merit > 0.5 * history[history.len() - 1 - STAGNATION_WINDOW]
+            {
+                return Err(fail(
+                    "stagnation (residual not halved in 5 iterations)".to_string(),
+                    iterations,
+                ));
+            }
+            iterations += 1;
+            self.work.spent += 1;
+            match self.iterate(state) {
+                Ok(true) => {}
+                Ok(false) => {
+                    return Err(fail(
+                        "line search found no decrease of the residual".to_string(),
+                        iterations,
+                    ))
+                }
+                Err(e) => return Err(fail(e.to_string(), iterations)),
+            }
+        }
+    }
+}
+
+/// Solves the inner problem from `state` (see [`NewtonSolve::run`]).
 pub(crate) fn solve_inner(
     model: &mut dyn LinearModel,
     aft: &mut Aft,
-    p: &InnerProblem<'_>,
+    problem: &InnerProblem<'_>,
     settings: &NewtonSettings,
     state: &mut NewtonState,
     work: &mut NewtonWork,
 ) -> Result<NewtonReport, NnmError> {
-    let reference = |q: f64| p.norm_scale * q.abs().max(f64::MIN_POSITIVE);
-    evaluate(
+    NewtonSolve {
         model,
         aft,
-        p,
-        &state.x,
-        state.omega,
-        state.q,
-        &mut work.current,
-    );
-    let mut iterations = 0;
-    let mut history: Vec<f64> = Vec::new();
-    loop {
-        let rel = work.current.merit / reference(state.q);
-        let fail = |reason: String, iterations: usize| NnmError::NewtonFailed {
-            iterations,
-            residual: rel,
-            tolerance: settings.tolerance,
-            reason,
-        };
-        if !rel.is_finite() {
-            return Err(fail("non-finite residual".to_string(), iterations));
-        }
-        if rel <= settings.tolerance {
-            return Ok(NewtonReport { iterations });
-        }
-        if iterations >= settings.max_iterations {
-            return Err(fail(
-                "maximum number of iterations reached".to_string(),
-                iterations,
-            ));
-        }
-        // Stagnation: a semi-smooth Newton that converges does so fast; five iterations that do
-        // not halve the residual mean it is cycling between contact states.
-        history.push(work.current.merit);
-        if history.len() > STAGNATION_WINDOW
-            && work.current.merit > 0.5 * history[history.len() - 1 - STAGNATION_WINDOW]
-        {
-            return Err(fail(
-                "stagnation (residual not halved in 5 iterations)".to_string(),
-                iterations,
-            ));
-        }
-        iterations += 1;
-        work.spent += 1;
-        work.slopes.clear();
-        work.slopes.extend_from_slice(&work.current.slope);
-        newton_direction(
-            model,
-            aft,
-            p,
-            state,
-            &work.current.residual,
-            &work.slopes,
-            &mut work.direction,
-            &mut work.step,
-        )
-        .map_err(|e| fail(e.to_string(), iterations))?;
-        let mut accepted = line_search(
-            model,
-            aft,
-            p,
-            settings,
-            state,
-            &mut work.current,
-            &mut work.trial,
-            &mut work.trial_x,
-            &work.step,
-            true,
-        );
-        if !accepted && p.smoothing == 0.0 {
-            work.first_step.clear();
-            work.first_step.extend_from_slice(&work.step);
-            for pass in 0..SECANT_PASSES {
-                let changed = secant_slopes(
-                    model,
-                    aft,
-                    p,
-                    &work.current,
-                    &work.step,
-                    &mut work.direction,
-                    &mut work.slopes,
-                );
-                if changed == 0 && pass > 0 {
-                    break;
-                }
-                newton_direction(
-                    model,
-                    aft,
-                    p,
-                    state,
-                    &work.current.residual,
-                    &work.slopes,
-                    &mut work.direction,
-                    &mut work.step,
-                )
-                .map_err(|e| fail(e.to_string(), iterations))?;
-                accepted = line_search(
-                    model,
-                    aft,
-                    p,
-                    settings,
-                    state,
-                    &mut work.current,
-                    &mut work.trial,
-                    &mut work.trial_x,
-                    &work.step,
-                    true,
-                );
-                if accepted {
-                    break;
-                }
-            }
-        }
-        if !accepted && p.smoothing > 0.0 {
-            accepted = line_search(
-                model,
-                aft,
-                p,
-                settings,
-                state,
-                &mut work.current,
-                &mut work.trial,
-                &mut work.trial_x,
-                &work.step,
-                false,
-            );
-        } else if !accepted {
-            // Backtrack along the secant step, then along the plain Newton step.
-            accepted = line_search(
-                model,
-                aft,
-                p,
-                settings,
-                state,
-                &mut work.current,
-                &mut work.trial,
-                &mut work.trial_x,
-                &work.step,
-                false,
-            ) || line_search(
-                model,
-                aft,
-                p,
-                settings,
-                state,
-                &mut work.current,
-                &mut work.trial,
-                &mut work.trial_x,
-                &work.first_step,
-                false,
-            );
-        }
-        if !accepted {
-            return Err(fail(
-                "line search found no decrease of the residual".to_string(),
-                iterations,
-            ));
-        }
+        problem,
+        settings,
+        work,
     }
+    .run(state)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::condensed::CondensedModel;
+    use crate::condensed_newton::CondensedModel;
     use crate::fourier::HarmonicSettings;
     use crate::full::FullModel;
     use crate::system::System;
@@ -711,7 +576,6 @@ mod tests {
             y_scale: 0.25,
         };
         let p = InnerProblem {
-            harmonics: 6,
             samples: m,
             g0: sys.gaps(),
             multipliers: &mult,
@@ -737,19 +601,21 @@ mod tests {
             ev.slope.iter().filter(|&&s| s > 0.0).count() > 10,
             "some samples in contact"
         );
-        let mut work = DirectionWork::default();
-        let mut step = Vec::new();
-        newton_direction(
-            model,
-            &mut aft,
-            &p,
-            &state,
-            &ev.residual,
-            &ev.slope,
-            &mut work,
-            &mut step,
-        )
-        .expect("direction");
+        let settings = NewtonSettings::default();
+        let mut work = NewtonWork::default();
+        let step = {
+            let mut solve = NewtonSolve {
+                model: &mut *model,
+                aft: &mut aft,
+                problem: &p,
+                settings: &settings,
+                work: &mut work,
+            };
+            solve.evaluate_current(&state);
+            solve.work.slopes.clone_from(&ev.slope);
+            solve.direction(&state).expect("direction");
+            solve.work.step.clone()
+        };
         // Remainder of the linearization along d, relative to e |R|, for two step lengths: it must
         // be O(e) (halving with e down to round-off); an error in the Jacobian would leave an O(1)
         // mismatch independent of e.
@@ -793,11 +659,11 @@ mod tests {
         // The smoothed law (mu = 0.02, about 10 % of the gaps) is C^1, so the directional check
         // is clean; the exact law has the same Jacobian away from the kinks.
         let smoothing = 0.02;
-        let mut full = FullModel::new(&sys);
+        let mut full = FullModel::new(&sys, 6);
         let df = direction(&mut full, &sys, smoothing);
         // window 0.9: many "other" modes are kept near resonance, exercising that path
         for window in [0.5, 0.9] {
-            let mut cond = CondensedModel::new(&sys, window).expect("condensed");
+            let mut cond = CondensedModel::new(&sys, window, 6).expect("condensed");
             let dc = direction(&mut cond, &sys, smoothing);
             let scale = df.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
             // Same linear system solved two ways (dense, and two-level elimination): agreement

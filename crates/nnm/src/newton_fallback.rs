@@ -2,8 +2,9 @@
 
 use crate::error::NnmError;
 use crate::fourier::Aft;
+use crate::linear_model::LinearModel;
 use crate::newton::{
-    solve_inner, InnerProblem, LinearModel, NewtonReport, NewtonSettings, NewtonState, NewtonWork,
+    solve_inner, InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork,
 };
 
 /// Smoothing widths (relative to the reference gap) from which the fallback path starts, smallest

@@ -4,12 +4,13 @@
 use crate::augmented_lagrangian::{
     run_algorithm1, AlgorithmParams, Condensation, ContactMethod, OuterReport,
 };
-use crate::condensed::CondensedModel;
+use crate::condensed_newton::CondensedModel;
 use crate::contact::{powell_measure, Multipliers};
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
 use crate::full::FullModel;
-use crate::newton::{InnerProblem, LinearModel, NewtonState, NewtonWork, ParameterRow};
+use crate::linear_model::{LinearModel, ParameterRow};
+use crate::newton::{InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork};
 use crate::newton_fallback::solve_inner_robust;
 use crate::point::BackbonePoint;
 use crate::system::System;
@@ -59,10 +60,12 @@ impl<'s> Solver<'s> {
         settings.validate()?;
         params.validate()?;
         let model: Box<dyn LinearModel> = match params.condensation {
-            Condensation::Exact => {
-                Box::new(CondensedModel::new(system, params.newton.resonance_window)?)
-            }
-            Condensation::None => Box::new(FullModel::new(system)),
+            Condensation::Exact => Box::new(CondensedModel::new(
+                system,
+                params.newton.resonance_window,
+                settings.harmonics,
+            )?),
+            Condensation::None => Box::new(FullModel::new(system, settings.harmonics)),
         };
         let ks = system.contact_stiffness();
         let kappa_initial = ks.iter().map(|k| k * params.initial_penalty).collect();
@@ -127,7 +130,7 @@ impl<'s> Solver<'s> {
     pub(crate) fn guess(&self, start: Start<'_>, q: f64) -> Result<Guess, NnmError> {
         let (n, nh, m) = (
             self.system.n_dofs(),
-            self.settings.harmonics + 1,
+            self.settings.terms(),
             self.settings.samples,
         );
         match start {
@@ -181,144 +184,71 @@ impl<'s> Solver<'s> {
         row: ParameterRow,
         guess: Guess,
     ) -> Result<BackbonePoint, NnmError> {
-        let (nh, m) = (self.settings.harmonics + 1, self.settings.samples);
-        let d = self.model.dim();
+        let layout = self.model.layout();
         let n = self.system.n_dofs();
-        let mut u = vec![0.0; n * nh];
-        for (h, c) in guess.coefficients.iter().enumerate().take(nh) {
-            u[h * n..(h + 1) * n].copy_from_slice(c);
+        let physical = layout.with_dim(n);
+        let mut u = vec![0.0; physical.len()];
+        for (h, c) in guess.coefficients.iter().enumerate().take(layout.count()) {
+            physical.harmonic_mut(&mut u, h).copy_from_slice(c);
         }
-        let mut x = vec![0.0; d * nh];
-        self.model.physical_to_model(&u, nh, &mut x);
-        let mut state = NewtonState {
-            x,
-            omega: guess.omega,
-            q: guess.q,
-        };
+        let mut x = vec![0.0; layout.len()];
+        self.model.physical_to_model(&u, layout.count(), &mut x);
         let mut multipliers = guess.multipliers;
         let g0 = self.system.gaps();
-        let norm_scale = self.norm_scale;
-        let arc_scale = norm_scale * self.system.gap_reference();
-        let harmonics = self.settings.harmonics;
-        let g_ref = self.system.gap_reference();
-        let newton = self.params.newton.clone();
-        let model = &mut self.model;
-        let aft = &mut self.aft;
-        let work = &mut self.work;
-        // Last converged inner solution of this point and its multipliers: if a later inner solve
-        // fails from its warm start, the multipliers are moved there by a homotopy instead.
-        let mut last_good: Option<(NewtonState, Multipliers)> = None;
-        let budget = self.params.newton_budget;
-        let spent0 = work.spent;
-        let mut inner = |mu: &Multipliers, gaps: &mut Vec<f64>| -> Result<usize, NnmError> {
-            // One inner solve; `fallback` allows the smoothing path of `solve_inner_robust`.
-            let mut solve = |mu: &Multipliers, state: &mut NewtonState, fallback: bool| {
-                if work.spent - spent0 > budget {
-                    return Err(NnmError::NewtonFailed {
-                        iterations: work.spent - spent0,
-                        residual: f64::INFINITY,
-                        tolerance: newton.tolerance,
-                        reason: format!(
-                            "Newton budget of {budget} iterations for the point exhausted"
-                        ),
-                    });
-                }
-                let problem = InnerProblem {
-                    harmonics,
-                    samples: m,
-                    g0,
-                    multipliers: mu,
-                    row: &row,
-                    norm_scale,
-                    arc_scale,
-                    smoothing: 0.0,
-                };
-                solve_inner_robust(
-                    model.as_mut(),
-                    aft,
-                    &problem,
-                    g_ref,
-                    &newton,
-                    state,
-                    work,
-                    fallback,
-                )
-            };
-            let start = state.clone();
-            let iterations = match solve(mu, &mut state, true) {
-                Ok(rep) => rep.iterations,
-                Err(e) => match &last_good {
-                    Some((good_state, good_mu)) => {
-                        state = good_state.clone();
-                        let mut sub = |mu: &Multipliers, st: &mut NewtonState| solve(mu, st, false);
-                        multiplier_homotopy(good_mu, mu, &mut state, &mut sub).map_err(|_| e)?
-                    }
-                    None => {
-                        // First solve of the point: penalty homotopy from a softer contact.
-                        let mut done = None;
-                        for softening in SOFT_START {
-                            state = start.clone();
-                            let mut soft = mu.clone();
-                            soft.kappa.iter_mut().for_each(|k| *k *= softening);
-                            if let Ok(rep) = solve(&soft, &mut state, false) {
-                                let mut sub =
-                                    |mu: &Multipliers, st: &mut NewtonState| solve(mu, st, false);
-                                if let Ok(it) = multiplier_homotopy(&soft, mu, &mut state, &mut sub)
-                                {
-                                    done = Some(rep.iterations + it);
-                                    break;
-                                }
-                            }
-                        }
-                        match done {
-                            Some(it) => it,
-                            None => return Err(e),
-                        }
-                    }
-                },
-            };
-            last_good = Some((state.clone(), mu.clone()));
-            gaps.clear();
-            gaps.extend_from_slice(&work.current.gaps);
-            Ok(iterations)
+        let mut inner = InnerSolve {
+            model: self.model.as_mut(),
+            aft: &mut self.aft,
+            spent0: self.work.spent,
+            work: &mut self.work,
+            newton: &self.params.newton,
+            row: &row,
+            g0,
+            samples: self.settings.samples,
+            norm_scale: self.norm_scale,
+            arc_scale: self.norm_scale * self.system.gap_reference(),
+            g_ref: self.system.gap_reference(),
+            budget: self.params.newton_budget,
+            state: NewtonState {
+                x,
+                omega: guess.omega,
+                q: guess.q,
+            },
+            last_good: None,
         };
         let report = match self.params.method {
             ContactMethod::Penalty { stiffness } => {
-                multipliers = Multipliers::uniform(&vec![stiffness; g0.len()], m);
-                let mut gaps = Vec::new();
-                let its = inner(&multipliers, &mut gaps).map_err(|e| NnmError::NotConverged {
-                    q: row.q_p,
-                    reason: format!("penalty solve failed: {e}"),
-                    measure: f64::INFINITY,
-                    epsilon: self.params.epsilon,
-                    accepted: 0,
-                    solves: 1,
-                    newton_iterations: 0,
-                })?;
-                OuterReport {
-                    measure: powell_measure(&gaps, &multipliers.theta, g0, m, self.params.measure),
-                    accepted: 1,
-                    solves: 1,
-                    newton_iterations: its,
-                }
-            }
-            ContactMethod::AugmentedLagrangian => {
-                match run_algorithm1(&self.params, g0, &self.kappa_cap, &mut multipliers, inner) {
-                    Ok(r) => r,
-                    Err(f) => {
-                        return Err(NnmError::NotConverged {
-                            q: state.q,
-                            reason: f.reason,
-                            measure: f.report.measure,
-                            epsilon: self.params.epsilon,
-                            accepted: f.report.accepted,
-                            solves: f.report.solves,
-                            newton_iterations: f.report.newton_iterations,
-                        })
+                multipliers =
+                    Multipliers::uniform(&vec![stiffness; g0.len()], self.settings.samples);
+                penalty_solve(&mut inner, &multipliers, &self.params).map_err(|e| {
+                    NnmError::NotConverged {
+                        q: row.q_p,
+                        reason: format!("penalty solve failed: {e}"),
+                        measure: f64::INFINITY,
+                        epsilon: self.params.epsilon,
+                        accepted: 0,
+                        solves: 1,
+                        newton_iterations: 0,
                     }
-                }
+                })?
             }
+            ContactMethod::AugmentedLagrangian => run_algorithm1(
+                &self.params,
+                g0,
+                &self.kappa_cap,
+                &mut multipliers,
+                |mu, gaps| inner.solve(mu, gaps),
+            )
+            .map_err(|f| NnmError::NotConverged {
+                q: inner.state.q,
+                reason: f.reason,
+                measure: f.report.measure,
+                epsilon: self.params.epsilon,
+                accepted: f.report.accepted,
+                solves: f.report.solves,
+                newton_iterations: f.report.newton_iterations,
+            })?,
         };
+        let state = inner.state;
         self.build_point(guess.mode, &state, multipliers, report)
     }
 
@@ -330,16 +260,15 @@ impl<'s> Solver<'s> {
         report: OuterReport,
     ) -> Result<BackbonePoint, NnmError> {
         let sys = self.system;
+        let layout = self.model.layout();
         let (n, nh, m, c) = (
             sys.n_dofs(),
-            self.settings.harmonics + 1,
+            layout.count(),
             self.settings.samples,
             sys.n_contacts(),
         );
-        let d = self.model.dim();
         let mut flat = vec![0.0; n * nh];
-        self.model
-            .model_to_physical(&state.x[..d * nh], nh, &mut flat);
+        self.model.model_to_physical(&state.x, nh, &mut flat);
         let coefficients: Vec<Vec<f64>> = flat.chunks(n).map(<[f64]>::to_vec).collect();
         let ev = &self.work.current;
         let mut mean_gap = Vec::with_capacity(c);
@@ -385,7 +314,7 @@ impl<'s> Solver<'s> {
         let mut top = 0.0_f64;
         let mut total = 0.0_f64;
         for j in 0..c {
-            let coef = &ev.coef[j * nh..(j + 1) * nh];
+            let coef = layout.signals(c).series(&ev.coef, j);
             top = top.max(coef[nh - 1].abs());
             total = total.max(coef[1..].iter().map(|v| v * v).sum::<f64>().sqrt());
         }
@@ -443,53 +372,185 @@ impl<'s> Solver<'s> {
     }
 }
 
+/// One plain penalty solve (no multiplier update): Eq. (20) with lambda = kc (g)_+.
+fn penalty_solve(
+    inner: &mut InnerSolve<'_>,
+    multipliers: &Multipliers,
+    params: &AlgorithmParams,
+) -> Result<OuterReport, NnmError> {
+    let mut gaps = Vec::new();
+    let iterations = inner.solve(multipliers, &mut gaps)?;
+    Ok(OuterReport {
+        measure: powell_measure(
+            &gaps,
+            &multipliers.theta,
+            inner.g0,
+            inner.samples,
+            params.measure,
+        ),
+        accepted: 1,
+        solves: 1,
+        newton_iterations: iterations,
+    })
+}
+
 /// Penalty factors tried, in order, as the soft start of a penalty homotopy when the first inner
 /// solve of a point fails from its warm start.
 const SOFT_START: [f64; 2] = [1e-2, 1e-4];
 
-/// Moves the multipliers from `from` to `to` in substeps (theta linearly, kappa geometrically),
-/// solving at each and halving a substep that fails (down to 1/16 of the path). The final substep
-/// uses `to` exactly. Returns the Newton iterations spent.
-fn multiplier_homotopy<F>(
-    from: &Multipliers,
-    to: &Multipliers,
-    state: &mut NewtonState,
-    solve: &mut F,
-) -> Result<usize, NnmError>
-where
-    F: FnMut(&Multipliers, &mut NewtonState) -> Result<crate::newton::NewtonReport, NnmError>,
-{
-    let (mut tau, mut dtau) = (0.0_f64, 0.25_f64);
-    let mut iterations = 0;
-    let mut mid = to.clone();
-    while tau < 1.0 {
-        let t1 = (tau + dtau).min(1.0);
-        let target = if t1 >= 1.0 {
-            to
-        } else {
-            for i in 0..mid.theta.len() {
-                mid.theta[i] = from.theta[i] + t1 * (to.theta[i] - from.theta[i]);
-                mid.kappa[i] = from.kappa[i] * (to.kappa[i] / from.kappa[i]).powf(t1);
-            }
-            &mid
+/// The inner solves of one point (Eq. 20 at the multipliers Algorithm 1 asks for) and the state
+/// they share: the Newton state, the last converged (state, multipliers) of the point, and the
+/// point's Newton budget. A solve that fails from its warm start is retried by a multiplier
+/// homotopy from the last converged multipliers, or, for the point's first solve, by a penalty
+/// homotopy from a softer contact (see docs/DESIGN.md §3.6).
+struct InnerSolve<'a> {
+    model: &'a mut dyn LinearModel,
+    aft: &'a mut Aft,
+    work: &'a mut NewtonWork,
+    newton: &'a NewtonSettings,
+    row: &'a ParameterRow,
+    g0: &'a [f64],
+    samples: usize,
+    norm_scale: f64,
+    arc_scale: f64,
+    g_ref: f64,
+    /// Newton iterations allowed for the point, and the work counter when it started.
+    budget: usize,
+    spent0: usize,
+    state: NewtonState,
+    last_good: Option<(NewtonState, Multipliers)>,
+}
+
+impl InnerSolve<'_> {
+    /// Solves Eq. (20) at `mu` (with the fallbacks), writes the gap samples (c x m) and returns
+    /// the Newton iterations spent.
+    fn solve(&mut self, mu: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, NnmError> {
+        let mut state = self.state.clone();
+        let result = self.solve_from(mu, &mut state);
+        self.state = state;
+        let iterations = result?;
+        self.last_good = Some((self.state.clone(), mu.clone()));
+        gaps.clear();
+        gaps.extend_from_slice(&self.work.current.gaps);
+        Ok(iterations)
+    }
+
+    fn solve_from(&mut self, mu: &Multipliers, state: &mut NewtonState) -> Result<usize, NnmError> {
+        let start = state.clone();
+        let first = match self.attempt(mu, state, true) {
+            Ok(rep) => return Ok(rep.iterations),
+            Err(e) => e,
         };
-        let saved = state.clone();
-        match solve(target, state) {
-            Ok(rep) => {
-                iterations += rep.iterations;
-                tau = t1;
-                dtau = (2.0 * dtau).min(0.5);
+        match self.last_good.clone() {
+            Some((good_state, good_mu)) => {
+                *state = good_state;
+                self.homotopy(&good_mu, mu, state).map_err(|_| first)
             }
-            Err(e) => {
-                *state = saved;
-                dtau *= 0.5;
-                if dtau < 1.0 / 16.0 {
-                    return Err(e);
+            None => self.soft_start(mu, &start, state).ok_or(first),
+        }
+    }
+
+    /// First solve of a point that failed: solve with kappa softened by each factor of
+    /// `SOFT_START`, then move to `mu` by the multiplier homotopy.
+    fn soft_start(
+        &mut self,
+        mu: &Multipliers,
+        start: &NewtonState,
+        state: &mut NewtonState,
+    ) -> Option<usize> {
+        for softening in SOFT_START {
+            *state = start.clone();
+            let mut soft = mu.clone();
+            soft.kappa.iter_mut().for_each(|k| *k *= softening);
+            if let Ok(rep) = self.attempt(&soft, state, false) {
+                if let Ok(it) = self.homotopy(&soft, mu, state) {
+                    return Some(rep.iterations + it);
                 }
             }
         }
+        None
     }
-    Ok(iterations)
+
+    /// One inner Newton solve at `mu` from `state`; `fallback` allows the smoothing path of
+    /// `solve_inner_robust`. Fails once the point's Newton budget is spent.
+    fn attempt(
+        &mut self,
+        mu: &Multipliers,
+        state: &mut NewtonState,
+        fallback: bool,
+    ) -> Result<NewtonReport, NnmError> {
+        let spent = self.work.spent - self.spent0;
+        if spent > self.budget {
+            return Err(NnmError::NewtonFailed {
+                iterations: spent,
+                residual: f64::INFINITY,
+                tolerance: self.newton.tolerance,
+                reason: format!(
+                    "Newton budget of {} iterations for the point exhausted",
+                    self.budget
+                ),
+            });
+        }
+        let problem = InnerProblem {
+            samples: self.samples,
+            g0: self.g0,
+            multipliers: mu,
+            row: self.row,
+            norm_scale: self.norm_scale,
+            arc_scale: self.arc_scale,
+            smoothing: 0.0,
+        };
+        solve_inner_robust(
+            &mut *self.model,
+            self.aft,
+            &problem,
+            self.g_ref,
+            self.newton,
+            state,
+            self.work,
+            fallback,
+        )
+    }
+
+    /// Moves the multipliers from `from` to `to` in substeps (theta linearly, kappa
+    /// geometrically), solving at each and halving a substep that fails (down to 1/16 of the
+    /// path). The final substep uses `to` exactly. Returns the Newton iterations spent.
+    fn homotopy(
+        &mut self,
+        from: &Multipliers,
+        to: &Multipliers,
+        state: &mut NewtonState,
+    ) -> Result<usize, NnmError> {
+        let (mut tau, mut dtau) = (0.0_f64, 0.25_f64);
+        let mut iterations = 0;
+        let mut mid = to.clone();
+        while tau < 1.0 {
+            let t1 = (tau + dtau).min(1.0);
+            if t1 < 1.0 {
+                for i in 0..mid.theta.len() {
+                    mid.theta[i] = from.theta[i] + t1 * (to.theta[i] - from.theta[i]);
+                    mid.kappa[i] = from.kappa[i] * (to.kappa[i] / from.kappa[i]).powf(t1);
+                }
+            }
+            let target = if t1 >= 1.0 { to } else { &mid };
+            let saved = state.clone();
+            match self.attempt(target, state, false) {
+                Ok(rep) => {
+                    iterations += rep.iterations;
+                    tau = t1;
+                    dtau = (2.0 * dtau).min(0.5);
+                }
+                Err(e) => {
+                    *state = saved;
+                    dtau *= 0.5;
+                    if dtau < 1.0 / 16.0 {
+                        return Err(e);
+                    }
+                }
+            }
+        }
+        Ok(iterations)
+    }
 }
 
 /// Convenience: builds a [`Solver`] and solves one point.

@@ -10,11 +10,11 @@
 use std::time::Instant;
 
 use crate::augmented_lagrangian::Condensation;
-use crate::condensed::CondensedModel;
+use crate::condensed_newton::CondensedModel;
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
 use crate::full::FullModel;
-use crate::newton::{JacobianData, LinearModel};
+use crate::linear_model::{JacobianData, LinearModel};
 use crate::system::System;
 
 /// Median cost of one Newton linear solve.
@@ -57,18 +57,27 @@ pub fn newton_step_timing(
         });
     }
     let mut model: Box<dyn LinearModel> = match condensation {
-        Condensation::Exact => Box::new(CondensedModel::new(system, resonance_window)?),
-        Condensation::None => Box::new(FullModel::new(system)),
+        Condensation::Exact => Box::new(CondensedModel::new(
+            system,
+            resonance_window,
+            settings.harmonics,
+        )?),
+        Condensation::None => Box::new(FullModel::new(system, settings.harmonics)),
     };
-    let (n, c) = (system.n_dofs(), system.n_contacts());
-    let (harmonics, m) = (settings.harmonics, settings.samples);
-    let (nh, np, d) = (harmonics + 1, 2 * harmonics + 1, model.dim());
+    let (n, c, m) = (system.n_dofs(), system.n_contacts(), settings.samples);
+    let layout = model.layout();
+    let (nh, np) = (layout.count(), layout.moments());
     // A state: a smooth displacement pattern at harmonic 1, in model coordinates.
     let mut u = vec![0.0; n * nh];
-    for (i, v) in u[n..2 * n].iter_mut().enumerate() {
+    for (i, v) in layout
+        .with_dim(n)
+        .harmonic_mut(&mut u, 1)
+        .iter_mut()
+        .enumerate()
+    {
         *v = 1.0 + 0.1 * i as f64;
     }
-    let mut x = vec![0.0; d * nh];
+    let mut x = vec![0.0; layout.len()];
     model.physical_to_model(&u, nh, &mut x);
     let contact_samples = ((contact_share * m as f64).ceil() as usize).clamp(1, m);
     let stiffness = system.contact_stiffness();
@@ -81,7 +90,6 @@ pub fn newton_step_timing(
     let active: Vec<usize> = (0..c).collect();
     let master = system.master();
     let jac = JacobianData {
-        harmonics,
         omega,
         x: &x,
         active: &active,
@@ -91,7 +99,7 @@ pub fn newton_step_timing(
         arc_q: 1.0,
         arc_y: &[],
     };
-    let rhs: Vec<f64> = (0..d * nh + 2)
+    let rhs: Vec<f64> = (0..layout.newton_len())
         .map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5)
         .collect();
     let mut step = rhs.clone();
@@ -112,6 +120,6 @@ pub fn newton_step_timing(
     Ok(StepTiming {
         median_seconds: times[times.len() / 2],
         min_seconds: times[0],
-        unknowns: d * nh + 2,
+        unknowns: layout.newton_len(),
     })
 }

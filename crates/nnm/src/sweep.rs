@@ -6,7 +6,7 @@ use crate::augmented_lagrangian::AlgorithmParams;
 use crate::continuation::{Backbone, ContinuationSettings, SkippedLevel, Termination};
 use crate::error::NnmError;
 use crate::fourier::HarmonicSettings;
-use crate::newton::ParameterRow;
+use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
 use crate::system::System;

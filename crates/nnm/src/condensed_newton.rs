@@ -19,11 +19,12 @@
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-use crate::condensation::CondensedBasis;
+use crate::condensation_basis::CondensedBasis;
 use crate::dense::DenseLu;
 use crate::error::NnmError;
+use crate::layout::HarmonicLayout;
+use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::modal_tail::ModalTail;
-use crate::newton::{contact_jacobian, JacobianData, LinearModel};
 use crate::system::System;
 
 /// Pivot ratio of a per-harmonic interior block below which the step is redone without it.
@@ -56,6 +57,7 @@ struct HarmonicBlock {
 }
 
 pub(crate) struct CondensedModel {
+    layout: HarmonicLayout,
     basis: CondensedBasis,
     tail: ModalTail,
     weights: Vec<f64>,
@@ -75,7 +77,9 @@ pub(crate) struct CondensedModel {
 }
 
 impl CondensedModel {
-    pub fn new(system: &System, window: f64) -> Result<Self, NnmError> {
+    /// The condensed model of `system` for harmonics 0..=`harmonics`, with the resonance window
+    /// of [`crate::NewtonSettings::resonance_window`].
+    pub fn new(system: &System, window: f64, harmonics: usize) -> Result<Self, NnmError> {
         let basis = CondensedBasis::new(system)?;
         let mut weights = Vec::with_capacity(basis.r + basis.n_o);
         for i in 0..basis.r {
@@ -90,6 +94,7 @@ impl CondensedModel {
         let rho = (0.5 * (1.0 - window)).min(0.25);
         let tail = ModalTail::new(&basis.lambda, &basis.kt, &basis.mt, rho);
         Ok(Self {
+            layout: HarmonicLayout::new(harmonics, r + n_o),
             basis,
             tail,
             weights,
@@ -110,9 +115,10 @@ impl CondensedModel {
     /// Level 1 for every harmonic: kept blocks, w columns and right-hand sides.
     fn build_blocks(&mut self, jac: &JacobianData<'_>, rhs: &[f64]) {
         let bs = &self.basis;
-        let (r, n_o, d, nh) = (bs.r, bs.n_o, bs.r + bs.n_o, jac.harmonics + 1);
+        let l = self.layout;
+        let (r, n_o, nh) = (bs.r, bs.n_o, l.count());
         let w = jac.omega;
-        let xm = MatRef::from_column_major_slice(&jac.x[..d * nh], d, nh);
+        let xm = l.view(jac.x);
         let (y, z) = (xm.get(..r, ..), xm.get(r.., ..));
         // w-derivative columns: -2 n^2 w [M_kk y + Mt z; Mt^T y + z]
         let mut wy = &bs.m_kk * y;
@@ -136,12 +142,12 @@ impl CondensedModel {
             // Modes from `cut` on are summed by the precomputed series (`modal_tail`).
             let (cut, tail) = self.tail.split(&bs.lambda, s);
             for i in 0..n_o {
-                let l = bs.lambda[i];
-                if i < cut && (l - s).abs() < self.window * l {
+                let lam_i = bs.lambda[i];
+                if i < cut && (lam_i - s).abs() < self.window * lam_i {
                     blk.near.push(i);
                     blk.wt[i] = 0.0;
                 } else {
-                    blk.wt[i] = 1.0 / (l - s);
+                    blk.wt[i] = 1.0 / (lam_i - s);
                 }
             }
             // Dt = Kt - s Mt, DW = Dt diag(wt), S = K_kk - s M_kk - DW Dt^T
@@ -196,7 +202,7 @@ impl CondensedModel {
                 a[(r + t, r + t)] = bs.lambda[mode] - s;
             }
             // cw = [wy - DW wz; wz_near], b = [rhs_y - DW rhs_z; rhs_z_near]
-            let rz = &rhs[h * d + r..(h + 1) * d];
+            let rz = &l.harmonic(rhs, h)[r..];
             self.wzb.resize(2 * n_o, 0.0);
             for l in 0..n_o {
                 self.wzb[l] = wz[(l, h)];
@@ -205,7 +211,7 @@ impl CondensedModel {
             self.cwb.resize(2 * r, 0.0);
             for i in 0..r {
                 self.cwb[i] = wy[(i, h)];
-                self.cwb[r + i] = rhs[h * d + i];
+                self.cwb[r + i] = rhs[l.at(h, i)];
             }
             if n_o > 0 {
                 let rhs2 = MatRef::from_column_major_slice(&self.wzb[..], n_o, 2);
@@ -223,11 +229,12 @@ impl CondensedModel {
             blk.arc.clear();
             blk.arc.resize(size, 0.0);
             if !jac.arc_y.is_empty() {
-                let am = jac.arc_y[bs.c * nh + h];
+                let kept = l.signals(bs.c + 1);
+                let am = jac.arc_y[kept.at(bs.c, h)];
                 for i in 0..r {
                     let mut v = am * bs.master_row[i];
                     if i < bs.c {
-                        v += jac.arc_y[i * nh + h];
+                        v += jac.arc_y[kept.at(i, h)];
                     }
                     blk.arc[i] = v;
                 }
@@ -239,8 +246,8 @@ impl CondensedModel {
     /// singular or the reduced matrix is singular.
     fn solve_reduced(&mut self, jac: &JacobianData<'_>, rhs: &[f64], full_border: bool) -> bool {
         let bs = &self.basis;
-        let (d, nh) = (bs.r + bs.n_o, jac.harmonics + 1);
-        let np = 2 * jac.harmonics + 1;
+        let l = self.layout;
+        let (nh, np) = (l.count(), l.moments());
         // Border selection.
         let mut total = 0;
         self.offsets.clear();
@@ -352,8 +359,8 @@ impl CondensedModel {
         red[(iw, iq)] = -jac.norm_scale;
         red[(iq, iw)] = jac.arc_w + arc_w_fill;
         red[(iq, iq)] = jac.arc_q;
-        self.reduced_rhs[iw] = rhs[d * nh];
-        self.reduced_rhs[iq] = rhs[d * nh + 1] + arc_rhs_fill;
+        self.reduced_rhs[iw] = rhs[l.omega_index()];
+        self.reduced_rhs[iq] = rhs[l.omega_index() + 1] + arc_rhs_fill;
         if !self.reduced.factor() {
             return false;
         }
@@ -382,8 +389,8 @@ impl CondensedModel {
     /// Relative residual of the kept system for the solved step (independent of the elimination).
     fn kept_residual(&self, jac: &JacobianData<'_>, rhs: &[f64]) -> f64 {
         let bs = &self.basis;
-        let (d, nh) = (bs.r + bs.n_o, jac.harmonics + 1);
-        let np = 2 * jac.harmonics + 1;
+        let l = self.layout;
+        let (nh, np) = (l.count(), l.moments());
         let dw = self.reduced_rhs[self.reduced_rhs.len() - 2];
         let dq = self.reduced_rhs[self.reduced_rhs.len() - 1];
         let (mut num, mut den) = (0.0_f64, 0.0_f64);
@@ -421,7 +428,7 @@ impl CondensedModel {
         for &i in &bs.master_support {
             vn += jac.norm_scale * bs.master_row[i] * self.blocks[1].delta[i];
         }
-        num = num.max((vn - rhs[d * nh]).abs());
+        num = num.max((vn - rhs[l.omega_index()]).abs());
         let mut va = jac.arc_w * dw + jac.arc_q * dq;
         for blk in &self.blocks {
             va += blk
@@ -431,7 +438,7 @@ impl CondensedModel {
                 .map(|(a, b)| a * b)
                 .sum::<f64>();
         }
-        num = num.max((va - rhs[d * nh + 1]).abs());
+        num = num.max((va - rhs[l.omega_index() + 1]).abs());
         if den > 0.0 {
             num / den
         } else {
@@ -441,15 +448,17 @@ impl CondensedModel {
 }
 
 impl LinearModel for CondensedModel {
-    fn dim(&self) -> usize {
-        self.basis.r + self.basis.n_o
+    fn layout(&self) -> HarmonicLayout {
+        self.layout
     }
 
-    fn contact_coefficients(&self, x: &[f64], harmonics: usize, out: &mut [f64]) {
-        let (d, nh) = (self.dim(), harmonics + 1);
-        for j in 0..self.basis.c {
-            for h in 0..nh {
-                out[j * nh + h] = x[h * d + j];
+    fn contact_coefficients(&self, x: &[f64], out: &mut [f64]) {
+        // The first c kept coordinates are the contact displacements A_j u.
+        let (l, c) = (self.layout, self.basis.c);
+        let signals = l.signals(c);
+        for j in 0..c {
+            for h in 0..l.count() {
+                out[signals.at(j, h)] = x[l.at(h, j)];
             }
         }
     }
@@ -458,17 +467,11 @@ impl LinearModel for CondensedModel {
         &self.basis.master_row
     }
 
-    fn harmonic_residual(
-        &mut self,
-        omega: f64,
-        x: &[f64],
-        harmonics: usize,
-        lambda_coef: &[f64],
-        out: &mut [f64],
-    ) {
-        let bs = &self.basis;
-        let (r, n_o, d, nh, c) = (bs.r, bs.n_o, self.dim(), harmonics + 1, bs.c);
-        let xm = MatRef::from_column_major_slice(&x[..d * nh], d, nh);
+    fn harmonic_residual(&mut self, omega: f64, x: &[f64], lambda_coef: &[f64], out: &mut [f64]) {
+        let (bs, l) = (&self.basis, self.layout);
+        let (r, n_o, nh, c) = (bs.r, bs.n_o, l.count(), bs.c);
+        let signals = l.signals(c);
+        let xm = l.view(x);
         let (y, z) = (xm.get(..r, ..), xm.get(r.., ..));
         let mut ky = &bs.k_kk * y;
         matmul(ky.as_mut(), Accum::Add, bs.kt.as_ref(), z, 1.0, Par::Seq);
@@ -478,12 +481,12 @@ impl LinearModel for CondensedModel {
         let mty = bs.mt.transpose() * y;
         for h in 0..nh {
             let s = (h as f64 * omega).powi(2);
-            let o = &mut out[h * d..(h + 1) * d];
+            let o = l.harmonic_mut(out, h);
             for i in 0..r {
                 o[i] = ky[(i, h)] - s * my[(i, h)];
             }
             for i in 0..c {
-                o[i] += lambda_coef[i * nh + h];
+                o[i] += lambda_coef[signals.at(i, h)];
             }
             for i in 0..n_o {
                 o[r + i] = kty[(i, h)] - s * mty[(i, h)] + (bs.lambda[i] - s) * z[(i, h)];
@@ -497,7 +500,8 @@ impl LinearModel for CondensedModel {
 
     fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError> {
         let (r, n_o) = (self.basis.r, self.basis.n_o);
-        let (d, nh) = (r + n_o, jac.harmonics + 1);
+        let l = self.layout;
+        let nh = l.count();
         self.build_blocks(jac, rhs);
         let fast_ok = self.solve_reduced(jac, rhs, false)
             && self.kept_residual(jac, rhs) <= STEP_CHECK_TOLERANCE;
@@ -517,15 +521,15 @@ impl LinearModel for CondensedModel {
         let dy = Mat::from_fn(r, nh, |i, h| self.blocks[h].delta[i]);
         let kty = bs.kt.transpose() * &dy;
         let mty = bs.mt.transpose() * &dy;
-        let xm = MatRef::from_column_major_slice(&jac.x[..d * nh], d, nh);
+        let xm = l.view(jac.x);
         let (y, z) = (xm.get(..r, ..), xm.get(r.., ..));
         let mtyx = bs.mt.transpose() * y;
         for h in 0..nh {
             let s = (h as f64 * jac.omega).powi(2);
             let f = -2.0 * (h * h) as f64 * jac.omega;
             let blk = &self.blocks[h];
-            rhs[h * d..h * d + r].copy_from_slice(&blk.delta[..r]);
-            let dz = &mut rhs[h * d + r..(h + 1) * d];
+            let (dy, dz) = l.harmonic_mut(rhs, h).split_at_mut(r);
+            dy.copy_from_slice(&blk.delta[..r]);
             for i in 0..n_o {
                 let wz = f * (mtyx[(i, h)] + z[(i, h)]);
                 dz[i] = blk.wt[i] * (dz[i] - (kty[(i, h)] - s * mty[(i, h)]) - wz * dw);
@@ -534,8 +538,8 @@ impl LinearModel for CondensedModel {
                 dz[mode] = blk.delta[r + t];
             }
         }
-        rhs[d * nh] = dw;
-        rhs[d * nh + 1] = dq;
+        rhs[l.omega_index()] = dw;
+        rhs[l.omega_index() + 1] = dq;
         Ok(())
     }
 
