@@ -6,6 +6,7 @@
 
 mod oracle;
 
+use faer::linalg::solvers::Solve;
 use faer::Mat;
 use nlmodes_nnm::{integrate_penalty, MotionState, System};
 use oracle::impact::{gauss_legendre, ImpactChain, ImpactOrbit, TimeOrigin, TransitionKind};
@@ -71,7 +72,8 @@ fn grazing_limit_is_the_linear_mode_touching_the_stop() {
             let orbit = ch.orbit_at_omega(w1 * (1.0 + eps)).expect("orbit");
             assert!(orbit.admissible, "just above grazing the orbit impacts");
             let c = ch.cosine_coefficients(&orbit, 8, TimeOrigin::Impact);
-            // s, eta0_2 and all deviations from the mode are O(w - w1): 2 pi eps g / |b1|^2 ~ 13 eps.
+            // s = pi eps g / b1^2 = 2 pi eps here, and every deviation from the mode is s times an
+            // O(1) factor (observed 3.1 eps, the q slope): bound 20 eps.
             let bound = 20.0 * eps;
             for (n, cn) in c.iter().enumerate() {
                 for i in 0..2 {
@@ -322,12 +324,22 @@ fn monodromy_matches_finite_differences_and_is_symplectic() {
             "w/w1 = {r}, n = {n}: |FD - monodromy| / |monodromy| = {:.2e}",
             err / scale
         );
-        // Step 1e-6 |u|: truncation (1e-12 x third derivatives) and round-off (1e-16 / 1e-6 x
-        // |x|) are both <= 1e-9 relative; 1e-6 fails at once for a wrong saltation sign or term.
+        // Step 1e-6 |u|: truncation ~1e-12 x third derivatives; round-off ~1e-16 / 1e-6 times the
+        // amplification of the flow and of the impact-time error: observed 1e-8 to 8e-8 relative.
+        // Bound 1e-6; a wrong saltation term gives O(1) (checked just below).
         assert!(
             err <= 1e-6 * scale,
             "w/w1 = {r}: error {err:e}, scale {scale}"
         );
+        // The finite differences do see the saltation correction: the bare jump Jacobian
+        // G = diag(I, R) in its place misses them by O(1).
+        let bare = &half_flow(ch, &orbit) * jump_jacobian(ch) * &half_flow(ch, &orbit);
+        let bare_err = mat_max_abs(&(&fd - &bare));
+        println!(
+            "  without the saltation correction: {:.2e}",
+            bare_err / scale
+        );
+        assert!(bare_err > 1e-2 * scale);
         // Similar to the monodromy starting after the impact: exp(A tau) S exp(A T) = mon exp(A tau).
         let after = ch.monodromy_after_impact(&orbit);
         let half = ch.free_flow(orbit.tau);
@@ -335,6 +347,28 @@ fn monodromy_matches_finite_differences_and_is_symplectic() {
         assert!(conj_err <= 1e-12 * scale * mat_max_abs(&half).max(1.0));
         assert_symplectic_structure(ch, &orbit, &mon);
     }
+}
+
+fn half_flow(ch: &ImpactChain, orbit: &ImpactOrbit) -> Mat<f64> {
+    ch.free_flow(orbit.tau)
+}
+
+/// G = diag(I, R), R = I - 2 M^-1 a a^T / (a^T M^-1 a), from M and a directly.
+fn jump_jacobian(ch: &ImpactChain) -> Mat<f64> {
+    let n = ch.dofs();
+    let a = Mat::from_fn(n, 1, |i, _| ch.contact_row()[i]);
+    let minv_a = ch.mass().partial_piv_lu().solve(&a);
+    let a_minv_a: f64 = (0..n).map(|i| a[(i, 0)] * minv_a[(i, 0)]).sum();
+    Mat::from_fn(2 * n, 2 * n, |i, j| {
+        let identity = if i == j { 1.0 } else { 0.0 };
+        if i >= n && j >= n {
+            identity - 2.0 * minv_a[(i - n, 0)] * a[(j - n, 0)] / a_minv_a
+        } else if i < n && j < n {
+            identity
+        } else {
+            0.0
+        }
+    })
 }
 
 /// det = 1, M^T Omega M = Omega with Omega = [[0, M], [-M, 0]] (the mass enters through p = M v),
@@ -433,6 +467,14 @@ fn two_dof_branch_fold_and_stability() {
         fold.omega, fold.q_impact
     );
     println!("branch ends (energy -> infinity) at w = {w_end:.12}");
+    for (name, ch) in [("master 0", &ch0), ("master 1", &ch1)] {
+        let (q, slope) = ch.q_impact_closed_form(w1 * (1.0 + 1e-7));
+        println!("{name}: at grazing q = {q:.9}, dq/dw = {slope:.9}");
+    }
+    println!(
+        "master 0: q back to 1 (grazing value) at w = {:?}",
+        ch0.omegas_at_q(1.0, 1.01, 1.2, 100)
+    );
     assert!(fold.omega > w1 && fold.omega < 1.2 * w1 && fold.q_impact < 1.0);
     let q0 = |w: f64| ch0.q_impact_closed_form(w).0;
     let before: Vec<f64> = (0..=20)
@@ -466,6 +508,14 @@ fn two_dof_branch_fold_and_stability() {
         let w = w1 + (1.5 - w1) * i as f64 / 100.0;
         let orbit = ch0.orbit_at_omega(w).expect("orbit");
         assert_eq!(orbit.admissible, w < w_end, "w = {w}");
+    }
+    // Inverse look-up: q between the fold and grazing is reached twice, above grazing once.
+    let q_mid = 0.5 * (fold.q_impact + 1.0);
+    let roots = ch0.omegas_at_q(q_mid, w1 + 1e-9, 1.2, 400);
+    assert_eq!(roots.len(), 2, "{roots:?}");
+    assert!(roots[0] < fold.omega && roots[1] > fold.omega);
+    for w in roots {
+        assert!((ch0.q_impact_closed_form(w).0 - q_mid).abs() < 1e-12);
     }
     assert_two_dof_stability(&ch0, w_end);
     print_branch_table(&ch0, &ch1);

@@ -411,6 +411,21 @@ impl ImpactChain {
         Some((w, self.energy_closed_form(w).0))
     }
 
+    /// All frequencies in [w_from, w_to] where the admissible branch has q (impact origin) equal
+    /// to `q`: sign changes of q(w) - q over `samples` points between admissible orbits, each
+    /// bisected to |dw| <= 1e-13 w. For comparing a solver point (q, w) with the exact branch.
+    pub fn omegas_at_q(&self, q: f64, w_from: f64, w_to: f64, samples: usize) -> Vec<f64> {
+        let defect = |w: f64| self.q_impact_closed_form(w).0 - q;
+        let admissible = |w: f64| self.orbit_at_omega(w).is_some_and(|o| o.admissible);
+        let grid: Vec<f64> = (0..samples)
+            .map(|i| w_from + (w_to - w_from) * i as f64 / (samples - 1) as f64)
+            .collect();
+        grid.windows(2)
+            .filter(|p| admissible(p[0]) && admissible(p[1]))
+            .filter_map(|p| bisect_sign_change(defect, p[0], p[1]))
+            .collect()
+    }
+
     /// Frequency above `w_lo` where D(pi/w) = 0 (the impulse and the energy diverge: the branch
     /// ends), searched in [w_lo, w_hi] by bisection.
     pub fn infinite_energy_omega(&self, w_lo: f64, w_hi: f64) -> Option<f64> {
@@ -508,6 +523,12 @@ impl ImpactChain {
             let grad_h = if j < n { self.contact[j] } else { 0.0 };
             jump[(i, j)] + (f_plus[i] - g_f_minus[i]) * grad_h / normal_speed
         })
+    }
+
+    /// Monodromy over one period starting just after an impact, S exp(A T) (alias of
+    /// [`Self::monodromy_after_impact`]).
+    pub fn monodromy(&self, orbit: &ImpactOrbit) -> Mat<f64> {
+        self.monodromy_after_impact(orbit)
     }
 
     /// Monodromy over one period starting just after an impact: S exp(A T).
