@@ -96,6 +96,35 @@ fn grazing_limit_is_the_linear_mode_touching_the_stop() {
 }
 
 #[test]
+fn oracle_from_a_solver_system_agrees_with_its_grazing_amplitude() {
+    // A contact row whose sign makes phi_1[master] b_1 < 0: the solver's q > 0 branch then
+    // touches the stop half a period after cos(w t) = 1.
+    for (row, master) in [(1.0, 0), (1.0, 1), (-1.0, 0), (-1.0, 1)] {
+        let system = System::new(
+            Mat::identity(2, 2),
+            Mat::from_fn(2, 2, |i, j| if i == j { 2.0 } else { -1.0 }),
+            Mat::from_fn(1, 2, |_, j| row * j as f64),
+            vec![0.7],
+            master,
+        )
+        .expect("system");
+        let ch = ImpactChain::from_system(&system);
+        let solver_w: Vec<f64> = system.linear_frequencies();
+        for (a, b) in solver_w.iter().zip(ch.linear_omegas()) {
+            assert!((a - b).abs() <= 1e-12 * b);
+        }
+        let orbit = ch.orbit_at_omega(1.0 + 1e-9).expect("orbit");
+        let q = ch.q_positive_at_grazing(&orbit);
+        let graze = system.grazing_amplitude(0).expect("mode").expect("touches");
+        // O(eps) from grazing (eps = 1e-9, slope ~3 g): 1e-8 relative.
+        assert!(
+            (q - graze).abs() <= 1e-8 * graze,
+            "row {row}, master {master}: {q} vs {graze}"
+        );
+    }
+}
+
+#[test]
 fn orbit_returns_to_itself_under_the_event_located_flow() {
     let cases = [
         (chain2(1), vec![1.001, 1.01, 1.1, 1.2, 1.3, 1.4, 1.42]),

@@ -123,6 +123,25 @@ impl ImpactChain {
         }
     }
 
+    /// The same chain from a solver [`nlmodes_nnm::System`] with exactly one contact row.
+    pub fn from_system(system: &nlmodes_nnm::System) -> Self {
+        assert_eq!(system.n_contacts(), 1, "one contact row");
+        let n = system.n_dofs();
+        let rows = |a: faer::MatRef<'_, f64>| -> Vec<Vec<f64>> {
+            (0..n)
+                .map(|i| (0..n).map(|j| a[(i, j)]).collect())
+                .collect()
+        };
+        let contact: Vec<f64> = (0..n).map(|i| system.contact_rows()[(0, i)]).collect();
+        Self::new(
+            &rows(system.mass()),
+            &rows(system.stiffness()),
+            &contact,
+            system.gaps()[0],
+            system.master(),
+        )
+    }
+
     pub fn dofs(&self) -> usize {
         self.contact.len()
     }
@@ -346,6 +365,15 @@ impl ImpactChain {
     /// q = e_master . u_1 of `orbit` for the given time origin.
     pub fn q(&self, orbit: &ImpactOrbit, origin: TimeOrigin) -> f64 {
         self.cosine_coefficients(orbit, 1, origin)[1][self.master]
+    }
+
+    /// q in the convention of a harmonic-balance branch started from linear mode 1 with a
+    /// positive master component and q > 0: that branch touches the stop at cos(w t) = 1 when
+    /// phi_1[master] b_1 > 0 (impact origin), at cos(w t) = -1 otherwise (turning-point origin).
+    /// Equals `System::grazing_amplitude(0)` at grazing.
+    pub fn q_positive_at_grazing(&self, orbit: &ImpactOrbit) -> f64 {
+        let sign = (self.modes[(self.master, 0)] * self.modal_contact[0]).signum();
+        sign * self.q(orbit, TimeOrigin::Impact)
     }
 
     /// Closed form of q (impact origin) as a function of w:
