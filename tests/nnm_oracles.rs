@@ -1,6 +1,6 @@
 //! Oracle tests of the nonlinear-mode solver `nlmodes-nnm` (issue 4), against references that share
 //! no code with it: a dense generalized eigensolve of (K, M) (own Cholesky + Jacobi), the closed-form
-//! 1-DOF contact oscillators of DESIGN 5, the harmonic balance and the contact law re-evaluated from
+//! 1-DOF contact oscillators of docs/DESIGN.md §5, the harmonic balance and the contact law re-evaluated from
 //! the returned coefficients and contact forces by direct cosine sums, and an independent RK4 time
 //! integration.
 //!
@@ -154,7 +154,7 @@ fn perturbed(p: &BackbonePoint, relative: f64) -> BackbonePoint {
 // 1. Below grazing: the linear mode.
 // ---------------------------------------------------------------------------------------------
 
-/// Below grazing every solution is the linear mode (DESIGN 5): w = w_1 and u_1 = q phi_1 / phi_1,m,
+/// Below grazing every solution is the linear mode (docs/DESIGN.md §5): w = w_1 and u_1 = q phi_1 / phi_1,m,
 /// every other harmonic zero. Checked on the soft 4-mass chain at q = 0.3 and 0.9 q_graze from the
 /// linear start and from a perturbed warm start (w off by 3 %, every harmonic polluted by 3 % of
 /// q), which Newton must bring back.
@@ -225,13 +225,13 @@ fn below_grazing_the_mode_is_linear() -> TestResult {
 // 2. 1-DOF unilateral penalty spring against the closed form.
 // ---------------------------------------------------------------------------------------------
 
-/// A/g values of DESIGN 5 and the ratios w / w0 it lists for the rigid stop and for the penalty
+/// A/g values of docs/DESIGN.md §5 and the ratios w / w0 it lists for the rigid stop and for the penalty
 /// spring kc = 100 (w0 = 1), to 6 decimals.
 const AMPLITUDES: [f64; 6] = [1.2, 1.5, 2.0, 3.0, 5.0, 10.0];
 const RIGID_STOP_RATIOS: [f64; 6] = [1.229150, 1.365599, 1.5, 1.644268, 1.772754, 1.880108];
 const PENALTY_RATIOS: [f64; 6] = [1.164678, 1.283335, 1.399382, 1.522507, 1.630782, 1.720225];
 
-/// The numbers of DESIGN 5 follow from their closed forms (printed to 6 decimals: |error| <= 5e-7
+/// The numbers of docs/DESIGN.md §5 follow from their closed forms (printed to 6 decimals: |error| <= 5e-7
 /// plus round-off), and the closed forms have the right limits.
 #[test]
 fn design_oracle_numbers_match_their_closed_forms() {
@@ -292,7 +292,7 @@ fn point_at_free_amplitude(
 }
 
 /// x'' + x + kc (x - g)_+ = 0, kc = 100, g = 1, with the plain penalty method (fixed kappa = kc, no
-/// multiplier update): w / w0 at A/g = 1.2 ... 10 equals the closed form of DESIGN 5 within 1e-4
+/// multiplier update): w / w0 at A/g = 1.2 ... 10 equals the closed form of docs/DESIGN.md §5 within 1e-4
 /// (the brief's bound), evaluated at the A of the computed orbit.
 ///
 /// N = 48, m = 512. The orbit is C^2 (the force is continuous in x), so its coefficients decay like

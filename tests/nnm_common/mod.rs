@@ -1,7 +1,7 @@
 //! Independent references for the nonlinear-mode oracle tests (`tests/nnm_oracles.rs`): small
 //! spring-mass systems, a dense generalized eigensolver (own Cholesky + cyclic Jacobi, sharing no
 //! code with `nlmodes-nnm`), direct cosine sums and the closed-form 1-DOF contact oscillators of
-//! DESIGN 5.
+//! docs/DESIGN.md §5.
 //!
 //! Units: lengths in units of the gap g (gaps are 1 unless stated), masses and stiffnesses
 //! dimensionless, circular frequencies in rad per unit time.
@@ -206,14 +206,14 @@ pub fn series_minimum(coeffs: &[f64], count: usize) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Rigid stop at x = g, elastic impact, free-side amplitude A >= g given as `a_over_g` (DESIGN 5):
+/// Rigid stop at x = g, elastic impact, free-side amplitude A >= g given as `a_over_g` (docs/DESIGN.md §5):
 /// w / w0 = pi / (pi - arccos(g / A)).
 pub fn rigid_stop_ratio(a_over_g: f64) -> f64 {
     PI / (PI - (1.0 / a_over_g).acos())
 }
 
 /// Unilateral penalty spring of stiffness `kc` (per unit mass) at x = g on x'' + w0^2 x = 0, free-side
-/// amplitude A (DESIGN 5): w / w0 = 2 pi / (w0 T) with
+/// amplitude A (docs/DESIGN.md §5): w / w0 = 2 pi / (w0 T) with
 /// T = 2 (pi - arccos(g/A)) / w0 + 2 arccos((g - xe) / B) / w1, w1 = sqrt(w0^2 + kc),
 /// xe = kc g / (w0^2 + kc), v = w0 sqrt(A^2 - g^2), B = sqrt((g - xe)^2 + (v / w1)^2).
 pub fn penalty_spring_ratio(w0: f64, kc: f64, g: f64, a: f64) -> f64 {

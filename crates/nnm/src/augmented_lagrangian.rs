@@ -16,7 +16,7 @@
 //! ```
 //!
 //! G is Powell's measure; by default the entrywise maximum max_{j,k} |v_{j,k}| (see
-//! [`PowellMeasure`] for why not the row-maximum reading of DESIGN 3, which can accept orbits that
+//! [`PowellMeasure`] for why not the row-maximum reading of docs/DESIGN.md §3, which can accept orbits that
 //! violate complementarity). G is measured in units of the initial gap: v is divided by g0_j, so epsilon is relative to g0.
 //! The rejection branch scales kappa up and theta down by the same factor, which keeps the
 //! multiplier estimate kappa * theta unchanged. Initial penalties: kappa^(1)_j =

@@ -89,7 +89,7 @@ pub(crate) fn violations(gaps: &[f64], theta: &[f64], g0: &[f64], samples: usize
 ///   measure, the infinity norm of the same entries the set L of Algorithm 1 tests one by one.
 ///   G <= epsilon implies both g <= epsilon g0 and, wherever lambda > 0, |g| <= epsilon g0
 ///   (complementarity).
-/// * `RowMaximum`: G = max_j |max_k v_{j,k}| (DESIGN 3's literal reading of Eq. 21). Caution: any
+/// * `RowMaximum`: G = max_j |max_k v_{j,k}| (docs/DESIGN.md §3's literal reading of Eq. 21). Caution: any
 ///   free sample with theta = 0 has v = max(g, 0) = 0, so max_k v >= 0 and negative entries never
 ///   count: G can be 0 while lambda > 0 on samples where g << 0 (complementarity violated, a wrong
 ///   orbit). The `powell_measure` test shows such a case on the 1-DOF rigid stop. Kept for

@@ -1,6 +1,6 @@
 //! Harmonic settings and the alternating frequency-time (AFT) transforms of Eqs. (18)-(19).
 //!
-//! A periodic signal is the cosine series f(t) = sum_{n=0..N} f_n cos(n w t) (DESIGN 3: a
+//! A periodic signal is the cosine series f(t) = sum_{n=0..N} f_n cos(n w t) (docs/DESIGN.md §3: a
 //! conservative, time-reversible orbit with a turning point at t = 0 is even in t, so the paper's
 //! complex series with n in Z reduces to cosines; the mean term f_0 is kept). It is sampled at
 //! t_k = k T / m, k = 0..m-1 (Eq. 18, shifted to start at 0), i.e. at phases 2 pi k / m that do not

@@ -1,4 +1,4 @@
-//! Time integration with a penalty contact law, independent of harmonic balance (DESIGN 5: any
+//! Time integration with a penalty contact law, independent of harmonic balance (docs/DESIGN.md §5: any
 //! computed orbit, integrated from its own t = 0 state, must come back to itself after one period).
 //!
 //! Equation: M u'' + K u + A^T lambda = 0 with lambda_j = kc_j max(0, A_j u - g0_j), integrated by

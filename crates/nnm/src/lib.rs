@@ -2,6 +2,30 @@
 //! Laxalde, Legrand & Pierre, "Nonlinear Modal Analysis of Mechanical Systems with Frictionless
 //! Contact Interfaces" (ASME IDETC 2009, DETC2009-87387), Secs. 2.3-3, Eqs. (13)-(21), Algorithm 1.
 //!
+//! # Equations and where they are implemented
+//!
+//! | paper | what | implemented in | DESIGN |
+//! |---|---|---|---|
+//! | Eqs. 3c, 7c, 11b | Signorini: g <= 0, lambda >= 0, lambda . g = 0 | `system::System`, `contact::apply_contact_law` | 3, 3.3 |
+//! | Eq. 6 | Fourier series, here even: u(t) = sum_n u_n cos(n w t) | `fourier::cosine_series`, `point::reconstruct`, `point::velocity` | 3.1 |
+//! | Eq. 9 | Rayleigh quotient: not used, see Eq. 20 | `newton` (module docs) | 3.4 |
+//! | Eqs. 12a, 15, 20 | (K - (n w)^2 M) u_n + A^T lambda_n = 0, n = 0..N | `linear_model::LinearModel::harmonic_residual` (`full::FullModel`, `condensed_newton::CondensedModel`), `newton::evaluate` | 3.4 |
+//! | Eq. 12b | complementarity at convergence (G <= epsilon) | `contact::powell_measure`, `augmented_lagrangian::run_algorithm1` | 3.5 |
+//! | Eq. 13 | augmented-Lagrangian variables theta, kappa | `contact::Multipliers` | 3.3 |
+//! | Eq. 14 | stationarity at fixed (theta, kappa): the inner solve | `newton::NewtonSolve::run`, `newton_fallback::solve_inner_robust`, `solver::InnerSolve`, `solver::Solver::solve_with_row` | 3.6 |
+//! | Eq. 15 (integrand) | lambda = kappa (g + theta)_+, slope kappa or 0 | `contact::apply_contact_law` | 3.3 |
+//! | Eq. 16 | theta <- theta + max(g, -theta) | `contact::violations`, `augmented_lagrangian::run_algorithm1` | 3.3, 3.5 |
+//! | Eq. 17 | g = A U - g0 | `system::System::new`, `System::contact_rows`, `System::gaps` | 3.3 |
+//! | Eq. 18 | time grid t_k = k T / m | `fourier::HarmonicSettings`, `fourier::Aft::synthesize`; layouts `layout::HarmonicLayout`, `layout::SignalLayout` | 2, 3.2 |
+//! | Eq. 19 | frequency <-> time (AFT) | `fourier::Aft::synthesize`, `fourier::Aft::analyze` | 3.2 |
+//! | Eq. 20 (Jacobian) | J_{n,n'} = D_{n+n'} + D_{abs(n-n')} from cosine moments | `fourier::Aft::cosine_moments`, `linear_model::contact_jacobian`, `linear_model::LinearModel::solve_step` | 3.6 |
+//! | Eq. 20 (linear algebra) | exact condensation onto contact coordinates and master | `condensation_basis::CondensedBasis`, `condensed_newton::CondensedModel`, `modal_tail::ModalTail`; dense: `full::FullModel` | 3.7 |
+//! | Eq. 21 | Powell's measure (entrywise by default) | `contact::PowellMeasure`, `contact::powell_measure`, `contact::powell_measure_of` | 3.5 |
+//! | Algorithm 1 | outer loop: multiplier and penalty updates | `augmented_lagrangian::run_algorithm1`, `AlgorithmParams`, `PenaltyUpdate` | 3.5 |
+//! | Sec. 2.6 | normalization e . u_1 = q | `newton::evaluate` (normalization row), `System::master`, `BackbonePoint::q` | 3.4 |
+//! | Sec. 4, Fig. 3a | backbone w(q) | `continuation::backbone`, `sweep::amplitude_sweep` | 3.8 |
+//! | (none) | time integration with a penalty law, independent check | `integrate::integrate_penalty`, `integrate::check_periodicity` | 5.4 |
+//!
 //! The crate knows nothing of meshes: a [`System`] is any SPD pair (M, K) with contact rows A and
 //! initial gaps g0 (Eq. 17). A nonlinear mode at master amplitude q is a periodic orbit
 //! u(t) = sum_{n=0..N} u_n cos(n w t) solving the harmonic balance of M u'' + K u + A^T lambda = 0
@@ -16,7 +40,7 @@
 //! levels), [`check_periodicity`] / [`integrate_penalty`] (independent time-integration check).
 //!
 //! Choices that depart from a literal reading, each with its reason in the module docs:
-//! * Powell's measure defaults to the entrywise maximum [`PowellMeasure::Entrywise`]; DESIGN 3's
+//! * Powell's measure defaults to the entrywise maximum [`PowellMeasure::Entrywise`]; docs/DESIGN.md §3's
 //!   row-maximum reading of Eq. (21) can accept orbits that violate complementarity.
 //! * The penalty increase of an accepted iteration also divides theta by beta
 //!   ([`PenaltyUpdate::KeepMultiplier`]); the printed update over-pushes (kept as an option).
@@ -31,11 +55,14 @@
 //! hops over corners at fixed q when it can; otherwise it stops and returns the points computed so
 //! far with a [`Termination`] that says why.
 //!
-//! Modules: `system` (inputs), `fourier` (AFT), `contact` (sampled law, Powell's measure),
-//! `newton` (inner solve), `newton_fallback` (smoothing path), `condensation`/`condensed` (exact condensation), `full` (uncondensed
-//! validation model), `augmented_lagrangian` (Algorithm 1), `solver` (one point), `continuation`
-//! (backbone), `sweep` (amplitude levels), `point` (outputs), `integrate` (time-integration cross-check), `dense` (faer
-//! helpers), `error`.
+//! Modules: `system` (inputs), `layout` (harmonic layouts), `fourier` (AFT), `contact` (sampled
+//! law, Powell's measure), `linear_model` (the linear part as the Newton solver sees it), `newton`
+//! (inner solve, `NewtonSolve`), `newton_fallback` (smoothing path), `condensation_basis` (the
+//! precomputed condensation basis) and `condensed_newton` (the Newton step in it), `modal_tail`
+//! (series for the high modes), `full` (uncondensed validation model), `augmented_lagrangian`
+//! (Algorithm 1), `solver` (one point, `InnerSolve`), `continuation` (backbone), `sweep` (amplitude
+//! levels), `point` (outputs), `integrate` (time-integration cross-check), `dense` (faer helpers),
+//! `error`. Design: docs/DESIGN.md (sections cited as "DESIGN §k").
 
 mod augmented_lagrangian;
 mod condensation_basis;

@@ -1,4 +1,4 @@
-//! Semi-smooth Newton solve of the inner problem, Eq. (20) in DESIGN 3's physically consistent
+//! Semi-smooth Newton solve of the inner problem, Eq. (20) in docs/DESIGN.md §3's physically consistent
 //! reading, at fixed augmented-Lagrangian variables (theta, kappa):
 //!
 //! ```text
@@ -14,7 +14,7 @@
 //! every harmonic with the same weight as the inertia and stiffness forces it balances, otherwise
 //! the computed orbit does not satisfy M u'' + K u + A^T lambda = 0. We therefore solve the harmonic
 //! balance of the equations of motion; at convergence of Algorithm 1 (G -> 0) the complementarity
-//! conditions Eq. (12b) are the same (DESIGN 3).
+//! conditions Eq. (12b) are the same (docs/DESIGN.md §3).
 //!
 //! Unknowns: the N + 1 coefficient vectors (in the coordinates of a [`LinearModel`]), w and q.
 //! max(0, .) is piecewise linear, so Newton uses its generalized Jacobian: kappa on active samples,

@@ -1,4 +1,4 @@
-//! DESIGN 5: below grazing every solution is the linear mode, w = w_1 to solver tolerance.
+//! docs/DESIGN.md §5: below grazing every solution is the linear mode, w = w_1 to solver tolerance.
 
 mod common;
 

@@ -1,11 +1,11 @@
-//! DESIGN 5 oracle: 1 DOF, x'' + x + kc (x - g)_+ = 0 with kc = 100, solved with the plain penalty
+//! docs/DESIGN.md §5 oracle: 1 DOF, x'' + x + kc (x - g)_+ = 0 with kc = 100, solved with the plain penalty
 //! mode (fixed kappa = kc, theta = 0, one inner solve), compared with the closed-form period.
 
 mod common;
 
 use nlmodes_nnm::{AlgorithmParams, ContactMethod, HarmonicSettings, Solver, Start};
 
-/// (A/g, w/w0) from DESIGN 5 for w0 = 1, kc = 100 (6 decimals).
+/// (A/g, w/w0) from docs/DESIGN.md §5 for w0 = 1, kc = 100 (6 decimals).
 const TABLE: [(f64, f64); 6] = [
     (1.2, 1.164678),
     (1.5, 1.283335),

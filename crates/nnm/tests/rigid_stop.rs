@@ -1,4 +1,4 @@
-//! DESIGN 5 oracle: 1 DOF, x'' + x = 0 with a rigid stop at x = g, solved by Algorithm 1 to
+//! docs/DESIGN.md §5 oracle: 1 DOF, x'' + x = 0 with a rigid stop at x = g, solved by Algorithm 1 to
 //! G <= 1e-8 (units of g), compared with w/w0 = pi / (pi - arccos(g/A)).
 
 mod common;
@@ -83,7 +83,7 @@ fn complementarity_holds_on_every_sample_at_convergence() {
 
 #[test]
 fn row_maximum_reading_of_eq_21_accepts_a_wrong_orbit() {
-    // Why `PowellMeasure::Entrywise` is the default: with DESIGN 3's literal reading,
+    // Why `PowellMeasure::Entrywise` is the default: with docs/DESIGN.md §3's literal reading,
     // G = max_j |max_k max(g, -theta)|, any open sample with theta = 0 makes max_k >= 0, so
     // negative entries (a multiplier pushing where the gap is open) never count. Here Algorithm 1
     // exactly as printed (penalty update included) stops with G = 0 while lambda > 0 on samples

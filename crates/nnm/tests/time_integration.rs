@@ -1,4 +1,4 @@
-//! DESIGN 5: a computed orbit, integrated in time (RK4, penalty contact law, no harmonic balance)
+//! docs/DESIGN.md §5: a computed orbit, integrated in time (RK4, penalty contact law, no harmonic balance)
 //! from its own t = 0 state, comes back to itself after one period T = 2 pi / w.
 
 mod common;

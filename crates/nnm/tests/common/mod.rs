@@ -47,7 +47,7 @@ pub fn rigid_stop_ratio(a_over_g: f64) -> f64 {
     pi / (pi - (1.0 / a_over_g).acos())
 }
 
-/// Exact frequency of x'' + w0^2 x + kc (x - g)_+ = 0 with free-side amplitude A (DESIGN 5).
+/// Exact frequency of x'' + w0^2 x + kc (x - g)_+ = 0 with free-side amplitude A (docs/DESIGN.md §5).
 pub fn penalty_ratio(w0: f64, kc: f64, g: f64, a: f64) -> f64 {
     let w1 = (w0 * w0 + kc).sqrt();
     let xe = kc * g / (w0 * w0 + kc);
