@@ -73,7 +73,7 @@ fn main() {
         } else {
             "-".to_string()
         };
-        let unknowns = (harmonics.harmonics + 1) * nr + 2;
+        let unknowns = harmonics.terms() * nr + 2;
         println!(
             "| {modes} | {nr} | {unknowns} | {condensed:.3} | {full} | {} |",
             whole_iteration(&system, harmonics, runs)
@@ -145,7 +145,7 @@ fn reduced_models(runs: usize, dirs: &[String]) {
         println!(
             "| {dir} | {n} | {c} | {} | {} | {:.3} | {full} |",
             n - 3 * c,
-            (harmonics.harmonics + 1) * n + 2,
+            harmonics.terms() * n + 2,
             step(Condensation::Exact)
         );
     }

@@ -72,7 +72,7 @@ impl HarmonicSettings {
 
 /// FFT plans and buffers for batches of cosine series.
 pub(crate) struct Aft {
-    harmonics: usize,
+    settings: HarmonicSettings,
     samples: usize,
     forward: Arc<dyn Fft<f64>>,
     inverse: Arc<dyn Fft<f64>>,
@@ -90,7 +90,7 @@ impl Aft {
             .get_inplace_scratch_len()
             .max(inverse.get_inplace_scratch_len());
         Self {
-            harmonics: settings.harmonics,
+            settings,
             samples: settings.samples,
             forward,
             inverse,
@@ -101,7 +101,7 @@ impl Aft {
 
     /// Time samples of `count` series: `coeffs[s * (N+1) + n]` -> `out[s * m + k]`.
     pub fn synthesize(&mut self, coeffs: &[f64], count: usize, out: &mut [f64]) {
-        let (nh, m) = (self.harmonics + 1, self.samples);
+        let (nh, m) = (self.settings.terms(), self.samples);
         if count == 0 {
             return;
         }
@@ -126,7 +126,7 @@ impl Aft {
 
     /// Cosine coefficients of `count` sampled signals: `samples[s * m + k]` -> `out[s * (N+1) + n]`.
     pub fn analyze(&mut self, samples: &[f64], count: usize, out: &mut [f64]) {
-        let (nh, m) = (self.harmonics + 1, self.samples);
+        let (nh, m) = (self.settings.terms(), self.samples);
         if count == 0 {
             return;
         }
@@ -146,7 +146,7 @@ impl Aft {
     /// `out[s * (2N+1) + p]`. The projected Jacobian of a sampled pointwise law with slope d_k is
     /// then J_{0,n'} = D_{n'} and J_{n,n'} = D_{n+n'} + D_{|n-n'|} for n >= 1.
     pub fn cosine_moments(&mut self, d: &[f64], count: usize, out: &mut [f64]) {
-        let (np, m) = (2 * self.harmonics + 1, self.samples);
+        let (np, m) = (2 * self.settings.harmonics + 1, self.samples);
         if count == 0 {
             return;
         }

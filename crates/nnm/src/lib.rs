@@ -65,6 +65,7 @@
 //! `error`. Design: docs/DESIGN.md (sections cited as "DESIGN §k").
 
 mod augmented_lagrangian;
+mod check;
 mod condensation_basis;
 mod condensed_newton;
 mod contact;
@@ -84,11 +85,13 @@ mod solver;
 mod step_timing;
 mod sweep;
 mod system;
+mod trace;
 
 pub use augmented_lagrangian::{AlgorithmParams, Condensation, ContactMethod, PenaltyUpdate};
 pub use contact::{powell_measure, Multipliers, PowellMeasure};
 pub use continuation::{
-    backbone, Backbone, ContinuationSettings, InternalResonance, SkippedLevel, Termination,
+    backbone, Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, SkippedLevel,
+    Termination,
 };
 pub use error::NnmError;
 pub use fourier::{cosine_series, cosine_series_rate, HarmonicSettings};

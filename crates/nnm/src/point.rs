@@ -48,8 +48,14 @@ pub struct BackbonePoint {
     pub newton_iterations: usize,
     /// Turning point of q along the branch (sign change of dq/ds) at this point.
     pub fold: bool,
-    /// The corrector landed far from the predictor (possible jump to another branch).
+    /// Accepted at the smallest step although the corrector landed far from the predictor:
+    /// possibly a jump to another branch (see `ContinuationSettings::jump_factor`).
     pub jump: bool,
+    /// Index of the branch of [`crate::Backbone::branches`] the point belongs to.
+    pub branch: usize,
+    /// A main-branch point between grazing and the first fold of q, on the stretch where the
+    /// branch leaves grazing toward smaller first-harmonic amplitude.
+    pub pre_fold: bool,
     /// Highest harmonic's share of the contact-row motion (see `truncation_warning`).
     pub truncation_share: f64,
     /// `truncation_share` exceeds `AlgorithmParams::truncation_warning`: N is too small here.

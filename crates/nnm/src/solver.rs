@@ -342,6 +342,8 @@ impl<'s> Solver<'s> {
             newton_iterations: report.newton_iterations,
             fold: false,
             jump: false,
+            branch: 0,
+            pre_fold: false,
             truncation_share,
             truncation_warning,
             primary_share: shares.share(mode, 1),

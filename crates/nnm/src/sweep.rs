@@ -55,6 +55,7 @@ where
         grazing_amplitude: system.grazing_amplitude(mode)?,
         skipped: Vec::new(),
         internal_resonances: Vec::new(),
+        branches: Vec::new(),
     };
     // Last two converged states (not necessarily at levels).
     let mut history: Vec<BackbonePoint> = Vec::new();

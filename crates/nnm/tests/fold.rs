@@ -10,7 +10,7 @@
 mod common;
 
 use nlmodes_nnm::{
-    backbone, check_periodicity, AlgorithmParams, ContactMethod, ContinuationSettings,
+    backbone, check_periodicity, AlgorithmParams, BranchKind, ContactMethod, ContinuationSettings,
     HarmonicSettings, Solver, Start, System, Termination,
 };
 
@@ -76,21 +76,42 @@ fn continuation_skips_an_internal_resonance_tongue() {
 }
 
 #[test]
-fn continuation_passes_a_fold_of_q() {
-    // Follow the tongue (the default skips it: see the test above).
-    let (sys, settings, params, cont) = tongue_chain(80, false);
+fn continuation_follows_the_tongue_through_its_fold_of_q() {
+    // Follow the tongue as its own branch (the default): the main branch rises in q up to the
+    // turning point, the tongue branch leaves it with q falling.
+    let (sys, settings, params, cont) = tongue_chain(300, false);
     let b = backbone(&sys, settings, params.clone(), &cont, |_| {}).expect("backbone");
-    let pts = &b.points;
+    let tongue = b
+        .branches
+        .iter()
+        .find(|br| {
+            br.kind
+                == BranchKind::Tongue {
+                    mode: 2,
+                    harmonic: 4,
+                }
+        })
+        .expect("the 4:1 tongue with mode 3 is a branch");
+    assert_eq!(tongue.parent, Some(1));
+    let first = b
+        .points
+        .iter()
+        .position(|p| p.branch == tongue.id)
+        .expect("tongue points");
+    let rising = b.points[..first].iter().filter(|p| p.branch == 1);
+    let falling = b.points.iter().filter(|p| p.branch == tongue.id);
+    let pts: Vec<_> = rising.chain(falling).cloned().collect();
     let fold = pts
         .iter()
         .position(|p| p.fold)
         .expect("a fold of q is flagged");
     assert!(
         fold >= 2 && fold + 3 < pts.len(),
-        "fold at {fold} of {}",
+        "turning point at {fold} of {}",
         pts.len()
     );
-    // q rose before the fold and falls after it, while the energy keeps growing along the branch.
+    // q rose before the fold and falls after it, while the energy keeps growing along the main
+    // branch and on into the tongue.
     assert!(pts[fold - 1].q > pts[fold - 2].q && pts[fold + 1].q < pts[fold].q);
     assert!(
         pts.windows(2).all(|w| w[1].energy > w[0].energy),
@@ -103,6 +124,9 @@ fn continuation_passes_a_fold_of_q() {
         "w = {}",
         pts[fold].omega
     );
+    // The main branch goes on past the tongue.
+    assert_eq!(b.termination, Termination::ReachedMaxAmplitude);
+    assert!(b.points.last().expect("points").q > pts[fold].q);
 
     // Two orbits at the same q*, one on each side of the fold (the falling side's point after
     // the fold whose q is closest to q*, a q reached on the rising side too).
