@@ -773,10 +773,13 @@ fn backbone_is_flat_then_stiffens() -> TestResult {
     );
     for p in &run.points {
         let ratio = p.omega / reference.omega;
-        if p.q < grazing * (1.0 - 1e-9) {
+        // The linear segment (branch 0) is the linear mode exactly; the nonlinear branch may dip
+        // below the grazing amplitude just after grazing (a fold of q, see grazing_branch.rs).
+        if p.branch == 0 {
+            assert!(p.q <= grazing * (1.0 + 1e-9), "linear point above grazing");
             assert!(
                 (ratio - 1.0).abs() <= 1e-10,
-                "q = {} below grazing: w/w1 = {ratio}",
+                "q = {} on the linear segment: w/w1 = {ratio}",
                 p.q
             );
         }
@@ -789,7 +792,7 @@ fn backbone_is_flat_then_stiffens() -> TestResult {
         }
     }
     assert!(
-        run.points.iter().filter(|p| p.q < grazing).count() >= 2,
+        run.points.iter().filter(|p| p.branch == 0).count() >= 2,
         "too few points below grazing"
     );
     assert!(
