@@ -4,8 +4,8 @@
 use anyhow::{Context, Result};
 use nlmodes_modal::ReducedModel;
 use nlmodes_nnm::{
-    backbone, AlgorithmParams, Backbone, ContinuationSettings, HarmonicSettings, System,
-    Termination,
+    backbone, AlgorithmParams, Backbone, BranchKind, ContinuationSettings, HarmonicSettings,
+    System, Termination,
 };
 use std::fmt::Write as _;
 use std::path::Path;
@@ -104,7 +104,7 @@ pub fn trace(
 pub const CSV_HEADER: &str = "point,q_over_g0,q_m,omega_rad_s,frequency_hz,omega_ratio,energy_j,\
 mean_gap_over_g0,max_gap_over_g0,max_penetration_over_g0,max_contact_fraction,nodes_in_contact,\
 powell_measure,outer_iterations,inner_solves,newton_iterations,fold,jump,truncation_warning,\
-primary_share,secondary_mode,secondary_harmonic,secondary_share";
+primary_share,secondary_mode,secondary_harmonic,secondary_share,branch,branch_kind,pre_fold";
 
 /// `backbone.csv`: one row per point, in continuation order.
 pub fn backbone_csv(b: &Backbone) -> String {
@@ -116,7 +116,7 @@ pub fn backbone_csv(b: &Backbone) -> String {
         let max_frac = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
         let _ = writeln!(
             s,
-            "{i},{},{},{},{},{},{},{},{},{},{},{touching},{},{},{},{},{},{},{},{},{},{},{}",
+            "{i},{},{},{},{},{},{},{},{},{},{},{touching},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             p.q / g,
             p.q,
             p.omega,
@@ -137,10 +137,22 @@ pub fn backbone_csv(b: &Backbone) -> String {
             p.primary_share,
             p.secondary_mode + 1,
             p.secondary_harmonic,
-            p.secondary_share
+            p.secondary_share,
+            p.branch,
+            branch_kind(b, p.branch),
+            p.pre_fold as u8
         );
     }
     s
+}
+
+/// `linear`, `main`, or `tongue_k<mode>_n<harmonic>` (mode 1-based), for the CSV.
+pub fn branch_kind(b: &Backbone, branch: usize) -> String {
+    match b.branches.get(branch).map(|br| &br.kind) {
+        Some(BranchKind::Linear) => "linear".into(),
+        Some(BranchKind::Main) | None => "main".into(),
+        Some(BranchKind::Tongue { mode, harmonic }) => format!("tongue_k{}_n{harmonic}", mode + 1),
+    }
 }
 
 /// Write `backbone.csv` and `backbone.json` (every point with its Fourier coefficients, contact
@@ -202,8 +214,13 @@ pub fn summary(b: &Backbone) -> String {
             continue;
         }
         let touching = p.contact_fraction.iter().filter(|&&f| f > 0.0).count();
+        let tongue = matches!(
+            b.branches.get(p.branch).map(|br| &br.kind),
+            Some(BranchKind::Tongue { .. })
+        );
         let flags = format!(
-            "{}{}{}",
+            "{}{}{}{}",
+            if tongue { "T" } else { "" },
             if p.fold { "F" } else { "" },
             if p.jump { "J" } else { "" },
             if p.truncation_warning { "N" } else { "" }
@@ -229,16 +246,19 @@ pub fn summary(b: &Backbone) -> String {
             r.mode + 1,
             100.0 * r.detuning,
             100.0 * r.share,
-            if r.hopped {
-                "tongue skipped by a fixed-q hop"
-            } else {
-                "no hop past it converged"
+            match (r.branch, r.hopped) {
+                (Some(id), true) =>
+                    format!("followed as branch {id}; main branch continued past it"),
+                (Some(id), false) =>
+                    format!("followed as branch {id}; the main branch stopped there"),
+                (None, true) => "not followed; main branch continued past it".to_string(),
+                (None, false) => "not followed; the main branch stopped there".to_string(),
             }
         );
     }
     let _ = writeln!(
         s,
-        "termination: {:?}   (flags: F fold, J jump, N harmonics too few)",
+        "termination: {:?}   (flags: F fold, J jump, N harmonics too few, T tongue branch)",
         b.termination
     );
     s
@@ -258,17 +278,27 @@ pub fn kept_points(
     let g = b.gap_reference;
     let mut solver = nlmodes_nnm::Solver::new(system, harmonics, params.clone())?;
     let mut out = Vec::new();
+    // The linear segment and the main branch, in continuation order (not the tongues).
+    let main: Vec<&nlmodes_nnm::BackbonePoint> = b
+        .points
+        .iter()
+        .filter(|p| {
+            matches!(
+                b.branches.get(p.branch).map(|br| &br.kind),
+                None | Some(BranchKind::Linear | BranchKind::Main)
+            )
+        })
+        .collect();
     for &k in keep {
         let target = k * g;
-        let crossing = b
-            .points
+        let crossing = main
             .windows(2)
             .position(|w| (w[0].q - target) * (w[1].q - target) <= 0.0);
         let Some(i) = crossing else {
             tracing::warn!("kept amplitude q/g0 = {k} is outside the computed branch: skipped");
             continue;
         };
-        let (a, c) = (&b.points[i], &b.points[i + 1]);
+        let (a, c) = (main[i], main[i + 1]);
         let start = if (a.q - target).abs() <= (c.q - target).abs() {
             a
         } else {
