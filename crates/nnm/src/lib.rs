@@ -86,6 +86,7 @@ mod step_timing;
 mod sweep;
 mod system;
 mod trace;
+mod truncation;
 
 pub use augmented_lagrangian::{AlgorithmParams, Condensation, ContactMethod, PenaltyUpdate};
 pub use contact::{powell_measure, Multipliers, PowellMeasure};
@@ -102,3 +103,4 @@ pub use solver::{solve_point, Solver, Start};
 pub use step_timing::{newton_step_timing, StepTiming};
 pub use sweep::amplitude_sweep;
 pub use system::{ModalShares, System};
+pub use truncation::{truncation_estimate, TruncationEstimate};
