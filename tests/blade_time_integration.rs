@@ -1,7 +1,7 @@
 //! Time-integration cross-check of penalty orbits on the reduced coarse blade (the blade part of
 //! the requirement "integrated from the computed t = 0 state with a penalty contact law, the orbit
 //! returns to its start after one period"; the chain part is `penalty_orbit_survives_time_integration`
-//! in `tests/nnm_oracles.rs`).
+//! in `crates/nnm/tests/nnm_oracles.rs`).
 //!
 //! Model: meshes/blade.geo at mesh_size 0.01 m, TET10, titanium, clamped on `root`, Craig-Bampton
 //! reduced onto the 3 DOFs of the 24 `tip_edge` nodes plus 20 fixed-interface modes (order 92). One

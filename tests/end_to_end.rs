@@ -125,7 +125,7 @@ fn coarse_blade_study_end_to_end() {
     // eigensolver gets lambda to eps lambda_max, so w1 / w1 is known to (1/2) eps lambda_max /
     // lambda_1 (about 7e-9 here: the constraint modes make lambda_max / lambda_1 ~ 6e7); the
     // solver's w and the reference w1 each carry that error, hence eps lambda_max / lambda_1.
-    // (The 1e-10 of issue 4 holds on well-conditioned systems: tests/nnm_oracles.rs.)
+    // (The 1e-10 of issue 4 holds on well-conditioned systems: crates/nnm/tests/nnm_oracles.rs.)
     let model = nlmodes_modal::ReducedModel::read(&res.join("model")).unwrap();
     let (values, _) =
         nlmodes_modal::dense_generalized_eigen(model.k.as_ref(), model.m.as_ref()).unwrap();

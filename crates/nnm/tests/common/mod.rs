@@ -4,6 +4,9 @@
 use faer::Mat;
 use nlmodes_nnm::System;
 
+/// Independent references of `nnm_oracles.rs` (own eigensolver, cosine sums, RK4).
+pub mod reference;
+
 /// x'' + x = 0 with one contact row on x and gap `g`: M = K = [1], A = [1], master 0.
 pub fn one_dof(g: f64) -> System {
     System::new(

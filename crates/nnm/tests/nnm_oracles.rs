@@ -4,21 +4,22 @@
 //! the returned coefficients and contact forces by direct cosine sums, and an independent RK4 time
 //! integration.
 //!
-//! `cargo test --release --test nnm_oracles -- --nocapture` prints the measured numbers (the
+//! `cargo test --release -p nlmodes-nnm --test nnm_oracles -- --nocapture` prints the measured numbers (the
 //! convergence table of the rigid stop in N is meant for the docs).
 
-mod nnm_common;
+mod common;
 
 use std::f64::consts::PI;
 
+use common::reference::{
+    chain, cosine_sum, dof_series, linear_modes, scalar, selector_row, series_minimum, soft_chain,
+    stiff_chain, PenaltyChain, SOFT_CHAIN_MASSES,
+};
+use common::{penalty_ratio as penalty_spring_ratio, rigid_stop_ratio};
 use faer::Mat;
 use nlmodes_nnm::{
     backbone, check_periodicity, AlgorithmParams, BackbonePoint, Condensation, ContactMethod,
     ContinuationSettings, HarmonicSettings, NnmError, Solver, Start, System, Termination,
-};
-use nnm_common::{
-    chain, cosine_sum, dof_series, linear_modes, penalty_spring_ratio, rigid_stop_ratio, scalar,
-    selector_row, series_minimum, soft_chain, stiff_chain, PenaltyChain, SOFT_CHAIN_MASSES,
 };
 
 /// Contact DOF of both 4-mass chains (the last mass) and their master coordinate (mass 1, not a

@@ -1,4 +1,4 @@
-//! Independent references for the nonlinear-mode oracle tests (`tests/nnm_oracles.rs`): small
+//! Independent references for the nonlinear-mode oracle tests (`nnm_oracles.rs`): small
 //! spring-mass systems, a dense generalized eigensolver (own Cholesky + cyclic Jacobi, sharing no
 //! code with `nlmodes-nnm`), direct cosine sums and the closed-form 1-DOF contact oscillators of
 //! docs/DESIGN.md §5.
@@ -204,25 +204,6 @@ pub fn series_minimum(coeffs: &[f64], count: usize) -> f64 {
     (0..count)
         .map(|i| cosine_sum(coeffs, 2.0 * PI * i as f64 / count as f64))
         .fold(f64::INFINITY, f64::min)
-}
-
-/// Rigid stop at x = g, elastic impact, free-side amplitude A >= g given as `a_over_g` (docs/DESIGN.md §5):
-/// w / w0 = pi / (pi - arccos(g / A)).
-pub fn rigid_stop_ratio(a_over_g: f64) -> f64 {
-    PI / (PI - (1.0 / a_over_g).acos())
-}
-
-/// Unilateral penalty spring of stiffness `kc` (per unit mass) at x = g on x'' + w0^2 x = 0, free-side
-/// amplitude A (docs/DESIGN.md §5): w / w0 = 2 pi / (w0 T) with
-/// T = 2 (pi - arccos(g/A)) / w0 + 2 arccos((g - xe) / B) / w1, w1 = sqrt(w0^2 + kc),
-/// xe = kc g / (w0^2 + kc), v = w0 sqrt(A^2 - g^2), B = sqrt((g - xe)^2 + (v / w1)^2).
-pub fn penalty_spring_ratio(w0: f64, kc: f64, g: f64, a: f64) -> f64 {
-    let w1 = (w0 * w0 + kc).sqrt();
-    let xe = kc * g / (w0 * w0 + kc);
-    let v = w0 * (a * a - g * g).sqrt();
-    let b = ((g - xe).powi(2) + (v / w1).powi(2)).sqrt();
-    let period = 2.0 * (PI - (g / a).acos()) / w0 + 2.0 * ((g - xe) / b).acos() / w1;
-    2.0 * PI / (w0 * period)
 }
 
 /// Classical RK4 integration of M u'' + K u + A^T lambda = 0 with lambda_j = kc_j (A_j u - g0_j)_+,
