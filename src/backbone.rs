@@ -10,7 +10,7 @@ use nlmodes_nnm::{
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::output::write_atomic;
+use nlmodes_output::{CsvTable, CsvValue};
 use crate::ui;
 
 /// The nnm system of a reduced model: its K, M, contact rows (radial unit vectors, Eq. 17), gaps
@@ -100,50 +100,78 @@ pub fn trace(
     Ok(result)
 }
 
-/// Column header of `backbone.csv` (units in the names).
-pub const CSV_HEADER: &str = "point,q_over_g0,q_m,omega_rad_s,frequency_hz,omega_ratio,energy_j,\
-mean_gap_over_g0,max_gap_over_g0,max_penetration_over_g0,max_contact_fraction,nodes_in_contact,\
-powell_measure,outer_iterations,inner_solves,newton_iterations,fold,jump,truncation_warning,\
-primary_share,secondary_mode,secondary_harmonic,secondary_share,branch,branch_kind,pre_fold";
+/// Columns of `backbone.csv` (units in the names).
+pub const CSV_COLUMNS: [&str; 26] = [
+    "point",
+    "q_over_g0",
+    "q_m",
+    "omega_rad_s",
+    "frequency_hz",
+    "omega_ratio",
+    "energy_j",
+    "mean_gap_over_g0",
+    "max_gap_over_g0",
+    "max_penetration_over_g0",
+    "max_contact_fraction",
+    "nodes_in_contact",
+    "powell_measure",
+    "outer_iterations",
+    "inner_solves",
+    "newton_iterations",
+    "fold",
+    "jump",
+    "truncation_warning",
+    "primary_share",
+    "secondary_mode",
+    "secondary_harmonic",
+    "secondary_share",
+    "branch",
+    "branch_kind",
+    "pre_fold",
+];
 
-/// `backbone.csv`: one row per point, in continuation order.
-pub fn backbone_csv(b: &Backbone) -> String {
+/// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
+pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
     let g = b.gap_reference;
-    let mut s = String::from(CSV_HEADER);
-    s.push('\n');
+    let mut table = CsvTable::new(&CSV_COLUMNS);
     for (i, p) in b.points.iter().enumerate() {
         let touching = p.contact_fraction.iter().filter(|&&f| f > 0.0).count();
         let max_frac = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
-        let _ = writeln!(
-            s,
-            "{i},{},{},{},{},{},{},{},{},{},{},{touching},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            p.q / g,
-            p.q,
-            p.omega,
-            p.frequency_hz,
-            p.omega_ratio,
-            p.energy,
-            p.mean_gap_overall / g,
-            p.max_gap_overall / g,
-            p.max_penetration / g,
-            max_frac,
-            p.powell_measure,
-            p.outer_iterations,
-            p.inner_solves,
-            p.newton_iterations,
-            p.fold as u8,
-            p.jump as u8,
-            p.truncation_warning as u8,
-            p.primary_share,
-            p.secondary_mode + 1,
-            p.secondary_harmonic,
-            p.secondary_share,
-            p.branch,
-            branch_kind(b, p.branch),
-            p.pre_fold as u8
-        );
+        let int = |v: usize| CsvValue::Int(v as i64);
+        let flag = |v: bool| CsvValue::Int(i64::from(v));
+        let row = vec![
+            int(i),
+            (p.q / g).into(),
+            p.q.into(),
+            p.omega.into(),
+            p.frequency_hz.into(),
+            p.omega_ratio.into(),
+            p.energy.into(),
+            (p.mean_gap_overall / g).into(),
+            (p.max_gap_overall / g).into(),
+            (p.max_penetration / g).into(),
+            max_frac.into(),
+            int(touching),
+            p.powell_measure.into(),
+            int(p.outer_iterations),
+            int(p.inner_solves),
+            int(p.newton_iterations),
+            flag(p.fold),
+            flag(p.jump),
+            flag(p.truncation_warning),
+            p.primary_share.into(),
+            int(p.secondary_mode + 1),
+            int(p.secondary_harmonic),
+            p.secondary_share.into(),
+            int(p.branch),
+            CsvValue::Text(branch_kind(b, p.branch)),
+            flag(p.pre_fold),
+        ];
+        table
+            .push_row(row)
+            .with_context(|| format!("backbone point {i}"))?;
     }
-    s
+    Ok(table)
 }
 
 /// `linear`, `main`, or `tongue_k<mode>_n<harmonic>` (mode 1-based), for the CSV.
@@ -167,7 +195,7 @@ pub fn write(b: &Backbone, dir: &Path) -> Result<()> {
             p.omega
         );
     }
-    write_atomic(&dir.join("backbone.csv"), backbone_csv(b).as_bytes())?;
+    backbone_csv(b)?.write(&dir.join("backbone.csv"))?;
     nlmodes_output::write_json(&dir.join("backbone.json"), b)?;
     Ok(())
 }
