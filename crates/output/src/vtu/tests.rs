@@ -247,9 +247,8 @@ fn bad_input_is_refused_and_nothing_is_written() {
         ),
         (
             vec![Field {
-                name: "z",
                 components: 0,
-                data: &[],
+                ..Field::scalar("z", &[])
             }],
             "0 components",
         ),
