@@ -50,37 +50,28 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     if full.is_none() {
         tracing::warn!("the reduced model has no recovery basis or mesh: VTU output and mode-shape pictures skipped");
     }
-    let mut dirs = Vec::new();
-    for orbit in &kept {
-        let tag = amplitude_tag(orbit.q / g0);
-        let dir = layout.amplitude(&tag);
-        std::fs::create_dir_all(&dir)
-            .with_context(|| format!("cannot create {}", dir.display()))?;
-        radial_history(&model, orbit, g0, &dir, &tag)?;
-        contact_map(orbit, &dir, &tag)?;
-        if let Some(full) = &full {
-            vtu_series(case, &model, full, orbit, g0, &dir, &tag)?;
-        }
-        dirs.push(dir);
-    }
-    // The pictures, one per thread: each rasterization is sequential.
-    let (shapes, modes_picture) = match &full {
-        Some(full) => {
-            let (shapes, modes) = rayon::join(
-                || {
-                    kept.par_iter()
-                        .map(|o| {
-                            let tag = amplitude_tag(o.q / g0);
-                            shape_figure(full, o, g0, &layout.figures(), &tag).map(Some)
-                        })
-                        .collect::<Result<Vec<_>>>()
-                },
-                || linear_modes_figure(&model, full, &layout.figures()),
-            );
-            (shapes?, Some(modes?))
-        }
-        None => (vec![None; kept.len()], None),
-    };
+    // The VTU series and tables alongside the pictures: the series' sequential parts (tables,
+    // figures, file writes) leave the second core free for the pictures' rasterization.
+    let (dirs, pictures) = rayon::join(
+        || -> Result<Vec<PathBuf>> {
+            let mut dirs = Vec::new();
+            for orbit in &kept {
+                let tag = amplitude_tag(orbit.q / g0);
+                let dir = layout.amplitude(&tag);
+                std::fs::create_dir_all(&dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                radial_history(&model, orbit, g0, &dir, &tag)?;
+                contact_map(orbit, &dir, &tag)?;
+                if let Some(full) = &full {
+                    vtu_series(case, &model, full, orbit, g0, &dir, &tag)?;
+                }
+                dirs.push(dir);
+            }
+            Ok(dirs)
+        },
+        || pictures(&model, full.as_ref(), &kept, g0, &layout.figures()),
+    );
+    let (dirs, (shapes, modes_picture)) = (dirs?, pictures?);
     let written: Vec<crate::report::KeptOutputs> = kept
         .iter()
         .zip(dirs)
@@ -98,6 +89,29 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
         out.display()
     ));
     Ok(())
+}
+
+/// Fig. 5 of every kept amplitude and the linear modes' picture, in parallel; none without a
+/// mesh.
+fn pictures(
+    model: &ReducedModel,
+    full: Option<&FullMesh>,
+    kept: &[Orbit],
+    g0: f64,
+    figures: &Path,
+) -> Result<(Vec<Option<PathBuf>>, Option<PathBuf>)> {
+    let Some(full) = full else {
+        return Ok((vec![None; kept.len()], None));
+    };
+    let (shapes, modes) = rayon::join(
+        || {
+            kept.par_iter()
+                .map(|o| shape_figure(full, o, g0, figures, &amplitude_tag(o.q / g0)).map(Some))
+                .collect::<Result<Vec<_>>>()
+        },
+        || linear_modes_figure(model, full, figures),
+    );
+    Ok((shapes?, Some(modes?)))
 }
 
 /// The full FE mesh of the reduced model, its boundary surface and the VTU encoder of its frames.
@@ -331,7 +345,8 @@ fn vtu_series(
 fn shape_figure(full: &FullMesh, o: &Orbit, g0: f64, figures: &Path, tag: &str) -> Result<PathBuf> {
     let mut instants = vec![(0.0, "t = 0".to_string()), (0.5, "t = T/2".to_string())];
     let m = o.force_samples();
-    if let Some(k) = o.largest_force_sample() {
+    let contact = o.largest_force_sample();
+    if let Some(k) = contact {
         let t = k as f64 / m as f64;
         instants.push((t, format!("t = {t:.3} T (largest contact force)")));
     }
@@ -371,10 +386,15 @@ fn shape_figure(full: &FullMesh, o: &Orbit, g0: f64, figures: &Path, tag: &str) 
         &snapshots,
         max_displacement,
         &format!(
-            "Nonlinear mode at q/g0 = {:.2}, w/w1 = {:.4} (f = {:.2} Hz)",
+            "Nonlinear mode at q/g0 = {:.2}, w/w1 = {:.4} (f = {:.2} Hz){}",
             o.q / g0,
             o.omega_ratio,
-            o.frequency_hz
+            o.frequency_hz,
+            if contact.is_none() {
+                ", no contact"
+            } else {
+                ""
+            }
         ),
         &path,
     )?;

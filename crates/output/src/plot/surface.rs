@@ -11,7 +11,7 @@ use std::path::Path;
 
 use super::color::{Color, Colormap};
 use super::frame::{color_bar, title, ColorBar};
-use super::svg::{Anchor, Svg, TextStyle};
+use super::svg::{text_width, Anchor, Svg, TextStyle};
 use super::write_png_file;
 use crate::finite::check_finite;
 use crate::OutputError;
@@ -187,11 +187,18 @@ impl SurfacePicture {
             .min((self.panel_height - 2.0 * pad) / (yh - yl).max(1e-12 * span));
         let top = 20.0 + TITLE_FONT + 12.0 + SUBTITLE_FONT + 8.0;
         let bar_room = 110.0;
-        let width = self.panel_width * self.panels.len() as f64 + bar_room;
+        let notes_width = self
+            .notes
+            .iter()
+            .map(|n| text_width(n, NOTE_FONT) + 20.0)
+            .fold(0.0, f64::max);
+        let width = (self.panel_width * self.panels.len() as f64 + bar_room).max(notes_width);
         let height = top + self.panel_height + 10.0 + NOTE_FONT * 1.5 * self.notes.len() as f64;
         let mut svg = Svg::new(width, height);
         for (k, p) in self.panels.iter().enumerate() {
-            let left = self.panel_width * k as f64;
+            // Panels centred in the room left of the colour bar (wider than them for long notes).
+            let room = width - bar_room - self.panel_width * self.panels.len() as f64;
+            let left = 0.5 * room + self.panel_width * k as f64;
             let cx = left + 0.5 * self.panel_width;
             let cy = top + 0.5 * self.panel_height;
             let to_px = |q: &[f64; 3]| {
@@ -230,7 +237,7 @@ impl SurfacePicture {
                 },
             );
         }
-        let x_bar = self.panel_width * self.panels.len() as f64 + 10.0;
+        let x_bar = width - bar_room + 10.0;
         color_bar(
             &mut svg,
             &ColorBar {
