@@ -277,8 +277,9 @@ pub fn modes_figure(
         value_range: Some((0.0, 1.0)),
         notes: vec![
             format!(
-                "Mass-normalized modes, each magnified so that its largest |u| is drawn as about \
-                 {:.0} % of the blade's diagonal (factor in each title); gray: undeformed blade.",
+                "Mass-normalized modes, each magnified so that its largest |u| is drawn as {:.0}-{:.0} % \
+                 of the blade's diagonal (factor in each title); gray: undeformed blade.",
+                40.0 * WARP_SHARE,
                 100.0 * WARP_SHARE
             ),
             "Circles: contact nodes of the tip edge. Span vertical.".to_string(),
