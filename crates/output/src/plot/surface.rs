@@ -68,6 +68,15 @@ pub struct SurfacePicture {
     pub panel_height: f64,
 }
 
+/// What every panel shares: top of the drawing area (px), px per world unit, the world point
+/// at each panel's centre (picture coordinates) and the colour range.
+struct PanelFrame {
+    top: f64,
+    scale: f64,
+    center: (f64, f64),
+    range: (f64, f64),
+}
+
 /// World point -> (x px, y px, depth toward the viewer).
 type ToPixels<'a> = dyn Fn(&[f64; 3]) -> (f64, f64, f64) + 'a;
 
@@ -195,47 +204,17 @@ impl SurfacePicture {
         let width = (self.panel_width * self.panels.len() as f64 + bar_room).max(notes_width);
         let height = top + self.panel_height + 10.0 + NOTE_FONT * 1.5 * self.notes.len() as f64;
         let mut svg = Svg::new(width, height);
+        // Panels centred in the room left of the colour bar (wider than them for long notes).
+        let room = width - bar_room - self.panel_width * self.panels.len() as f64;
+        let frame = PanelFrame {
+            top,
+            scale,
+            center: (0.5 * (xl + xh), 0.5 * (yl + yh)),
+            range: (vlo, vhi),
+        };
         for (k, p) in self.panels.iter().enumerate() {
-            // Panels centred in the room left of the colour bar (wider than them for long notes).
-            let room = width - bar_room - self.panel_width * self.panels.len() as f64;
             let left = 0.5 * room + self.panel_width * k as f64;
-            let cx = left + 0.5 * self.panel_width;
-            let cy = top + 0.5 * self.panel_height;
-            let to_px = |q: &[f64; 3]| {
-                let (x, y, d) = self.project(q);
-                (
-                    cx + (x - 0.5 * (xl + xh)) * scale,
-                    cy - (y - 0.5 * (yl + yh)) * scale,
-                    d,
-                )
-            };
-            if let Some(g) = &p.ghost {
-                // One path of every front face: a silhouette without seams, drawn at once.
-                let ghost: Vec<(f64, f64)> = g
-                    .iter()
-                    .map(|q| {
-                        let (x, y, _) = to_px(q);
-                        (x, y)
-                    })
-                    .collect();
-                let tris: Vec<[(f64, f64); 3]> =
-                    self.front_faces(g).map(|t| t.map(|i| ghost[i])).collect();
-                svg.triangles_path(&tris, "#dadada");
-            }
-            self.draw_surface(&mut svg, p, &to_px, (vlo, vhi));
-            for m in &p.markers {
-                let (x, y, _) = to_px(&m.position);
-                svg.marker(x, y, 3.5, if m.filled { "#d62728" } else { "#ffffff" });
-            }
-            svg.text(
-                cx,
-                top - 8.0,
-                &p.subtitle,
-                TextStyle {
-                    size: SUBTITLE_FONT,
-                    ..TextStyle::default()
-                },
-            );
+            self.draw_panel(&mut svg, p, left, &frame);
         }
         let x_bar = width - bar_room + 10.0;
         color_bar(
@@ -264,6 +243,47 @@ impl SurfacePicture {
             );
         }
         Ok(svg.finish())
+    }
+
+    /// One panel whose left edge is at `left` (px).
+    fn draw_panel(&self, svg: &mut Svg, p: &SurfacePanel, left: f64, frame: &PanelFrame) {
+        let cx = left + 0.5 * self.panel_width;
+        let cy = frame.top + 0.5 * self.panel_height;
+        let to_px = |q: &[f64; 3]| {
+            let (x, y, d) = self.project(q);
+            (
+                cx + (x - frame.center.0) * frame.scale,
+                cy - (y - frame.center.1) * frame.scale,
+                d,
+            )
+        };
+        if let Some(g) = &p.ghost {
+            // One path of every front face: a silhouette without seams, drawn at once.
+            let ghost: Vec<(f64, f64)> = g
+                .iter()
+                .map(|q| {
+                    let (x, y, _) = to_px(q);
+                    (x, y)
+                })
+                .collect();
+            let tris: Vec<[(f64, f64); 3]> =
+                self.front_faces(g).map(|t| t.map(|i| ghost[i])).collect();
+            svg.triangles_path(&tris, "#dadada");
+        }
+        self.draw_surface(svg, p, &to_px, frame.range);
+        for m in &p.markers {
+            let (x, y, _) = to_px(&m.position);
+            svg.marker(x, y, 3.5, if m.filled { "#d62728" } else { "#ffffff" });
+        }
+        svg.text(
+            cx,
+            frame.top - 8.0,
+            &p.subtitle,
+            TextStyle {
+                size: SUBTITLE_FONT,
+                ..TextStyle::default()
+            },
+        );
     }
 
     /// Triangles facing the viewer at these positions.
