@@ -112,7 +112,8 @@ pub fn write_report(
         s,
         "\nLinear mode shapes of the full model: `modes/modes.vtu`, one point field per mode \
          (`mode_01`, `mode_02`, ...; frequencies in `modes/frequencies.csv`); \
-         `scripts/paraview modes/modes.vtu --mode 2` opens mode 2.\n"
+         `scripts/paraview {}/modes/modes.vtu --mode 2` opens mode 2.\n",
+        root.display()
     );
     let _ = writeln!(s, "## Backbone (Fig. 3a)\n\n![backbone](backbone.png)\n");
     let _ = writeln!(
@@ -216,8 +217,9 @@ pub fn write_report(
         let _ = writeln!(
             s,
             "![radial]({d}/radial_{tag}.png)\n![contact map]({d}/contact_map_{tag}.png)\n\n\
-             ParaView: `scripts/paraview {d}/mode_{tag}.pvd` (time values in seconds over one \
-             period; warp factor from the data).\n"
+             ParaView: `scripts/paraview {}/{d}/mode_{tag}.pvd` (time values in seconds over \
+             one period; warp factor from the data).\n",
+            root.display()
         );
     }
     let _ = writeln!(
