@@ -5,7 +5,7 @@ use nlmodes_output::plot::{Colormap, PALETTE};
 use nlmodes_output::{HeatMap, LegendPosition, LinePlot, LineStyle, RefLine, Series};
 use std::path::Path;
 
-use crate::post::BackboneFile;
+use crate::results::BackboneFile;
 
 /// One closed orbit of Fig. 3b: q / g0 and (master displacement, master velocity, contact-node
 /// radial displacement) samples, all normalized.

@@ -6,10 +6,13 @@ mod case;
 mod fe_model;
 mod figures;
 mod gmsh;
+mod layout;
 mod output;
 mod post;
 mod reduce;
+mod render;
 mod report;
+mod results;
 mod run;
 mod ui;
 
@@ -120,12 +123,12 @@ enum Command {
     Backbone {
         /// The reduced-model directory (K.mtx, M.mtx, model.json).
         model: PathBuf,
-        /// Largest amplitude, in gaps (q / g0).
-        #[arg(long, default_value_t = 35.0)]
-        q_max: f64,
-        /// First amplitude, in gaps; below grazing.
-        #[arg(long, default_value_t = 0.5)]
-        q_start: f64,
+        /// Largest amplitude, in gaps (q / g0) [default: the settings file's, else 35].
+        #[arg(long)]
+        q_max: Option<f64>,
+        /// First amplitude, in gaps; below grazing [default: the settings file's, else 0.5].
+        #[arg(long)]
+        q_start: Option<f64>,
         /// Highest harmonic N (default: the study's, cases/blade.toml).
         #[arg(long, default_value_t = 10)]
         harmonics: usize,
@@ -276,8 +279,9 @@ fn run(command: Command) -> Result<()> {
                     (study.algorithm, study.continuation)
                 }
             };
-            cont.q_max = q_max;
-            cont.q_start = q_start;
+            // A flag given on the command line wins over the settings file.
+            cont.q_max = q_max.unwrap_or(cont.q_max);
+            cont.q_start = q_start.unwrap_or(cont.q_start);
             let reduced = backbone::load_model(&model)?;
             let system = backbone::system_of(&reduced, master)?;
             backbone::check_reaches_contact(&system, &cont)?;

@@ -5,86 +5,19 @@
 //! frequency w1, as in the paper.
 
 use anyhow::{Context, Result};
-use nlmodes_modal::ReducedModel;
-use nlmodes_output::{write_pvd, CsvTable, Field, PvdEntry};
-use serde::Deserialize;
+use nlmodes_modal::{MeshReference, ReducedModel};
+use nlmodes_output::{
+    write_pvd_with_note, CsvTable, Field, Precision, PvdEntry, VtuEncoding, VtuWriter,
+};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use crate::case::Case;
-use crate::run::Layout;
+use crate::layout::{amplitude_tag, Layout};
+use crate::render::{self, Snapshot, Surface};
+use crate::results::{read_json, BackboneFile, Orbit};
 use crate::{figures, ui};
 use rayon::prelude::*;
-
-/// What post-processing reads of a backbone point (a subset of `nlmodes_nnm::BackbonePoint`).
-#[derive(Debug, Clone, Deserialize)]
-pub struct Orbit {
-    pub q: f64,
-    pub omega: f64,
-    pub omega_ratio: f64,
-    pub frequency_hz: f64,
-    pub contact_fraction: Vec<f64>,
-    pub powell_measure: f64,
-    pub newton_iterations: usize,
-    pub fold: bool,
-    pub jump: bool,
-    pub truncation_warning: bool,
-    /// u_n, n = 0..N (reduced coordinates).
-    pub coefficients: Vec<Vec<f64>>,
-    /// lambda_{j,k} at t_k = k T / m (N).
-    pub contact_force: Vec<Vec<f64>>,
-}
-
-impl Orbit {
-    /// u(t) at phase theta = w t.
-    pub fn at_phase(&self, theta: f64) -> Vec<f64> {
-        let n = self.coefficients[0].len();
-        let mut u = vec![0.0; n];
-        for (h, c) in self.coefficients.iter().enumerate() {
-            let w = (h as f64 * theta).cos();
-            for (ui, ci) in u.iter_mut().zip(c) {
-                *ui += w * ci;
-            }
-        }
-        u
-    }
-
-    /// du/dt at phase theta = w t.
-    pub fn rate_at_phase(&self, theta: f64) -> Vec<f64> {
-        let n = self.coefficients[0].len();
-        let mut v = vec![0.0; n];
-        for (h, c) in self.coefficients.iter().enumerate() {
-            let w = -(h as f64) * self.omega * (h as f64 * theta).sin();
-            for (vi, ci) in v.iter_mut().zip(c) {
-                *vi += w * ci;
-            }
-        }
-        v
-    }
-
-    /// Number of contact rows touching at some time of the period.
-    pub fn touching(&self) -> usize {
-        self.contact_fraction.iter().filter(|&&f| f > 0.0).count()
-    }
-}
-
-/// The backbone file as post-processing reads it.
-#[derive(Debug, Clone, Deserialize)]
-pub struct BackboneFile {
-    pub points: Vec<Orbit>,
-    pub termination: serde_json::Value,
-    pub omega_linear: f64,
-    pub gap_reference: f64,
-    pub grazing_amplitude: Option<f64>,
-    /// Internal-resonance tongues skipped by the continuation.
-    #[serde(default)]
-    pub internal_resonances: Vec<nlmodes_nnm::InternalResonance>,
-}
-
-fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    serde_json::from_slice(&bytes).with_context(|| format!("invalid JSON in {}", path.display()))
-}
 
 /// Radial displacement (m) of every contact node, A u.
 fn radial(model: &ReducedModel, u: &[f64]) -> Vec<f64> {
@@ -112,37 +45,141 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     figures::backbone_figure(&b, out)?;
     let nonlinear = manifold_coordinate(&b);
     manifold(&model, &b, nonlinear, out)?;
-    // The full mesh, read once for every VTU series.
-    let mesh = match (&model.recovery, &model.mesh) {
-        (Some(_), Some(mref)) => Some(
-            nlmodes_fem::read_msh(Path::new(&mref.msh_file)).with_context(|| {
-                format!("reading the mesh of the reduced model {}", mref.msh_file)
-            })?,
-        ),
-        _ => None,
-    };
-    let mut written = Vec::new();
-    for orbit in &kept {
-        let tag = format!("q{:.1}", orbit.q / g0);
-        let dir = out.join(format!("amplitude_{tag}"));
-        std::fs::create_dir_all(&dir)
-            .with_context(|| format!("cannot create {}", dir.display()))?;
-        radial_history(&model, orbit, g0, &dir, &tag)?;
-        contact_map(orbit, &dir, &tag)?;
-        if let Some(mesh) = &mesh {
-            vtu_series(case, &model, mesh, orbit, &dir, &tag)?;
-        } else {
-            tracing::warn!("the reduced model has no recovery basis or mesh: VTU output skipped");
-        }
-        written.push((orbit.clone(), dir));
+    // The full mesh, read once for every VTU series and picture.
+    let full = FullMesh::of(&model)?;
+    if full.is_none() {
+        tracing::warn!("the reduced model has no recovery basis or mesh: VTU output and mode-shape pictures skipped");
     }
-    crate::report::write_report(case, layout, &model, &b, &written)?;
+    // The VTU series and tables alongside the pictures: the series' sequential parts (tables,
+    // figures, file writes) leave the second core free for the pictures' rasterization.
+    let (dirs, pictures) = rayon::join(
+        || -> Result<Vec<PathBuf>> {
+            let mut dirs = Vec::new();
+            for orbit in &kept {
+                let tag = amplitude_tag(orbit.q / g0);
+                let dir = layout.amplitude(&tag);
+                std::fs::create_dir_all(&dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                radial_history(&model, orbit, g0, &dir, &tag)?;
+                contact_map(orbit, &dir, &tag)?;
+                if let Some(full) = &full {
+                    vtu_series(case, &model, full, orbit, g0, &dir, &tag)?;
+                }
+                dirs.push(dir);
+            }
+            Ok(dirs)
+        },
+        || pictures(&model, full.as_ref(), &kept, g0, &layout.figures()),
+    );
+    let (dirs, (shapes, modes_picture)) = (dirs?, pictures?);
+    let written: Vec<crate::report::KeptOutputs> = kept
+        .iter()
+        .zip(dirs)
+        .zip(shapes)
+        .map(|((orbit, dir), shapes)| crate::report::KeptOutputs {
+            orbit: orbit.clone(),
+            dir,
+            shapes,
+        })
+        .collect();
+    crate::report::write_report(case, layout, &model, &b, &written, modes_picture.as_deref())?;
     stage.done(&format!(
         "figures, tables and {} VTU series in {}",
         written.len(),
         out.display()
     ));
     Ok(())
+}
+
+/// Fig. 5 of every kept amplitude and the linear modes' picture, in parallel; none without a
+/// mesh.
+fn pictures(
+    model: &ReducedModel,
+    full: Option<&FullMesh>,
+    kept: &[Orbit],
+    g0: f64,
+    figures: &Path,
+) -> Result<(Vec<Option<PathBuf>>, Option<PathBuf>)> {
+    let Some(full) = full else {
+        return Ok((vec![None; kept.len()], None));
+    };
+    let (shapes, modes) = rayon::join(
+        || {
+            kept.par_iter()
+                .map(|o| shape_figure(full, o, g0, figures, &amplitude_tag(o.q / g0)).map(Some))
+                .collect::<Result<Vec<_>>>()
+        },
+        || linear_modes_figure(model, full, figures),
+    );
+    Ok((shapes?, Some(modes?)))
+}
+
+/// The full FE mesh of the reduced model, its boundary surface and the VTU encoder of its frames.
+struct FullMesh<'a> {
+    mesh: nlmodes_fem::Mesh,
+    recovery: &'a faer::Mat<f64>,
+    reference: &'a MeshReference,
+    surface: Surface,
+    vtu: VtuWriter,
+    /// Mesh node (0-based) of every contact node.
+    contact_nodes: Vec<usize>,
+}
+
+impl<'a> FullMesh<'a> {
+    /// `None` when the model has no recovery basis or mesh reference.
+    fn of(model: &'a ReducedModel) -> Result<Option<Self>> {
+        let (Some(recovery), Some(reference)) = (&model.recovery, &model.mesh) else {
+            return Ok(None);
+        };
+        let mesh = nlmodes_fem::read_msh(Path::new(&reference.msh_file)).with_context(|| {
+            format!(
+                "reading the mesh of the reduced model {}",
+                reference.msh_file
+            )
+        })?;
+        anyhow::ensure!(
+            3 * mesh.n_nodes() == reference.n_full_dofs,
+            "mesh {} has {} DOFs but the reduced model was built on {}",
+            reference.msh_file,
+            3 * mesh.n_nodes(),
+            reference.n_full_dofs
+        );
+        let contact_nodes = model
+            .contact_nodes
+            .iter()
+            .map(|c| c.mesh_node.map(|t| t as usize - 1))
+            .collect::<Option<Vec<usize>>>()
+            .context("contact node without mesh node")?;
+        // Float32 coordinates: 6e-8 relative, 2e-8 m on this blade, far below any mesh size.
+        let vtu = VtuWriter::new(
+            Path::new(&reference.msh_file),
+            &crate::output::vtu_mesh(&mesh),
+            VtuEncoding::Zlib,
+            Precision::F32,
+        )?;
+        let surface = Surface::of_mesh(&mesh);
+        Ok(Some(FullMesh {
+            mesh,
+            recovery,
+            reference,
+            surface,
+            vtu,
+            contact_nodes,
+        }))
+    }
+
+    /// Full nodal displacements (3 per node, m) of reduced states, recovered in one product.
+    fn recover(&self, states: &[Vec<f64>]) -> Result<Vec<Vec<f64>>> {
+        let r = self.recovery;
+        let reduced = faer::Mat::from_fn(r.ncols(), states.len(), |j, f| states[f][j]);
+        let recovered = r * &reduced;
+        (0..states.len())
+            .map(|f| {
+                let free: Vec<f64> = recovered.col(f).iter().copied().collect();
+                Ok(self.reference.expand_to_full(&free)?)
+            })
+            .collect()
+    }
 }
 
 /// The "nonlinear coordinate" of Fig. 3b: the radial displacement of the contact node that is in
@@ -232,73 +269,165 @@ fn contact_map(o: &Orbit, dir: &Path, tag: &str) -> Result<()> {
     figures::contact_map_figure(&o.contact_force, o.q, dir, tag)
 }
 
-/// Fig. 5: a VTU per frame over one period on the full FE mesh, and a PVD collection.
+/// The frames of one kept amplitude for ParaView: a VTU per frame over one period on the full
+/// FE mesh and a PVD collection whose time values are in seconds (t = f T / frames).
+///
+/// Point fields (Float32, see `FullMesh::of`): `displacement_m` (m); `radial_gap_m` (m), the
+/// radial displacement minus the initial gap (0 = touching, negative = open) and
+/// `contact_force_n` (N, at the nearest of the m force samples), both defined on the contact
+/// nodes only and NaN elsewhere; `contact_node`, 1 on the contact nodes and 0 elsewhere.
 fn vtu_series(
     case: &Case,
     model: &ReducedModel,
-    mesh: &nlmodes_fem::Mesh,
+    full: &FullMesh,
     o: &Orbit,
+    g0: f64,
     dir: &Path,
     tag: &str,
 ) -> Result<()> {
-    let (Some(r), Some(mref)) = (&model.recovery, &model.mesh) else {
-        return Ok(());
-    };
-    anyhow::ensure!(
-        3 * mesh.n_nodes() == mref.n_full_dofs,
-        "mesh {} has {} DOFs but the reduced model was built on {}",
-        mref.msh_file,
-        3 * mesh.n_nodes(),
-        mref.n_full_dofs
-    );
     let frames = case.nnm.frames.max(2);
-    let m = o.contact_force.first().map(|v| v.len()).unwrap_or(1);
-    let mut is_contact = vec![0.0; mesh.n_nodes()];
-    let mut node_of = Vec::new();
-    for cn in &model.contact_nodes {
-        let n = cn
-            .mesh_node
-            .map(|t| t as usize - 1)
-            .context("contact node without mesh node")?;
+    let n_nodes = full.mesh.n_nodes();
+    let mut is_contact = vec![0.0; n_nodes];
+    for &n in &full.contact_nodes {
         is_contact[n] = 1.0;
-        node_of.push(n);
     }
-    // Reduced states of every frame as columns, recovered in one product.
-    let times: Vec<f64> = (0..frames).map(|f| f as f64 / frames as f64).collect();
-    let states: Vec<Vec<f64>> = times.iter().map(|t| o.at_phase(2.0 * PI * t)).collect();
-    let reduced = faer::Mat::from_fn(r.ncols(), frames, |j, f| states[f][j]);
-    let recovered = r * &reduced;
-    let vtu = crate::output::vtu_mesh(mesh);
+    let fractions: Vec<f64> = (0..frames).map(|f| f as f64 / frames as f64).collect();
+    let states: Vec<Vec<f64>> = fractions.iter().map(|t| o.at_phase(2.0 * PI * t)).collect();
+    let recovered = full.recover(&states)?;
     let files: Vec<PathBuf> = (0..frames)
         .into_par_iter()
         .map(|f| -> Result<PathBuf> {
-            let u = &states[f];
-            let free = recovered.col(f).iter().copied().collect::<Vec<f64>>();
-            let full = mref.expand_to_full(&free)?;
-            let radial_disp = radial(model, u);
-            let k = ((times[f] * m as f64).round() as usize) % m;
-            let mut gap = vec![0.0; mesh.n_nodes()];
-            let mut force = vec![0.0; mesh.n_nodes()];
-            for (j, &n) in node_of.iter().enumerate() {
+            let radial_disp = radial(model, &states[f]);
+            let k = o.force_sample_at(fractions[f]);
+            let mut gap = vec![f64::NAN; n_nodes];
+            let mut force = vec![f64::NAN; n_nodes];
+            for (j, &n) in full.contact_nodes.iter().enumerate() {
                 gap[n] = radial_disp[j] - model.contact_nodes[j].gap;
                 force[n] = o.contact_force[j][k];
             }
             let name = format!("frame_{f:03}.vtu");
             let fields = [
-                Field::vector("displacement_m", &full),
-                Field::scalar("radial_gap_m", &gap),
-                Field::scalar("contact_force_n", &force),
-                Field::scalar("contact_node", &is_contact),
+                Field::vector("displacement_m", &recovered[f]).f32(),
+                Field::scalar("radial_gap_m", &gap).f32().partial(),
+                Field::scalar("contact_force_n", &force).f32().partial(),
+                Field::scalar("contact_node", &is_contact).f32(),
             ];
-            nlmodes_output::write_vtu(&dir.join(&name), &vtu, &fields)?;
+            full.vtu.write(&dir.join(&name), &fields, &[])?;
             Ok(PathBuf::from(name))
         })
         .collect::<Result<_>>()?;
+    let period = o.period();
     let entries: Vec<PvdEntry> = files
         .iter()
-        .zip(&times)
-        .map(|(f, &t)| PvdEntry { time: t, file: f })
+        .zip(&fractions)
+        .map(|(f, &t)| PvdEntry {
+            time: t * period,
+            file: f,
+        })
         .collect();
-    write_pvd(&dir.join(format!("mode_{tag}.pvd")), &entries)?;
+    let note = format!(
+        "nlmodes: nonlinear mode at q/g0 = {:.4}, one period T = {:.9e} s (f = {:.6} Hz, \
+         w/w1 = {:.6}) in {frames} frames; time values in seconds, frame f at t = f T / {frames}. \
+         Point fields: displacement_m (m); radial_gap_m (m, radial displacement minus gap: 0 = \
+         touching, < 0 = open) and contact_force_n (N), defined on the contact nodes only, NaN \
+         elsewhere; contact_node (1 on the contact nodes).",
+        o.q / g0,
+        period,
+        o.frequency_hz,
+        o.omega_ratio
+    );
+    write_pvd_with_note(&dir.join(format!("mode_{tag}.pvd")), &entries, &note)?;
     Ok(())
+}
+
+/// Fig. 5: the deformed blade at t = 0, T/2 and the instant of largest contact force (if any
+/// contact), one warp factor for the three; returns the picture's path.
+fn shape_figure(full: &FullMesh, o: &Orbit, g0: f64, figures: &Path, tag: &str) -> Result<PathBuf> {
+    let mut instants = vec![(0.0, "t = 0".to_string()), (0.5, "t = T/2".to_string())];
+    let m = o.force_samples();
+    let contact = o.largest_force_sample();
+    if let Some(k) = contact {
+        let t = k as f64 / m as f64;
+        instants.push((t, format!("t = {t:.3} T (largest contact force)")));
+    }
+    let states: Vec<Vec<f64>> = instants
+        .iter()
+        .map(|(t, _)| o.at_phase(2.0 * PI * t))
+        .collect();
+    let recovered = full.recover(&states)?;
+    // The warp factor and colour range hold over the whole period (sampled at 48 instants).
+    let period_samples: Vec<Vec<f64>> = (0..48)
+        .map(|i| o.at_phase(2.0 * PI * i as f64 / 48.0))
+        .collect();
+    let max_displacement = full
+        .recover(&period_samples)?
+        .iter()
+        .map(|u| render::max_norm(u))
+        .fold(0.0, f64::max);
+    let snapshots: Vec<Snapshot> = instants
+        .iter()
+        .zip(recovered)
+        .map(|((t, label), u)| {
+            let k = o.force_sample_at(*t);
+            Snapshot {
+                label: label.clone(),
+                displacement: u,
+                contact_force: o.contact_force.iter().map(|v| v[k]).collect(),
+            }
+        })
+        .collect();
+    std::fs::create_dir_all(figures)
+        .with_context(|| format!("cannot create {}", figures.display()))?;
+    let path = figures.join(format!("shape_{tag}.png"));
+    render::amplitude_figure(
+        &full.surface,
+        &full.mesh,
+        &full.contact_nodes,
+        &snapshots,
+        max_displacement,
+        &format!(
+            "Nonlinear mode at q/g0 = {:.2}, w/w1 = {:.4} (f = {:.2} Hz){}",
+            o.q / g0,
+            o.omega_ratio,
+            o.frequency_hz,
+            if contact.is_none() {
+                ", no contact"
+            } else {
+                ""
+            }
+        ),
+        &path,
+    )?;
+    Ok(path)
+}
+
+/// The first linear modes of the reduced model (Craig-Bampton, recovered on the full mesh), as
+/// pictures: returns the picture's path.
+fn linear_modes_figure(model: &ReducedModel, full: &FullMesh, figures: &Path) -> Result<PathBuf> {
+    let (values, vectors) =
+        nlmodes_modal::dense_generalized_eigen(model.k.as_ref(), model.m.as_ref())?;
+    let count = values.len().min(4);
+    let states: Vec<Vec<f64>> = (0..count)
+        .map(|j| vectors.col(j).iter().copied().collect())
+        .collect();
+    let shapes = full.recover(&states)?;
+    let modes: Vec<(String, Vec<f64>)> = shapes
+        .into_iter()
+        .enumerate()
+        .map(|(j, u)| {
+            let f = values[j].max(0.0).sqrt() / (2.0 * PI);
+            (format!("mode {}: {f:.1} Hz", j + 1), u)
+        })
+        .collect();
+    std::fs::create_dir_all(figures)
+        .with_context(|| format!("cannot create {}", figures.display()))?;
+    let path = figures.join("linear_modes.png");
+    render::modes_figure(
+        &full.surface,
+        &full.mesh,
+        &full.contact_nodes,
+        &modes,
+        &path,
+    )?;
+    Ok(path)
 }

@@ -8,8 +8,17 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::case::Case;
-use crate::post::{BackboneFile, Orbit};
-use crate::run::Layout;
+use crate::layout::{amplitude_tag, Layout};
+use crate::results::{BackboneFile, Orbit};
+
+/// What the post stage wrote for one kept amplitude.
+pub struct KeptOutputs {
+    pub orbit: Orbit,
+    /// The amplitude's folder.
+    pub dir: PathBuf,
+    /// The mode-shape picture (Fig. 5), when the model has a mesh.
+    pub shapes: Option<PathBuf>,
+}
 
 fn rel(root: &Path, p: &Path) -> String {
     p.strip_prefix(root).unwrap_or(p).display().to_string()
@@ -49,7 +58,8 @@ pub fn write_report(
     layout: &Layout,
     model: &ReducedModel,
     b: &BackboneFile,
-    kept: &[(Orbit, PathBuf)],
+    kept: &[KeptOutputs],
+    linear_modes_picture: Option<&Path>,
 ) -> Result<()> {
     let root = &layout.root;
     convergence_figure(b, root)?;
@@ -95,7 +105,16 @@ pub fn write_report(
             }
         }
     }
-    let _ = writeln!(s, "\nLinear mode shapes: `modes/modes.vtu`.\n");
+    if let Some(p) = linear_modes_picture {
+        let _ = writeln!(s, "\n![linear modes]({})\n", rel(root, p));
+    }
+    let _ = writeln!(
+        s,
+        "\nLinear mode shapes of the full model: `modes/modes.vtu`, one point field per mode \
+         (`mode_01`, `mode_02`, ...; frequencies in `modes/frequencies.csv`); \
+         `scripts/paraview {}/modes/modes.vtu --mode 2` opens mode 2.\n",
+        root.display()
+    );
     let _ = writeln!(s, "## Backbone (Fig. 3a)\n\n![backbone](backbone.png)\n");
     let _ = writeln!(
         s,
@@ -164,10 +183,14 @@ pub fn write_report(
     }
     let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
     let _ = writeln!(s, "## Manifold (Fig. 3b)\n\n![manifold displacement](manifold_displacement.png)\n![manifold velocity](manifold_velocity.png)\n\nData: `manifold.csv`.\n");
-    let _ = writeln!(s, "## Contact at the kept amplitudes (Figs. 4 and 5)\n");
-    for (o, dir) in kept {
-        let tag = format!("q{:.1}", o.q / g0);
-        let d = rel(root, dir);
+    let _ = writeln!(
+        s,
+        "## Mode shapes and contact at the kept amplitudes (Figs. 5 and 4)\n"
+    );
+    for k in kept {
+        let o = &k.orbit;
+        let tag = amplitude_tag(o.q / g0);
+        let d = rel(root, &k.dir);
         let touching: Vec<String> = o
             .contact_fraction
             .iter()
@@ -177,16 +200,26 @@ pub fn write_report(
             .collect();
         let _ = writeln!(
             s,
-            "### q/g0 = {:.2}: w/w1 = {:.5}\n\nNodes in contact (share of the period): {}.\n\n\
-             ![radial]({d}/radial_{tag}.png)\n![contact map]({d}/contact_map_{tag}.png)\n\n\
-             ParaView: `{d}/mode_{tag}.pvd` (warp by `displacement_m`).\n",
+            "### q/g0 = {:.2}: w/w1 = {:.5}, period T = {:.4e} s\n\nNodes in contact (share of \
+             the period): {}.\n",
             o.q / g0,
             o.omega_ratio,
+            o.period(),
             if touching.is_empty() {
                 "none".to_string()
             } else {
                 touching.join(", ")
             }
+        );
+        if let Some(p) = &k.shapes {
+            let _ = writeln!(s, "![mode shape]({})\n", rel(root, p));
+        }
+        let _ = writeln!(
+            s,
+            "![radial]({d}/radial_{tag}.png)\n![contact map]({d}/contact_map_{tag}.png)\n\n\
+             ParaView: `scripts/paraview {}/{d}/mode_{tag}.pvd` (time values in seconds over \
+             one period; warp factor from the data).\n",
+            root.display()
         );
     }
     let _ = writeln!(

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use crate::case::{Case, MasterChoice};
 use crate::fe_model::FeModel;
+use crate::layout::Layout;
 use crate::{backbone, gmsh, post, reduce, ui};
 
 /// FNV-1a, 64 bit: a stable hash of stage inputs (stable across Rust versions, unlike `DefaultHasher`).
@@ -23,29 +24,6 @@ pub fn fnv1a(parts: &[&[u8]]) -> String {
         }
     }
     format!("{h:016x}")
-}
-
-/// Paths of a case's results.
-pub struct Layout {
-    pub root: PathBuf,
-}
-
-impl Layout {
-    pub fn mesh(&self) -> PathBuf {
-        self.root.join("mesh").join("mesh.msh")
-    }
-    pub fn modes(&self) -> PathBuf {
-        self.root.join("modes")
-    }
-    pub fn model(&self) -> PathBuf {
-        self.root.join("model")
-    }
-    pub fn backbone(&self) -> PathBuf {
-        self.root.join("backbone")
-    }
-    fn stamp(&self, stage: &str) -> PathBuf {
-        self.root.join(".stamps").join(stage)
-    }
 }
 
 /// A stage is up to date when its stamp holds `hash` and every output exists.

@@ -33,5 +33,7 @@ pub use json::{to_json_string, write_json};
 pub use plot::{
     Color, Colormap, HeatMap, LegendPosition, LinePlot, LineStyle, Orientation, RefLine, Series,
 };
-pub use pvd::{write_pvd, PvdEntry};
-pub use vtu::{vtu_document, write_vtu, write_vtu_with, Field, VtuEncoding, VtuMesh};
+pub use pvd::{write_pvd, write_pvd_with_note, PvdEntry};
+pub use vtu::{
+    vtu_document, write_vtu, write_vtu_with, Field, Precision, VtuEncoding, VtuMesh, VtuWriter,
+};

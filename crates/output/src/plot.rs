@@ -5,23 +5,30 @@
 //!   "contact at 1" or "grazing".
 //! * [`HeatMap`]: a matrix of values as colored cells with a color bar (the contact map: contact
 //!   node x time).
+//! * [`SurfacePicture`]: a triangulated surface (e.g. a deformed mesh) flat-shaded in an
+//!   orthographic view, one panel per state, with a color bar (the mode-shape pictures).
+//!
+//! Title, axis labels, ticks and color bars come from one frame module shared by the three.
 //!
 //! Both render to an SVG string (`to_svg`) and write `.svg` / `.png` files atomically
 //! (`write_svg`, `write_png`, `write_svg_and_png`). Non-finite data are refused.
 
 mod color;
+mod frame;
 mod heatmap;
 mod line;
 mod raster;
 mod series;
+mod surface;
 mod svg;
 mod ticks;
 
 pub use color::{Color, Colormap, PALETTE};
 pub use heatmap::HeatMap;
 pub use line::LinePlot;
-pub use raster::{fonts_available, svg_to_png, PNG_SCALE};
+pub use raster::{fonts_available, png_color_share, svg_to_png, PNG_SCALE};
 pub use series::{LegendPosition, LineStyle, Orientation, RefLine, Series};
+pub use surface::{Marker, SurfacePanel, SurfacePicture, View};
 pub use ticks::{nice_ticks, Ticks};
 
 use std::ffi::OsString;

@@ -22,11 +22,26 @@ pub struct PvdEntry<'a> {
 
 /// Writes the collection to `path` atomically. Entries keep their order; times must be finite.
 pub fn write_pvd(path: &Path, entries: &[PvdEntry]) -> Result<(), OutputError> {
+    write_pvd_with_note(path, entries, "")
+}
+
+/// As [`write_pvd`], with `note` (e.g. the unit of the time values) as an XML comment after the
+/// XML declaration; an empty note writes no comment.
+pub fn write_pvd_with_note(
+    path: &Path,
+    entries: &[PvdEntry],
+    note: &str,
+) -> Result<(), OutputError> {
     let file = path.display().to_string();
     let base = parent_dir_absolute(path)?;
-    let mut s = String::from(
-        "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
-         byte_order=\"LittleEndian\">\n  <Collection>\n",
+    let mut s = String::from("<?xml version=\"1.0\"?>\n");
+    if !note.is_empty() {
+        // "--" may not appear inside an XML comment.
+        let _ = writeln!(s, "<!-- {} -->", note.replace("--", "- -"));
+    }
+    s.push_str(
+        "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  \
+         <Collection>\n",
     );
     for (i, e) in entries.iter().enumerate() {
         check_finite_value(&format!("time of entry {i} of {file}"), e.time)?;

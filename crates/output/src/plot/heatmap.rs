@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use super::color::Colormap;
-use super::svg::{text_width, Anchor, Svg, TextStyle};
+use super::frame::{self, TICK_FONT, TITLE_FONT};
+use super::svg::{text_width, Svg};
 use super::ticks::{nice_ticks, tick_label};
 use super::{write_png_file, write_svg_and_png_files, write_svg_file};
 use crate::finite::check_finite;
@@ -45,10 +46,6 @@ pub struct HeatMap {
     /// Image height (px).
     pub height: f64,
 }
-
-const TICK_FONT: f64 = 12.0;
-const LABEL_FONT: f64 = 14.0;
-const TITLE_FONT: f64 = 16.0;
 
 impl HeatMap {
     /// An 800 x 520 heat map with extents (0, cols) x (0, rows) and the viridis colormap.
@@ -185,31 +182,19 @@ impl HeatMap {
         };
         let xt = nice_ticks(xlo, xhi, 6);
         let yt = nice_ticks(ylo, yhi, 6);
-        let vt = nice_ticks(vlo, vhi, 5);
         let xticks = within(&xt.values, xlo, xhi);
         let yticks = within(&yt.values, ylo, yhi);
-        let vticks = within(&vt.values, vlo, vhi);
         let xmax = xlo.abs().max(xhi.abs());
         let ymax = ylo.abs().max(yhi.abs());
-        let vmax = vlo.abs().max(vhi.abs());
 
         let y_tick_w = yticks
             .iter()
             .map(|&v| text_width(&tick_label(v, yt.step, ymax), TICK_FONT))
             .fold(0.0, f64::max);
-        let v_tick_w = vticks
-            .iter()
-            .map(|&v| text_width(&tick_label(v, vt.step, vmax), TICK_FONT))
-            .fold(0.0, f64::max);
-        let left = 16.0 + LABEL_FONT + 10.0 + y_tick_w + 8.0;
-        let bar_w = 16.0;
-        let right = 20.0 + bar_w + 8.0 + v_tick_w + 10.0 + LABEL_FONT + 12.0;
-        let top = if self.title.is_empty() {
-            16.0
-        } else {
-            20.0 + TITLE_FONT + 10.0
-        };
-        let bottom = 8.0 + TICK_FONT + 12.0 + LABEL_FONT + 14.0;
+        let left = frame::left_margin(y_tick_w);
+        let right = 20.0 + frame::color_bar_width((vlo, vhi));
+        let top = frame::top_margin(&self.title);
+        let bottom = frame::BOTTOM_MARGIN;
         let (x0, x1, y0, y1) = (left, self.width - right, top, self.height - bottom);
         if x1 - x0 < 20.0 || y1 - y0 < 20.0 {
             return Err(OutputError::invalid(
@@ -247,91 +232,30 @@ impl HeatMap {
         svg.close_group();
         svg.rect(x0, y0, x1 - x0, y1 - y0, "none", Some("#333333"));
 
-        let tick = TextStyle {
-            size: TICK_FONT,
-            ..TextStyle::default()
-        };
-        for &v in &xticks {
-            let x = px(v);
-            svg.line(x, y1, x, y1 + 5.0, "#333333", 1.0, None);
-            svg.text(x, y1 + 8.0 + TICK_FONT, &tick_label(v, xt.step, xmax), tick);
-        }
-        for &v in &yticks {
-            let y = py(v);
-            svg.line(x0 - 5.0, y, x0, y, "#333333", 1.0, None);
-            svg.text(
-                x0 - 8.0,
-                y + 0.35 * TICK_FONT,
-                &tick_label(v, yt.step, ymax),
-                TextStyle {
-                    anchor: Anchor::End,
-                    ..tick
-                },
-            );
-        }
-
-        // Color bar.
-        let bx = x1 + 20.0;
-        let slices = 128;
-        svg.open_group("shape-rendering=\"crispEdges\"");
-        for k in 0..slices {
-            let t0 = k as f64 / slices as f64;
-            let t1 = (k + 1) as f64 / slices as f64;
-            let (ya, yb) = (y1 - t1 * (y1 - y0), y1 - t0 * (y1 - y0));
-            let color = self.colormap.at(0.5 * (t0 + t1)).hex();
-            svg.rect(bx, ya, bar_w, yb - ya, &color, None);
-        }
-        svg.close_group();
-        svg.rect(bx, y0, bar_w, y1 - y0, "none", Some("#333333"));
-        for &v in &vticks {
-            let y = y1 - (v - vlo) / (vhi - vlo) * (y1 - y0);
-            svg.line(bx + bar_w, y, bx + bar_w + 4.0, y, "#333333", 1.0, None);
-            svg.text(
-                bx + bar_w + 7.0,
-                y + 0.35 * TICK_FONT,
-                &tick_label(v, vt.step, vmax),
-                TextStyle {
-                    anchor: Anchor::Start,
-                    ..tick
-                },
-            );
-        }
-
-        let label = TextStyle {
-            size: LABEL_FONT,
-            ..TextStyle::default()
-        };
-        svg.text(0.5 * (x0 + x1), self.height - 14.0, &self.x_label, label);
-        svg.text(
-            16.0 + LABEL_FONT * 0.8,
-            0.5 * (y0 + y1),
-            &self.y_label,
-            TextStyle {
-                rotate: -90.0,
-                ..label
+        let area = (x0, x1, y0, y1);
+        let xs: Vec<(f64, String)> = xticks
+            .iter()
+            .map(|&v| (px(v), tick_label(v, xt.step, xmax)))
+            .collect();
+        let ys: Vec<(f64, String)> = yticks
+            .iter()
+            .map(|&v| (py(v), tick_label(v, yt.step, ymax)))
+            .collect();
+        frame::ticks(&mut svg, area, &xs, &ys);
+        frame::color_bar(
+            &mut svg,
+            &frame::ColorBar {
+                x: x1 + 20.0,
+                y0,
+                y1,
+                colormap: self.colormap,
+                range: (vlo, vhi),
+                label: &self.value_label,
+                label_x: self.width - 12.0,
             },
         );
-        svg.text(
-            self.width - 12.0 - LABEL_FONT * 0.2,
-            0.5 * (y0 + y1),
-            &self.value_label,
-            TextStyle {
-                rotate: -90.0,
-                ..label
-            },
-        );
-        if !self.title.is_empty() {
-            svg.text(
-                0.5 * (x0 + x1),
-                20.0 + TITLE_FONT * 0.8,
-                &self.title,
-                TextStyle {
-                    size: TITLE_FONT,
-                    bold: true,
-                    ..TextStyle::default()
-                },
-            );
-        }
+        frame::axis_labels(&mut svg, area, self.height, &self.x_label, &self.y_label);
+        frame::title(&mut svg, 0.5 * (x0 + x1), &self.title, TITLE_FONT);
         Ok(svg.finish())
     }
 

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use super::color::{Color, PALETTE};
+use super::frame::{self, TICK_FONT, TITLE_FONT};
 use super::series::{LegendPosition, LineStyle, Orientation, RefLine, Series};
 use super::svg::{text_width, Anchor, Svg, TextStyle};
 use super::ticks::{nice_ticks, tick_label};
@@ -101,9 +102,6 @@ impl Axis {
 /// tools: curves do not run along the frame. The x axis spans the data exactly.
 const Y_PAD: f64 = 0.05;
 
-const TICK_FONT: f64 = 12.0;
-const LABEL_FONT: f64 = 14.0;
-const TITLE_FONT: f64 = 16.0;
 const LEGEND_FONT: f64 = 12.0;
 
 impl LinePlot {
@@ -250,14 +248,10 @@ impl LinePlot {
             .iter()
             .map(|&v| text_width(&ya.label(v), TICK_FONT))
             .fold(0.0, f64::max);
-        let left = 16.0 + LABEL_FONT + 10.0 + y_tick_w + 8.0;
+        let left = frame::left_margin(y_tick_w);
         let right = 24.0;
-        let top = if self.title.is_empty() {
-            16.0
-        } else {
-            20.0 + TITLE_FONT + 10.0
-        };
-        let bottom = 8.0 + TICK_FONT + 12.0 + LABEL_FONT + 14.0;
+        let top = frame::top_margin(&self.title);
+        let bottom = frame::BOTTOM_MARGIN;
         let (x0, x1, y0, y1) = (left, self.width - right, top, self.height - bottom);
         let px = |x: f64| x0 + (x - xa.lo) / (xa.hi - xa.lo) * (x1 - x0);
         let py = |y: f64| y1 - (y - ya.lo) / (ya.hi - ya.lo) * (y1 - y0);
@@ -265,30 +259,15 @@ impl LinePlot {
         let mut svg = Svg::new(self.width, self.height);
         svg.clip_rect("plot-area", x0, y0, x1 - x0, y1 - y0);
         // Grid and ticks.
-        let tick = TextStyle {
-            size: TICK_FONT,
-            ..TextStyle::default()
-        };
         for &v in &xa.ticks {
-            let x = px(v);
-            svg.line(x, y0, x, y1, "#e3e3e3", 1.0, None);
-            svg.line(x, y1, x, y1 + 5.0, "#333333", 1.0, None);
-            svg.text(x, y1 + 8.0 + TICK_FONT, &xa.label(v), tick);
+            svg.line(px(v), y0, px(v), y1, "#e3e3e3", 1.0, None);
         }
         for &v in &ya.ticks {
-            let y = py(v);
-            svg.line(x0, y, x1, y, "#e3e3e3", 1.0, None);
-            svg.line(x0 - 5.0, y, x0, y, "#333333", 1.0, None);
-            svg.text(
-                x0 - 8.0,
-                y + 0.35 * TICK_FONT,
-                &ya.label(v),
-                TextStyle {
-                    anchor: Anchor::End,
-                    ..tick
-                },
-            );
+            svg.line(x0, py(v), x1, py(v), "#e3e3e3", 1.0, None);
         }
+        let xs: Vec<(f64, String)> = xa.ticks.iter().map(|&v| (px(v), xa.label(v))).collect();
+        let ys: Vec<(f64, String)> = ya.ticks.iter().map(|&v| (py(v), ya.label(v))).collect();
+        frame::ticks(&mut svg, (x0, x1, y0, y1), &xs, &ys);
         // Reference lines, then the curves, clipped to the plot area.
         svg.open_group("clip-path=\"url(#plot-area)\"");
         let ref_text = TextStyle {
@@ -346,32 +325,9 @@ impl LinePlot {
         svg.rect(x0, y0, x1 - x0, y1 - y0, "none", Some("#333333"));
 
         // Labels and title.
-        let label = TextStyle {
-            size: LABEL_FONT,
-            ..TextStyle::default()
-        };
-        svg.text(0.5 * (x0 + x1), self.height - 14.0, &self.x_label, label);
-        svg.text(
-            16.0 + LABEL_FONT * 0.8,
-            0.5 * (y0 + y1),
-            &self.y_label,
-            TextStyle {
-                rotate: -90.0,
-                ..label
-            },
-        );
-        if !self.title.is_empty() {
-            svg.text(
-                0.5 * (x0 + x1),
-                20.0 + TITLE_FONT * 0.8,
-                &self.title,
-                TextStyle {
-                    size: TITLE_FONT,
-                    bold: true,
-                    ..TextStyle::default()
-                },
-            );
-        }
+        let area = (x0, x1, y0, y1);
+        frame::axis_labels(&mut svg, area, self.height, &self.x_label, &self.y_label);
+        frame::title(&mut svg, 0.5 * (x0 + x1), &self.title, TITLE_FONT);
         self.draw_legend(&mut svg, &colors, (x0, x1, y0, y1));
         for (x, y, text, anchor) in ref_labels {
             if !text.is_empty() {

@@ -100,3 +100,28 @@ pub fn svg_to_png(svg: &str, path: &Path, scale: f32) -> Result<(), OutputError>
         .map_err(|e| render_err(format!("PNG encoding failed: {e}")))?;
     write_atomic(path, &png)
 }
+
+/// Size of a PNG image and the share of its pixels that are coloured (not white, gray or black:
+/// max - min of the RGB channels above 40 of 255), e.g. to check that a picture shows a
+/// colour-mapped object and not only its frame and text.
+pub fn png_color_share(path: &Path) -> Result<(u32, u32, f64), OutputError> {
+    let pixmap = tiny_skia::Pixmap::load_png(path).map_err(|e| OutputError::Render {
+        path: path.to_path_buf(),
+        reason: format!("cannot decode the PNG: {e}"),
+    })?;
+    let colored = pixmap
+        .pixels()
+        .iter()
+        .filter(|p| {
+            let c = p.demultiply();
+            let (r, g, b) = (c.red(), c.green(), c.blue());
+            r.max(g).max(b) - r.min(g).min(b) > 40
+        })
+        .count();
+    let total = (pixmap.width() as usize * pixmap.height() as usize).max(1);
+    Ok((
+        pixmap.width(),
+        pixmap.height(),
+        colored as f64 / total as f64,
+    ))
+}

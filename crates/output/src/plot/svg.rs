@@ -159,6 +159,40 @@ impl Svg {
         );
     }
 
+    /// Triangles filled in one colour, as one path.
+    pub fn triangles_path(&mut self, triangles: &[[(f64, f64); 3]], fill: &str) {
+        self.buf.push_str("<path d=\"");
+        for [a, b, c] in triangles {
+            let _ = write!(
+                self.buf,
+                "M{:.1} {:.1}L{:.1} {:.1}L{:.1} {:.1}Z",
+                a.0, a.1, b.0, b.1, c.0, c.1
+            );
+        }
+        let _ = writeln!(self.buf, "\" fill=\"{fill}\"/>");
+    }
+
+    /// A filled triangle (or polygon), without outline.
+    pub fn polygon(&mut self, points: &[(f64, f64)], fill: &str) {
+        self.buf.push_str("<polygon points=\"");
+        for (i, (x, y)) in points.iter().enumerate() {
+            if i > 0 {
+                self.buf.push(' ');
+            }
+            let _ = write!(self.buf, "{x:.2},{y:.2}");
+        }
+        let _ = writeln!(self.buf, "\" fill=\"{fill}\"/>");
+    }
+
+    /// A filled circle with a black outline (a marked point).
+    pub fn marker(&mut self, x: f64, y: f64, r: f64, fill: &str) {
+        let _ = writeln!(
+            self.buf,
+            "<circle cx=\"{x:.2}\" cy=\"{y:.2}\" r=\"{r}\" fill=\"{fill}\" stroke=\"#000000\" \
+             stroke-width=\"1\"/>"
+        );
+    }
+
     /// Text at (x, y) (baseline), escaped.
     pub fn text(&mut self, x: f64, y: f64, content: &str, style: TextStyle) {
         let anchor = match style.anchor {

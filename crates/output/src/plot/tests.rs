@@ -303,3 +303,63 @@ fn appended_extension_keeps_dots() {
         std::path::PathBuf::from("out/q_9.3.png")
     );
 }
+
+/// A unit cube's 12 outward triangles (counter-clockwise seen from outside).
+fn cube() -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let p: Vec<[f64; 3]> = (0..8)
+        .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+        .collect();
+    // Faces as quads (a, b, c, d) counter-clockwise from outside.
+    let quads = [
+        [0, 2, 3, 1], // z = 0, normal -z
+        [4, 5, 7, 6], // z = 1, +z
+        [0, 1, 5, 4], // y = 0, -y
+        [2, 6, 7, 3], // y = 1, +y
+        [0, 4, 6, 2], // x = 0, -x
+        [1, 3, 7, 5], // x = 1, +x
+    ];
+    let t = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    (p, t)
+}
+
+#[test]
+fn surface_picture_draws_front_faces_only() {
+    let (p, t) = cube();
+    // Looking along -z (viewer on +z): only the two triangles of the z = 1 face face the viewer.
+    let picture = SurfacePicture {
+        title: "cube".into(),
+        triangles: t,
+        panels: vec![SurfacePanel {
+            subtitle: "state".into(),
+            values: p.iter().map(|q| q[2]).collect(),
+            positions: p,
+            markers: vec![Marker {
+                position: [1.0, 1.0, 1.0],
+                filled: true,
+            }],
+            ghost: None,
+        }],
+        view: View {
+            right: [1.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+        },
+        colormap: Colormap::Viridis,
+        value_label: "z".into(),
+        value_range: None,
+        notes: vec!["a note".into()],
+        panel_width: 200.0,
+        panel_height: 200.0,
+    };
+    let svg = picture.to_svg().expect("svg");
+    assert_eq!(svg.matches("<polygon").count(), 2, "{svg}");
+    parse_svg(&svg);
+    assert!(svg.contains("fill=\"#d62728\""), "filled marker");
+    // A triangle referring to a missing vertex is refused.
+    let mut bad = picture.clone();
+    bad.triangles.push([0, 1, 99]);
+    let err = bad.to_svg().expect_err("bad vertex");
+    assert!(err.to_string().contains("vertex 99"), "{err}");
+}

@@ -247,9 +247,8 @@ fn bad_input_is_refused_and_nothing_is_written() {
         ),
         (
             vec![Field {
-                name: "z",
                 components: 0,
-                data: &[],
+                ..Field::scalar("z", &[])
             }],
             "0 components",
         ),
@@ -293,4 +292,126 @@ fn names_are_xml_escaped() {
     .expect("document");
     assert!(doc.contains("Name=\"a&lt;b &amp; &quot;c&quot;\""));
     assert_eq!(read_f64(&doc, "a&lt;b &amp; &quot;c&quot;"), s.to_vec());
+}
+
+/// Decodes a zlib-compressed binary array (vtkZLibDataCompressor layout, UInt64 header): the
+/// header's base64 stream, then the blocks' base64 stream, each block inflated with flate2.
+fn decode_zlib(body: &str) -> Vec<u8> {
+    // The header has 3 + blocks UInt64 values; its base64 length is that of 8 (3 + b) bytes.
+    let first = base64::decode(&body[..32]).expect("header start");
+    let blocks = u64::from_le_bytes(first[..8].try_into().expect("8 bytes")) as usize;
+    let header_len = (8 * (3 + blocks)).div_ceil(3) * 4;
+    let header = base64::decode(&body[..header_len]).expect("header");
+    let word = |i: usize| u64::from_le_bytes(header[8 * i..8 * i + 8].try_into().expect("8"));
+    let (block_size, last) = (word(1) as usize, word(2) as usize);
+    let data = base64::decode(&body[header_len..]).expect("blocks");
+    let mut out = Vec::new();
+    let mut at = 0;
+    for b in 0..blocks {
+        let size = word(3 + b) as usize;
+        let mut inflated = Vec::new();
+        std::io::Read::read_to_end(
+            &mut flate2::read::ZlibDecoder::new(&data[at..at + size]),
+            &mut inflated,
+        )
+        .expect("zlib block");
+        let expected = if b + 1 == blocks && last > 0 {
+            last
+        } else {
+            block_size
+        };
+        assert_eq!(inflated.len(), expected, "block {b}");
+        out.extend(inflated);
+        at += size;
+    }
+    assert_eq!(
+        at,
+        data.len(),
+        "compressed sizes in the header must cover the data"
+    );
+    out
+}
+
+#[test]
+fn zlib_float32_frames_decode_to_the_values_written() {
+    let (points, conn) = two_tet10();
+    let disp: Vec<f64> = points
+        .iter()
+        .flat_map(|p| [p[0] * 1e-3, -p[1], 0.1 + p[2]])
+        .collect();
+    let mut gap = vec![f64::NAN; points.len()];
+    gap[3] = -2.5e-4;
+    gap[7] = 1.5e-10;
+    let mesh = VtuMesh {
+        points: &points,
+        connectivity: &conn,
+        nodes_per_cell: 10,
+    };
+    let target = Path::new("frame.vtu");
+    let writer = VtuWriter::new(target, &mesh, VtuEncoding::Zlib, Precision::F32).expect("mesh");
+    let doc = writer
+        .document(
+            target,
+            &[
+                Field::vector("displacement_m", &disp).f32(),
+                Field::scalar("radial_gap_m", &gap).f32().partial(),
+            ],
+            &[],
+        )
+        .expect("document");
+    assert!(doc.contains("compressor=\"vtkZLibDataCompressor\""));
+    let (format, body) = data_array(&doc, "connectivity");
+    assert_eq!(format, "binary");
+    assert!(doc.contains("type=\"Int32\" Name=\"connectivity\""));
+    let c: Vec<i32> = decode_zlib(body)
+        .chunks(4)
+        .map(|b| i32::from_le_bytes(b.try_into().expect("4")))
+        .collect();
+    let mut expected: Vec<i32> = conn.iter().map(|&n| n as i32).collect();
+    expected.swap(8, 9);
+    expected.swap(18, 19);
+    assert_eq!(c, expected);
+    let f32s = |name: &str| -> Vec<f32> {
+        assert!(doc.contains(&format!("type=\"Float32\" Name=\"{name}\"")));
+        decode_zlib(data_array(&doc, name).1)
+            .chunks(4)
+            .map(|b| f32::from_le_bytes(b.try_into().expect("4")))
+            .collect()
+    };
+    let flat: Vec<f32> = points.iter().flatten().map(|&x| x as f32).collect();
+    assert_eq!(f32s("Points"), flat);
+    let d: Vec<f32> = disp.iter().map(|&x| x as f32).collect();
+    assert_eq!(f32s("displacement_m"), d);
+    let g = f32s("radial_gap_m");
+    for (i, v) in g.iter().enumerate() {
+        match i {
+            3 => assert_eq!(*v, -2.5e-4f32),
+            7 => assert_eq!(*v, 1.5e-10f32),
+            _ => assert!(v.is_nan(), "point {i}: {v}"),
+        }
+    }
+    // A field not marked partial refuses NaN; a partial one still refuses infinities.
+    let err = writer
+        .document(target, &[Field::scalar("g", &gap)], &[])
+        .expect_err("NaN in a complete field");
+    assert!(err.to_string().contains("`g`"), "{err}");
+    let mut inf = gap.clone();
+    inf[0] = f64::INFINITY;
+    writer
+        .document(target, &[Field::scalar("g", &inf).partial()], &[])
+        .expect_err("infinity in a partial field");
+}
+
+#[test]
+fn zlib_blocks_split_large_arrays() {
+    // More than one block: 2.5 blocks of Float64 values.
+    let n = (5 * ZLIB_BLOCK_SIZE / 2) / 8;
+    let values: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+    let mut s = String::new();
+    push_zlib(&mut s, &Values::F64(&values).to_le_bytes());
+    let back: Vec<f64> = decode_zlib(&s)
+        .chunks(8)
+        .map(|b| f64::from_le_bytes(b.try_into().expect("8")))
+        .collect();
+    assert_eq!(back, values);
 }

@@ -1,0 +1,99 @@
+//! What the post stage, the report and the figures read back from the backbone stage's files
+//! (`backbone/backbone.json`, `backbone/kept.json`): a subset of `nlmodes_nnm::BackbonePoint`.
+//!
+//! New columns of the backbone (e.g. a branch index or a stability flag) are added here as
+//! `#[serde(default)]` fields, so that older files still read.
+
+use anyhow::{Context, Result};
+use serde::Deserialize;
+use std::path::Path;
+
+/// What post-processing reads of a backbone point: the orbit u(t) = sum_n u_n cos(n w t)
+/// (Eq. 10, cosine basis) and its contact samples.
+#[derive(Debug, Clone, Deserialize)]
+pub struct Orbit {
+    /// First-harmonic amplitude of the master coordinate (m).
+    pub q: f64,
+    /// Circular frequency w (rad/s).
+    pub omega: f64,
+    /// w / w1.
+    pub omega_ratio: f64,
+    /// w / (2 pi) (Hz).
+    pub frequency_hz: f64,
+    /// Share of the period each contact row is in contact.
+    pub contact_fraction: Vec<f64>,
+    /// Powell's measure G at convergence (Eq. 21, units of g0).
+    pub powell_measure: f64,
+    pub newton_iterations: usize,
+    pub fold: bool,
+    pub jump: bool,
+    pub truncation_warning: bool,
+    /// u_n, n = 0..N (reduced coordinates, m).
+    pub coefficients: Vec<Vec<f64>>,
+    /// lambda_{j,k} (N) at t_k = k T / m, one vector of m samples per contact row.
+    pub contact_force: Vec<Vec<f64>>,
+}
+
+impl Orbit {
+    /// Period T = 2 pi / w (s).
+    pub fn period(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.omega
+    }
+
+    /// u(t) at phase theta = w t (rad), by `nlmodes_nnm::reconstruct`.
+    pub fn at_phase(&self, theta: f64) -> Vec<f64> {
+        // reconstruct evaluates cos(n w t); with w = 1 and t = theta the phase is theta exactly.
+        nlmodes_nnm::reconstruct(&self.coefficients, 1.0, theta)
+    }
+
+    /// du/dt (m/s) at phase theta = w t (rad), by `nlmodes_nnm::velocity`.
+    pub fn rate_at_phase(&self, theta: f64) -> Vec<f64> {
+        nlmodes_nnm::velocity(&self.coefficients, self.omega, theta / self.omega)
+    }
+
+    /// Number of contact rows touching at some time of the period.
+    pub fn touching(&self) -> usize {
+        self.contact_fraction.iter().filter(|&&f| f > 0.0).count()
+    }
+
+    /// Number of contact-force samples per period (m).
+    pub fn force_samples(&self) -> usize {
+        self.contact_force.first().map_or(0, Vec::len)
+    }
+
+    /// The contact-force sample k (0..m) nearest the fraction `t_over_t` of the period.
+    pub fn force_sample_at(&self, t_over_t: f64) -> usize {
+        let m = self.force_samples().max(1);
+        ((t_over_t * m as f64).round() as usize) % m
+    }
+
+    /// The sample k with the largest total contact force, if any force is positive.
+    pub fn largest_force_sample(&self) -> Option<usize> {
+        let total = |k: usize| self.contact_force.iter().map(|v| v[k]).sum::<f64>();
+        (0..self.force_samples())
+            .max_by(|&a, &b| total(a).total_cmp(&total(b)))
+            .filter(|&k| total(k) > 0.0)
+    }
+}
+
+/// The backbone file as post-processing reads it.
+#[derive(Debug, Clone, Deserialize)]
+pub struct BackboneFile {
+    pub points: Vec<Orbit>,
+    pub termination: serde_json::Value,
+    /// w1 (rad/s).
+    pub omega_linear: f64,
+    /// g0 (m).
+    pub gap_reference: f64,
+    /// q of first contact (m), if reached.
+    pub grazing_amplitude: Option<f64>,
+    /// Internal-resonance tongues skipped by the continuation.
+    #[serde(default)]
+    pub internal_resonances: Vec<nlmodes_nnm::InternalResonance>,
+}
+
+/// Reads a JSON file written by an earlier stage.
+pub fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    serde_json::from_slice(&bytes).with_context(|| format!("invalid JSON in {}", path.display()))
+}
