@@ -10,8 +10,8 @@ use nlmodes_nnm::{
 use std::fmt::Write as _;
 use std::path::Path;
 
-use nlmodes_output::{CsvTable, CsvValue};
 use crate::ui;
+use nlmodes_output::{CsvTable, CsvValue};
 
 /// The nnm system of a reduced model: its K, M, contact rows (radial unit vectors, Eq. 17), gaps
 /// and master coordinate (`master` overrides the model's default).

@@ -1,37 +1,76 @@
 //! The figures of the post stage (SVG + PNG), after the paper's Figs. 3a, 3b and 4.
 
 use anyhow::Result;
-use nlmodes_output::plot::{Colormap, PALETTE};
+use nlmodes_output::plot::{Color, Colormap, PALETTE};
 use nlmodes_output::{HeatMap, LegendPosition, LinePlot, LineStyle, RefLine, Series};
 use std::path::Path;
 
-use crate::results::BackboneFile;
+use crate::results::{BackboneFile, Orbit};
 
 /// One closed orbit of Fig. 3b: q / g0 and (master displacement, master velocity, contact-node
 /// radial displacement) samples, all normalized.
 pub type ManifoldOrbit = (f64, Vec<(f64, f64, f64)>);
 
-/// Fig. 3a: w / w1 against q / g0, grazing amplitude marked, folds and jumps as markers.
-pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
-    let g0 = b.gap_reference;
-    let x: Vec<f64> = b.points.iter().map(|p| p.q / g0).collect();
-    let y: Vec<f64> = b.points.iter().map(|p| p.omega_ratio).collect();
-    let mut plot = LinePlot::new(
-        "Backbone of the first nonlinear mode",
-        "modal amplitude q / g0",
-        "frequency ratio w / w1",
-    )
-    .with_series(
-        Series::new("backbone", x, y)
-            .color(PALETTE[0])
-            .markers(true),
-    )
-    .with_legend(LegendPosition::TopLeft);
+/// The points of each branch, in continuation order: (branch id, points).
+fn branches_of(b: &BackboneFile) -> Vec<(usize, Vec<&Orbit>)> {
+    let count = b.branches.len().max(1);
+    (0..count)
+        .map(|id| (id, b.points.iter().filter(|p| p.branch == id).collect()))
+        .filter(|(_, pts): &(usize, Vec<&Orbit>)| !pts.is_empty())
+        .collect()
+}
+
+/// A plot of the whole family against `x_of`: the linear segment and the main branch in the
+/// first colour, each tongue in a lighter one (docs/DESIGN.md §8), folds and jumps marked.
+fn family_plot(
+    b: &BackboneFile,
+    title: &str,
+    xlabel: &str,
+    x_of: impl Fn(&Orbit) -> f64,
+) -> LinePlot {
+    const TONGUE: Color = Color(0x9e, 0xc5, 0xe8);
+    let mut plot =
+        LinePlot::new(title, xlabel, "frequency ratio w / w1").with_legend(LegendPosition::TopLeft);
+    let mut labelled = (false, false);
+    for (id, pts) in branches_of(b) {
+        let tongue = b.on_tongue(pts[0]);
+        // A branch starts at the point of its parent it leaves from (the main branch at the
+        // grazing orbit, a tongue at the main-branch point before it).
+        let start = b.branches.get(id).and_then(|br| br.parent);
+        let mut xs = Vec::new();
+        let mut ys = Vec::new();
+        if let Some(parent) = start {
+            let before = b.points.iter().take_while(|p| !std::ptr::eq(*p, pts[0]));
+            if let Some(p) = before.filter(|p| p.branch == parent).last() {
+                xs.push(x_of(p));
+                ys.push(p.omega_ratio);
+            }
+        }
+        xs.extend(pts.iter().map(|p| x_of(p)));
+        ys.extend(pts.iter().map(|p| p.omega_ratio));
+        let (label, seen) = if tongue {
+            ("internal-resonance tongues", &mut labelled.1)
+        } else {
+            ("backbone", &mut labelled.0)
+        };
+        let name = if *seen {
+            String::new()
+        } else {
+            label.to_string()
+        };
+        *seen = true;
+        let series = Series::new(name, xs, ys);
+        plot = plot.with_series(if tongue {
+            series.color(TONGUE).width(1.2)
+        } else {
+            series.color(PALETTE[0]).markers(true)
+        });
+    }
     let marks: Vec<(f64, f64)> = b
         .points
         .iter()
         .filter(|p| p.fold || p.jump)
-        .map(|p| (p.q / g0, p.omega_ratio))
+        .map(|p| (x_of(p), p.omega_ratio))
         .collect();
     if !marks.is_empty() {
         let (mx, my): (Vec<f64>, Vec<f64>) = marks.into_iter().unzip();
@@ -42,11 +81,49 @@ pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
                 .markers(true),
         );
     }
+    plot.with_ref_line(RefLine::horizontal(1.0, "linear"))
+}
+
+/// Fig. 3a: w / w1 against q / g0, grazing amplitude marked, tongues in a lighter colour, folds
+/// and jumps as markers.
+pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
+    let g0 = b.gap_reference;
+    let mut plot = family_plot(
+        b,
+        "Backbone of the first nonlinear mode",
+        "modal amplitude q / g0",
+        |p| p.q / g0,
+    );
     if let Some(q) = b.grazing_amplitude {
         plot = plot.with_ref_line(RefLine::vertical(q / g0, "grazing"));
     }
-    plot = plot.with_ref_line(RefLine::horizontal(1.0, "linear"));
     plot.write_svg_and_png(&out.join("backbone"))?;
+    Ok(())
+}
+
+/// Frequency-energy plot (Kerschen, Peeters, Golinval & Vakakis 2009): w / w1 against
+/// log10 of the energy at the turning point (J), the same branches as Fig. 3a. Points with no
+/// energy (zero orbit) are left out.
+pub fn frequency_energy_figure(b: &BackboneFile, out: &Path) -> Result<()> {
+    let positive = BackboneFile {
+        points: b
+            .points
+            .iter()
+            .filter(|p| p.energy > 0.0)
+            .cloned()
+            .collect(),
+        ..b.clone()
+    };
+    if positive.points.is_empty() {
+        return Ok(());
+    }
+    family_plot(
+        &positive,
+        "Frequency-energy plot of the nonlinear mode",
+        "log10(energy / J)",
+        |p| p.energy.log10(),
+    )
+    .write_svg_and_png(&out.join("frequency_energy"))?;
     Ok(())
 }
 

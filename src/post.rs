@@ -43,6 +43,7 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     let g0 = b.gap_reference;
 
     figures::backbone_figure(&b, out)?;
+    figures::frequency_energy_figure(&b, out)?;
     let nonlinear = manifold_coordinate(&b);
     manifold(&model, &b, nonlinear, out)?;
     // The full mesh, read once for every VTU series and picture.

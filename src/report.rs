@@ -115,7 +115,10 @@ pub fn write_report(
          `scripts/paraview {}/modes/modes.vtu --mode 2` opens mode 2.\n",
         root.display()
     );
-    let _ = writeln!(s, "## Backbone (Fig. 3a)\n\n![backbone](backbone.png)\n");
+    let _ = writeln!(
+        s,
+        "## Backbone (Fig. 3a) and frequency-energy plot\n\n![backbone](backbone.png)\n         ![frequency-energy](frequency_energy.png)\n\n         The linear segment and the main branch are drawn in blue, internal-resonance tongues          (branches where harmonic n of the orbit drives another linear mode k, n w near w_k) in          light blue; `backbone/backbone.csv` gives every point with its `branch` and          `branch_kind`.\n"
+    );
     let _ = writeln!(
         s,
         "Grazing amplitude: q/g0 = {}. Termination: `{}`.\n",
@@ -127,23 +130,26 @@ pub fn write_report(
     if !b.internal_resonances.is_empty() {
         let _ = writeln!(
             s,
-            "Internal resonances met by the continuation (the branch turned into a tongue where \
-             harmonic n of the orbit drives linear mode k; the tongue is not followed, a fixed-q \
-             hop resumes the backbone past it and the next point is flagged as a jump):\n\n\
-             | q/g0 | w/w1 | mode k | harmonic n | detuning (n w - w_k)/w_k | energy share | hop |\n\
-             |---|---|---|---|---|---|---|"
+            "Internal resonances met by the continuation (the main branch turned into a tongue \
+             where harmonic n of the orbit drives linear mode k; the tongue is followed as its own \
+             branch, up to a set number of points, and the main branch is continued past it by a \
+             predictor on its tangent, or by a fixed-q hop flagged as a jump):\n\n\
+             | q/g0 | w/w1 | mode k | harmonic n | detuning (n w - w_k)/w_k | energy share | tongue branch | main branch past it |\n\
+             |---|---|---|---|---|---|---|---|"
         );
         for r in &b.internal_resonances {
             let _ = writeln!(
                 s,
-                "| {:.3} | {:.4} | {} | {} | {:+.2} % | {:.0} % | {} |",
+                "| {:.3} | {:.4} | {} | {} | {:+.2} % | {:.0} % | {} | {} |",
                 r.q / g0,
                 r.omega_ratio,
                 r.mode + 1,
                 r.harmonic,
                 100.0 * r.detuning,
                 100.0 * r.share,
-                if r.hopped { "yes" } else { "failed" }
+                r.branch
+                    .map_or("not followed".to_string(), |id| id.to_string()),
+                if r.hopped { "yes" } else { "no" }
             );
         }
         let _ = writeln!(s);
@@ -159,6 +165,8 @@ pub fn write_report(
         }
         let share = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
         let flags = [
+            (b.on_tongue(p), "tongue"),
+            (p.pre_fold, "grazing to fold"),
             (p.fold, "fold"),
             (p.jump, "jump"),
             (p.truncation_warning, "N too small"),

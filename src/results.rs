@@ -28,6 +28,15 @@ pub struct Orbit {
     pub fold: bool,
     pub jump: bool,
     pub truncation_warning: bool,
+    /// Energy at the turning point t = 0 (J).
+    #[serde(default)]
+    pub energy: f64,
+    /// Index of the branch in `BackboneFile::branches` (0 in files written before branches).
+    #[serde(default)]
+    pub branch: usize,
+    /// Between grazing and the first fold of q (the branch leaves grazing toward smaller q).
+    #[serde(default)]
+    pub pre_fold: bool,
     /// u_n, n = 0..N (reduced coordinates, m).
     pub coefficients: Vec<Vec<f64>>,
     /// lambda_{j,k} (N) at t_k = k T / m, one vector of m samples per contact row.
@@ -87,9 +96,22 @@ pub struct BackboneFile {
     pub gap_reference: f64,
     /// q of first contact (m), if reached.
     pub grazing_amplitude: Option<f64>,
-    /// Internal-resonance tongues skipped by the continuation.
+    /// Internal-resonance tongues met by the continuation.
     #[serde(default)]
     pub internal_resonances: Vec<nlmodes_nnm::InternalResonance>,
+    /// The branches of the family (linear segment, main branch, tongues).
+    #[serde(default)]
+    pub branches: Vec<nlmodes_nnm::Branch>,
+}
+
+impl BackboneFile {
+    /// Whether point `p` lies on a tongue branch.
+    pub fn on_tongue(&self, p: &Orbit) -> bool {
+        matches!(
+            self.branches.get(p.branch).map(|b| &b.kind),
+            Some(nlmodes_nnm::BranchKind::Tongue { .. })
+        )
+    }
 }
 
 /// Reads a JSON file written by an earlier stage.

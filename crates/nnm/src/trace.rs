@@ -10,8 +10,9 @@ use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
 
-/// Predictors tried past an internal-resonance tongue, at 2, 4, ... 2^PASS_ATTEMPTS steps ahead.
-const PASS_ATTEMPTS: u32 = 6;
+/// Predictors tried past an internal-resonance tongue, at 2, 4, ... 2^PASS_ATTEMPTS steps ahead
+/// (and as many fixed-q hops, at 1, 2, ... 2^(PASS_ATTEMPTS - 1) steps).
+const PASS_ATTEMPTS: u32 = 5;
 
 /// A branch being traced.
 struct Trace {
@@ -236,6 +237,11 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             }
             if let Some(res) = self.tongue_entry(&trace, &p, &xn) {
                 if !self.pass_tongue(&mut trace, *p, res) {
+                    return;
+                }
+                if self.last_point(&trace).q >= self.cont.q_max * self.g_ref * (1.0 - 1e-12) {
+                    self.result.termination = Termination::ReachedMaxAmplitude;
+                    self.end_branch(trace.id, "q_max reached");
                     return;
                 }
                 continue;
@@ -508,7 +514,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             match self.solver.solve_with_row(row, guess) {
                 Ok(p) => {
                     let xn = self.scaled(&p);
-                    let ahead = xn[0] > xl[0];
+                    let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;
                     let near = distance(&xn, &pred) <= step;
                     if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
                         main.dq_sign = 1.0;
