@@ -74,69 +74,9 @@ enum Command {
         out: PathBuf,
     },
     /// Craig-Bampton reduction onto the contact nodes: writes the reduced-model directory.
-    Reduce {
-        /// The MSH 4.1 mesh.
-        mesh: PathBuf,
-        /// Dirichlet condition GROUP[:COMPONENTS], repeatable.
-        #[arg(long = "fix", default_value = "root")]
-        fix: Vec<String>,
-        /// The contact node group.
-        #[arg(long, default_value_t = ModelSection::default().contact_group)]
-        contact: String,
-        #[command(flatten)]
-        material: MaterialArgs,
-        /// Number of fixed-interface modes.
-        #[arg(long, default_value_t = ModelSection::default().fixed_interface_modes)]
-        modes: usize,
-        /// Uniform initial radial gap g0, m.
-        #[arg(long, default_value_t = ModelSection::default().gap, allow_hyphen_values = true)]
-        gap: f64,
-        /// Rotor axis point x,y,z (m).
-        #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
-        axis_point: [f64; 3],
-        /// Rotor axis direction x,y,z.
-        #[arg(long, value_parser = parse_vec3, default_value = "1,0,0", allow_hyphen_values = true)]
-        axis_direction: [f64; 3],
-        /// Master coordinate (reduced DOF index); default: the contact DOF with the largest
-        /// first-mode amplitude.
-        #[arg(long)]
-        master: Option<usize>,
-        /// Number of full-model modes computed to compare with the reduced model (0 to skip).
-        #[arg(long, default_value_t = 10)]
-        compare: usize,
-        /// Output directory (the reduced model).
-        #[arg(long, short)]
-        out: PathBuf,
-    },
+    Reduce(ReduceArgs),
     /// Backbone of the first nonlinear mode of a reduced model: writes backbone.csv, backbone.json.
-    Backbone {
-        /// The reduced-model directory (K.mtx, M.mtx, model.json).
-        model: PathBuf,
-        /// Largest amplitude, in gaps (q / g0) [default: the settings file's, else the case
-        /// default 35].
-        #[arg(long, allow_hyphen_values = true)]
-        q_max: Option<f64>,
-        /// First amplitude, in gaps; below grazing [default: the settings file's, else 0.5].
-        #[arg(long, allow_hyphen_values = true)]
-        q_start: Option<f64>,
-        /// Highest harmonic N (default: the study's, cases/blade.toml).
-        #[arg(long, default_value_t = NnmSection::default().harmonics)]
-        harmonics: usize,
-        /// Time samples per period m (>= 2N + 1).
-        #[arg(long, default_value_t = NnmSection::default().samples)]
-        samples: usize,
-        /// Master coordinate (reduced DOF index); default: the model's.
-        #[arg(long)]
-        master: Option<usize>,
-        /// Algorithm 1 parameters and continuation settings as a TOML file with [algorithm] and
-        /// [continuation] tables (see cases/blade.toml); --q-max and --q-start override it. A key
-        /// it does not set takes the default of a case file (epsilon = 1e-3 g0, q_max = 35).
-        #[arg(long)]
-        settings: Option<PathBuf>,
-        /// Output directory.
-        #[arg(long, short)]
-        out: PathBuf,
-    },
+    Backbone(BackboneArgs),
     /// Run a study case (default cases/blade.toml): mesh, modes, reduce, backbone, post.
     /// Each stage reruns only when its inputs changed.
     Run {
@@ -151,6 +91,74 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+}
+
+/// The arguments of `nlmodes reduce`.
+#[derive(Args)]
+struct ReduceArgs {
+    /// The MSH 4.1 mesh.
+    mesh: PathBuf,
+    /// Dirichlet condition GROUP[:COMPONENTS], repeatable.
+    #[arg(long = "fix", default_value = "root")]
+    fix: Vec<String>,
+    /// The contact node group.
+    #[arg(long, default_value_t = ModelSection::default().contact_group)]
+    contact: String,
+    #[command(flatten)]
+    material: MaterialArgs,
+    /// Number of fixed-interface modes.
+    #[arg(long, default_value_t = ModelSection::default().fixed_interface_modes)]
+    modes: usize,
+    /// Uniform initial radial gap g0, m.
+    #[arg(long, default_value_t = ModelSection::default().gap, allow_hyphen_values = true)]
+    gap: f64,
+    /// Rotor axis point x,y,z (m).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
+    axis_point: [f64; 3],
+    /// Rotor axis direction x,y,z.
+    #[arg(long, value_parser = parse_vec3, default_value = "1,0,0", allow_hyphen_values = true)]
+    axis_direction: [f64; 3],
+    /// Master coordinate (reduced DOF index); default: the contact DOF with the largest
+    /// first-mode amplitude.
+    #[arg(long)]
+    master: Option<usize>,
+    /// Number of full-model modes computed to compare with the reduced model (0 to skip).
+    #[arg(long, default_value_t = 10)]
+    compare: usize,
+    /// Output directory (the reduced model).
+    #[arg(long, short)]
+    out: PathBuf,
+}
+
+/// The arguments of `nlmodes backbone`.
+#[derive(Args)]
+struct BackboneArgs {
+    /// The reduced-model directory (K.mtx, M.mtx, model.json).
+    model: PathBuf,
+    /// Largest amplitude, in gaps (q / g0) [default: the settings file's, else the case
+    /// default 35].
+    #[arg(long, allow_hyphen_values = true)]
+    q_max: Option<f64>,
+    /// First amplitude, in gaps; below grazing [default: the settings file's, else 0.5].
+    #[arg(long, allow_hyphen_values = true)]
+    q_start: Option<f64>,
+    /// Highest harmonic N (default: the study's, cases/blade.toml).
+    #[arg(long, default_value_t = NnmSection::default().harmonics)]
+    harmonics: usize,
+    /// Time samples per period m (>= 2N + 1).
+    #[arg(long, default_value_t = NnmSection::default().samples)]
+    samples: usize,
+    /// Master coordinate (reduced DOF index); default: the model's.
+    #[arg(long)]
+    master: Option<usize>,
+    /// Algorithm 1 parameters and continuation settings as a TOML file with [algorithm] and
+    /// [continuation] tables (see cases/blade.toml); --q-max and --q-start override it. A key
+    /// it does not set takes the default of a case file (epsilon = 1e-3 g0, q_max = 35).
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, short)]
+    out: PathBuf,
 }
 
 /// The material of the `modes` and `reduce` subcommands; defaults from [`MaterialSection`],
@@ -269,66 +277,8 @@ fn run(command: Command) -> Result<()> {
             ui::say(&fe_model::frequency_table(&m));
             Ok(())
         }
-        Command::Reduce {
-            mesh,
-            fix,
-            contact,
-            material,
-            modes,
-            gap,
-            axis_point,
-            axis_direction,
-            master,
-            compare,
-            out,
-        } => {
-            check_count(modes, "--modes")?;
-            if !(gap.is_finite() && gap > 0.0) {
-                return Err(bad_input(format!(
-                    "--gap {gap}: expected a finite gap > 0 (m)"
-                )));
-            }
-            let axis = nlmodes_modal::RotorAxis::new(axis_point, axis_direction)
-                .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
-            validate::check_output_dir(&out, "--out")?;
-            let fe = fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
-            let settings = reduce::ReduceSettings {
-                contact_group: &contact,
-                axis,
-                gap,
-                modes,
-                master,
-            };
-            let (mut model, _) = reduce::reduce(&fe, &settings)?;
-            reduce::write_model(&mut model, &out, &mesh)?;
-            if compare > 0 {
-                let full = fe.modes(compare, 0.0)?;
-                ui::say(&reduce::comparison_table(
-                    &full.frequencies_hz(),
-                    &model.linear_frequencies_hz,
-                ));
-            }
-            Ok(())
-        }
-        Command::Backbone {
-            model,
-            q_max,
-            q_start,
-            harmonics,
-            samples,
-            master,
-            settings,
-            out,
-        } => backbone_command(BackboneArgs {
-            model,
-            q_max,
-            q_start,
-            harmonics,
-            samples,
-            master,
-            settings,
-            out,
-        }),
+        Command::Reduce(args) => reduce_command(args),
+        Command::Backbone(args) => backbone_command(args),
         Command::Run { case, only, force } => run::run(&case, only, force),
     }
 }
@@ -341,16 +291,36 @@ fn check_count(n: usize, flag: &str) -> Result<()> {
     Ok(())
 }
 
-/// The arguments of `nlmodes backbone`.
-struct BackboneArgs {
-    model: PathBuf,
-    q_max: Option<f64>,
-    q_start: Option<f64>,
-    harmonics: usize,
-    samples: usize,
-    master: Option<usize>,
-    settings: Option<PathBuf>,
-    out: PathBuf,
+/// `nlmodes reduce`: the arguments and the output path are checked before the mesh is read.
+fn reduce_command(a: ReduceArgs) -> Result<()> {
+    check_count(a.modes, "--modes")?;
+    if !(a.gap.is_finite() && a.gap > 0.0) {
+        return Err(bad_input(format!(
+            "--gap {}: expected a finite gap > 0 (m)",
+            a.gap
+        )));
+    }
+    let axis = nlmodes_modal::RotorAxis::new(a.axis_point, a.axis_direction)
+        .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
+    validate::check_output_dir(&a.out, "--out")?;
+    let fe = fe_model::FeModel::build(&a.mesh, &a.material.material()?, &a.fix)?;
+    let settings = reduce::ReduceSettings {
+        contact_group: &a.contact,
+        axis,
+        gap: a.gap,
+        modes: a.modes,
+        master: a.master,
+    };
+    let (mut model, _) = reduce::reduce(&fe, &settings)?;
+    reduce::write_model(&mut model, &a.out, &a.mesh)?;
+    if a.compare > 0 {
+        let full = fe.modes(a.compare, 0.0)?;
+        ui::say(&reduce::comparison_table(
+            &full.frequencies_hz(),
+            &model.linear_frequencies_hz,
+        ));
+    }
+    Ok(())
 }
 
 /// `nlmodes backbone`: every setting and the output path are checked before the model is read,

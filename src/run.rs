@@ -171,6 +171,8 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
             Err(e) => {
                 if let Some(child) = modes_child.take() {
                     child.kill();
+                    // The killed child may have left its temporary files.
+                    let _ = nlmodes_output::remove_stale_temporaries(&layout.modes());
                 }
                 return Err(e);
             }
