@@ -3,8 +3,8 @@
 //! | code | meaning |
 //! | --- | --- |
 //! | 0 | complete |
-//! | 1 | failure of the computation or of the system (I/O, a solver error, gmsh crashed) |
-//! | 2 | bad input: a case file, mesh, reduced model, argument or output path refused (nothing computed with it) |
+//! | 1 | failure of the computation or of the system (I/O, a solver error, a child that could not run) |
+//! | 2 | bad input: a case file, mesh (or a .geo gmsh cannot mesh), reduced model, argument or output path refused (nothing computed with it) |
 //! | 3 | stopped early: the backbone stopped before q_max (partial results kept, reason printed and in `backbone.json`) |
 //!
 //! Errors carry their class as a marker in the anyhow chain ([`BadInput`], [`StoppedEarly`]),

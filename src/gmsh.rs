@@ -66,7 +66,12 @@ pub fn mesh(geo: &Path, params: &BTreeMap<String, f64>, order: u32, out: &Path) 
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create directory {}", dir.display()))?;
     }
-    let tmp = out.with_extension("msh.tmp");
+    // `.<name>.tmp-<pid>-gmsh`: the pattern `nlmodes_output::remove_stale_temporaries` removes,
+    // so even the file of a gmsh killed with nlmodes is cleaned by the next `nlmodes run`.
+    let name = out
+        .file_name()
+        .map_or_else(|| "mesh.msh".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = out.with_file_name(format!(".{name}.tmp-{}-gmsh", std::process::id()));
     let mut cmd = Command::new(&gmsh);
     cmd.arg("-3")
         .arg("-order")
@@ -93,17 +98,27 @@ pub fn mesh(geo: &Path, params: &BTreeMap<String, f64>, order: u32, out: &Path) 
     };
     if !output.status.success() || !tmp.exists() {
         let _ = std::fs::remove_file(&tmp);
-        bail!(
+        // The geometry or its parameters did not mesh: bad input.
+        return Err(bad_input(format!(
             "gmsh failed on {} ({}):\n{}{}",
             geo.display(),
             output.status,
             String::from_utf8_lossy(&output.stdout),
             String::from_utf8_lossy(&output.stderr)
-        );
+        )));
     }
     let stderr = String::from_utf8_lossy(&output.stderr);
     for line in stderr.lines().filter(|l| l.contains("Error")) {
         tracing::warn!("gmsh: {line}");
+    }
+    // A .geo that meshes without tetrahedra (no volume, a wrong physical group) is refused
+    // here rather than by the stage that reads it.
+    if let Err(e) = nlmodes_fem::read_msh(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(bad_input(format!(
+            "gmsh meshed {} but the result is not a usable mesh: {e}",
+            geo.display()
+        )));
     }
     if let Err(e) = std::fs::rename(&tmp, out) {
         let _ = std::fs::remove_file(&tmp);

@@ -200,9 +200,11 @@ def output_paths(c, geo, mesh, model):
     a_file = c.write("outputs/a_file", "not a directory\n")
     existing = c.path("outputs/existing_dir")
     os.makedirs(existing, exist_ok=True)
+    outputs = c.path("outputs")
     c.add("output path", "mesh_out_existing_dir", ["mesh", geo, "-o", existing, "--set", "mesh_size=0.02"],
           r"--out .*existing_dir: is an existing directory",
-          absent=[existing + ".msh.tmp", existing + ".tmp", os.path.join(existing, "*")])
+          absent=[existing + ".msh.tmp", existing + ".tmp", os.path.join(outputs, ".existing_dir.tmp-*"),
+                  os.path.join(existing, "*")])
     c.add("output path", "mesh_out_under_file", ["mesh", geo, "-o", os.path.join(a_file, "m.msh")],
           r"a_file exists and is not a directory", absent=[os.path.join(a_file + "*.tmp")])
     c.add("output path", "backbone_out_file", ["backbone", model, "--out", a_file],
@@ -249,6 +251,16 @@ def cli_arguments(c, geo, mesh, model):
     cli("mesh_order_3", ["mesh", geo, "-o", c.path("cli_out.msh"), "--order", "3"], r"element order 3 is not supported")
     cli("mesh_unknown_parameter", ["mesh", geo, "-o", c.path("cli_out.msh"), "--set", "wingspan=3"], r"`wingspan` is not defined")
     cli("mesh_set_no_value", ["mesh", geo, "-o", c.path("cli_out.msh"), "--set", "mesh_size"], r"expected NAME=VALUE")
+    geos = c.path("geo")
+    os.makedirs(geos, exist_ok=True)
+    broken = c.write("geo/broken.geo", "Point(1) = {0, 0, 0;\nfoo bar\n")
+    cli("mesh_geo_syntax_error", ["mesh", broken, "-o", os.path.join(geos, "broken.msh")],
+        r"gmsh failed on .*broken\.geo")
+    c.cases[-1]["absent"] = [os.path.join(geos, ".broken.msh.tmp-*"), os.path.join(geos, "broken.msh")]
+    flat = c.write("geo/no_volume.geo", "Point(1) = {0, 0, 0};\nPoint(2) = {1, 0, 0};\nLine(1) = {1, 2};\n")
+    cli("mesh_geo_without_volume", ["mesh", flat, "-o", os.path.join(geos, "no_volume.msh")],
+        r"gmsh meshed .*no_volume\.geo but the result is not a usable mesh: .*no tetrahedra")
+    c.cases[-1]["absent"] = [os.path.join(geos, ".no_volume.msh.tmp-*"), os.path.join(geos, "no_volume.msh")]
     cli("mesh_missing_geo", ["mesh", c.path("none.geo"), "-o", c.path("cli_out.msh")], r"cannot read the geometry file .*none\.geo")
     cli("run_only_unknown", ["run", c.path("cases/none.toml"), "--only", "everything"], r"invalid value 'everything'")
 
