@@ -187,3 +187,86 @@ fn every_bad_input_is_refused_with_its_code_and_message() {
         failures.join("\n\n")
     );
 }
+
+/// Processes whose parent is `pid` (from /proc/*/stat), with their state letter.
+fn children_of(pid: u32) -> Vec<(u32, char)> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(child) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        if let Some((state, ppid)) = process_state(child) {
+            if ppid == pid {
+                out.push((child, state));
+            }
+        }
+    }
+    out
+}
+
+/// (state, parent pid) of a process, from the fields after the `(comm)` of /proc/PID/stat.
+fn process_state(pid: u32) -> Option<(char, u32)> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let mut fields = rest.split_whitespace();
+    let state = fields.next()?.chars().next()?;
+    let ppid = fields.next()?.parse().ok()?;
+    Some((state, ppid))
+}
+
+/// Issue 14, item 4: SIGKILL of nlmodes while gmsh meshes leaves no gmsh running
+/// (PR_SET_PDEATHSIG), and no file but a temporary that `nlmodes run` cleans.
+#[test]
+fn gmsh_dies_with_a_killed_nlmodes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("fine.msh");
+    let geo = root().join("meshes/blade.geo");
+    let mut nlmodes = Command::new(env!("CARGO_BIN_EXE_nlmodes"))
+        .args(["--quiet", "mesh", geo.to_str().unwrap(), "-o"])
+        .arg(&out)
+        .args(["--set", "mesh_size=0.0015"])
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    let gmsh = loop {
+        let running: Vec<u32> = children_of(nlmodes.id())
+            .into_iter()
+            .filter(|&(_, s)| s != 'Z')
+            .map(|(p, _)| p)
+            .collect();
+        if let Some(&p) = running.first() {
+            break p;
+        }
+        assert!(
+            start.elapsed().as_secs() < 20 && nlmodes.try_wait().unwrap().is_none(),
+            "gmsh never started under nlmodes"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    // Let gmsh work a little, then SIGKILL nlmodes (no chance to clean up).
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    nlmodes.kill().unwrap();
+    nlmodes.wait().unwrap();
+    let start = std::time::Instant::now();
+    let alive = loop {
+        let alive = matches!(process_state(gmsh), Some((s, _)) if s != 'Z' && s != 'X');
+        if !alive || start.elapsed().as_secs() >= 5 {
+            break alive;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    if alive {
+        // SAFETY: kill(2) on the pid of the gmsh this test started.
+        unsafe { libc::kill(gmsh as libc::pid_t, libc::SIGKILL) };
+    }
+    assert!(!alive, "gmsh (pid {gmsh}) survived the SIGKILL of nlmodes");
+    assert!(!out.exists(), "a mesh was written by a killed run");
+    // What gmsh may have left is a temporary that every `nlmodes run` removes on start.
+    nlmodes_output::remove_stale_temporaries(tmp.path()).unwrap();
+    let rest: Vec<String> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(rest.is_empty(), "{rest:?} left after cleaning");
+}
