@@ -200,25 +200,34 @@ pub fn write(b: &Backbone, dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Exit-code plumbing (issue 14): Ok when the backbone reached q_max with points beyond its
+/// start; otherwise a [`crate::exit::StoppedEarly`] error (exit code 3) with the reason, the
+/// written partial results in `dir` (backbone.csv, and the reason as `termination` in
+/// backbone.json) named.
+pub fn stopped_early(b: &Backbone, dir: &Path) -> Result<()> {
+    let g = b.gap_reference;
+    let first = b.points.first().map_or(f64::NAN, |p| p.q);
+    let progressed = b.points.iter().any(|p| p.q > first);
+    if progressed && b.termination == Termination::ReachedMaxAmplitude {
+        return Ok(());
+    }
+    let last = b.points.last().map_or(f64::NAN, |p| p.q / g);
+    let reason = if progressed {
+        format!("{:?}", b.termination)
+    } else {
+        format!("no point beyond the first ({:?})", b.termination)
+    };
+    Err(anyhow::Error::new(crate::exit::StoppedEarly(format!(
+        "the backbone stopped early at q/g0 = {last:.4}: {reason}; the {} points computed are \
+         in {} (backbone.csv; the reason is `termination` in backbone.json)",
+        b.points.len(),
+        dir.display()
+    ))))
+}
+
 /// Read a reduced-model directory.
 pub fn load_model(dir: &Path) -> Result<ReducedModel> {
     ReducedModel::read(dir).with_context(|| format!("reading the reduced model {}", dir.display()))
-}
-
-/// Algorithm 1 parameters and continuation settings from a TOML file with optional `[algorithm]`
-/// and `[continuation]` tables (any other key is an error).
-pub fn load_settings(path: &Path) -> Result<(AlgorithmParams, ContinuationSettings)> {
-    #[derive(serde::Deserialize, Default)]
-    #[serde(deny_unknown_fields, default)]
-    struct File {
-        algorithm: AlgorithmParams,
-        continuation: ContinuationSettings,
-    }
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read settings file {}", path.display()))?;
-    let f: File = toml::from_str(&text)
-        .with_context(|| format!("invalid settings file {}", path.display()))?;
-    Ok((f.algorithm, f.continuation))
 }
 
 /// A short table of the backbone (about 15 rows) for the terminal.

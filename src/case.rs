@@ -1,11 +1,17 @@
-//! The study case file (TOML), e.g. `cases/blade.toml`. Every key has a default; an unknown key is an
-//! error that names it (serde `deny_unknown_fields`). Units: SI (m, kg, s, Pa).
+//! The study case file (TOML), e.g. `cases/blade.toml`. Every key has a default, and
+//! [`Case::default`] is the one place the defaults live: a file is read as its keys merged over
+//! the serialized defaults, so a key deleted from a table takes the documented value (not the
+//! library's). An unknown key is an error that names it (serde `deny_unknown_fields`), and every
+//! value is checked before the first stage runs (`validate::check_case`). Units: SI (m, kg, s, Pa).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use nlmodes_nnm::{AlgorithmParams, ContinuationSettings};
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+use crate::exit::bad_input;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -159,11 +165,12 @@ impl Default for NnmSection {
 }
 
 impl Case {
+    /// Reads `path` and merges it over [`Case::default`]; every failure is bad input naming the
+    /// file. The values are checked by `validate::check_case`.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read case file {}", path.display()))?;
-        let mut case: Case = toml::from_str(&text)
-            .with_context(|| format!("invalid case file {}", path.display()))?;
+            .map_err(|e| bad_input(format!("cannot read the case file {}: {e}", path.display())))?;
+        let mut case: Case = with_defaults(&Case::default(), &text, path)?;
         if case.name.is_none() {
             case.name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         }
@@ -179,6 +186,73 @@ impl Case {
     }
 }
 
+/// The `[algorithm]` and `[continuation]` tables of `nlmodes backbone --settings FILE`, over the
+/// defaults of a case file (a missing key takes the value [`Case::default`] documents).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StudySettings {
+    pub algorithm: AlgorithmParams,
+    pub continuation: ContinuationSettings,
+}
+
+impl Default for StudySettings {
+    fn default() -> Self {
+        let case = Case::default();
+        Self {
+            algorithm: case.algorithm,
+            continuation: case.continuation,
+        }
+    }
+}
+
+impl StudySettings {
+    /// Reads a settings file (bad input naming the file on any failure).
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            bad_input(format!(
+                "cannot read the settings file {}: {e}",
+                path.display()
+            ))
+        })?;
+        with_defaults(&StudySettings::default(), &text, path)
+    }
+}
+
+/// `text` (TOML) merged over the serialized `defaults`, table by table and key by key, then
+/// deserialized. The text is first read on its own so that an unknown key or a wrong type is
+/// reported with its line (the merged value has no positions).
+pub fn with_defaults<T: Serialize + DeserializeOwned>(
+    defaults: &T,
+    text: &str,
+    path: &Path,
+) -> Result<T> {
+    let invalid =
+        |e: &dyn std::fmt::Display| bad_input(format!("invalid TOML file {}: {e}", path.display()));
+    toml::from_str::<T>(text).map_err(|e| invalid(&e))?;
+    let user: toml::Table = toml::from_str(text).map_err(|e| invalid(&e))?;
+    let mut merged = toml::Value::try_from(defaults)
+        .map_err(|e| anyhow::anyhow!("serializing the defaults: {e}"))?;
+    merge(&mut merged, toml::Value::Table(user));
+    merged.try_into().map_err(|e| invalid(&e))
+}
+
+/// Overwrites `base` with `over`, recursing into tables present in both.
+fn merge(base: &mut toml::Value, over: toml::Value) {
+    match (base, over) {
+        (toml::Value::Table(b), toml::Value::Table(o)) => {
+            for (key, value) in o {
+                match b.get_mut(&key) {
+                    Some(slot) => merge(slot, value),
+                    None => {
+                        b.insert(key, value);
+                    }
+                }
+            }
+        }
+        (slot, value) => *slot = value,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -190,5 +264,38 @@ mod tests {
         assert_eq!(c.nnm.samples, NnmSection::default().samples);
         let err = toml::from_str::<Case>("[nnm]\nharmonix = 7\n").unwrap_err();
         assert!(err.to_string().contains("harmonix"), "{err}");
+    }
+
+    /// Deleting a key of a present table takes the value `Case::default()` documents, not
+    /// the library default (issue 14: q_max 35 not 10, epsilon 1e-3 not 1e-4).
+    #[test]
+    fn a_deleted_key_takes_the_case_default() {
+        let path = Path::new("test.toml");
+        let text = "[continuation]\nstep = 0.5\n[algorithm]\nalpha = 5.0\n";
+        let c: Case = with_defaults(&Case::default(), text, path).unwrap();
+        let d = Case::default();
+        assert_eq!(c.continuation.q_max, d.continuation.q_max);
+        assert_eq!(c.continuation.q_max, 35.0);
+        assert_eq!(c.algorithm.epsilon, 1e-3);
+        assert_eq!((c.continuation.step, c.algorithm.alpha), (0.5, 5.0));
+        let s: StudySettings = with_defaults(&StudySettings::default(), text, path).unwrap();
+        assert_eq!((s.continuation.q_max, s.algorithm.epsilon), (35.0, 1e-3));
+        let err = with_defaults(&Case::default(), "[continuation]\nqmax = 3\n", path)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("qmax") && err.contains("test.toml"), "{err}");
+    }
+
+    /// The shipped case file states the defaults: reading it equals `Case::default()` (but
+    /// for its name and the .geo parameters it spells out).
+    #[test]
+    fn shipped_case_file_equals_the_defaults() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/blade.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut c: Case = with_defaults(&Case::default(), &text, &path).unwrap();
+        c.name = None;
+        c.mesh.parameters.clear();
+        let as_json = |c: &Case| serde_json::to_string(c).unwrap();
+        assert_eq!(as_json(&c), as_json(&Case::default()));
     }
 }

@@ -1,6 +1,6 @@
 //! The clamped finite-element model: mesh, material, Dirichlet elimination, assembled K and M.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use nlmodes_fem::{assemble, fixed_dofs, read_msh, DofMap, Isotropic, Mesh};
 use nlmodes_modal::{eigs_shift_invert_factored, Modes, SparseCholesky};
 use sprs::CsMat;
@@ -16,6 +16,8 @@ pub struct FeModel {
     pub k: CsMat<f64>,
     /// Free-DOF consistent mass M_ff, kg.
     pub m: CsMat<f64>,
+    /// The Dirichlet specifications applied (`root`, `bottom:z`), for messages.
+    pub clamp: Vec<String>,
 }
 
 impl FeModel {
@@ -45,13 +47,21 @@ impl FeModel {
                 "no Dirichlet condition: the model has rigid-body modes; use a negative --sigma"
             );
         }
-        Ok(Self { mesh, dofs, k, m })
+        Ok(Self {
+            mesh,
+            dofs,
+            k,
+            m,
+            clamp: fix.to_vec(),
+        })
     }
 
     /// The `n` lowest modes by ARPACK shift-invert about `sigma` (rad^2/s^2), with a progress spinner.
     pub fn modes(&self, n: usize, sigma: f64) -> Result<Modes> {
         if n == 0 {
-            bail!("the number of modes must be at least 1");
+            return Err(crate::exit::bad_input(
+                "the number of modes must be at least 1 (--modes or model.linear_modes)",
+            ));
         }
         let stage = ui::Stage::start("modes");
         let t = std::time::Instant::now();

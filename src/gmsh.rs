@@ -5,6 +5,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
 
+use crate::exit::bad_input;
+
 /// Names of the numbers a .geo file lets `-setnumber` override: those it defines with
 /// `DefineNumber` (`name = DefineNumber[...]`) or guards with `If (!Exists(name))`.
 pub fn geo_parameters(geo_text: &str) -> Vec<String> {
@@ -32,27 +34,44 @@ pub fn geo_parameters(geo_text: &str) -> Vec<String> {
 /// Mesh `geo` with gmsh into `out` (MSH 4.1), setting each parameter with `-setnumber`.
 /// Writes to a temporary name and renames, so an interrupted run leaves no half-written mesh.
 pub fn mesh(geo: &Path, params: &BTreeMap<String, f64>, order: u32, out: &Path) -> Result<()> {
-    let text = std::fs::read_to_string(geo)
-        .with_context(|| format!("cannot read the geometry file {}", geo.display()))?;
+    let text = std::fs::read_to_string(geo).map_err(|e| {
+        bad_input(format!(
+            "cannot read the geometry file {}: {e}",
+            geo.display()
+        ))
+    })?;
     let known = geo_parameters(&text);
     for name in params.keys() {
         if !known.iter().any(|k| k == name) {
-            bail!(
+            return Err(bad_input(format!(
                 "parameter `{name}` is not defined by {} (it defines: {})",
                 geo.display(),
                 known.join(", ")
-            );
+            )));
         }
     }
     if !(1..=2).contains(&order) {
-        bail!("element order {order} is not supported: expected 1 (TET4) or 2 (TET10)");
+        return Err(bad_input(format!(
+            "element order {order} is not supported: expected 1 (TET4) or 2 (TET10)"
+        )));
+    }
+    if out.is_dir() {
+        return Err(bad_input(format!(
+            "output {} is an existing directory; expected a .msh file name",
+            out.display()
+        )));
     }
     let gmsh = which_gmsh()?;
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create directory {}", dir.display()))?;
     }
-    let tmp = out.with_extension("msh.tmp");
+    // `.<name>.tmp-<pid>-gmsh`: the pattern `nlmodes_output::remove_stale_temporaries` removes,
+    // so even the file of a gmsh killed with nlmodes is cleaned by the next `nlmodes run`.
+    let name = out
+        .file_name()
+        .map_or_else(|| "mesh.msh".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = out.with_file_name(format!(".{name}.tmp-{}-gmsh", std::process::id()));
     let mut cmd = Command::new(&gmsh);
     cmd.arg("-3")
         .arg("-order")
@@ -69,25 +88,43 @@ pub fn mesh(geo: &Path, params: &BTreeMap<String, f64>, order: u32, out: &Path) 
     }
     cmd.arg(geo).arg("-o").arg(&tmp);
     tracing::debug!("running {:?}", cmd);
-    let output = cmd
-        .output()
-        .with_context(|| format!("cannot run {}", gmsh.display()))?;
+    let output = crate::child::die_with_parent(&mut cmd).output();
+    let output = match output {
+        Ok(o) => o,
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e).with_context(|| format!("cannot run {}", gmsh.display()));
+        }
+    };
     if !output.status.success() || !tmp.exists() {
         let _ = std::fs::remove_file(&tmp);
-        bail!(
+        // The geometry or its parameters did not mesh: bad input.
+        return Err(bad_input(format!(
             "gmsh failed on {} ({}):\n{}{}",
             geo.display(),
             output.status,
             String::from_utf8_lossy(&output.stdout),
             String::from_utf8_lossy(&output.stderr)
-        );
+        )));
     }
     let stderr = String::from_utf8_lossy(&output.stderr);
     for line in stderr.lines().filter(|l| l.contains("Error")) {
         tracing::warn!("gmsh: {line}");
     }
-    std::fs::rename(&tmp, out)
-        .with_context(|| format!("cannot move {} to {}", tmp.display(), out.display()))?;
+    // A .geo that meshes without tetrahedra (no volume, a wrong physical group) is refused
+    // here rather than by the stage that reads it.
+    if let Err(e) = nlmodes_fem::read_msh(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(bad_input(format!(
+            "gmsh meshed {} but the result is not a usable mesh: {e}",
+            geo.display()
+        )));
+    }
+    if let Err(e) = std::fs::rename(&tmp, out) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e)
+            .with_context(|| format!("cannot move {} to {}", tmp.display(), out.display()));
+    }
     Ok(())
 }
 

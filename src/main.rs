@@ -3,6 +3,8 @@
 
 mod backbone;
 mod case;
+mod child;
+mod exit;
 mod fe_model;
 mod figures;
 mod gmsh;
@@ -15,11 +17,15 @@ mod report;
 mod results;
 mod run;
 mod ui;
+mod validate;
 
 use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use case::{MaterialSection, ModelSection, NnmSection};
+use exit::bad_input;
 
 #[derive(Parser)]
 #[command(
@@ -58,17 +64,10 @@ enum Command {
         /// Dirichlet condition GROUP[:COMPONENTS] (e.g. `root`, `bottom:z`), repeatable.
         #[arg(long = "fix")]
         fix: Vec<String>,
-        /// Young's modulus E, Pa.
-        #[arg(long, default_value_t = 113.8e9)]
-        young: f64,
-        /// Poisson's ratio.
-        #[arg(long, default_value_t = 0.342)]
-        poisson: f64,
-        /// Density, kg/m^3.
-        #[arg(long, default_value_t = 4430.0)]
-        density: f64,
+        #[command(flatten)]
+        material: MaterialArgs,
         /// Number of modes.
-        #[arg(long, default_value_t = 10)]
+        #[arg(long, default_value_t = ModelSection::default().linear_modes)]
         modes: usize,
         /// Shift sigma, rad^2/s^2 (negative for a structure with rigid-body modes).
         #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -78,75 +77,9 @@ enum Command {
         out: PathBuf,
     },
     /// Craig-Bampton reduction onto the contact nodes: writes the reduced-model directory.
-    Reduce {
-        /// The MSH 4.1 mesh.
-        mesh: PathBuf,
-        /// Dirichlet condition GROUP[:COMPONENTS], repeatable.
-        #[arg(long = "fix", default_value = "root")]
-        fix: Vec<String>,
-        /// The contact node group.
-        #[arg(long, default_value = "tip_edge")]
-        contact: String,
-        /// Young's modulus E, Pa.
-        #[arg(long, default_value_t = 113.8e9)]
-        young: f64,
-        /// Poisson's ratio.
-        #[arg(long, default_value_t = 0.342)]
-        poisson: f64,
-        /// Density, kg/m^3.
-        #[arg(long, default_value_t = 4430.0)]
-        density: f64,
-        /// Number of fixed-interface modes.
-        #[arg(long, default_value_t = 40)]
-        modes: usize,
-        /// Uniform initial radial gap g0, m.
-        #[arg(long, default_value_t = 2.0e-4)]
-        gap: f64,
-        /// Rotor axis point x,y,z (m).
-        #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
-        axis_point: [f64; 3],
-        /// Rotor axis direction x,y,z.
-        #[arg(long, value_parser = parse_vec3, default_value = "1,0,0", allow_hyphen_values = true)]
-        axis_direction: [f64; 3],
-        /// Master coordinate (reduced DOF index); default: the contact DOF with the largest
-        /// first-mode amplitude.
-        #[arg(long)]
-        master: Option<usize>,
-        /// Number of full-model modes computed to compare with the reduced model (0 to skip).
-        #[arg(long, default_value_t = 10)]
-        compare: usize,
-        /// Output directory (the reduced model).
-        #[arg(long, short)]
-        out: PathBuf,
-    },
+    Reduce(ReduceArgs),
     /// Backbone of the first nonlinear mode of a reduced model: writes backbone.csv, backbone.json.
-    Backbone {
-        /// The reduced-model directory (K.mtx, M.mtx, model.json).
-        model: PathBuf,
-        /// Largest amplitude, in gaps (q / g0) [default: the settings file's, else 35].
-        #[arg(long)]
-        q_max: Option<f64>,
-        /// First amplitude, in gaps; below grazing [default: the settings file's, else 0.5].
-        #[arg(long)]
-        q_start: Option<f64>,
-        /// Highest harmonic N (default: the study's, cases/blade.toml).
-        #[arg(long, default_value_t = 10)]
-        harmonics: usize,
-        /// Time samples per period m (>= 2N + 1).
-        #[arg(long, default_value_t = 128)]
-        samples: usize,
-        /// Master coordinate (reduced DOF index); default: the model's.
-        #[arg(long)]
-        master: Option<usize>,
-        /// Algorithm 1 parameters and continuation settings as a TOML file with [algorithm] and
-        /// [continuation] tables (see cases/blade.toml); flags above override it. Without it, the
-        /// defaults of a case file (epsilon = 1e-3 g0 among them).
-        #[arg(long)]
-        settings: Option<PathBuf>,
-        /// Output directory.
-        #[arg(long, short)]
-        out: PathBuf,
-    },
+    Backbone(BackboneArgs),
     /// Run a study case (default cases/blade.toml): mesh, modes, reduce, backbone, post.
     /// Each stage reruns only when its inputs changed.
     Run {
@@ -161,6 +94,121 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+}
+
+/// The arguments of `nlmodes reduce`.
+#[derive(Args)]
+struct ReduceArgs {
+    /// The MSH 4.1 mesh.
+    mesh: PathBuf,
+    /// Dirichlet condition GROUP[:COMPONENTS], repeatable.
+    #[arg(long = "fix", default_value = "root")]
+    fix: Vec<String>,
+    /// The contact node group.
+    #[arg(long, default_value_t = ModelSection::default().contact_group)]
+    contact: String,
+    #[command(flatten)]
+    material: MaterialArgs,
+    /// Number of fixed-interface modes.
+    #[arg(long, default_value_t = ModelSection::default().fixed_interface_modes)]
+    modes: usize,
+    /// Uniform initial radial gap g0, m.
+    #[arg(long, default_value_t = ModelSection::default().gap, allow_hyphen_values = true)]
+    gap: f64,
+    /// Rotor axis point x,y,z (m).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0", allow_hyphen_values = true)]
+    axis_point: [f64; 3],
+    /// Rotor axis direction x,y,z.
+    #[arg(long, value_parser = parse_vec3, default_value = "1,0,0", allow_hyphen_values = true)]
+    axis_direction: [f64; 3],
+    /// Master coordinate (reduced DOF index); default: the contact DOF with the largest
+    /// first-mode amplitude.
+    #[arg(long)]
+    master: Option<usize>,
+    /// Number of full-model modes computed to compare with the reduced model (0 to skip).
+    #[arg(long, default_value_t = 10)]
+    compare: usize,
+    /// Output directory (the reduced model).
+    #[arg(long, short)]
+    out: PathBuf,
+}
+
+/// The arguments of `nlmodes backbone`.
+#[derive(Args)]
+struct BackboneArgs {
+    /// The reduced-model directory (K.mtx, M.mtx, model.json).
+    model: PathBuf,
+    /// Largest amplitude, in gaps (q / g0) [default: the settings file's, else the case
+    /// default 35].
+    #[arg(long, allow_hyphen_values = true)]
+    q_max: Option<f64>,
+    /// First amplitude, in gaps; below grazing [default: the settings file's, else 0.5].
+    #[arg(long, allow_hyphen_values = true)]
+    q_start: Option<f64>,
+    /// Highest harmonic N (default: the study's, cases/blade.toml).
+    #[arg(long, default_value_t = NnmSection::default().harmonics)]
+    harmonics: usize,
+    /// Time samples per period m (>= 2N + 1).
+    #[arg(long, default_value_t = NnmSection::default().samples)]
+    samples: usize,
+    /// Master coordinate (reduced DOF index); default: the model's.
+    #[arg(long)]
+    master: Option<usize>,
+    /// Algorithm 1 parameters and continuation settings as a TOML file with [algorithm] and
+    /// [continuation] tables (see cases/blade.toml); --q-max and --q-start override it. A key
+    /// it does not set takes the default of a case file (epsilon = 1e-3 g0, q_max = 35).
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, short)]
+    out: PathBuf,
+}
+
+/// The material of the `modes` and `reduce` subcommands; defaults from [`MaterialSection`],
+/// the one place the case defaults live.
+#[derive(Args, Clone, Copy)]
+struct MaterialArgs {
+    /// Young's modulus E, Pa.
+    #[arg(long, default_value_t = MaterialSection::default().young, allow_hyphen_values = true)]
+    young: f64,
+    /// Poisson's ratio.
+    #[arg(long, default_value_t = MaterialSection::default().poisson, allow_hyphen_values = true)]
+    poisson: f64,
+    /// Density, kg/m^3.
+    #[arg(long, default_value_t = MaterialSection::default().density, allow_hyphen_values = true)]
+    density: f64,
+}
+
+impl MaterialArgs {
+    /// The material; each flag out of its range is named (bad input).
+    fn material(self) -> Result<nlmodes_fem::Isotropic> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let mut p = validate::Problems::new(|flag| flag.to_string());
+        p.check(
+            positive(self.young),
+            "--young",
+            self.young,
+            "a finite value > 0 (Pa)",
+        );
+        p.check(
+            self.poisson > -1.0 && self.poisson < 0.5,
+            "--poisson",
+            self.poisson,
+            "-1 < poisson < 0.5",
+        );
+        p.check(
+            positive(self.density),
+            "--density",
+            self.density,
+            "a finite value > 0 (kg/m^3)",
+        );
+        p.finish()?;
+        Ok(nlmodes_fem::Isotropic::new(
+            self.young,
+            self.poisson,
+            self.density,
+        )?)
+    }
 }
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
@@ -188,10 +236,10 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     ui::init(cli.quiet);
     match run(cli.command) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(()) => std::process::ExitCode::from(exit::COMPLETE),
         Err(e) => {
             eprintln!("error: {e:#}");
-            std::process::ExitCode::FAILURE
+            std::process::ExitCode::from(exit::code_of(&e))
         }
     }
 }
@@ -204,6 +252,7 @@ fn run(command: Command) -> Result<()> {
             order,
             set,
         } => {
+            validate::check_output_file(&out, "--out")?;
             let params: BTreeMap<String, f64> = set.into_iter().collect();
             let stage = ui::Stage::start("mesh");
             gmsh::mesh(&geo, &params, order, &out)?;
@@ -213,84 +262,115 @@ fn run(command: Command) -> Result<()> {
         Command::Modes {
             mesh,
             fix,
-            young,
-            poisson,
-            density,
+            material,
             modes,
             sigma,
             out,
         } => {
-            let material = nlmodes_fem::Isotropic::new(young, poisson, density)?;
-            let fe = fe_model::FeModel::build(&mesh, &material, &fix)?;
+            check_count(modes, "--modes")?;
+            if !sigma.is_finite() {
+                return Err(bad_input(format!(
+                    "--sigma {sigma}: expected a finite shift"
+                )));
+            }
+            validate::check_output_dir(&out, "--out")?;
+            let fe = fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
             let m = fe.modes(modes, sigma)?;
             fe_model::write_modes(&fe, &m, &out)?;
             ui::say(&fe_model::frequency_table(&m));
             Ok(())
         }
-        Command::Reduce {
-            mesh,
-            fix,
-            contact,
-            young,
-            poisson,
-            density,
-            modes,
-            gap,
-            axis_point,
-            axis_direction,
-            master,
-            compare,
-            out,
-        } => {
-            let material = nlmodes_fem::Isotropic::new(young, poisson, density)?;
-            let fe = fe_model::FeModel::build(&mesh, &material, &fix)?;
-            let settings = reduce::ReduceSettings {
-                contact_group: &contact,
-                axis: nlmodes_modal::RotorAxis::new(axis_point, axis_direction)?,
-                gap,
-                modes,
-                master,
-            };
-            let (mut model, _) = reduce::reduce(&fe, &settings)?;
-            reduce::write_model(&mut model, &out, &mesh)?;
-            if compare > 0 {
-                let full = fe.modes(compare, 0.0)?;
-                ui::say(&reduce::comparison_table(
-                    &full.frequencies_hz(),
-                    &model.linear_frequencies_hz,
-                ));
-            }
-            Ok(())
-        }
-        Command::Backbone {
-            model,
-            q_max,
-            q_start,
-            harmonics,
-            samples,
-            master,
-            settings,
-            out,
-        } => {
-            let (params, mut cont) = match settings {
-                Some(p) => backbone::load_settings(&p)?,
-                None => {
-                    let study = case::Case::default();
-                    (study.algorithm, study.continuation)
-                }
-            };
-            // A flag given on the command line wins over the settings file.
-            cont.q_max = q_max.unwrap_or(cont.q_max);
-            cont.q_start = q_start.unwrap_or(cont.q_start);
-            let reduced = backbone::load_model(&model)?;
-            let system = backbone::system_of(&reduced, master)?;
-            backbone::check_reaches_contact(&system, &cont)?;
-            let hs = nlmodes_nnm::HarmonicSettings::new(harmonics, samples)?;
-            let b = backbone::trace(&system, hs, &params, &cont)?;
-            backbone::write(&b, &out)?;
-            ui::say(&backbone::summary(&b));
-            Ok(())
-        }
+        Command::Reduce(args) => reduce_command(args),
+        Command::Backbone(args) => backbone_command(args),
         Command::Run { case, only, force } => run::run(&case, only, force),
     }
+}
+
+/// A count flag must be at least 1.
+fn check_count(n: usize, flag: &str) -> Result<()> {
+    if n == 0 {
+        return Err(bad_input(format!("{flag} 0: expected at least 1")));
+    }
+    Ok(())
+}
+
+/// `nlmodes reduce`: the arguments and the output path are checked before the mesh is read.
+fn reduce_command(a: ReduceArgs) -> Result<()> {
+    check_count(a.modes, "--modes")?;
+    if !(a.gap.is_finite() && a.gap > 0.0) {
+        return Err(bad_input(format!(
+            "--gap {}: expected a finite gap > 0 (m)",
+            a.gap
+        )));
+    }
+    let axis = nlmodes_modal::RotorAxis::new(a.axis_point, a.axis_direction)
+        .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
+    validate::check_output_dir(&a.out, "--out")?;
+    let fe = fe_model::FeModel::build(&a.mesh, &a.material.material()?, &a.fix)?;
+    let settings = reduce::ReduceSettings {
+        contact_group: &a.contact,
+        axis,
+        gap: a.gap,
+        modes: a.modes,
+        master: a.master,
+    };
+    let (mut model, _) = reduce::reduce(&fe, &settings)?;
+    reduce::write_model(&mut model, &a.out, &a.mesh)?;
+    if a.compare > 0 {
+        let full = fe.modes(a.compare, 0.0)?;
+        ui::say(&reduce::comparison_table(
+            &full.frequencies_hz(),
+            &model.linear_frequencies_hz,
+        ));
+    }
+    Ok(())
+}
+
+/// `nlmodes backbone`: every setting and the output path are checked before the model is read,
+/// the model before anything is computed.
+fn backbone_command(a: BackboneArgs) -> Result<()> {
+    let study = match &a.settings {
+        Some(p) => case::StudySettings::load(p)?,
+        None => case::StudySettings::default(),
+    };
+    let (params, mut cont) = (study.algorithm, study.continuation);
+    cont.q_max = a.q_max.unwrap_or(cont.q_max);
+    cont.q_start = a.q_start.unwrap_or(cont.q_start);
+    let source = a
+        .settings
+        .as_deref()
+        .map_or_else(|| "defaults".to_string(), |p| p.display().to_string());
+    let mut problems = validate::Problems::new(move |key| match key {
+        "nnm.harmonics" => "--harmonics".to_string(),
+        "nnm.samples" => "--samples".to_string(),
+        other => format!("{source} (with --q-max/--q-start): {other}"),
+    });
+    validate::check_nnm(a.harmonics, a.samples, &mut problems);
+    validate::check_settings(&params, &cont, &mut problems);
+    problems.finish()?;
+    validate::check_output_dir(&a.out, "--out")?;
+    let reduced = load_model(&a.model)?;
+    if let Some(m) = a.master.filter(|&m| m >= reduced.n()) {
+        return Err(bad_input(format!(
+            "--master {m}: expected a reduced coordinate index < {} (the model's order)",
+            reduced.n()
+        )));
+    }
+    let system = backbone::system_of(&reduced, a.master)?;
+    backbone::check_reaches_contact(&system, &cont)?;
+    let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
+    let b = backbone::trace(&system, hs, &params, &cont)?;
+    backbone::write(&b, &a.out)?;
+    ui::say(&backbone::summary(&b));
+    backbone::stopped_early(&b, &a.out)
+}
+
+/// Reads a reduced model; any failure is bad input naming the directory.
+pub fn load_model(dir: &Path) -> Result<nlmodes_modal::ReducedModel> {
+    nlmodes_modal::ReducedModel::read(dir).map_err(|e| {
+        anyhow::Error::new(e).context(exit::BadInput(format!(
+            "reading the reduced model {}",
+            dir.display()
+        )))
+    })
 }

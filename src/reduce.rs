@@ -1,7 +1,7 @@
 //! Craig-Bampton reduction of the clamped FE model onto its contact nodes, and the reduced-model
 //! directory (format documented in `nlmodes_modal::reduced_model` and in the README).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use faer::Mat;
 use nlmodes_modal::{
     craig_bampton, reduced_eigen, ContactNode, CraigBampton, MasterCoordinate, MeshReference,
@@ -9,6 +9,7 @@ use nlmodes_modal::{
 };
 use std::path::Path;
 
+use crate::exit::bad_input;
 use crate::fe_model::FeModel;
 use crate::ui;
 
@@ -30,7 +31,7 @@ pub fn ordered_contact_nodes(fe: &FeModel, group: &str) -> Result<Vec<usize>> {
     let g = fe.mesh.group(group)?;
     let mut nodes = g.nodes.clone();
     if nodes.is_empty() {
-        bail!("contact group `{group}` has no nodes");
+        return Err(bad_input(format!("contact group `{group}` has no nodes")));
     }
     let x = |n: usize| fe.mesh.nodes[n];
     let dist2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
@@ -53,22 +54,67 @@ pub fn ordered_contact_nodes(fe: &FeModel, group: &str) -> Result<Vec<usize>> {
     Ok(nodes)
 }
 
+/// Two contact nodes at the same point (distinct tags, equal coordinates) would make two
+/// identical contact rows: bad input naming both nodes.
+fn check_distinct_positions(fe: &FeModel, nodes: &[usize], group: &str) -> Result<()> {
+    let mut sorted: Vec<usize> = nodes.to_vec();
+    sorted.sort_by(|&a, &b| {
+        let (p, q) = (fe.mesh.nodes[a], fe.mesh.nodes[b]);
+        p.iter()
+            .zip(&q)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    if let Some(w) = sorted
+        .windows(2)
+        .find(|w| fe.mesh.nodes[w[0]] == fe.mesh.nodes[w[1]])
+    {
+        return Err(bad_input(format!(
+            "contact group `{group}`: mesh nodes {} and {} are both at {:?}: duplicated contact \
+             node (each contact point must be one mesh node)",
+            w[0] + 1,
+            w[1] + 1,
+            fe.mesh.nodes[w[0]]
+        )));
+    }
+    Ok(())
+}
+
 /// Reduce `fe` by Craig-Bampton onto the three DOFs of every contact node.
 pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBampton)> {
     if !(s.gap > 0.0 && s.gap.is_finite()) {
-        bail!("the initial gap must be > 0 m, got {}", s.gap);
+        return Err(bad_input(format!(
+            "the initial gap must be > 0 m, got {}",
+            s.gap
+        )));
     }
     let nodes = ordered_contact_nodes(fe, s.contact_group)?;
+    check_distinct_positions(fe, &nodes, s.contact_group)?;
     let mut boundary = Vec::with_capacity(3 * nodes.len());
     for &n in &nodes {
         for c in 0..3 {
-            let free = fe.dofs.free_index(3 * n + c).with_context(|| {
-                format!(
-                    "contact node {} of group `{}` at {:?} has a fixed DOF: it lies on a clamped group",
+            let free = fe.dofs.free_index(3 * n + c).ok_or_else(|| {
+                let clamped: Vec<String> = fe
+                    .clamp
+                    .iter()
+                    .filter(|spec| {
+                        nlmodes_fem::parse_fix_spec(spec).is_ok_and(|(group, _)| {
+                            fe.mesh
+                                .group(&group)
+                                .is_ok_and(|g| g.nodes.binary_search(&n).is_ok())
+                        })
+                    })
+                    .map(|spec| format!("'{spec}'"))
+                    .collect();
+                bad_input(format!(
+                    "contact node {} of group `{}` at {:?} has a fixed DOF: it lies on the \
+                     clamped group(s) {}; the contact group must be free",
                     n + 1,
                     s.contact_group,
-                    fe.mesh.nodes[n]
-                )
+                    fe.mesh.nodes[n],
+                    clamped.join(", ")
+                ))
             })?;
             boundary.push(free);
         }
@@ -159,7 +205,9 @@ fn master_coordinate(
     let dof = match given {
         Some(d) if d < n => d,
         Some(d) => {
-            bail!("master coordinate {d} is out of range: the reduced model has {n} coordinates")
+            return Err(bad_input(format!(
+                "master coordinate {d} is out of range: the reduced model has {n} coordinates"
+            )))
         }
         None => contact
             .iter()

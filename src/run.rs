@@ -56,7 +56,9 @@ pub enum Only {
 /// the `only` stage even when it is up to date, or every stage when `only` is not given (the stages
 /// an `--only` stage depends on still rerun only when out of date).
 pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
+    // Every key, cross-key rule and the output location, before the first stage (issue 14).
     let case = Case::load(case_path)?;
+    crate::validate::check_case(&case, case_path)?;
     let layout = Layout {
         root: case.out_dir(),
     };
@@ -147,6 +149,8 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
             Err(e) => {
                 if let Some(child) = modes_child.take() {
                     child.kill();
+                    // The killed child may have left its temporary files.
+                    let _ = nlmodes_output::remove_stale_temporaries(&layout.modes());
                 }
                 return Err(e);
             }
@@ -187,6 +191,8 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         let kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
         nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;
         ui::say(&backbone::summary(&b));
+        // A backbone stopped before q_max keeps its results but no stamp: exit code 3.
+        backbone::stopped_early(&b, &layout.backbone())?;
         stamp(&layout, "backbone", &bb_hash)?;
     } else if needs_bb {
         tracing::info!("stage backbone: up to date");
@@ -268,7 +274,7 @@ impl ModesChild {
             "stage modes: {} clamped modes of the full model, in a child process alongside the reduction",
             case.model.linear_modes
         );
-        let child = cmd
+        let child = crate::child::die_with_parent(&mut cmd)
             .spawn()
             .with_context(|| format!("cannot start {} modes", exe.display()))?;
         Ok(Self { child, stage })

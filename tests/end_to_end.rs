@@ -431,7 +431,8 @@ fn bad_inputs_give_clear_errors() {
     let low = coarse_case(tmp.path(), "").to_str().unwrap().to_string();
     let s = std::fs::read_to_string(&low)
         .unwrap()
-        .replace("q_max = 14.0", "q_max = 1.0");
+        .replace("q_max = 14.0", "q_max = 1.0")
+        .replace("keep = [3.0, 12.0]", "keep = [0.8]");
     std::fs::write(&low, s).unwrap();
     let out = nlmodes(&["run", &low], &[]);
     assert!(!out.status.success());

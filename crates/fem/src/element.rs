@@ -16,8 +16,8 @@
 use crate::error::FemError;
 use crate::geometry::{check_det_j, det3, inverse3, longest_vertex_edge, AffineJacobian};
 use crate::material::{Isotropic, Lame};
-use crate::mesh::TetKind;
 use crate::shape;
+use crate::tet_kind::TetKind;
 
 pub use crate::rule_choice::{
     curvature, is_affine, ElementRules, AFFINE_TOLERANCE, LADDER_TOLERANCE, STIFFNESS_LADDER,

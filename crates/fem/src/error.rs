@@ -179,7 +179,36 @@ pub enum FemError {
         expected: &'static str,
     },
 
-    /// A node has a non-finite coordinate.
+    /// A node of a mesh file has a non-finite coordinate.
+    #[error("{path}: node {node_tag} has a non-finite coordinate {coords:?}: every coordinate must be a finite number (m)")]
+    MshNonFiniteCoordinate {
+        /// The file.
+        path: PathBuf,
+        /// The node's tag in the file.
+        node_tag: u64,
+        /// Its coordinates.
+        coords: [f64; 3],
+    },
+
+    /// A node appears twice in one point (dimension 0) physical group: two point elements of the
+    /// group share a mesh node, so the group has fewer distinct nodes than point elements.
+    #[error(
+        "{path}: node {node_tag} appears in {count} point elements of the physical group '{group}' \
+         (dim 0): each point of the group must be its own mesh node (merge or remove the duplicated points)"
+    )]
+    DuplicateGroupNode {
+        /// The file.
+        path: PathBuf,
+        /// The group's name.
+        group: String,
+        /// The node's tag in the file.
+        node_tag: u64,
+        /// How many point elements of the group hold it.
+        count: usize,
+    },
+
+    /// A node has a non-finite coordinate (a mesh built in code; files report
+    /// [`FemError::MshNonFiniteCoordinate`] with the node tag).
     #[error("node {node} (0-based) has a non-finite coordinate {coords:?}")]
     NonFiniteCoordinate {
         /// 0-based node index.

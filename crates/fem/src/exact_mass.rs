@@ -8,9 +8,9 @@
 //! An element mass then costs 20 evaluations of det J instead of a 64-point quadrature.
 
 use crate::geometry::{det3, AffineJacobian};
-use crate::mesh::TetKind;
 use crate::quadrature::TetRule;
 use crate::shape;
+use crate::tet_kind::TetKind;
 
 /// Number of cubic Lagrange points on the tetrahedron.
 pub const CUBIC_POINTS: usize = 20;

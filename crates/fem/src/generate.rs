@@ -4,8 +4,9 @@
 use std::collections::HashMap;
 
 use crate::error::FemError;
-use crate::mesh::{Mesh, PhysicalGroup, TetKind};
+use crate::mesh::{Mesh, PhysicalGroup};
 use crate::shape::TET10_EDGES;
+use crate::tet_kind::TetKind;
 
 /// Splits a hexahedron into 6 tetrahedra along its main diagonal (Kuhn / Freudenthal split).
 ///

@@ -1,8 +1,8 @@
 //! Isoparametric geometry: Jacobian of the reference-to-physical map and its checks.
 
 use crate::error::FemError;
-use crate::mesh::TetKind;
 use crate::shape;
+use crate::tet_kind::TetKind;
 
 /// Relative threshold below which a positive det J counts as degenerate: det J < 1e-10 h^3.
 /// (A regular tetrahedron of edge h has det J = 6 V = h^3 / sqrt 2; the slivers that real

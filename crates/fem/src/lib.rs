@@ -30,11 +30,13 @@ pub mod quadrature;
 pub mod rule_choice;
 pub mod shape;
 mod tabulated_rule;
+pub mod tet_kind;
 
 pub use assembly::{assemble, NodeAdjacency};
 pub use dofs::{fixed_dofs, parse_fix_spec, DofMap};
 pub use error::FemError;
 pub use material::{Isotropic, Lame};
-pub use mesh::{Mesh, PhysicalGroup, TetKind};
+pub use mesh::{Mesh, PhysicalGroup};
 pub use msh::{parse_msh, read_msh};
 pub use quadrature::TetRule;
+pub use tet_kind::TetKind;

@@ -2,33 +2,7 @@
 
 use crate::element;
 use crate::error::FemError;
-
-/// Tetrahedral element kind.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum TetKind {
-    /// 4-node linear tetrahedron (gmsh type 4).
-    Tet4,
-    /// 10-node quadratic tetrahedron (gmsh type 11), possibly curved.
-    Tet10,
-}
-
-impl TetKind {
-    /// Nodes per element: 4 or 10.
-    pub fn nodes_per_element(self) -> usize {
-        match self {
-            TetKind::Tet4 => 4,
-            TetKind::Tet10 => 10,
-        }
-    }
-
-    /// gmsh element type number: 4 or 11.
-    pub fn gmsh_type(self) -> i32 {
-        match self {
-            TetKind::Tet4 => 4,
-            TetKind::Tet10 => 11,
-        }
-    }
-}
+pub use crate::tet_kind::TetKind;
 
 /// A named physical group of any dimension (0 = points, 1 = curves, 2 = surfaces, 3 = volumes).
 #[derive(Clone, Debug, PartialEq)]

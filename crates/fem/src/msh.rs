@@ -15,8 +15,9 @@ use std::path::Path;
 use mshio::{ElementType, MshFile};
 
 use crate::error::FemError;
-use crate::mesh::{Mesh, PhysicalGroup, TetKind};
+use crate::mesh::{Mesh, PhysicalGroup};
 use crate::msh_sections::{node_tags, physical_names, read_header};
+use crate::tet_kind::TetKind;
 
 /// Reads a gmsh MSH 4.1 file (ASCII or binary) into a [`Mesh`].
 pub fn read_msh(path: &Path) -> Result<Mesh, FemError> {
@@ -122,7 +123,15 @@ fn tag_index(
                     message: format!("node tag {tag} appears twice in $Nodes"),
                 });
             }
-            coords.push([node.x, node.y, node.z]);
+            let xyz = [node.x, node.y, node.z];
+            if !xyz.iter().all(|v| v.is_finite()) {
+                return Err(FemError::MshNonFiniteCoordinate {
+                    path: path.to_path_buf(),
+                    node_tag: tag,
+                    coords: xyz,
+                });
+            }
+            coords.push(xyz);
         }
     }
     Ok((coords, index))
@@ -236,6 +245,8 @@ fn build_mesh(
             entity_groups.insert((dim, tag), phys.clone());
         }
     }
+    // (physical tag, node tag) of every node of a point element of a dim-0 group.
+    let mut point_uses: Vec<(i32, u64)> = Vec::new();
     for block in blocks {
         let Ok(dim) = usize::try_from(block.entity_dim) else {
             continue;
@@ -247,8 +258,12 @@ fn build_mesh(
             let Some(group) = groups.get_mut(&(dim, p)) else {
                 continue;
             };
+            let point_group = dim == 0;
             for el in &block.elements {
                 for &n in &el.nodes {
+                    if point_group {
+                        point_uses.push((p, n));
+                    }
                     let mapped = new_index[lookup(el.element_tag, n)?];
                     if mapped == UNUSED {
                         return Err(FemError::GroupNodeOutsideVolume {
@@ -262,6 +277,7 @@ fn build_mesh(
             }
         }
     }
+    check_point_groups(&mut point_uses, &groups, path)?;
     let groups = groups
         .into_values()
         .map(|mut g| {
@@ -280,4 +296,31 @@ fn build_mesh(
     };
     mesh.validate()?;
     Ok(mesh)
+}
+
+/// Two point elements of one dim-0 group on the same mesh node would silently merge into one
+/// group node (the group's node list is deduplicated): an error naming the group and node tag.
+fn check_point_groups(
+    uses: &mut [(i32, u64)],
+    groups: &BTreeMap<(usize, i32), PhysicalGroup>,
+    path: &Path,
+) -> Result<(), FemError> {
+    uses.sort_unstable();
+    let Some(start) = uses.windows(2).position(|w| w[0] == w[1]) else {
+        return Ok(());
+    };
+    let (group_tag, node_tag) = uses[start];
+    let count = uses[start..]
+        .iter()
+        .take_while(|&&u| u == (group_tag, node_tag))
+        .count();
+    let group = groups
+        .get(&(0, group_tag))
+        .map_or_else(|| group_tag.to_string(), |g| g.name.clone());
+    Err(FemError::DuplicateGroupNode {
+        path: path.to_path_buf(),
+        group,
+        node_tag,
+        count,
+    })
 }

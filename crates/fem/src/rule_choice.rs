@@ -35,10 +35,10 @@ use std::sync::OnceLock;
 
 use crate::exact_mass::CubicMassWeights;
 use crate::geometry::{adjugate3, det3, longest_vertex_edge, AffineJacobian};
-use crate::mesh::TetKind;
 use crate::quadrature::TetRule;
 use crate::shape;
 use crate::tabulated_rule::TabulatedRule;
+use crate::tet_kind::TetKind;
 
 /// A TET10 whose mid-edge nodes are all within `AFFINE_TOLERANCE * h` of their edge midpoints
 /// (h the longest vertex edge) is treated as affine. The stiffness error of the affine rule is

@@ -7,7 +7,7 @@
 //! Node order is gmsh's. TET10 edge nodes: 4:(0,1) 5:(1,2) 6:(0,2) 7:(0,3) 8:(2,3) 9:(1,3).
 //! TET4: N_i = L_i. TET10: vertex N_i = L_i (2 L_i - 1), edge node N = 4 L_a L_b.
 
-use crate::mesh::TetKind;
+use crate::tet_kind::TetKind;
 
 /// Vertex pairs of the six TET10 edge nodes 4..9, gmsh order.
 pub const TET10_EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3)];

@@ -1,8 +1,8 @@
 //! Quadrature rules with the shape functions tabulated at their points.
 
-use crate::mesh::TetKind;
 use crate::quadrature::TetRule;
 use crate::shape;
+use crate::tet_kind::TetKind;
 
 /// A quadrature rule with the shape functions and their reference gradients tabulated at its
 /// points for one element kind.

@@ -486,3 +486,32 @@ fn truncated_and_corrupted_files_never_panic() {
         }
     }
 }
+
+#[test]
+fn non_finite_coordinate_is_reported_by_node_tag_and_file() {
+    for bad in ["nan", "inf", "-inf"] {
+        // node 50 (the 4th of the volume block) gets a non-finite y
+        let text =
+            format!("{HEADER}{TWO_TET4}").replace("1 1 1\n5 5 5", &format!("1 {bad} 1\n5 5 5"));
+        let msg = expect_error(text.as_bytes());
+        assert!(
+            msg.contains("node 50 ") && msg.contains("non-finite"),
+            "{bad}: {msg}"
+        );
+    }
+}
+
+#[test]
+fn two_point_elements_of_a_group_on_one_node_are_an_error() {
+    // a second point element (tag 2) of the dim-0 group "corner" on node 10
+    let text = format!("{HEADER}{TWO_TET4}")
+        .replace("4 5 1 105", "4 6 1 105")
+        .replace("0 1 15 1\n1 10\n", "0 1 15 2\n1 10\n2 10\n")
+        .replace("1 1 1 1\n2 10 20\n", "1 1 1 1\n3 10 20\n")
+        .replace("2 1 2 1\n3 10 20 30\n", "2 1 2 1\n4 10 20 30\n");
+    let msg = expect_error(text.as_bytes());
+    assert!(
+        msg.contains("node 10") && msg.contains("'corner'") && msg.contains("2 point elements"),
+        "{msg}"
+    );
+}

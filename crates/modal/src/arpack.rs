@@ -13,7 +13,7 @@
 //! the lowest eigenvalue (sigma = 0 for a clamped structure, a negative sigma
 //! for a free one).
 //!
-//! [`EigenMethod::Auto`] uses the block Lanczos of [`crate::block_lanczos`] for large problems
+//! [`EigenMethod::Auto`] (chosen in [`crate::eigen_options`]) uses the block Lanczos of [`crate::block_lanczos`] for large problems
 //! (several right-hand sides per pass over the factor) and falls back to ARPACK if it does
 //! not converge.
 
@@ -23,86 +23,16 @@ use std::sync::Mutex;
 use faer::Mat;
 use sprs::CsMat;
 
-use crate::block_lanczos::{basis_bytes, block_lanczos, AUTO_MAX_BASIS_BYTES, AUTO_MAX_NEV};
-use crate::cholesky::{CholeskyOptions, SparseCholesky};
+use crate::block_lanczos::block_lanczos;
+use crate::cholesky::SparseCholesky;
 use crate::dense::{csmat_to_dense, dense_generalized_eigen};
+use crate::eigen_options::{auto_prefers_arpack, use_dense, EigenMethod, EigenOptions};
 use crate::error::ModalError;
 use crate::modes::{finalize_modes, Modes};
 use crate::sparse_ops::{check_symmetric_input, shifted, spmv_unchecked};
 
 /// ARPACK is not reentrant (Fortran SAVE state): one session at a time.
 static ARPACK_LOCK: Mutex<()> = Mutex::new(());
-
-/// Which algorithm computes the eigenpairs.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
-pub enum EigenMethod {
-    /// Dense solver when n <= 2 ncv or nev >= n (ARPACK needs ncv < n); otherwise block
-    /// Lanczos for nev <= [`crate::block_lanczos::AUTO_MAX_NEV`] when its basis fits in
-    /// [`crate::block_lanczos::AUTO_MAX_BASIS_BYTES`] (ARPACK if it does not converge, logged),
-    /// ARPACK otherwise.
-    #[default]
-    Auto,
-    /// Always ARPACK (error when nev >= n).
-    Arpack,
-    /// Always the shift-invert block Lanczos of [`crate::block_lanczos`] (error when it does not
-    /// converge).
-    BlockLanczos,
-    /// Always the dense solver (all n eigenpairs, then the nev nearest sigma).
-    Dense,
-}
-
-/// Options of the shift-invert eigensolver.
-#[derive(Clone, Copy)]
-pub struct EigenOptions<'a> {
-    /// Number of Lanczos vectors of ARPACK; default max(2 nev + 1, 20), capped at n (block
-    /// Lanczos sizes its own basis: [`crate::block_lanczos`]).
-    pub ncv: Option<usize>,
-    /// Convergence tolerance (ARPACK's, and the same test in block Lanczos): the Ritz estimates of
-    /// OP = (K - sigma M)^-1 M must fall below tol times the Ritz value; 0
-    /// means machine precision. Default 1e-10: eigenvalues converge
-    /// quadratically in it (relative errors ~1e-14 observed), mode shapes to
-    /// about tol / (relative gap), and the relative residuals
-    /// ||K phi - lambda M phi|| / (|lambda| ||M phi||) come out near 1e-12,
-    /// while machine precision needs about twice as many solves (measured:
-    /// 40 modes of a 38k-DOF 3-D problem, 124 solves at 1e-10, 145 at 1e-12,
-    /// 251 at machine precision, identical eigenvalues to 7 digits).
-    pub tol: f64,
-    /// Maximum number of implicit restarts (ARPACK's `iparam[2]`).
-    pub max_iterations: usize,
-    /// Dense, block Lanczos or ARPACK.
-    pub method: EigenMethod,
-    /// Factorization options of K - sigma M.
-    pub cholesky: CholeskyOptions,
-    /// Called after every application of (K - sigma M)^-1 with the number of
-    /// applications so far (for a progress bar).
-    pub on_iteration: Option<&'a dyn Fn(usize)>,
-}
-
-impl Default for EigenOptions<'_> {
-    fn default() -> Self {
-        Self {
-            ncv: None,
-            tol: 1e-10,
-            max_iterations: 1000,
-            method: EigenMethod::Auto,
-            cholesky: CholeskyOptions::default(),
-            on_iteration: None,
-        }
-    }
-}
-
-impl std::fmt::Debug for EigenOptions<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("EigenOptions")
-            .field("ncv", &self.ncv)
-            .field("tol", &self.tol)
-            .field("max_iterations", &self.max_iterations)
-            .field("method", &self.method)
-            .field("cholesky", &self.cholesky)
-            .field("on_iteration", &self.on_iteration.is_some())
-            .finish()
-    }
-}
 
 /// The nev eigenpairs of K phi = lambda M phi nearest the shift `sigma`
 /// (rad^2/s^2 for SI matrices), ascending and mass-normalized.
@@ -168,9 +98,7 @@ fn run_iterative(
     match opts.method {
         EigenMethod::Arpack => run_arpack(k, m, sigma, factor, nev, ncv, opts),
         EigenMethod::BlockLanczos => block_lanczos(k, m, sigma, factor, nev, opts),
-        EigenMethod::Auto
-            if nev > AUTO_MAX_NEV || basis_bytes(k.rows(), nev) > AUTO_MAX_BASIS_BYTES =>
-        {
+        EigenMethod::Auto if auto_prefers_arpack(k.rows(), nev) => {
             run_arpack(k, m, sigma, factor, nev, ncv, opts)
         }
         EigenMethod::Auto | EigenMethod::Dense => {
@@ -260,14 +188,6 @@ fn resolve_ncv(nev: usize, n: usize, opts: &EigenOptions<'_>) -> Result<usize, M
         None => (2 * nev + 1).max(20).min(n),
     };
     Ok(ncv)
-}
-
-fn use_dense(nev: usize, n: usize, ncv: usize, method: EigenMethod) -> bool {
-    match method {
-        EigenMethod::Dense => true,
-        EigenMethod::Arpack | EigenMethod::BlockLanczos => false,
-        EigenMethod::Auto => nev >= n || n <= 2 * ncv,
-    }
 }
 
 /// Dense path: all eigenpairs, keep the nev nearest sigma.

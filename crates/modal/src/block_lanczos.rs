@@ -23,50 +23,19 @@
 //! on a rank-deficient block) the result is [`ModalError::BlockLanczosNoConvergence`] and
 //! [`crate::EigenMethod::Auto`] falls back to ARPACK. Block Krylov spaces need more vectors than
 //! ARPACK's restarted single-vector one, increasingly so as nev grows: Auto uses this method only
-//! up to [`AUTO_MAX_NEV`] pairs and [`AUTO_MAX_BASIS_BYTES`] of basis.
+//! up to [`crate::eigen_options::AUTO_MAX_NEV`] pairs and
+//! [`crate::eigen_options::AUTO_MAX_BASIS_BYTES`] of basis.
 
 use faer::linalg::matmul::matmul;
 use faer::prelude::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
-use crate::arpack::EigenOptions;
 use crate::cholesky::SparseCholesky;
+use crate::eigen_options::{block_size, max_basis, EigenOptions};
 use crate::error::ModalError;
 use crate::modes::{finalize_modes, Modes};
 use crate::sparse_ops::spmm_symmetric;
-
-/// Largest `nev` for which [`crate::EigenMethod::Auto`] uses block Lanczos. A block Krylov space
-/// of the same size has a lower polynomial degree than ARPACK's single-vector one: measured on
-/// the coarse blade (8979 interior DOFs), 100 fixed-interface modes took 800 solves without
-/// restart against ARPACK's 202, and with thick restarts did not converge in 9000; for 40 modes
-/// of the 93k-DOF blade, 240 block solves (15 blocks of 16) against ARPACK's 145 single ones,
-/// which the cheaper block solves (0.013 s against 0.085 s per vector) turn into a gain.
-pub const AUTO_MAX_NEV: usize = 48;
-
-/// Largest memory (bytes) the basis and M times it may take for [`crate::EigenMethod::Auto`] to
-/// choose block Lanczos: 1 GiB keeps the 93k-DOF blade (450 MB for 40 modes) on block Lanczos
-/// and sends the 234k-DOF one (1.1 GB) to ARPACK, whose basis is 3 times smaller, so that peak
-/// memory stays as measured with ARPACK (docs/BENCHMARKS.md).
-pub const AUTO_MAX_BASIS_BYTES: usize = 1 << 30;
-
-/// Bytes of the basis and M times it for `nev` pairs on an n-DOF problem.
-pub fn basis_bytes(n: usize, nev: usize) -> usize {
-    2 * n * max_basis(nev, block_size(nev).min(n), n) * std::mem::size_of::<f64>()
-}
-
-/// Block size for `nev` wanted pairs: about nev / 2, between 4 and 16 (16 right-hand sides
-/// already amortize the pass over the factor; larger blocks only grow the basis).
-pub fn block_size(nev: usize) -> usize {
-    nev.div_ceil(2).clamp(4, 16)
-}
-
-/// The largest basis for `nev` pairs with blocks of `b` on an n-DOF problem (the basis and M
-/// times it are stored: 2 n max_basis values; 40 modes of the 93k-DOF blade converge within
-/// 240 vectors, so 304 avoids a restart there).
-fn max_basis(nev: usize, b: usize, n: usize) -> usize {
-    (6 * nev + 4 * b).min(n)
-}
 
 /// Thick restarts allowed before giving up.
 const MAX_RESTARTS: usize = 10;

@@ -20,9 +20,10 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use sprs::CsMat;
 
-use crate::arpack::{eigs_shift_invert_factored, EigenOptions};
+use crate::arpack::eigs_shift_invert_factored;
 use crate::cholesky::SparseCholesky;
 use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
+use crate::eigen_options::EigenOptions;
 use crate::error::ModalError;
 use crate::sparse_ops::{check_symmetric_input, spmm_symmetric, submatrix_unchecked};
 

@@ -81,7 +81,13 @@
 //! distinct; unit radial vectors and axis direction; gaps finite and > 0;
 //! master coordinate in range; frequencies finite and ascending; recovery
 //! basis size consistent with `n`, the mesh and the file length; fixed DOFs
-//! in range and strictly increasing.
+//! in range and strictly increasing. Then the physics
+//! ([`crate::model_checks`]): max |K| and max |M| within 1e-30 .. 1e30, M
+//! positive definite by a Cholesky factorization and with condition number
+//! below 1e12, K positive semi-definite (eigenvalues of (K, M) >= -1e-12
+//! lambda_max; rigid-body modes within 1e-12 lambda_max of 0 are logged),
+//! contact nodes at distinct positions, gaps at least 1e-9 of the largest
+//! distance of a contact node from the rotor axis.
 
 use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Write};
@@ -94,6 +100,7 @@ use crate::contact_geometry::{norm, RotorAxis};
 use crate::dense::{check_dense_symmetric, dense_generalized_eigen};
 use crate::error::ModalError;
 use crate::matrix_market::{read_symmetric_dense, write_atomic, write_symmetric_dense};
+use crate::model_checks::{check_physics, ContactPoint};
 
 /// Value of the `format` field.
 pub const FORMAT_NAME: &str = "nlmodes-reduced-model";
@@ -467,6 +474,26 @@ impl ReducedModel {
                 }
             }
         }
+        let points: Vec<ContactPoint> = self
+            .contact_nodes
+            .iter()
+            .enumerate()
+            .map(|(j, node)| ContactPoint {
+                label: match node.mesh_node {
+                    Some(tag) => format!("contact node {j} (mesh node {tag})"),
+                    None => format!("contact node {j}"),
+                },
+                position: node.position,
+                gap: node.gap,
+            })
+            .collect();
+        check_physics(
+            &self.k,
+            &self.m,
+            &points,
+            &self.rotor_axis,
+            [&k_path, &m_path, &json],
+        )?;
         Ok(())
     }
 

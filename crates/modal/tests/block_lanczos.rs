@@ -6,7 +6,7 @@ mod common;
 use std::cell::Cell;
 
 use common::{column, free_chain, mac, spring_grid};
-use nlmodes_modal::block_lanczos::block_size;
+use nlmodes_modal::eigen_options::block_size;
 use nlmodes_modal::{
     csmat_to_dense, dense_generalized_eigen, eigs_shift_invert, EigenMethod, EigenOptions,
 };

@@ -252,3 +252,71 @@ fn inconsistent_directories_are_rejected_on_read() {
         "{err}"
     );
 }
+
+/// The physical checks of `model_checks` (issue 14): each damaged model is refused with a
+/// message naming the file and the entry; a clamped model passes with no rigid mode.
+#[test]
+fn physically_invalid_models_are_refused() {
+    let good = model();
+    let dir = tempfile::tempdir().unwrap();
+    let points: Vec<nlmodes_modal::model_checks::ContactPoint> = good
+        .contact_nodes
+        .iter()
+        .map(|c| nlmodes_modal::model_checks::ContactPoint {
+            label: "contact node".to_string(),
+            position: c.position,
+            gap: c.gap,
+        })
+        .collect();
+    let rigid = nlmodes_modal::model_checks::check_physics(
+        &good.k,
+        &good.m,
+        &points,
+        &good.rotor_axis,
+        [dir.path(), dir.path(), dir.path()],
+    )
+    .unwrap();
+    assert!(rigid.is_empty(), "{rigid:?}");
+    // A singular M whose diagonal stays positive: rows/columns 2 and 3 made proportional to
+    // each other (the 2 x 2 minor on them is exactly singular).
+    let e = write_err(|m| {
+        let (a, b) = (m.m[(2, 2)], m.m[(3, 3)]);
+        let s = (b / a).sqrt();
+        for i in 0..m.n() {
+            let v = m.m[(i, 2)] * s;
+            m.m[(i, 3)] = v;
+            m.m[(3, i)] = v;
+        }
+        m.m[(3, 3)] = a * s * s;
+    });
+    assert!(
+        e.contains("M.mtx") && e.contains("positive definite"),
+        "{e}"
+    );
+    assert!(e.contains("M is"), "{e}");
+    let e = write_err(|m| m.k = m.k.clone() * faer::Scale(1e150));
+    assert!(
+        e.contains("K.mtx") && e.contains("largest entry of K"),
+        "{e}"
+    );
+    let e = write_err(|m| m.m = m.m.clone() * faer::Scale(1e-250));
+    assert!(
+        e.contains("M.mtx") && e.contains("largest entry of M"),
+        "{e}"
+    );
+    let e = write_err(|m| m.contact_nodes[1].gap = 1e-300);
+    assert!(e.contains("contact node 1") && e.contains("1e-300"), "{e}");
+    let e = write_err(|m| {
+        m.contact_nodes[1].position = m.contact_nodes[0].position;
+        m.contact_nodes[1].radial = m.contact_nodes[0].radial;
+    });
+    assert!(e.contains("same position"), "{e}");
+    // K made indefinite: its first diagonal entry negated.
+    let e = write_err(|m| {
+        m.k[(0, 0)] = -m.k[(0, 0)];
+    });
+    assert!(
+        e.contains("K.mtx") && e.contains("not positive semi-definite"),
+        "{e}"
+    );
+}

@@ -1,0 +1,345 @@
+//! Checks of a whole case, of the study settings and of output locations before any stage runs
+//! (issue 14). Every problem is one line naming the file, the `table.key`, the value and what was
+//! expected; all problems are reported together, as bad input (exit code 2, [`crate::exit`]).
+
+use anyhow::Result;
+use nlmodes_nnm::{AlgorithmParams, ContinuationSettings};
+use std::path::Path;
+
+use crate::case::{Case, MasterChoice};
+use crate::exit::bad_input;
+
+/// Problems found so far, each labelled by where the value came from.
+pub struct Problems {
+    /// `label("nnm.samples")` names the setting in a message: `FILE: nnm.samples` for a case
+    /// file, `--samples` for a command-line flag.
+    label: Box<dyn Fn(&str) -> String>,
+    lines: Vec<String>,
+}
+
+impl Problems {
+    pub fn new(label: impl Fn(&str) -> String + 'static) -> Self {
+        Self {
+            label: Box::new(label),
+            lines: Vec::new(),
+        }
+    }
+
+    /// Problems of a case file: `FILE: table.key = value: expected ...`.
+    pub fn of_file(path: &Path) -> Self {
+        let file = path.display().to_string();
+        Self::new(move |key| format!("{file}: {key}"))
+    }
+
+    /// Records `key = value: expected ...` unless `ok`.
+    pub fn check(&mut self, ok: bool, key: &str, value: impl std::fmt::Debug, expected: &str) {
+        if !ok {
+            let line = format!("{} = {value:?}: expected {expected}", (self.label)(key));
+            self.lines.push(line);
+        }
+    }
+
+    /// Records a message about `key`.
+    pub fn note(&mut self, key: &str, message: &str) {
+        let line = format!("{}: {message}", (self.label)(key));
+        self.lines.push(line);
+    }
+
+    /// Ok when nothing was recorded, else one bad-input error listing every problem.
+    pub fn finish(self) -> Result<()> {
+        if self.lines.is_empty() {
+            return Ok(());
+        }
+        Err(bad_input(self.lines.join("\n")))
+    }
+}
+
+fn positive(v: f64) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+/// Every key of a case and the cross-key rules; `path` names the file in messages.
+pub fn check_case(case: &Case, path: &Path) -> Result<()> {
+    let mut p = Problems::of_file(path);
+    if let Some(name) = &case.name {
+        let plain = !name.is_empty()
+            && name != "."
+            && name != ".."
+            && !name.contains(['/', '\\'])
+            && !name.contains('\0');
+        p.check(
+            plain,
+            "name",
+            name,
+            "a plain directory name (no '/', not empty)",
+        );
+    }
+    check_mesh(case, &mut p);
+    let m = &case.material;
+    p.check(
+        positive(m.young),
+        "material.young",
+        m.young,
+        "a finite value > 0 (Pa)",
+    );
+    p.check(
+        m.poisson > -1.0 && m.poisson < 0.5,
+        "material.poisson",
+        m.poisson,
+        "-1 < poisson < 0.5",
+    );
+    p.check(
+        positive(m.density),
+        "material.density",
+        m.density,
+        "a finite value > 0 (kg/m^3)",
+    );
+    check_model(case, &mut p);
+    check_nnm(case.nnm.harmonics, case.nnm.samples, &mut p);
+    check_settings(&case.algorithm, &case.continuation, &mut p);
+    let (lo, hi) = (case.continuation.q_start, case.continuation.q_max);
+    for (i, &k) in case.nnm.keep.iter().enumerate() {
+        p.check(
+            k.is_finite() && k >= lo && k <= hi,
+            &format!("nnm.keep[{i}]"),
+            k,
+            &format!(
+                "an amplitude q/g0 within [continuation.q_start, continuation.q_max] = [{lo}, {hi}]"
+            ),
+        );
+    }
+    p.check(
+        case.nnm.frames >= 2,
+        "nnm.frames",
+        case.nnm.frames,
+        "at least 2 frames per period",
+    );
+    p.finish()?;
+    check_output_dir(&case.out_dir(), &format!("{}: results_dir", path.display()))
+}
+
+fn check_mesh(case: &Case, p: &mut Problems) {
+    let mesh = &case.mesh;
+    p.check(
+        (1..=2).contains(&mesh.order),
+        "mesh.order",
+        mesh.order,
+        "1 (TET4) or 2 (TET10)",
+    );
+    for (name, v) in &mesh.parameters {
+        p.check(
+            v.is_finite(),
+            &format!("mesh.parameters.{name}"),
+            v,
+            "a finite number",
+        );
+    }
+    match std::fs::read_to_string(&mesh.geo) {
+        Err(e) => p.note(
+            "mesh.geo",
+            &format!("cannot read {}: {e}", mesh.geo.display()),
+        ),
+        Ok(text) => {
+            let known = crate::gmsh::geo_parameters(&text);
+            for name in mesh.parameters.keys().filter(|n| !known.contains(n)) {
+                p.note(
+                    &format!("mesh.parameters.{name}"),
+                    &format!(
+                        "`{name}` is not defined by {} (it defines: {})",
+                        mesh.geo.display(),
+                        known.join(", ")
+                    ),
+                );
+            }
+        }
+    }
+}
+
+fn check_model(case: &Case, p: &mut Problems) {
+    let m = &case.model;
+    p.check(
+        !m.clamp.is_empty(),
+        "model.clamp",
+        &m.clamp,
+        "at least one clamped group",
+    );
+    let mut clamped = Vec::new();
+    for (i, spec) in m.clamp.iter().enumerate() {
+        match nlmodes_fem::parse_fix_spec(spec) {
+            Ok((group, _)) => clamped.push(group),
+            Err(e) => p.note(&format!("model.clamp[{i}]"), &e.to_string()),
+        }
+    }
+    p.check(
+        !m.contact_group.trim().is_empty(),
+        "model.contact_group",
+        &m.contact_group,
+        "a physical group name",
+    );
+    p.check(
+        !clamped.contains(&m.contact_group),
+        "model.contact_group",
+        &m.contact_group,
+        &format!("a group that is not clamped (model.clamp = {:?})", m.clamp),
+    );
+    p.check(
+        m.rotor_axis_point.iter().all(|v| v.is_finite()),
+        "model.rotor_axis_point",
+        m.rotor_axis_point,
+        "three finite coordinates (m)",
+    );
+    let d = m.rotor_axis_direction;
+    p.check(
+        d.iter().all(|v| v.is_finite()) && d.iter().any(|&v| v != 0.0),
+        "model.rotor_axis_direction",
+        d,
+        "a finite, non-zero vector",
+    );
+    p.check(positive(m.gap), "model.gap", m.gap, "a finite gap > 0 (m)");
+    p.check(
+        m.fixed_interface_modes >= 1,
+        "model.fixed_interface_modes",
+        m.fixed_interface_modes,
+        "at least 1",
+    );
+    p.check(
+        m.linear_modes >= 1,
+        "model.linear_modes",
+        m.linear_modes,
+        "at least 1",
+    );
+    if let MasterChoice::Auto(s) = &m.master {
+        p.check(
+            s == "auto",
+            "model.master",
+            s,
+            "\"auto\" or a reduced DOF index",
+        );
+    }
+}
+
+/// N >= 1 and m >= 2N + 1 (below that, cosines of different orders alias).
+pub fn check_nnm(harmonics: usize, samples: usize, p: &mut Problems) {
+    p.check(
+        harmonics >= 1,
+        "nnm.harmonics",
+        harmonics,
+        "at least 1 (the fundamental)",
+    );
+    let min = 2 * harmonics + 1;
+    p.check(
+        samples >= min,
+        "nnm.samples",
+        samples,
+        &format!("at least 2 nnm.harmonics + 1 = {min} time samples per period"),
+    );
+}
+
+/// The `[algorithm]` and `[continuation]` tables: the ranges of the nnm crate, named by table.
+pub fn check_settings(alg: &AlgorithmParams, cont: &ContinuationSettings, p: &mut Problems) {
+    if let Err(e) = alg.validate() {
+        p.note("algorithm", &e.to_string());
+    }
+    if let Err(e) = cont.validate() {
+        p.note("continuation", &e.to_string());
+    }
+}
+
+/// `dir` can hold results: it is a directory, or it can be created (its nearest existing
+/// ancestor is a writable directory). `what` names the setting in the error. Creates nothing.
+pub fn check_output_dir(dir: &Path, what: &str) -> Result<()> {
+    let mut probe = dir;
+    loop {
+        if probe.as_os_str().is_empty() {
+            probe = Path::new(".");
+        }
+        match std::fs::metadata(probe) {
+            Ok(meta) if meta.is_dir() => break,
+            Ok(_) => {
+                return Err(bad_input(format!(
+                    "{what}: output directory {}: {} exists and is not a directory",
+                    dir.display(),
+                    probe.display()
+                )))
+            }
+            Err(_) => match probe.parent() {
+                Some(parent) => probe = parent,
+                None => break,
+            },
+        }
+    }
+    let test = probe.join(format!(".nlmodes-write-test-{}", std::process::id()));
+    match std::fs::File::create(&test) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&test);
+            Ok(())
+        }
+        Err(e) => Err(bad_input(format!(
+            "{what}: output directory {}: cannot write in {}: {e}",
+            dir.display(),
+            probe.display()
+        ))),
+    }
+}
+
+/// An output file `out` (e.g. `nlmodes mesh -o FILE`): not an existing directory, and its
+/// directory can hold it.
+pub fn check_output_file(out: &Path, what: &str) -> Result<()> {
+    if out.is_dir() {
+        return Err(bad_input(format!(
+            "{what} {}: is an existing directory; expected a file name",
+            out.display()
+        )));
+    }
+    let parent = out.parent().unwrap_or(Path::new("."));
+    check_output_dir(parent, what)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn problems(case: &Case) -> String {
+        match check_case(case, Path::new("c.toml")) {
+            Ok(()) => String::new(),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn cross_key_rules_are_named() {
+        let mut c = Case::default();
+        c.nnm.samples = 5;
+        c.nnm.keep = vec![f64::NAN, -1.0, 40.0, 5.0];
+        c.nnm.frames = 0;
+        c.model.linear_modes = 0;
+        c.model.contact_group = "root".into();
+        let e = problems(&c);
+        for part in [
+            "c.toml: nnm.samples = 5: expected at least 2 nnm.harmonics + 1 = 21",
+            "nnm.keep[0] = NaN",
+            "nnm.keep[1] = -1.0",
+            "nnm.keep[2] = 40.0",
+            "nnm.frames = 0",
+            "model.linear_modes = 0",
+            "model.contact_group = \"root\": expected a group that is not clamped",
+        ] {
+            assert!(e.contains(part), "missing `{part}` in:\n{e}");
+        }
+        assert!(!e.contains("nnm.keep[3]"), "{e}");
+    }
+
+    #[test]
+    fn an_output_directory_under_a_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("f");
+        std::fs::write(&file, "x").unwrap();
+        let e = check_output_dir(&file.join("sub"), "--out")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("is not a directory"), "{e}");
+        assert!(check_output_dir(&dir.path().join("new/sub"), "--out").is_ok());
+        let e = check_output_file(dir.path(), "-o").unwrap_err().to_string();
+        assert!(e.contains("existing directory"), "{e}");
+    }
+}
