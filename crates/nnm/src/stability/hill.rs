@@ -4,6 +4,7 @@
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
 
+use super::impact::impact_equivalent_pieces;
 use super::monodromy::constant_pieces;
 use super::{sort_multipliers, FloquetSettings, JacobianInTime, Stability, UnstableCounts};
 use crate::dense::generalized_eigen;
@@ -217,7 +218,18 @@ impl<'s> FloquetAnalysis<'s> {
             }
             JacobianInTime::Continuous => {
                 let period = point.period();
-                for piece in constant_pieces(self.system, point, JacobianInTime::Continuous) {
+                let mut pieces = constant_pieces(self.system, point, JacobianInTime::Continuous);
+                if self.settings.impact_width > 0.0 {
+                    let contact_mass: Vec<f64> = (0..self.contact_modal.nrows())
+                        .map(|j| {
+                            let row = self.contact_modal.row(j);
+                            1.0 / (0..row.ncols()).map(|k| row[k] * row[k]).sum::<f64>()
+                        })
+                        .collect();
+                    let width = self.settings.impact_width * period / harmonics as f64;
+                    pieces = impact_equivalent_pieces(&pieces, period, &contact_mass, width);
+                }
+                for piece in pieces {
                     if let Some(p_k) = projected(&piece.kappa)? {
                         let (a, b) = (piece.start / period, piece.end / period);
                         moments.add(&p_k, |p| interval_moments(p, a, b));

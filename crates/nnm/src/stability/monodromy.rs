@@ -154,6 +154,8 @@ pub(crate) struct Piece {
     pub start: f64,
     pub end: f64,
     pub kappa: Vec<f64>,
+    /// Per row: the augmented-Lagrangian multiplier theta of the piece's sample is > 0.
+    pub theta_positive: Vec<bool>,
 }
 
 /// Errors when T / steps exceeds the RK4 limit for the stiffest state (all rows active at their
@@ -285,10 +287,12 @@ pub(crate) fn constant_pieces(
                     }
                 })
                 .collect();
+            let theta_positive = (0..c).map(|j| mult.theta[j * m + k] > 0.0).collect();
             pieces.push(Piece {
                 start: w[0],
                 end: w[1],
                 kappa,
+                theta_positive,
             });
         }
     }
