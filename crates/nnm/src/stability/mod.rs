@@ -16,18 +16,26 @@
 //! What D approximates: a penalty (or augmented-Lagrangian) spring kappa regularizes the rigid
 //! impact. For the rigid, elastic impact the exact monodromy is the free flow between impacts
 //! times the saltation matrix of each impact (Leine & Nijmeijer 2004, "Dynamics and Bifurcations
-//! of Non-smooth Mechanical Systems", Sec. 7.2; Mueller 1995); the regularized flow converges to
-//! it as kappa grows if the contact phase, of duration ~ pi / sqrt(kappa / m_eff), stays resolved:
-//! Hill needs (N w) well above sqrt(kappa / m_eff). The tests check this convergence against an
-//! exact one-impact oracle.
+//! of Non-smooth Mechanical Systems", Sec. 7.2); the regularized flow converges to it as kappa
+//! grows if the contact phase, of duration ~ pi / sqrt(kappa / m_eff), stays resolved: Hill needs
+//! N w well above sqrt(kappa / m_eff). Penalty orbits use their own kappa (the exact linearization
+//! of the penalty equation). Augmented-Lagrangian orbits carry their impacts on one or two samples
+//! with the capped kappa, a spring far too short to reverse the perturbation's normal velocity:
+//! their short rigid phases are replaced by the impact-equivalent spring of `impact` (an elastic
+//! bounce of width `impact_width` T / N). The tests check both against an exact one-impact oracle.
+//!
+//! By default ([`JacobianInTime::Continuous`]) a row is active where the reconstructed
+//! g_j(t) + theta_j > 0, with the switch instants located in time and the moments integrated
+//! exactly; [`JacobianInTime::SampleIntervals`] uses the sample quadrature of the harmonic balance
+//! (its Newton Jacobian), whose O(1/m) quantization of the contact duration splits the trivial
+//! pair by O(m^-1/2) (docs/STABILITY.md, Sec. 3).
 //!
 //! # Hill's method
 //! y(t) = e^{s t} p(t) with p T-periodic on the full basis {1, sqrt2 cos(n w t), sqrt2 sin(n w t)},
 //! n = 1..N (orthonormal for the time average). The Galerkin projection gives the quadratic
 //! eigenproblem (H0 + s G + s^2 H2) x = 0 with H2 = I (modal coordinates), G skew (gyroscopic
 //! terms +-2 n w coupling cos n and sin n) and H0 symmetric: (w_k^2 - (n w)^2) on the diagonal plus
-//! the contact term, whose blocks are the cosine and sine moments of the sampled D (the quadrature
-//! of the harmonic balance, Eqs. 18-19). Since H0 is symmetric and G skew the linearization
+//! the contact term, whose blocks are the cosine and sine moments of D over the period. Since H0 is symmetric and G skew the linearization
 //! [[0, I], [-H0, -G]] is Hamiltonian: the exponents come in quadruples (s, -s, conj s, -conj s), so
 //! the multipliers mu = exp(s T) come in reciprocal, conjugate pairs exactly (up to round-off),
 //! whatever N and m.
