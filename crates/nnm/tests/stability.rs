@@ -251,3 +251,31 @@ fn a_period_doubling_is_flagged_where_the_monodromy_shows_it() {
     println!("monodromy: most negative real multiplier {mb} before, {ma} after");
     assert!(mb >= -1.0 && ma < -1.0, "monodromy disagrees: {mb} / {ma}");
 }
+
+#[test]
+fn floquet_settings_default_reject_unknown_keys_and_validate() {
+    let s: FloquetSettings = serde_json::from_str("{}").expect("all fields default");
+    assert_eq!(s, FloquetSettings::default());
+    let s: FloquetSettings =
+        serde_json::from_str(r#"{"mode_cutoff": 3.0, "jacobian": "sample_intervals"}"#)
+            .expect("two keys");
+    assert_eq!(s.mode_cutoff, 3.0);
+    assert_eq!(s.jacobian, JacobianInTime::SampleIntervals);
+    assert!(serde_json::from_str::<FloquetSettings>(r#"{"cutoff": 3.0}"#).is_err());
+    let bad = FloquetSettings {
+        mode_cutoff: -1.0,
+        ..FloquetSettings::default()
+    };
+    let sys = two_dof(1.0);
+    assert!(nlmodes_nnm::FloquetAnalysis::new(&sys, bad).is_err());
+    // A point from another system is rejected with a typed error, not a panic.
+    let other = common::chain(3, 1.0, &[2], 1.0, 2);
+    let settings = HarmonicSettings::new(4, 32).expect("settings");
+    let p = Solver::new(&other, settings, AlgorithmParams::default())
+        .and_then(|mut s| s.solve_point(0.5, Start::LinearMode(0)))
+        .expect("point");
+    assert!(matches!(
+        floquet(&sys, &p, &FloquetSettings::default()),
+        Err(nlmodes_nnm::NnmError::StabilityInput { .. })
+    ));
+}
