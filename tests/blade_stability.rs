@@ -310,3 +310,85 @@ fn truncated_blade_hill_agrees_with_the_integrated_monodromy() {
     );
     assert!((hill.max_multiplier_abs - mono_max).abs() <= 1e-3);
 }
+
+/// Cost on a reduced-model directory (the default blade: `nlmodes run cases/blade.toml --only
+/// reduce`, then NLMODES_STABILITY_MODEL=<results>/blade/model). Not a timed test: prints the
+/// backbone time (case settings) and Hill's time over its points, median of 3, for
+/// docs/STABILITY.md. `cargo test --release --test blade_stability -- --ignored --nocapture`.
+#[test]
+#[ignore = "needs a reduced-model directory in NLMODES_STABILITY_MODEL"]
+fn default_blade_stability_cost() {
+    let Ok(dir) = std::env::var("NLMODES_STABILITY_MODEL") else {
+        println!("NLMODES_STABILITY_MODEL not set");
+        return;
+    };
+    let model = nlmodes_modal::ReducedModel::read(std::path::Path::new(&dir)).expect("model");
+    let sys = System::new(
+        model.m.clone(),
+        model.k.clone(),
+        model.contact_rows(),
+        model.gaps(),
+        model.master.dof,
+    )
+    .expect("system");
+    let settings = HarmonicSettings::new(10, 128).expect("settings");
+    let params = AlgorithmParams {
+        epsilon: 1e-3,
+        ..AlgorithmParams::default()
+    };
+    let cont = ContinuationSettings {
+        q_start: 0.5,
+        q_max: 35.0,
+        step: 0.25,
+        max_step: 1.0,
+        min_step: 1e-4,
+        ..ContinuationSettings::default()
+    };
+    let start = Instant::now();
+    let b = backbone(&sys, settings, params, &cont, |_| {}).expect("backbone");
+    let t_backbone = start.elapsed().as_secs_f64();
+    let analysis = FloquetAnalysis::new(&sys, FloquetSettings::default()).expect("analysis");
+    let mut totals = Vec::new();
+    let mut results = Vec::new();
+    for _ in 0..3 {
+        let start = Instant::now();
+        results = b
+            .points
+            .iter()
+            .map(|p| analysis.analyze(p).expect("hill"))
+            .collect::<Vec<_>>();
+        totals.push(start.elapsed().as_secs_f64());
+    }
+    totals.sort_by(f64::total_cmp);
+    let w = sys.linear_frequencies();
+    println!(
+        "default blade: order {}, {} contact rows, w_k/w1 = {:?}",
+        sys.n_dofs(),
+        sys.n_contacts(),
+        w.iter()
+            .take(10)
+            .map(|x| (x / w[0] * 100.0).round() / 100.0)
+            .collect::<Vec<_>>()
+    );
+    println!(
+        "backbone {} points ({:?}) in {t_backbone:.2} s; Hill over the points: {:?} s (median {:.2} s, {:.1} ms per point)",
+        b.points.len(),
+        b.termination,
+        totals,
+        totals[1],
+        totals[1] / b.points.len() as f64 * 1e3
+    );
+    let g = sys.gap_reference();
+    for (p, st) in b.points.iter().zip(&results) {
+        println!(
+            "q/g0 {:7.3} w/w1 {:.5} r {} stable {} max|mu| {:.5} trivial {:.1e} unstable {:?}",
+            p.q / g,
+            p.omega_ratio,
+            st.modes_kept,
+            st.stable,
+            st.max_multiplier_abs,
+            st.trivial_pair_error,
+            st.unstable
+        );
+    }
+}

@@ -324,7 +324,7 @@ fn hill_linearization(
                 }
                 for a in 0..r {
                     for b in 0..r {
-                        lin[(nb + bi * r + a, bi_col(bl, r) + b)] -= coef * mat[(a, b)];
+                        lin[(nb + bi * r + a, bl * r + b)] -= coef * mat[(a, b)];
                     }
                 }
             }
@@ -350,11 +350,6 @@ fn hill_linearization(
         }
     }
     lin
-}
-
-/// Column offset of basis block `b` in the displacement part.
-fn bi_col(b: usize, r: usize) -> usize {
-    b * r
 }
 
 /// Harmonic content of each eigenvector's displacement part on complex harmonics e^{i n w t},
@@ -408,7 +403,7 @@ struct Selection {
 
 /// Harmonic content of an eigenvector: |weighted mean harmonic| and rms harmonic.
 #[derive(Clone, Copy)]
-pub(crate) struct Content {
+struct Content {
     mean: f64,
     rms: f64,
 }
