@@ -226,4 +226,10 @@ pub enum NnmError {
         /// Where.
         what: &'static str,
     },
+    /// A point that cannot be analysed for stability (sizes that do not match the system).
+    #[error("stability analysis: {detail}")]
+    StabilityInput {
+        /// What does not match.
+        detail: String,
+    },
 }

@@ -82,6 +82,7 @@ mod newton;
 mod newton_fallback;
 mod point;
 mod solver;
+mod stability;
 mod step_timing;
 mod sweep;
 mod system;
@@ -100,6 +101,10 @@ pub use integrate::{check_periodicity, integrate_penalty, MotionState, Periodici
 pub use newton::NewtonSettings;
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
+pub use stability::{
+    classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis, FloquetSettings,
+    JacobianInTime, Monodromy, MonodromySettings, Stability, UnstableCounts,
+};
 pub use step_timing::{newton_step_timing, StepTiming};
 pub use sweep::amplitude_sweep;
 pub use system::{ModalShares, System};

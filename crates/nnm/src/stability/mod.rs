@@ -1,0 +1,232 @@
+//! Floquet stability of computed nonlinear-mode orbits (Hill's method) and bifurcation flags.
+//!
+//! The paper (Laxalde, Legrand & Pierre 2009, Sec. 5) names "stability and bifurcations
+//! analysis" as the next step; this module provides it for the orbits of [`crate::BackbonePoint`].
+//! See docs/STABILITY.md for the derivation, the tolerances and the convergence tables.
+//!
+//! # Linearized equation
+//! Along an orbit u(t) = sum_n u_n cos(n w t) the perturbation y obeys
+//! M y'' + K y + A^T D(t) A y = 0 (physical units: M in kg, K in N/m, D in N/m), where D(t) is the
+//! generalized Jacobian of the sampled contact law at convergence,
+//! lambda_{j,k} = kappa_{j,k} max(0, g_j(t_k) + theta_{j,k}) (the integrand of Eq. 15): kappa on
+//! the active samples (g + theta > 0), zero elsewhere. It is the Jacobian the semi-smooth Newton
+//! of Eq. (20) uses, so Hill's matrix at s = 0 restricted to cosines is the harmonic-balance
+//! Jacobian itself.
+//!
+//! What D approximates: a penalty (or augmented-Lagrangian) spring kappa regularizes the rigid
+//! impact. For the rigid, elastic impact the exact monodromy is the free flow between impacts
+//! times the saltation matrix of each impact (Leine & Nijmeijer 2004, "Dynamics and Bifurcations
+//! of Non-smooth Mechanical Systems", Sec. 7.2); the regularized flow converges to it as kappa
+//! grows if the contact phase, of duration ~ pi / sqrt(kappa / m_eff), stays resolved: Hill needs
+//! N w well above sqrt(kappa / m_eff). Penalty orbits use their own kappa (the exact linearization
+//! of the penalty equation). Augmented-Lagrangian orbits carry their impacts on one or two samples
+//! with the capped kappa, a spring far too short to reverse the perturbation's normal velocity:
+//! their short rigid phases are replaced by the impact-equivalent spring of `impact` (an elastic
+//! bounce of width `impact_width` T / N). The tests check both against an exact one-impact oracle.
+//!
+//! By default ([`JacobianInTime::Continuous`]) a row is active where the reconstructed
+//! g_j(t) + theta_j > 0, with the switch instants located in time and the moments integrated
+//! exactly; [`JacobianInTime::SampleIntervals`] uses the sample quadrature of the harmonic balance
+//! (its Newton Jacobian), whose O(1/m) quantization of the contact duration splits the trivial
+//! pair by O(m^-1/2) (docs/STABILITY.md, Sec. 3).
+//!
+//! # Hill's method
+//! y(t) = e^{s t} p(t) with p T-periodic on the full basis {1, sqrt2 cos(n w t), sqrt2 sin(n w t)},
+//! n = 1..N (orthonormal for the time average). The Galerkin projection gives the quadratic
+//! eigenproblem (H0 + s G + s^2 H2) x = 0 with H2 = I (modal coordinates), G skew (gyroscopic
+//! terms +-2 n w coupling cos n and sin n) and H0 symmetric: (w_k^2 - (n w)^2) on the diagonal plus
+//! the contact term, whose blocks are the cosine and sine moments of D over the period. Since H0 is symmetric and G skew the linearization
+//! [[0, I], [-H0, -G]] is Hamiltonian: the exponents come in quadruples (s, -s, conj s, -conj s), so
+//! the multipliers mu = exp(s T) come in reciprocal, conjugate pairs exactly (up to round-off),
+//! whatever N and m.
+//!
+//! Of the 2 r (2N + 1) eigenvalues only 2 r are Floquet exponents (r modes); the others are copies
+//! shifted by i n w with less accurate eigenvectors. The selection follows Lazarus & Thomas
+//! (C. R. Mecanique 338, 2010, 510-517): write each eigenvector's periodic part on complex
+//! harmonics e^{i n w t}, n = -N..N, and keep, of each family of copies s + i k w, the one whose
+//! harmonic content is best centred on n = 0 (smallest |weighted mean of n|). Visiting the
+//! eigenvalues by increasing |mean| and discarding the copies of each kept one makes every family
+//! give exactly one exponent. Ties by the rms harmonic (sum n^2 |c_n|^2 / sum |c_n|^2)^1/2, which
+//! the real eigenvectors of a degenerate real eigenvalue need (s = 0 from the copies +-i w1 -+ i w
+//! in the linear regime: mean 0 but rms 1), then by |Im s|; each exponent off the imaginary axis is
+//! taken with its Hamiltonian partner -conj(s).
+//! Guillot, Lazarus, Thomas, Vergez & Cochelin (J. Comput. Phys. 416, 2020, 109477) discuss this
+//! criterion against the |Im s| <= w/2 one; the eigenvector criterion keeps a high mode's exponent
+//! at +-i w_k instead of a folded copy that the truncation represents badly.
+//!
+//! # Reduction for large models
+//! Hill's matrix is built on the r linear modes with w_k <= `mode_cutoff` (N + 1) w (default 0.5,
+//! at least `min_modes`: the modes whose exponents N harmonics resolve, N >~ 2 w_k / w); the discarded modes act quasi-statically on the contact rows through their
+//! residual flexibility R = A (K^-1 - Phi_r W_r^-2 Phi_r^T) A^T, so that each sample's contact
+//! stiffness becomes D_eff = (D_S^-1 + R_SS)^-1 on its active set S (the series spring of the
+//! penalty and the discarded modes, the idea of the project's modal tail). This neglects the
+//! inertia of the discarded modes at the frequencies (n w + Im s), a relative error
+//! O(((N + 1) w / w_k)^2) in their response, and drops their exponents (near +-i w_k, on the
+//! unit circle to the same order). With every mode kept (a large `mode_cutoff`) nothing is
+//! approximated beyond N and m.
+
+mod bifurcation;
+mod hill;
+mod impact;
+mod monodromy;
+
+pub use bifurcation::{classify, Bifurcation};
+pub use hill::FloquetAnalysis;
+pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::NnmError;
+use crate::point::BackbonePoint;
+use crate::system::System;
+
+/// Settings of the Hill stability analysis. Every field has a default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FloquetSettings {
+    /// Keep the linear modes with w_k <= mode_cutoff (N + 1) w (default 0.5): the others are
+    /// condensed statically onto the contact rows. A large value (e.g. 1e9) keeps every mode.
+    /// Why 0.5: under strong contact the exponent of a mode k couples to its conjugate copy
+    /// 2 w_k / w harmonics away, so Hill resolves it only for N >~ 2 w_k / w (on the truncated
+    /// blade the exponents of modes at 22 w are off by 1e-2 with N = 12 and 24 and right to 7e-5
+    /// with N = 48; docs/STABILITY.md).
+    pub mode_cutoff: f64,
+    /// Keep at least this many modes (default 2), whatever the cutoff.
+    pub min_modes: usize,
+    /// Static correction of the discarded modes on the contact rows (default true).
+    pub static_correction: bool,
+    /// A point is stable when every non-trivial multiplier has |mu| <= 1 + tolerance (default
+    /// 1e-6). Hill's linearization is Hamiltonian, so a simple multiplier on the unit circle stays
+    /// on it under any symmetric perturbation (N, m, round-off): what leaves it is a genuine pair
+    /// (mu, 1/mu). The tolerance only absorbs the round-off of the non-symmetric eigensolver,
+    /// ~1e-12 relative to the largest exponent (|mu| - 1 ~ 1e-9 for kappa / w^2 ~ 1e6).
+    pub tolerance: f64,
+    /// Contact Jacobian in Hill's matrix (default continuous): `SampleIntervals` projects the
+    /// sampled Jacobian by the sample quadrature of the harmonic balance (exactly its Newton
+    /// Jacobian); `Continuous` integrates exactly the Jacobian whose rows are active where the
+    /// reconstructed g_j(t) + theta_j > 0 (switch instants located in time), which removes the
+    /// O(1/m) quantization of the contact duration (see docs/STABILITY.md).
+    pub jacobian: JacobianInTime,
+    /// Impact-equivalent linearization of the short rigid contact phases of augmented-Lagrangian
+    /// orbits (see docs/STABILITY.md): a phase shorter than `impact_width` T / N with theta > 0 is
+    /// replaced by the spring m_eff (pi / tau)^2 acting for tau = `impact_width` T / N (an elastic
+    /// bounce of the perturbation). Default 1.5; 0 keeps the augmented-Lagrangian Jacobian as is.
+    /// Continuous Jacobian only; penalty orbits (theta = 0) are never changed.
+    pub impact_width: f64,
+}
+
+impl Default for FloquetSettings {
+    fn default() -> Self {
+        Self {
+            mode_cutoff: 0.5,
+            min_modes: 2,
+            static_correction: true,
+            tolerance: 1e-6,
+            jacobian: JacobianInTime::Continuous,
+            impact_width: 1.5,
+        }
+    }
+}
+
+impl FloquetSettings {
+    /// Checks the ranges; the error names the parameter.
+    pub fn validate(&self) -> Result<(), NnmError> {
+        if !(self.mode_cutoff.is_finite() && self.mode_cutoff > 0.0) {
+            return Err(NnmError::InvalidParameter {
+                name: "mode_cutoff",
+                value: self.mode_cutoff,
+                expected: "a finite multiple of (N + 1) w > 0",
+            });
+        }
+        if self.min_modes == 0 {
+            return Err(NnmError::InvalidParameter {
+                name: "min_modes",
+                value: 0.0,
+                expected: ">= 1",
+            });
+        }
+        if !(self.impact_width.is_finite() && self.impact_width >= 0.0) {
+            return Err(NnmError::InvalidParameter {
+                name: "impact_width",
+                value: self.impact_width,
+                expected: "a finite width >= 0 (units of T / N)",
+            });
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(NnmError::InvalidParameter {
+                name: "tolerance",
+                value: self.tolerance,
+                expected: "a finite tolerance >= 0",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Multipliers outside the unit circle (|mu| > 1 + tolerance), by where they left it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct UnstableCounts {
+    /// Real multipliers > 1 (left through +1: fold or branch point).
+    pub real_positive: usize,
+    /// Real multipliers < -1 (left through -1: period doubling).
+    pub real_negative: usize,
+    /// Complex multipliers (a complex quadruple: Neimark-Sacker, Krein collision). A multiplier is
+    /// counted complex when its conjugate is also selected; a real pair keeps a small spurious
+    /// imaginary part from the truncation (see docs/STABILITY.md).
+    pub complex: usize,
+}
+
+/// Floquet stability of one orbit (Hill's method).
+#[derive(Clone, Debug, Serialize)]
+pub struct Stability {
+    /// The 2 r multipliers mu = exp(s T) as (re, im), sorted by decreasing |mu|, then by
+    /// increasing argument; the trivial pair included.
+    pub multipliers: Vec<[f64; 2]>,
+    /// The selected Floquet exponents s (1/s) as (re, im), in the order of `multipliers`.
+    pub exponents: Vec<[f64; 2]>,
+    /// Indices in `multipliers` of the trivial pair (the two closest to +1).
+    pub trivial: [usize; 2],
+    /// max |mu - 1| over the trivial pair: 0 for the exact smooth problem; the sampled contact
+    /// law breaks the time-shift invariance of the orbit and moves it (see docs/STABILITY.md).
+    pub trivial_pair_error: f64,
+    /// Largest |mu| over the non-trivial multipliers (1 if there is none).
+    pub max_multiplier_abs: f64,
+    /// max_mu min_nu |nu - 1 / conj(mu)| / |mu|: how far the selected set is from closed under
+    /// mu -> 1/conj(mu) (round-off, or a selection that split a quadruple).
+    pub reciprocal_pair_error: f64,
+    /// Every non-trivial multiplier has |mu| <= 1 + tolerance.
+    pub stable: bool,
+    /// Non-trivial multipliers outside the circle, by kind.
+    pub unstable: UnstableCounts,
+    /// Linear modes r kept in Hill's matrix.
+    pub modes_kept: usize,
+    /// Harmonics N of Hill's basis (those of the orbit).
+    pub harmonics: usize,
+    /// Largest |mean harmonic| of a selected eigenvector (the centring of the selection criterion,
+    /// see the module docs): 0 in the linear regime, 1/2 at a period doubling.
+    pub selection_mean_harmonic_max: f64,
+    /// Smallest |mean harmonic| of a rejected eigenvector (about 1 in the linear regime; 1/2 for
+    /// the discarded copies of a period-doubling quadruple).
+    pub rejection_mean_harmonic_min: f64,
+}
+
+/// Hill stability of `point` on `system` (builds a [`FloquetAnalysis`]; reuse one for many points).
+pub fn floquet(
+    system: &System,
+    point: &BackbonePoint,
+    settings: &FloquetSettings,
+) -> Result<Stability, NnmError> {
+    FloquetAnalysis::new(system, settings.clone())?.analyze(point)
+}
+
+/// Sorts multipliers by decreasing modulus, then by increasing argument (ties within 1e-12).
+pub(crate) fn sort_multipliers(values: &mut [[f64; 2]]) {
+    values.sort_by(|a, b| {
+        let (ma, mb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
+        if (ma - mb).abs() > 1e-12 * ma.max(mb) {
+            mb.total_cmp(&ma)
+        } else {
+            a[1].atan2(a[0]).total_cmp(&b[1].atan2(b[0]))
+        }
+    });
+}
