@@ -4,10 +4,12 @@
 use anyhow::{Context, Result};
 use nlmodes_modal::ReducedModel;
 use nlmodes_nnm::{
-    backbone, AlgorithmParams, Backbone, BranchKind, ContinuationSettings, HarmonicSettings,
-    System, Termination,
+    analyze_backbone, backbone, AlgorithmParams, Backbone, Bifurcation, BranchKind,
+    ContinuationSettings, HarmonicSettings, System, Termination,
 };
 use std::fmt::Write as _;
+
+use crate::case::StabilitySection;
 use std::path::Path;
 
 use crate::ui;
@@ -100,8 +102,41 @@ pub fn trace(
     Ok(result)
 }
 
+/// Floquet stability of every point (Hill's method, docs/STABILITY.md), when `settings.enabled`:
+/// its own progress bar and stage timing, so the extra time shows.
+pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection) -> Result<()> {
+    if !settings.enabled {
+        tracing::info!("stability: off ([stability] enabled = false)");
+        return Ok(());
+    }
+    let stage = ui::Stage::start("stability");
+    let bar = ui::bar(b.points.len() as u64, "stability");
+    let failed = analyze_backbone(system, b, &settings.hill, |done, _| {
+        bar.set_position(done as u64)
+    })
+    .context("Floquet analysis of the backbone")?;
+    bar.finish_and_clear();
+    if failed > 0 {
+        tracing::warn!(
+            "{failed} of {} points have no stability (Hill's method failed there)",
+            b.points.len()
+        );
+    }
+    let unstable = b
+        .points
+        .iter()
+        .filter(|p| p.stability.as_ref().is_some_and(|s| !s.stable))
+        .count();
+    let bifurcations = b.points.iter().filter(|p| p.bifurcation.is_some()).count();
+    stage.done(&format!(
+        "{} points analysed, {unstable} unstable, {bifurcations} bifurcations",
+        b.points.len() - failed
+    ));
+    Ok(())
+}
+
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 26] = [
+pub const CSV_COLUMNS: [&str; 30] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -128,6 +163,10 @@ pub const CSV_COLUMNS: [&str; 26] = [
     "branch",
     "branch_kind",
     "pre_fold",
+    "stable",
+    "max_multiplier_abs",
+    "trivial_pair_error",
+    "bifurcation",
 ];
 
 /// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
@@ -167,11 +206,29 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
             CsvValue::Text(branch_kind(b, p.branch)),
             flag(p.pre_fold),
         ];
+        // Stability: empty cells where it was not computed (never a NaN).
+        let stab = p.stability.as_ref();
+        let text = |v: Option<String>| CsvValue::Text(v.unwrap_or_default());
+        let mut row = row;
+        row.push(text(stab.map(|s| u8::from(s.stable).to_string())));
+        row.push(text(stab.map(|s| s.max_multiplier_abs.to_string())));
+        row.push(text(stab.map(|s| s.trivial_pair_error.to_string())));
+        row.push(text(p.bifurcation.map(bifurcation_name)));
         table
             .push_row(row)
             .with_context(|| format!("backbone point {i}"))?;
     }
     Ok(table)
+}
+
+/// The CSV name of a bifurcation.
+fn bifurcation_name(b: Bifurcation) -> String {
+    match b {
+        Bifurcation::FoldOrBranchPoint => "fold_or_branch_point",
+        Bifurcation::PeriodDoubling => "period_doubling",
+        Bifurcation::NeimarkSacker => "neimark_sacker",
+    }
+    .to_string()
 }
 
 /// `linear`, `main`, or `tongue_k<mode>_n<harmonic>` (mode 1-based), for the CSV.

@@ -28,6 +28,27 @@ pub struct Case {
     pub continuation: ContinuationSettings,
     /// Algorithm 1 and the inner Newton solver: `nlmodes_nnm::AlgorithmParams`.
     pub algorithm: AlgorithmParams,
+    /// Floquet stability of every backbone point (Hill's method, docs/STABILITY.md).
+    pub stability: StabilitySection,
+}
+
+/// `[stability]`: Floquet multipliers of every backbone point by Hill's method.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StabilitySection {
+    /// Compute the multipliers of every point (adds a few ms per point on the blade).
+    pub enabled: bool,
+    /// Hill's method: `nlmodes_nnm::FloquetSettings` (mode cutoff, static correction, ...).
+    pub hill: nlmodes_nnm::FloquetSettings,
+}
+
+impl Default for StabilitySection {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            hill: nlmodes_nnm::FloquetSettings::default(),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -103,16 +124,11 @@ impl Default for Case {
             material: MaterialSection::default(),
             model: ModelSection::default(),
             nnm: NnmSection::default(),
-            continuation: ContinuationSettings {
-                q_start: 0.5,
-                q_max: 35.0,
-                ..ContinuationSettings::default()
-            },
-            // epsilon 1e-3 g0: see AlgorithmParams::epsilon and docs/VERIFICATION.md.
-            algorithm: AlgorithmParams {
-                epsilon: 1e-3,
-                ..AlgorithmParams::default()
-            },
+            // The library defaults are the study's (q_start 0.5, q_max 35 g0, epsilon 1e-3 g0:
+            // see AlgorithmParams::epsilon and docs/VERIFICATION.md).
+            continuation: ContinuationSettings::default(),
+            algorithm: AlgorithmParams::default(),
+            stability: StabilitySection::default(),
         }
     }
 }
@@ -193,6 +209,7 @@ impl Case {
 pub struct StudySettings {
     pub algorithm: AlgorithmParams,
     pub continuation: ContinuationSettings,
+    pub stability: StabilitySection,
 }
 
 impl Default for StudySettings {
@@ -201,6 +218,7 @@ impl Default for StudySettings {
         Self {
             algorithm: case.algorithm,
             continuation: case.continuation,
+            stability: case.stability,
         }
     }
 }

@@ -31,7 +31,7 @@ fn family_plot(
     const TONGUE: Color = Color(0x9e, 0xc5, 0xe8);
     let mut plot =
         LinePlot::new(title, xlabel, "frequency ratio w / w1").with_legend(LegendPosition::TopLeft);
-    let mut labelled = (false, false);
+    let mut labelled = (false, false, false);
     for (id, pts) in branches_of(b) {
         let tongue = b.on_tongue(pts[0]);
         // A branch starts at the point of its parent it leaves from (the main branch at the
@@ -46,25 +46,61 @@ fn family_plot(
                 ys.push(p.omega_ratio);
             }
         }
-        xs.extend(pts.iter().map(|p| x_of(p)));
-        ys.extend(pts.iter().map(|p| p.omega_ratio));
-        let (label, seen) = if tongue {
-            ("internal-resonance tongues", &mut labelled.1)
-        } else {
-            ("backbone", &mut labelled.0)
-        };
-        let name = if *seen {
-            String::new()
-        } else {
-            label.to_string()
-        };
-        *seen = true;
-        let series = Series::new(name, xs, ys);
-        plot = plot.with_series(if tongue {
-            series.color(TONGUE).width(1.2)
-        } else {
-            series.color(PALETTE[0]).markers(true)
-        });
+        // Runs of equal stability: stable (or not analysed) solid, unstable dashed.
+        let mut run_start = 0;
+        for k in 1..=pts.len() {
+            if k < pts.len() && pts[k].unstable() == pts[run_start].unstable() {
+                continue;
+            }
+            let unstable = pts[run_start].unstable();
+            // The first run starts at the parent's point, the others overlap the previous run by
+            // one point, so that the curve stays connected.
+            let (mut rx, mut ry, first) = if run_start == 0 {
+                (xs.clone(), ys.clone(), 0)
+            } else {
+                (Vec::new(), Vec::new(), run_start - 1)
+            };
+            rx.extend(pts[first..k].iter().map(|p| x_of(p)));
+            ry.extend(pts[first..k].iter().map(|p| p.omega_ratio));
+            let (label, seen) = match (tongue, unstable) {
+                (true, _) => ("internal-resonance tongues", &mut labelled.1),
+                (false, false) => ("backbone (stable)", &mut labelled.0),
+                (false, true) => ("unstable (dashed)", &mut labelled.2),
+            };
+            let name = if *seen {
+                String::new()
+            } else {
+                label.to_string()
+            };
+            *seen = true;
+            let series = Series::new(name, rx, ry);
+            let series = if tongue {
+                series.color(TONGUE).width(1.2)
+            } else {
+                series.color(PALETTE[0]).markers(!unstable)
+            };
+            plot = plot.with_series(if unstable {
+                series.style(LineStyle::Dashed)
+            } else {
+                series
+            });
+            run_start = k;
+        }
+    }
+    let bif: Vec<(f64, f64)> = b
+        .points
+        .iter()
+        .filter(|p| p.bifurcation.is_some())
+        .map(|p| (x_of(p), p.omega_ratio))
+        .collect();
+    if !bif.is_empty() {
+        let (bx, by): (Vec<f64>, Vec<f64>) = bif.into_iter().unzip();
+        plot = plot.with_series(
+            Series::new("bifurcation (stability change)", bx, by)
+                .color(PALETTE[2])
+                .style(LineStyle::None)
+                .markers(true),
+        );
     }
     let marks: Vec<(f64, f64)> = b
         .points

@@ -333,7 +333,7 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
         Some(p) => case::StudySettings::load(p)?,
         None => case::StudySettings::default(),
     };
-    let (params, mut cont) = (study.algorithm, study.continuation);
+    let (params, mut cont, stab) = (study.algorithm, study.continuation, study.stability);
     cont.q_max = a.q_max.unwrap_or(cont.q_max);
     cont.q_start = a.q_start.unwrap_or(cont.q_start);
     let source = a
@@ -347,6 +347,9 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     });
     validate::check_nnm(a.harmonics, a.samples, &mut problems);
     validate::check_settings(&params, &cont, &mut problems);
+    if let Err(e) = stab.hill.validate() {
+        problems.note("stability.hill", &e.to_string());
+    }
     problems.finish()?;
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = load_model(&a.model)?;
@@ -359,7 +362,8 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     let system = backbone::system_of(&reduced, a.master)?;
     backbone::check_reaches_contact(&system, &cont)?;
     let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
-    let b = backbone::trace(&system, hs, &params, &cont)?;
+    let mut b = backbone::trace(&system, hs, &params, &cont)?;
+    backbone::stability(&system, &mut b, &stab)?;
     backbone::write(&b, &a.out)?;
     ui::say(&backbone::summary(&b));
     backbone::stopped_early(&b, &a.out)

@@ -156,14 +156,31 @@ pub fn write_report(
     }
     let _ = writeln!(
         s,
-        "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | flags |\n|---|---|---|---|---|---|---|---|"
+        "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | stable (max abs mu, trivial-pair error) | flags |\n|---|---|---|---|---|---|---|---|---|"
     );
     let stride = (b.points.len() / 25).max(1);
     for (i, p) in b.points.iter().enumerate() {
-        if i % stride != 0 && i + 1 != b.points.len() && !p.fold && !p.jump {
+        if i % stride != 0
+            && i + 1 != b.points.len()
+            && !p.fold
+            && !p.jump
+            && p.bifurcation.is_none()
+        {
             continue;
         }
         let share = p.contact_fraction.iter().cloned().fold(0.0, f64::max);
+        let stability = p
+            .stability
+            .as_ref()
+            .map_or("not computed".to_string(), |st| {
+                format!(
+                    "{} ({:.4}, {:.1e})",
+                    if st.stable { "yes" } else { "no" },
+                    st.max_multiplier_abs,
+                    st.trivial_pair_error
+                )
+            });
+        let bifurcation = p.bifurcation.as_deref().map(|k| k.replace('_', " "));
         let flags = [
             (b.on_tongue(p), "tongue"),
             (p.pre_fold, "grazing to fold"),
@@ -173,12 +190,13 @@ pub fn write_report(
         ]
         .iter()
         .filter(|f| f.0)
-        .map(|f| f.1)
+        .map(|f| f.1.to_string())
+        .chain(bifurcation)
         .collect::<Vec<_>>()
         .join(", ");
         let _ = writeln!(
             s,
-            "| {:.3} | {:.6} | {:.3} | {} | {:.3} | {:.1e} | {} | {} |",
+            "| {:.3} | {:.6} | {:.3} | {} | {:.3} | {:.1e} | {} | {stability} | {} |",
             p.q / g0,
             p.omega_ratio,
             p.frequency_hz,

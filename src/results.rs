@@ -37,13 +37,35 @@ pub struct Orbit {
     /// Between grazing and the first fold of q (the branch leaves grazing toward smaller q).
     #[serde(default)]
     pub pre_fold: bool,
+    /// Floquet stability (absent when not computed).
+    #[serde(default)]
+    pub stability: Option<StabilityRecord>,
+    /// A change of stability since the previous point of the branch (snake_case kind).
+    #[serde(default)]
+    pub bifurcation: Option<String>,
     /// u_n, n = 0..N (reduced coordinates, m).
     pub coefficients: Vec<Vec<f64>>,
     /// lambda_{j,k} (N) at t_k = k T / m, one vector of m samples per contact row.
     pub contact_force: Vec<Vec<f64>>,
 }
 
+/// What the figures and the report read of a point's Floquet stability.
+#[derive(Debug, Clone, Deserialize)]
+pub struct StabilityRecord {
+    /// Every non-trivial multiplier within the unit circle (to the analysis tolerance).
+    pub stable: bool,
+    /// Largest |mu| over the non-trivial multipliers.
+    pub max_multiplier_abs: f64,
+    /// max |mu - 1| over the trivial pair (the confidence of the flag).
+    pub trivial_pair_error: f64,
+}
+
 impl Orbit {
+    /// Whether the point is known to be unstable.
+    pub fn unstable(&self) -> bool {
+        self.stability.as_ref().is_some_and(|s| !s.stable)
+    }
+
     /// Period T = 2 pi / w (s).
     pub fn period(&self) -> f64 {
         2.0 * std::f64::consts::PI / self.omega

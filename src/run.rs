@@ -175,6 +175,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         &json(&case.nnm),
         &json(&case.continuation),
         &json(&case.algorithm),
+        &json(&case.stability),
     ]);
     let bb_out = [
         layout.backbone().join("backbone.json"),
@@ -186,7 +187,8 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         let system = backbone::system_of(&model, None)?;
         backbone::check_reaches_contact(&system, &case.continuation)?;
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
-        let b = backbone::trace(&system, hs, &case.algorithm, &case.continuation)?;
+        let mut b = backbone::trace(&system, hs, &case.algorithm, &case.continuation)?;
+        backbone::stability(&system, &mut b, &case.stability)?;
         backbone::write(&b, &layout.backbone())?;
         let kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
         nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;

@@ -97,6 +97,9 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
     check_model(case, &mut p);
     check_nnm(case.nnm.harmonics, case.nnm.samples, &mut p);
     check_settings(&case.algorithm, &case.continuation, &mut p);
+    if let Err(e) = case.stability.hill.validate() {
+        p.note("stability.hill", &e.to_string());
+    }
     let (lo, hi) = (case.continuation.q_start, case.continuation.q_max);
     for (i, &k) in case.nnm.keep.iter().enumerate() {
         p.check(

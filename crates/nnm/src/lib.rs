@@ -102,8 +102,8 @@ pub use newton::NewtonSettings;
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
 pub use stability::{
-    classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis, FloquetSettings,
-    JacobianInTime, Monodromy, MonodromySettings, Stability, UnstableCounts,
+    analyze_backbone, classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis,
+    FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability, UnstableCounts,
 };
 pub use step_timing::{newton_step_timing, StepTiming};
 pub use sweep::amplitude_sweep;

@@ -74,6 +74,12 @@ pub struct BackbonePoint {
     pub coefficients: Vec<Vec<f64>>,
     /// Contact force samples lambda_{j,k} at t_k = k T / m, one vector of m per contact row.
     pub contact_force: Vec<Vec<f64>>,
+    /// Floquet stability by Hill's method ([`crate::analyze_backbone`]; None when not computed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stability: Option<crate::Stability>,
+    /// A change of stability since the previous point of the same branch.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bifurcation: Option<crate::Bifurcation>,
     /// Augmented-Lagrangian variables at convergence (warm start of the next point).
     #[serde(skip)]
     pub multipliers: Multipliers,

@@ -344,6 +344,8 @@ impl<'s> Solver<'s> {
             jump: false,
             branch: 0,
             pre_fold: false,
+            stability: None,
+            bifurcation: None,
             truncation_share,
             truncation_warning,
             primary_share: shares.share(mode, 1),

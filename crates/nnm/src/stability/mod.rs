@@ -76,6 +76,7 @@ pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, Monodro
 
 use serde::{Deserialize, Serialize};
 
+use crate::continuation::Backbone;
 use crate::error::NnmError;
 use crate::point::BackbonePoint;
 use crate::system::System;
@@ -208,6 +209,44 @@ pub struct Stability {
     /// Smallest |mean harmonic| of a rejected eigenvector (about 1 in the linear regime; 1/2 for
     /// the discarded copies of a period-doubling quadruple).
     pub rejection_mean_harmonic_min: f64,
+}
+
+/// Floquet stability of every point of `backbone` (docs/DESIGN.md §9), stored in
+/// [`BackbonePoint::stability`], and [`BackbonePoint::bifurcation`] set where the stability
+/// changed since the previous point of the same branch (a branch's first point is compared with
+/// the point of its parent it leaves from). `progress(done, total)` is called after each point.
+/// A point whose analysis fails keeps `None` (logged); the others go on. Returns how many failed.
+pub fn analyze_backbone(
+    system: &System,
+    backbone: &mut Backbone,
+    settings: &FloquetSettings,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<usize, NnmError> {
+    let analysis = FloquetAnalysis::new(system, settings.clone())?;
+    let total = backbone.points.len();
+    let mut last: Vec<Option<Stability>> = vec![None; backbone.branches.len().max(1)];
+    let mut failed = 0;
+    for i in 0..total {
+        let branch = backbone.points[i].branch;
+        if last[branch].is_none() {
+            let parent = backbone.branches.get(branch).and_then(|b| b.parent);
+            last[branch] = parent.and_then(|p| last[p].clone());
+        }
+        match analysis.analyze(&backbone.points[i]) {
+            Ok(s) => {
+                let p = &mut backbone.points[i];
+                p.bifurcation = last[branch].as_ref().and_then(|prev| classify(prev, &s));
+                last[branch] = Some(s.clone());
+                p.stability = Some(s);
+            }
+            Err(e) => {
+                failed += 1;
+                tracing::warn!(q = backbone.points[i].q, error = %e, "Floquet analysis failed");
+            }
+        }
+        progress(i + 1, total);
+    }
+    Ok(failed)
 }
 
 /// Hill stability of `point` on `system` (builds a [`FloquetAnalysis`]; reuse one for many points).
