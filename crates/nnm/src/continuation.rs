@@ -24,14 +24,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::augmented_lagrangian::AlgorithmParams;
 use crate::check::positive;
 use crate::error::NnmError;
-use crate::fourier::HarmonicSettings;
 use crate::point::BackbonePoint;
-use crate::solver::Solver;
-use crate::system::System;
-use crate::trace::Continuation;
 
 /// Continuation settings. Amplitudes are in units of the reference gap g_ref (the mean initial
 /// gap, [`System::gap_reference`]); steps are arc lengths in the scaled plane (q / g_ref, w / w_lin).
@@ -286,24 +281,6 @@ pub struct SkippedLevel {
     pub q: f64,
     /// The solver error.
     pub reason: String,
-}
-
-/// Traces the backbone family of mode `cont.mode` from q_start to q_max (docs/DESIGN.md §8),
-/// calling `progress` after every computed point. Invalid settings are errors; solver failures
-/// end the run with the points computed so far and a [`Termination`] saying why.
-pub fn backbone<F>(
-    system: &System,
-    settings: HarmonicSettings,
-    params: AlgorithmParams,
-    cont: &ContinuationSettings,
-    progress: F,
-) -> Result<Backbone, NnmError>
-where
-    F: FnMut(&BackbonePoint),
-{
-    cont.validate()?;
-    let solver = Solver::new(system, settings, params)?;
-    Continuation::new(solver, cont, progress)?.run()
 }
 
 impl ContinuationSettings {

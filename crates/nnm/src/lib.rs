@@ -92,7 +92,7 @@ mod truncation;
 pub use augmented_lagrangian::{AlgorithmParams, Condensation, ContactMethod, PenaltyUpdate};
 pub use contact::{powell_measure, Multipliers, PowellMeasure};
 pub use continuation::{
-    backbone, Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, SkippedLevel,
+    Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, SkippedLevel,
     Termination,
 };
 pub use error::NnmError;
@@ -108,4 +108,5 @@ pub use stability::{
 pub use step_timing::{newton_step_timing, StepTiming};
 pub use sweep::amplitude_sweep;
 pub use system::{ModalShares, System};
+pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};

@@ -1,18 +1,39 @@
-//! The continuation engine behind [`crate::backbone`] (docs/DESIGN.md §8): a [`Continuation`]
+//! [`backbone`] and the continuation engine behind it (docs/DESIGN.md §8): a [`Continuation`]
 //! owns the solver and the growing [`Backbone`]; each branch being traced is a [`Trace`] (its
 //! points, unit tangent and step), advanced by predict / correct / accept.
 
+use crate::augmented_lagrangian::AlgorithmParams;
 use crate::continuation::{
     Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Termination,
 };
 use crate::error::NnmError;
+use crate::fourier::HarmonicSettings;
 use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
+use crate::system::System;
 
 /// Predictors tried past an internal-resonance tongue, at 2, 4, ... 2^PASS_ATTEMPTS steps ahead
 /// (and as many fixed-q hops, at 1, 2, ... 2^(PASS_ATTEMPTS - 1) steps).
 const PASS_ATTEMPTS: u32 = 5;
+
+/// Traces the backbone family of mode `cont.mode` from q_start to q_max (docs/DESIGN.md §8),
+/// calling `progress` after every computed point. Invalid settings are errors; solver failures
+/// end the run with the points computed so far and a [`Termination`] saying why.
+pub fn backbone<F>(
+    system: &System,
+    settings: HarmonicSettings,
+    params: AlgorithmParams,
+    cont: &ContinuationSettings,
+    progress: F,
+) -> Result<Backbone, NnmError>
+where
+    F: FnMut(&BackbonePoint),
+{
+    cont.validate()?;
+    let solver = Solver::new(system, settings, params)?;
+    Continuation::new(solver, cont, progress)?.run()
+}
 
 /// A branch being traced.
 struct Trace {
