@@ -74,23 +74,11 @@ pub fn trace(
             result.points.len()
         ),
     }
-    let flagged: Vec<f64> = result
-        .points
-        .iter()
-        .filter(|p| p.truncation_warning)
-        .map(|p| p.q / g)
-        .collect();
-    if let (Some(lo), Some(hi)) = (
-        flagged.iter().cloned().reduce(f64::min),
-        flagged.iter().cloned().reduce(f64::max),
-    ) {
-        tracing::warn!(
-            "at {} of {} points (q/g0 {lo:.2} .. {hi:.2}) the highest harmonic holds more than {} \
-             of the contact motion: N = {} may be too small there",
-            flagged.len(),
-            result.points.len(),
-            params.truncation_warning,
-            harmonics.harmonics
+    let jumps = result.points.iter().filter(|p| p.jump).count();
+    if jumps > 0 {
+        tracing::info!(
+            "{jumps} points accepted at the smallest step (corners of the sampled branch, or hops \
+             past tongues), flagged J"
         );
     }
     stage.done(&format!(
@@ -100,6 +88,60 @@ pub fn trace(
         result.points.last().map(|p| p.omega_ratio).unwrap_or(1.0)
     ));
     Ok(result)
+}
+
+/// The a-posteriori truncation estimate (docs/DESIGN.md §8.5) at every `every`-th point of the
+/// linear segment and main branch (0: none) and at each point of `extra` (the kept orbits):
+/// each re-solved with 2N harmonics; a summary of the points beyond `tolerance` is logged.
+pub fn truncation(
+    system: &System,
+    harmonics: HarmonicSettings,
+    params: &AlgorithmParams,
+    b: &mut Backbone,
+    extra: &mut [nlmodes_nnm::BackbonePoint],
+    every: usize,
+    tolerance: f64,
+) -> Result<()> {
+    let stage = ui::Stage::start("truncation");
+    let on_main = |b: &Backbone, i: usize| {
+        !matches!(
+            b.branches.get(b.points[i].branch).map(|br| &br.kind),
+            Some(BranchKind::Tongue { .. })
+        )
+    };
+    let chosen: Vec<usize> = (0..b.points.len())
+        .filter(|&i| every > 0 && on_main(b, i) && (i % every == 0 || i + 1 == b.points.len()))
+        .collect();
+    let estimate = |p: &nlmodes_nnm::BackbonePoint| {
+        nlmodes_nnm::truncation_estimate(system, harmonics, params, p)
+            .map_err(|e| tracing::warn!(q = p.q, error = %e, "truncation estimate failed"))
+            .ok()
+    };
+    for &i in &chosen {
+        b.points[i].truncation = estimate(&b.points[i]);
+    }
+    for p in extra.iter_mut() {
+        p.truncation = estimate(p);
+    }
+    let done: Vec<&nlmodes_nnm::TruncationEstimate> = b
+        .points
+        .iter()
+        .chain(extra.iter())
+        .filter_map(|p| p.truncation.as_ref())
+        .collect();
+    let beyond = done.iter().filter(|t| !t.within(tolerance)).count();
+    if beyond > 0 {
+        tracing::warn!(
+            "at {beyond} of {} points checked, doubling N = {} moves w or the contact share by              more than {tolerance}: raise [nnm] harmonics there (backbone.csv, truncation columns)",
+            done.len(),
+            harmonics.harmonics
+        );
+    }
+    stage.done(&format!(
+        "{} points re-solved with 2N harmonics, {beyond} beyond {tolerance}",
+        done.len()
+    ));
+    Ok(())
 }
 
 /// Floquet stability of every point (Hill's method, docs/STABILITY.md), when `settings.enabled`:
@@ -136,7 +178,7 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
 }
 
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 30] = [
+pub const CSV_COLUMNS: [&str; 32] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -167,6 +209,8 @@ pub const CSV_COLUMNS: [&str; 30] = [
     "max_multiplier_abs",
     "trivial_pair_error",
     "bifurcation",
+    "truncation_omega_change",
+    "truncation_share_change",
 ];
 
 /// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
@@ -214,6 +258,10 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
         row.push(text(stab.map(|s| s.max_multiplier_abs.to_string())));
         row.push(text(stab.map(|s| s.trivial_pair_error.to_string())));
         row.push(text(p.bifurcation.map(bifurcation_name)));
+        // The 2N re-solve, where it was made (empty elsewhere).
+        let trunc = p.truncation.as_ref();
+        row.push(text(trunc.map(|t| t.omega_change.to_string())));
+        row.push(text(trunc.map(|t| t.contact_share_change.to_string())));
         table
             .push_row(row)
             .with_context(|| format!("backbone point {i}"))?;

@@ -113,6 +113,13 @@ pub struct NnmSection {
     pub keep: Vec<f64>,
     /// VTU frames over one period for each kept amplitude.
     pub frames: usize,
+    /// The harmonic-truncation estimate (each point re-solved with 2N harmonics) is computed at
+    /// the kept amplitudes and at every `truncation_every`-th point of the main branch (0: only at
+    /// the kept amplitudes).
+    pub truncation_every: usize,
+    /// A point is trusted when doubling N moves w by at most this (relative) and its contact share
+    /// by at most max(this, 2 / m).
+    pub truncation_tolerance: f64,
 }
 
 impl Default for Case {
@@ -176,6 +183,8 @@ impl Default for NnmSection {
             samples: 128,
             keep: vec![5.7, 9.3, 31.3],
             frames: 24,
+            truncation_every: 10,
+            truncation_tolerance: 1e-3,
         }
     }
 }

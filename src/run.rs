@@ -189,8 +189,17 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
         let mut b = backbone::trace(&system, hs, &case.algorithm, &case.continuation)?;
         backbone::stability(&system, &mut b, &case.stability)?;
+        let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
+        backbone::truncation(
+            &system,
+            hs,
+            &case.algorithm,
+            &mut b,
+            &mut kept,
+            case.nnm.truncation_every,
+            case.nnm.truncation_tolerance,
+        )?;
         backbone::write(&b, &layout.backbone())?;
-        let kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
         nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;
         ui::say(&backbone::summary(&b));
         // A backbone stopped before q_max keeps its results but no stamp: exit code 3.

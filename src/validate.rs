@@ -97,6 +97,13 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
     check_model(case, &mut p);
     check_nnm(case.nnm.harmonics, case.nnm.samples, &mut p);
     check_settings(&case.algorithm, &case.continuation, &mut p);
+    let tol = case.nnm.truncation_tolerance;
+    p.check(
+        tol.is_finite() && tol > 0.0 && tol < 1.0,
+        "nnm.truncation_tolerance",
+        tol,
+        "a relative change in (0, 1)",
+    );
     if let Err(e) = case.stability.hill.validate() {
         p.note("stability.hill", &e.to_string());
     }

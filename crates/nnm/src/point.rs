@@ -74,6 +74,10 @@ pub struct BackbonePoint {
     pub coefficients: Vec<Vec<f64>>,
     /// Contact force samples lambda_{j,k} at t_k = k T / m, one vector of m per contact row.
     pub contact_force: Vec<Vec<f64>>,
+    /// A-posteriori truncation estimate (the point re-solved with 2N harmonics; None when not
+    /// computed, see [`crate::truncation_estimate`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truncation: Option<crate::TruncationEstimate>,
     /// Floquet stability by Hill's method ([`crate::analyze_backbone`]; None when not computed).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stability: Option<crate::Stability>,

@@ -344,6 +344,7 @@ impl<'s> Solver<'s> {
             jump: false,
             branch: 0,
             pre_fold: false,
+            truncation: None,
             stability: None,
             bifurcation: None,
             truncation_share,
