@@ -129,7 +129,18 @@ pub fn truncation(
         .chain(extra.iter())
         .filter_map(|p| p.truncation.as_ref())
         .collect();
-    let beyond = done.iter().filter(|t| !t.within(tolerance)).count();
+    let other = done.iter().filter(|t| !t.same_orbit).count();
+    if other > 0 {
+        tracing::warn!(
+            "at {other} of {} points checked the 2N solve found another orbit at the same q (an \
+             internal resonance more harmonics reach): no truncation estimate there",
+            done.len()
+        );
+    }
+    let beyond = done
+        .iter()
+        .filter(|t| t.same_orbit && !t.within(tolerance))
+        .count();
     if beyond > 0 {
         tracing::warn!(
             "at {beyond} of {} points checked, doubling N = {} moves w or the contact share by              more than {tolerance}: raise [nnm] harmonics there (backbone.csv, truncation columns)",
@@ -178,7 +189,7 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
 }
 
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 32] = [
+pub const CSV_COLUMNS: [&str; 33] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -211,6 +222,7 @@ pub const CSV_COLUMNS: [&str; 32] = [
     "bifurcation",
     "truncation_omega_change",
     "truncation_share_change",
+    "truncation_same_orbit",
 ];
 
 /// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
@@ -262,6 +274,7 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
         let trunc = p.truncation.as_ref();
         row.push(text(trunc.map(|t| t.omega_change.to_string())));
         row.push(text(trunc.map(|t| t.contact_share_change.to_string())));
+        row.push(text(trunc.map(|t| u8::from(t.same_orbit).to_string())));
         table
             .push_row(row)
             .with_context(|| format!("backbone point {i}"))?;

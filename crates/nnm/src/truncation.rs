@@ -15,6 +15,9 @@ use crate::point::BackbonePoint;
 use crate::solver::{Solver, Start};
 use crate::system::System;
 
+/// Largest change of the primary modal share for the 2N solve to count as the same orbit.
+const SAME_ORBIT_SHARE: f64 = 0.05;
+
 /// The change of a point when its harmonics are doubled.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TruncationEstimate {
@@ -29,6 +32,11 @@ pub struct TruncationEstimate {
     pub contact_share_change: f64,
     /// 1 / m of the N-harmonic solve: a contact share can only be resolved to that.
     pub share_resolution: f64,
+    /// Whether the 2N solve found the same orbit: its primary modal share (starting mode at
+    /// harmonic 1) within 0.05 of the point's. Where several orbits share the same q (near
+    /// internal resonances, which more harmonics can reach) the 2N solve may land on another one;
+    /// the changes are then no estimate of the truncation error.
+    pub same_orbit: bool,
 }
 
 impl TruncationEstimate {
@@ -65,5 +73,6 @@ pub fn truncation_estimate(
         omega_change: (reference.omega - point.omega).abs() / point.omega,
         contact_share_change,
         share_resolution: 1.0 / settings.samples as f64,
+        same_orbit: (reference.primary_share - point.primary_share).abs() <= SAME_ORBIT_SHARE,
     })
 }

@@ -44,6 +44,7 @@ fn doubling_the_harmonics_estimates_the_truncation_error_of_w() {
             est.omega_change
         );
         assert_eq!(est.harmonics, 2 * harmonics);
+        assert!(est.same_orbit);
         assert!(!est.within(0.5 * actual) && est.within(2.0 * actual));
     }
 }
