@@ -208,6 +208,7 @@ pub fn write_report(
         );
     }
     let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
+    truncation_table(&mut s, b, kept, g0);
     let _ = writeln!(s, "## Manifold (Fig. 3b)\n\n![manifold displacement](manifold_displacement.png)\n![manifold velocity](manifold_velocity.png)\n\nData: `manifold.csv`.\n");
     let _ = writeln!(
         s,
@@ -253,4 +254,44 @@ pub fn write_report(
         "## Convergence\n\n![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n"
     );
     crate::output::write_atomic(&root.join("report.md"), s.as_bytes())
+}
+
+/// The harmonic-truncation estimates (docs/DESIGN.md §8.5): the backbone points where it was made
+/// and the kept amplitudes.
+fn truncation_table(s: &mut String, b: &BackboneFile, kept: &[KeptOutputs], g0: f64) {
+    let rows: Vec<(&str, &Orbit)> = b
+        .points
+        .iter()
+        .map(|p| ("backbone", p))
+        .chain(kept.iter().map(|k| ("kept amplitude", &k.orbit)))
+        .filter(|(_, p)| p.truncation.is_some())
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "### Harmonic truncation\n\nEach point below was solved again at the same q with twice the \
+         harmonics; the change of w estimates the truncation error of w (calibrated on the penalty \
+         oscillator, docs/VERIFICATION.md). \"another orbit\": the 2N solve found a different orbit \
+         at that q (an internal resonance more harmonics reach), so no estimate.\n\n\
+         | | q/g0 | w/w1 | 2N | change of w | change of contact share |\n|---|---|---|---|---|---|"
+    );
+    for (what, p) in rows {
+        let Some(t) = &p.truncation else { continue };
+        let change = if t.same_orbit {
+            format!("{:.1e}", t.omega_change)
+        } else {
+            "another orbit".to_string()
+        };
+        let _ = writeln!(
+            s,
+            "| {what} | {:.3} | {:.5} | {} | {change} | {:.3} |",
+            p.q / g0,
+            p.omega_ratio,
+            t.harmonics,
+            t.contact_share_change
+        );
+    }
+    let _ = writeln!(s);
 }

@@ -43,10 +43,26 @@ pub struct Orbit {
     /// A change of stability since the previous point of the branch (snake_case kind).
     #[serde(default)]
     pub bifurcation: Option<String>,
+    /// The harmonic-truncation estimate (2N re-solve), where it was made.
+    #[serde(default)]
+    pub truncation: Option<TruncationRecord>,
     /// u_n, n = 0..N (reduced coordinates, m).
     pub coefficients: Vec<Vec<f64>>,
     /// lambda_{j,k} (N) at t_k = k T / m, one vector of m samples per contact row.
     pub contact_force: Vec<Vec<f64>>,
+}
+
+/// What the report reads of a point's harmonic-truncation estimate (docs/DESIGN.md §8.5).
+#[derive(Debug, Clone, Deserialize)]
+pub struct TruncationRecord {
+    /// Harmonics of the reference solve (2N).
+    pub harmonics: usize,
+    /// |w(2N) - w(N)| / w(N).
+    pub omega_change: f64,
+    /// Largest change of a contact row's share of the period in contact.
+    pub contact_share_change: f64,
+    /// The 2N solve found the same orbit (else the changes are no estimate).
+    pub same_orbit: bool,
 }
 
 /// What the figures and the report read of a point's Floquet stability.
