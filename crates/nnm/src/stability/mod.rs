@@ -76,6 +76,7 @@ pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, Monodro
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{at_least_one, require};
 use crate::continuation::Backbone;
 use crate::error::NnmError;
 use crate::point::BackbonePoint;
@@ -132,34 +133,28 @@ impl Default for FloquetSettings {
 impl FloquetSettings {
     /// Checks the ranges; the error names the parameter.
     pub fn validate(&self) -> Result<(), NnmError> {
-        if !(self.mode_cutoff.is_finite() && self.mode_cutoff > 0.0) {
-            return Err(NnmError::InvalidParameter {
-                name: "mode_cutoff",
-                value: self.mode_cutoff,
-                expected: "a finite multiple of (N + 1) w > 0",
-            });
-        }
-        if self.min_modes == 0 {
-            return Err(NnmError::InvalidParameter {
-                name: "min_modes",
-                value: 0.0,
-                expected: ">= 1",
-            });
-        }
-        if !(self.impact_width.is_finite() && self.impact_width >= 0.0) {
-            return Err(NnmError::InvalidParameter {
-                name: "impact_width",
-                value: self.impact_width,
-                expected: "a finite width >= 0 (units of T / N)",
-            });
-        }
-        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(NnmError::InvalidParameter {
-                name: "tolerance",
-                value: self.tolerance,
-                expected: "a finite tolerance >= 0",
-            });
-        }
+        let m = self.mode_cutoff;
+        require(
+            "mode_cutoff",
+            m,
+            m.is_finite() && m > 0.0,
+            "a finite multiple of (N + 1) w > 0",
+        )?;
+        at_least_one("min_modes", self.min_modes)?;
+        let w = self.impact_width;
+        require(
+            "impact_width",
+            w,
+            w.is_finite() && w >= 0.0,
+            "a finite width >= 0 (units of T / N)",
+        )?;
+        let t = self.tolerance;
+        require(
+            "tolerance",
+            t,
+            t.is_finite() && t >= 0.0,
+            "a finite tolerance >= 0",
+        )?;
         Ok(())
     }
 }
