@@ -119,3 +119,71 @@ fn branch_from_grazing_follows_the_exact_one_impact_mode() {
         .filter(|p| p.pre_fold)
         .all(|p| p.omega_ratio < f.omega_ratio));
 }
+
+/// Issue 13 on the same branch: just after grazing the exact one-impact orbit is unstable (a real
+/// multiplier above 1) up to w = 1.032392 (a pair through +1 at the energy minimum, 0.4 % above the
+/// fold of q), then stable (docs/oracle_impact.md). The program's Floquet analysis of its
+/// continuation output must agree at every point more than 1 % in w from that transition, and flag
+/// the transition within 1 % in w.
+///
+/// KNOWN FAILURE (2026-11-23), kept as the open check of issue 13: with N = 60, m = 512 and
+/// epsilon = 1e-6 g0 the analysis calls every point from grazing to w = 1.0589 stable (the exact
+/// orbit is unstable up to 1.0324, max |mu| 8.4 at 1.01) and reports a spurious complex
+/// instability for 1.063 < w < 1.095 (max |mu| up to 1.146). Near grazing the contact lasts one
+/// or two samples and the impact-equivalent linearization (docs/STABILITY.md) does not yet
+/// reproduce the saltation of a grazing impact. Run it with
+/// `cargo test --release -p nlmodes-nnm --test grazing_branch -- --ignored --nocapture`.
+#[test]
+#[ignore = "known failure near grazing: Hill's stability disagrees with the exact oracle (see doc)"]
+fn stability_after_grazing_changes_where_the_exact_orbit_does() {
+    const W_PLUS_ONE: f64 = 1.032_392_122_730;
+    let sys = chain();
+    let settings = HarmonicSettings::new(60, 512).expect("settings");
+    let params = AlgorithmParams {
+        epsilon: 1e-6,
+        ..AlgorithmParams::default()
+    };
+    let cont = ContinuationSettings {
+        q_start: 0.5,
+        q_max: 1.08,
+        ..ContinuationSettings::default()
+    };
+    let mut b = backbone(&sys, settings, params, &cont, |_| {}).expect("run");
+    let failed = nlmodes_nnm::analyze_backbone(&sys, &mut b, &Default::default(), |_, _| {})
+        .expect("analysis");
+    assert_eq!(failed, 0);
+    let main: Vec<_> = b.points.iter().filter(|p| p.branch == 1).collect();
+    for p in &main {
+        let s = p.stability.as_ref().expect("stability");
+        println!(
+            "w {:.5} q {:.5} stable {} max|mu| {:.4} bifurcation {:?}",
+            p.omega_ratio, p.q, s.stable, s.max_multiplier_abs, p.bifurcation
+        );
+    }
+    for p in &main {
+        let w = p.omega_ratio;
+        if (w - W_PLUS_ONE).abs() > 0.01 * W_PLUS_ONE {
+            let stable = p.stability.as_ref().expect("stability").stable;
+            assert_eq!(stable, w > W_PLUS_ONE, "w = {w}");
+        }
+    }
+    let flagged: Vec<_> = main
+        .windows(2)
+        .filter(|w| w[1].bifurcation.is_some())
+        .map(|w| {
+            (
+                w[1].bifurcation,
+                0.5 * (w[0].omega_ratio + w[1].omega_ratio),
+            )
+        })
+        .collect();
+    assert_eq!(flagged.len(), 1, "{flagged:?}");
+    assert_eq!(
+        flagged[0].0,
+        Some(nlmodes_nnm::Bifurcation::FoldOrBranchPoint)
+    );
+    assert!(
+        (flagged[0].1 - W_PLUS_ONE).abs() <= 0.01 * W_PLUS_ONE,
+        "{flagged:?}"
+    );
+}
