@@ -13,6 +13,11 @@ use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
 use crate::system::System;
 
+/// Smallest base distance (scaled arc length, i.e. about g_ref in q) of the predictors and hops
+/// past a tongue: a tongue's width does not scale with the continuation step, so neither may the
+/// distance tried to get past it (with step = 0.05 the passes would otherwise stay inside it).
+const PASS_BASE: f64 = 0.25;
+
 /// Predictors tried past an internal-resonance tongue, at 2, 4, ... 2^PASS_ATTEMPTS steps ahead
 /// (and as many fixed-q hops, at 1, 2, ... 2^(PASS_ATTEMPTS - 1) steps).
 const PASS_ATTEMPTS: u32 = 5;
@@ -519,7 +524,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     fn step_past(&mut self, main: &mut Trace) -> bool {
         self.roll_back_to_ascent(main);
         let xl = self.scaled(self.last_point(main));
-        let base = main.last_ds.max(self.cont.step);
+        let base = main.last_ds.max(PASS_BASE);
         for k in 1..=PASS_ATTEMPTS {
             let step = base * f64::from(1u32 << k);
             let pred: Vec<f64> = xl
@@ -557,7 +562,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// tongue recorded in `Backbone::internal_resonances`).
     fn hop_past(&mut self, main: &mut Trace) -> bool {
         let last = self.last_point(main).clone();
-        let base = main.last_ds.max(self.cont.step);
+        let base = main.last_ds.max(PASS_BASE);
         for k in 0..PASS_ATTEMPTS {
             let q = (last.q / self.g_ref + base * f64::from(1u32 << k)).min(self.cont.q_max);
             if q <= last.q / self.g_ref {
