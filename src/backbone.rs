@@ -143,7 +143,8 @@ pub fn truncation(
         .count();
     if beyond > 0 {
         tracing::warn!(
-            "at {beyond} of {} points checked, doubling N = {} moves w or the contact share by              more than {tolerance}: raise [nnm] harmonics there (backbone.csv, truncation columns)",
+            "at {beyond} of {} points checked, doubling N = {} moves w or the contact share by \
+             more than {tolerance}: raise [nnm] harmonics there (backbone.csv, truncation columns)",
             done.len(),
             harmonics.harmonics
         );

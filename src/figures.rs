@@ -260,3 +260,43 @@ pub fn contact_map_figure(force: &[Vec<f64>], q: f64, dir: &Path, tag: &str) -> 
     map.write_svg_and_png(&dir.join(format!("contact_map_{tag}")))?;
     Ok(())
 }
+
+/// The frequency-energy plot of several modes' families in one figure (frequency in Hz, since
+/// each mode has its own w1): each mode's linear segment and main branch in its own colour,
+/// its tongues lighter and unlabelled.
+pub fn combined_frequency_energy(families: &[(usize, BackboneFile)], out: &Path) -> Result<()> {
+    let mut plot = LinePlot::new(
+        "Frequency-energy plot of the nonlinear modes",
+        "log10(energy / J)",
+        "frequency [Hz]",
+    )
+    .with_legend(LegendPosition::TopLeft);
+    for (i, (mode, b)) in families.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        for (id, pts) in branches_of(b) {
+            let pts: Vec<&Orbit> = pts.into_iter().filter(|p| p.energy > 0.0).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let tongue = b.on_tongue(pts[0]);
+            let label = if id == 1 || (id == 0 && b.branches.len() <= 1) {
+                format!("mode {}", mode + 1)
+            } else {
+                String::new()
+            };
+            let series = Series::new(
+                label,
+                pts.iter().map(|p| p.energy.log10()).collect::<Vec<_>>(),
+                pts.iter().map(|p| p.frequency_hz).collect::<Vec<_>>(),
+            )
+            .color(color);
+            plot = plot.with_series(if tongue {
+                series.width(0.8).style(LineStyle::Dotted)
+            } else {
+                series
+            });
+        }
+    }
+    plot.write_svg_and_png(&out.join("frequency_energy_modes"))?;
+    Ok(())
+}

@@ -12,26 +12,49 @@
 //!   report.md, *.png, *.svg  the report and the figures of the whole backbone
 //!   .stamps/<stage>          content hashes of each stage's inputs
 //! ```
+//!
+//! With several modes (`[continuation] modes = [0, 1, 2]`) the backbone, the amplitude folders,
+//! the figures and the report of mode k go to `results/<case>/mode_<k + 1>/`; the mesh, the linear
+//! modes, the reduced model and the stamps stay at `results/<case>/`, where `report.md` then links
+//! the modes' reports and shows their combined frequency-energy plot.
 
 use std::path::PathBuf;
 
-/// Paths of a case's results under `root` (`results/<case>`).
+/// Paths of a case's results: `shared` (`results/<case>`) holds the mesh, the linear modes, the
+/// reduced model and the stamps; `root` (the same, or `results/<case>/mode_<k + 1>`) the backbone
+/// of one mode and everything drawn from it.
+#[derive(Clone)]
 pub struct Layout {
     pub root: PathBuf,
+    pub shared: PathBuf,
 }
 
 impl Layout {
+    /// The layout of a case whose results go to `root`.
+    pub fn new(root: PathBuf) -> Self {
+        Self {
+            shared: root.clone(),
+            root,
+        }
+    }
+    /// The layout of mode `mode` (0-based) of a several-mode case.
+    pub fn for_mode(&self, mode: usize) -> Self {
+        Self {
+            root: self.shared.join(format!("mode_{}", mode + 1)),
+            shared: self.shared.clone(),
+        }
+    }
     /// The mesh written by the mesh stage.
     pub fn mesh(&self) -> PathBuf {
-        self.root.join("mesh").join("mesh.msh")
+        self.shared.join("mesh").join("mesh.msh")
     }
     /// The linear modes of the full model.
     pub fn modes(&self) -> PathBuf {
-        self.root.join("modes")
+        self.shared.join("modes")
     }
     /// The reduced-model directory.
     pub fn model(&self) -> PathBuf {
-        self.root.join("model")
+        self.shared.join("model")
     }
     /// The backbone directory.
     pub fn backbone(&self) -> PathBuf {
@@ -47,7 +70,7 @@ impl Layout {
     }
     /// The stamp file of a stage.
     pub fn stamp(&self, stage: &str) -> PathBuf {
-        self.root.join(".stamps").join(stage)
+        self.shared.join(".stamps").join(stage)
     }
 }
 

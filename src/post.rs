@@ -432,3 +432,18 @@ fn linear_modes_figure(model: &ReducedModel, full: &FullMesh, figures: &Path) ->
     )?;
     Ok(path)
 }
+
+/// A several-mode case (`[continuation] modes = [...]`): the combined frequency-energy plot of
+/// every mode's family and a `report.md` at the case root with one section per mode, each linking
+/// that mode's own report (`mode_<k + 1>/report.md`).
+pub fn several_modes(case: &Case, layout: &Layout, modes: &[usize]) -> Result<()> {
+    let mut families = Vec::new();
+    for &k in modes {
+        let path = layout.for_mode(k).backbone().join("backbone.json");
+        if path.exists() {
+            families.push((k, read_json::<BackboneFile>(&path)?));
+        }
+    }
+    figures::combined_frequency_energy(&families, &layout.root)?;
+    crate::report::write_modes_index(case, layout, &families)
+}

@@ -117,7 +117,12 @@ pub fn write_report(
     );
     let _ = writeln!(
         s,
-        "## Backbone (Fig. 3a) and frequency-energy plot\n\n![backbone](backbone.png)\n         ![frequency-energy](frequency_energy.png)\n\n         The linear segment and the main branch are drawn in blue, internal-resonance tongues          (branches where harmonic n of the orbit drives another linear mode k, n w near w_k) in          light blue; `backbone/backbone.csv` gives every point with its `branch` and          `branch_kind`.\n"
+        "## Backbone (Fig. 3a) and frequency-energy plot\n\n![backbone](backbone.png)\n\
+         ![frequency-energy](frequency_energy.png)\n\n\
+         The linear segment and the main branch are drawn in blue (dashed where unstable), \
+         internal-resonance tongues (branches where harmonic n of the orbit drives another linear \
+         mode k, n w near w_k) in light blue; `backbone/backbone.csv` gives every point with its \
+         `branch` and `branch_kind`.\n"
     );
     let _ = writeln!(
         s,
@@ -294,4 +299,54 @@ fn truncation_table(s: &mut String, b: &BackboneFile, kept: &[KeptOutputs], g0: 
         );
     }
     let _ = writeln!(s);
+}
+
+/// The case-root `report.md` of a several-mode case: one section per mode (grazing, termination,
+/// frequency at the last point, a link to its own report) and the combined frequency-energy plot.
+pub fn write_modes_index(
+    case: &Case,
+    layout: &Layout,
+    families: &[(usize, BackboneFile)],
+) -> Result<()> {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# nlmodes report: case `{}`, {} modes\n\n\
+         Each mode's family (linear segment, main branch from grazing, internal-resonance tongues, \
+         stability) has its own report and files in `mode_<k>/`.\n\n\
+         ![frequency-energy, all modes](frequency_energy_modes.png)\n",
+        case.name(),
+        families.len()
+    );
+    for (mode, b) in families {
+        let g0 = b.gap_reference;
+        let last = b.points.last();
+        let m = mode + 1;
+        // A mode whose backbone stopped early has its backbone files but no figures or report.
+        let has_report = layout.for_mode(*mode).root.join("report.md").exists();
+        let link = if has_report {
+            format!("[report](mode_{m}/report.md)")
+        } else {
+            format!(
+                "stopped early, no report (the points computed: `mode_{m}/backbone/backbone.csv`)"
+            )
+        };
+        let picture = if has_report {
+            format!("![backbone of mode {m}](mode_{m}/backbone.png)\n")
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            s,
+            "## Mode {m}\n\n{link}: linear frequency {:.4} Hz, grazing at q/g0 = {}, last point \
+             q/g0 = {:.3}, w/w1 = {:.5}; termination `{}`.\n\n{picture}",
+            b.omega_linear / (2.0 * std::f64::consts::PI),
+            b.grazing_amplitude
+                .map_or("never".to_string(), |q| format!("{:.4}", q / g0)),
+            last.map_or(0.0, |p| p.q / g0),
+            last.map_or(1.0, |p| p.omega_ratio),
+            b.termination,
+        );
+    }
+    crate::output::write_atomic(&layout.root.join("report.md"), s.as_bytes())
 }

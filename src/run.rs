@@ -59,9 +59,7 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     // Every key, cross-key rule and the output location, before the first stage (issue 14).
     let case = Case::load(case_path)?;
     crate::validate::check_case(&case, case_path)?;
-    let layout = Layout {
-        root: case.out_dir(),
-    };
+    let layout = Layout::new(case.out_dir());
     std::fs::create_dir_all(&layout.root)
         .with_context(|| format!("cannot create {}", layout.root.display()))?;
     tracing::info!("case {} -> {}", case_path.display(), layout.root.display());
@@ -169,49 +167,59 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     }
     finish_modes(modes_child.take())?;
 
-    // backbone
-    let bb_hash = fnv1a(&[
-        reduce_hash.as_bytes(),
-        &json(&case.nnm),
-        &json(&case.continuation),
-        &json(&case.algorithm),
-        &json(&case.stability),
-    ]);
-    let bb_out = [
-        layout.backbone().join("backbone.json"),
-        layout.backbone().join("kept.json"),
-    ];
+    // backbone and post, for each mode the case traces
     let needs_bb = wants(Only::Backbone) || wants(Only::Post);
-    if needs_bb && (forced(Only::Backbone) || !up_to_date(&layout, "backbone", &bb_hash, &bb_out)) {
-        let model = backbone::load_model(&layout.model())?;
-        let system = backbone::system_of(&model, None)?;
-        backbone::check_reaches_contact(&system, &case.continuation)?;
-        let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
-        let mut b = backbone::trace(&system, hs, &case.algorithm, &case.continuation)?;
-        backbone::stability(&system, &mut b, &case.stability)?;
-        let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
-        backbone::truncation(
-            &system,
-            hs,
-            &case.algorithm,
-            &mut b,
-            &mut kept,
-            case.nnm.truncation_every,
-            case.nnm.truncation_tolerance,
-        )?;
-        backbone::write(&b, &layout.backbone())?;
-        nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;
-        ui::say(&backbone::summary(&b));
-        // A backbone stopped before q_max keeps its results but no stamp: exit code 3.
-        backbone::stopped_early(&b, &layout.backbone())?;
-        stamp(&layout, "backbone", &bb_hash)?;
-    } else if needs_bb {
-        tracing::info!("stage backbone: up to date");
+    let modes = case.continuation.modes_to_trace();
+    let several = modes.len() > 1;
+    let mut stopped = None;
+    for &mode in &modes {
+        let (lay, stage) = if several {
+            (layout.for_mode(mode), format!("backbone_mode{}", mode + 1))
+        } else {
+            (layout.clone(), "backbone".to_string())
+        };
+        if several {
+            tracing::info!("mode {}: results in {}", mode + 1, lay.root.display());
+        }
+        let cont = nlmodes_nnm::ContinuationSettings {
+            mode,
+            ..case.continuation.clone()
+        };
+        let bb_hash = fnv1a(&[
+            reduce_hash.as_bytes(),
+            &json(&case.nnm),
+            &json(&cont),
+            &json(&case.algorithm),
+            &json(&case.stability),
+        ]);
+        let bb_out = [
+            lay.backbone().join("backbone.json"),
+            lay.backbone().join("kept.json"),
+        ];
+        if needs_bb && (forced(Only::Backbone) || !up_to_date(&lay, &stage, &bb_hash, &bb_out)) {
+            // A backbone stopped before q_max keeps its results but no stamp (exit code 3); the
+            // other modes are still traced.
+            match backbone_stage(&case, &cont, &lay) {
+                Ok(()) => stamp(&lay, &stage, &bb_hash)?,
+                Err(e) if e.is::<crate::exit::StoppedEarly>() => {
+                    tracing::warn!("{e}");
+                    stopped.get_or_insert(e);
+                    continue;
+                }
+                Err(e) => return Err(e),
+            }
+        } else if needs_bb {
+            tracing::info!("stage {stage}: up to date");
+        }
+        if wants(Only::Post) {
+            post::post(&case, &lay)?;
+        }
     }
-
-    // post
-    if wants(Only::Post) {
-        post::post(&case, &layout)?;
+    if several && wants(Only::Post) {
+        post::several_modes(&case, &layout, &modes)?;
+    }
+    if let Some(e) = stopped {
+        return Err(e);
     }
     tracing::info!(
         "case {} done in {:.1} s; results in {}",
@@ -313,4 +321,32 @@ impl ModesChild {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// The backbone stage of one mode: trace, stability, kept orbits, truncation estimates, files.
+fn backbone_stage(
+    case: &Case,
+    cont: &nlmodes_nnm::ContinuationSettings,
+    layout: &Layout,
+) -> Result<()> {
+    let model = backbone::load_model(&layout.model())?;
+    let system = backbone::system_of(&model, None)?;
+    backbone::check_reaches_contact(&system, cont)?;
+    let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
+    let mut b = backbone::trace(&system, hs, &case.algorithm, cont)?;
+    backbone::stability(&system, &mut b, &case.stability)?;
+    let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
+    backbone::truncation(
+        &system,
+        hs,
+        &case.algorithm,
+        &mut b,
+        &mut kept,
+        case.nnm.truncation_every,
+        case.nnm.truncation_tolerance,
+    )?;
+    backbone::write(&b, &layout.backbone())?;
+    nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;
+    ui::say(&backbone::summary(&b));
+    backbone::stopped_early(&b, &layout.backbone())
 }

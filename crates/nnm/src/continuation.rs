@@ -35,6 +35,10 @@ use crate::point::BackbonePoint;
 pub struct ContinuationSettings {
     /// Linear mode the backbone starts from (0-based, default 0).
     pub mode: usize,
+    /// Several linear modes traced one after the other (0-based, e.g. [0, 1, 2]); empty (the
+    /// default): `mode` only. Read by the `nlmodes` CLI, which gives each mode its own results
+    /// folder; [`crate::backbone`] traces `mode`.
+    pub modes: Vec<usize>,
     /// First amplitude q / g_ref (default 0.5; choose it below grazing to start on the exact
     /// linear solution).
     pub q_start: f64,
@@ -86,6 +90,7 @@ impl Default for ContinuationSettings {
     fn default() -> Self {
         Self {
             mode: 0,
+            modes: Vec::new(),
             q_start: 0.5,
             q_max: 35.0,
             step: 0.25,
@@ -284,6 +289,15 @@ pub struct SkippedLevel {
 }
 
 impl ContinuationSettings {
+    /// The modes a case traces: `modes`, or `mode` when `modes` is empty.
+    pub fn modes_to_trace(&self) -> Vec<usize> {
+        if self.modes.is_empty() {
+            vec![self.mode]
+        } else {
+            self.modes.clone()
+        }
+    }
+
     /// The internal resonance a point sits in, if its largest secondary component (mode k,
     /// harmonic n >= 2) outweighs the primary one (starting mode, n = 1): the orbit is then no
     /// longer the primary mode's. `omegas`: linear circular frequencies, for the detuning

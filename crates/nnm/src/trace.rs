@@ -417,7 +417,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         // Main-branch points that leave grazing toward smaller q, up to the first fold.
         p.pre_fold = trace.id == 1 && trace.folds == 0 && trace.dq_sign < 0.0 && !p.fold;
         if p.jump {
-            tracing::warn!(
+            tracing::debug!(
                 q = p.q,
                 omega = p.omega,
                 "step at its minimum: accepted a jump"

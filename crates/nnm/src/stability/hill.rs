@@ -418,15 +418,15 @@ struct Content {
 /// mean harmonic -+ 1/2).
 fn select_exponents(values: &[c64], content: &[Content], omega: f64, count: usize) -> Selection {
     let mut order: Vec<usize> = (0..values.len()).collect();
+    // Ties within 1e-6 by quantizing the keys: a comparison "equal within a tolerance" is not a
+    // total order (the sort may panic on it), a comparison of rounded keys is.
+    let quantized = |x: f64| (x * 1e6).round();
     order.sort_by(|&a, &b| {
         let (ca, cb) = (content[a], content[b]);
-        if (ca.mean - cb.mean).abs() > 1e-6 {
-            ca.mean.total_cmp(&cb.mean)
-        } else if (ca.rms - cb.rms).abs() > 1e-6 {
-            ca.rms.total_cmp(&cb.rms)
-        } else {
-            values[a].im.abs().total_cmp(&values[b].im.abs())
-        }
+        quantized(ca.mean)
+            .total_cmp(&quantized(cb.mean))
+            .then(quantized(ca.rms).total_cmp(&quantized(cb.rms)))
+            .then(values[a].im.abs().total_cmp(&values[b].im.abs()))
     });
     let copies = (values.len() / (2 * count.max(1))) as i64; // 2N + 1 copies: k up to +-2N
     let mut taken = vec![false; values.len()];

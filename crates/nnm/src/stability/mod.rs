@@ -253,14 +253,14 @@ pub fn floquet(
     FloquetAnalysis::new(system, settings.clone())?.analyze(point)
 }
 
-/// Sorts multipliers by decreasing modulus, then by increasing argument (ties within 1e-12).
+/// Sorts multipliers by decreasing modulus, then by increasing argument (moduli equal to 1e-12
+/// relative count as ties: the moduli are compared on a logarithmic grid of that spacing, which
+/// keeps the comparison a total order).
 pub(crate) fn sort_multipliers(values: &mut [[f64; 2]]) {
+    let key = |v: &[f64; 2]| (v[0].hypot(v[1]).ln() * 1e12).round();
     values.sort_by(|a, b| {
-        let (ma, mb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
-        if (ma - mb).abs() > 1e-12 * ma.max(mb) {
-            mb.total_cmp(&ma)
-        } else {
-            a[1].atan2(a[0]).total_cmp(&b[1].atan2(b[0]))
-        }
+        key(b)
+            .total_cmp(&key(a))
+            .then(a[1].atan2(a[0]).total_cmp(&b[1].atan2(b[0])))
     });
 }
