@@ -78,3 +78,26 @@ impl Layout {
 pub fn amplitude_tag(q_over_g0: f64) -> String {
     format!("q{q_over_g0:.1}")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mode_has_its_own_results_and_shares_the_model() {
+        let one = Layout::new(PathBuf::from("results/c"));
+        let m2 = one.for_mode(1);
+        assert_eq!(m2.backbone(), PathBuf::from("results/c/mode_2/backbone"));
+        assert_eq!(
+            m2.amplitude("q9.3"),
+            PathBuf::from("results/c/mode_2/amplitude_q9.3")
+        );
+        assert_eq!(m2.model(), one.model());
+        assert_eq!(m2.mesh(), one.mesh());
+        assert_eq!(
+            m2.stamp("backbone_mode2"),
+            PathBuf::from("results/c/.stamps/backbone_mode2")
+        );
+        assert_eq!(one.backbone(), PathBuf::from("results/c/backbone"));
+    }
+}

@@ -72,3 +72,15 @@ fn points_serialize_without_the_warm_start_state() {
     assert_eq!(json["coefficients"].as_array().map(Vec::len), Some(5));
     assert_eq!(json["contact_force"][0].as_array().map(Vec::len), Some(64));
 }
+
+#[test]
+fn modes_default_to_the_single_mode() {
+    let single = ContinuationSettings {
+        mode: 2,
+        ..Default::default()
+    };
+    assert_eq!(single.modes_to_trace(), vec![2]);
+    let several: ContinuationSettings =
+        serde_json::from_str(r#"{"modes": [0, 1, 2]}"#).expect("json");
+    assert_eq!(several.modes_to_trace(), vec![0, 1, 2]);
+}
