@@ -20,6 +20,17 @@ fn branches_of(b: &BackboneFile) -> Vec<(usize, Vec<&Orbit>)> {
         .collect()
 }
 
+/// The point of its parent a branch leaves from (the grazing orbit for the main branch, the
+/// main-branch point before a tongue), so that the curves stay connected.
+fn parent_point<'a>(b: &'a BackboneFile, id: usize, first: &Orbit) -> Option<&'a Orbit> {
+    let parent = b.branches.get(id).and_then(|br| br.parent)?;
+    b.points
+        .iter()
+        .take_while(|p| !std::ptr::eq(*p, first))
+        .filter(|p| p.branch == parent)
+        .last()
+}
+
 /// A plot of the whole family against `x_of`: the linear segment and the main branch in the
 /// first colour, each tongue in a lighter one (docs/DESIGN.md §8), folds and jumps marked.
 fn family_plot(
@@ -34,17 +45,11 @@ fn family_plot(
     let mut labelled = (false, false, false);
     for (id, pts) in branches_of(b) {
         let tongue = b.on_tongue(pts[0]);
-        // A branch starts at the point of its parent it leaves from (the main branch at the
-        // grazing orbit, a tongue at the main-branch point before it).
-        let start = b.branches.get(id).and_then(|br| br.parent);
         let mut xs = Vec::new();
         let mut ys = Vec::new();
-        if let Some(parent) = start {
-            let before = b.points.iter().take_while(|p| !std::ptr::eq(*p, pts[0]));
-            if let Some(p) = before.filter(|p| p.branch == parent).last() {
-                xs.push(x_of(p));
-                ys.push(p.omega_ratio);
-            }
+        if let Some(p) = parent_point(b, id, pts[0]) {
+            xs.push(x_of(p));
+            ys.push(p.omega_ratio);
         }
         // Runs of equal stability: stable (or not analysed) solid, unstable dashed.
         let mut run_start = 0;
@@ -274,11 +279,16 @@ pub fn combined_frequency_energy(families: &[(usize, BackboneFile)], out: &Path)
     for (i, (mode, b)) in families.iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()];
         for (id, pts) in branches_of(b) {
-            let pts: Vec<&Orbit> = pts.into_iter().filter(|p| p.energy > 0.0).collect();
+            let tongue = b.on_tongue(pts[0]);
+            let start = parent_point(b, id, pts[0]);
+            let pts: Vec<&Orbit> = start
+                .into_iter()
+                .chain(pts)
+                .filter(|p| p.energy > 0.0)
+                .collect();
             if pts.is_empty() {
                 continue;
             }
-            let tongue = b.on_tongue(pts[0]);
             let label = if id == 1 || (id == 0 && b.branches.len() <= 1) {
                 format!("mode {}", mode + 1)
             } else {

@@ -245,6 +245,21 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             let (p, xn, step) = match self.advance(&mut trace, true) {
                 Advance::Retry => continue,
                 Advance::Stuck(reason) => {
+                    // Last resort at a corner of the branch where no arc-length step converges:
+                    // fixed-q hops ahead of the last point (flagged as jumps), as past a tongue.
+                    if trace.dq_sign > 0.0 && self.hop_past(&mut trace) {
+                        tracing::info!(
+                            q = self.last_point(&trace).q,
+                            "no arc-length step converged: hopped ahead at fixed q"
+                        );
+                        if self.last_point(&trace).q >= self.cont.q_max * self.g_ref * (1.0 - 1e-12)
+                        {
+                            self.result.termination = Termination::ReachedMaxAmplitude;
+                            self.end_branch(trace.id, "q_max reached");
+                            return;
+                        }
+                        continue;
+                    }
                     let q = self.last_point(&trace).q;
                     self.result.termination = Termination::StepTooSmall {
                         q,
