@@ -29,7 +29,7 @@ use crate::error::NnmError;
 use crate::point::BackbonePoint;
 
 /// Continuation settings. Amplitudes are in units of the reference gap g_ref (the mean initial
-/// gap, [`System::gap_reference`]); steps are arc lengths in the scaled plane (q / g_ref, w / w_lin).
+/// gap, [`crate::System::gap_reference`]); steps are arc lengths in the scaled plane (q / g_ref, w / w_lin).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ContinuationSettings {

@@ -23,7 +23,7 @@
 //! | Eq. 21 | Powell's measure (entrywise by default) | `contact::PowellMeasure`, `contact::powell_measure`, `contact::powell_measure_of` | 3.5 |
 //! | Algorithm 1 | outer loop: multiplier and penalty updates | `augmented_lagrangian::run_algorithm1`, `AlgorithmParams`, `PenaltyUpdate` | 3.5 |
 //! | Sec. 2.6 | normalization e . u_1 = q | `newton::evaluate` (normalization row), `System::master`, `BackbonePoint::q` | 3.4 |
-//! | Sec. 4, Fig. 3a | backbone w(q) | `continuation::backbone`, `sweep::amplitude_sweep` | 3.8 |
+//! | Sec. 4, Fig. 3a | backbone w(q) and its branches | `trace::backbone`, `trace::Continuation`, `sweep::amplitude_sweep` | 3.8, 8 |
 //! | (none) | time integration with a penalty law, independent check | `integrate::integrate_penalty`, `integrate::check_periodicity` | 5.4 |
 //!
 //! The crate knows nothing of meshes: a [`System`] is any SPD pair (M, K) with contact rows A and

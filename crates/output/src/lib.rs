@@ -26,7 +26,7 @@ pub mod vtu;
 mod xml;
 
 pub use atomic::{remove_stale_temporaries, write_atomic, write_atomic_with, AtomicFile};
-pub use csv::{parse_csv, write_csv_columns, CsvTable, CsvValue};
+pub use csv::{write_csv_columns, CsvTable, CsvValue};
 pub use error::OutputError;
 pub use finite::{check_finite, check_finite_value};
 pub use json::{to_json_string, write_json};
