@@ -26,6 +26,29 @@ pub struct MotionState {
 /// RK4 stability bound on the imaginary axis is 2 sqrt(2) ~ 2.83; we require h w_max <= 2.5.
 const RK4_LIMIT: f64 = 2.5;
 
+/// Errors when the RK4 step `h` exceeds the stability limit of the stiffest mode of
+/// (`stiffness`, M) over an integration of `duration` seconds (the error says how many steps
+/// would do).
+pub(crate) fn check_rk4_step(
+    system: &System,
+    stiffness: faer::MatRef<'_, f64>,
+    h: f64,
+    duration: f64,
+) -> Result<(), NnmError> {
+    let eig = generalized_eigen(stiffness, system.mass(), "M")?;
+    let omega_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
+    if h * omega_max > RK4_LIMIT {
+        let max_step = RK4_LIMIT / omega_max;
+        return Err(NnmError::StepTooLarge {
+            step: h,
+            omega_max,
+            max_step,
+            min_steps: (duration / max_step).ceil() as usize,
+        });
+    }
+    Ok(())
+}
+
 /// Integrates `duration` seconds in `steps` RK4 steps from `initial`, with penalty stiffnesses
 /// `penalty[j]` (force per length, one per contact row). Errors on inconsistent sizes, and when
 /// the step exceeds the RK4 stability limit of the stiffest mode of (K + A^T kc A, M).
@@ -81,17 +104,7 @@ pub fn integrate_penalty(
                 .map(|l| penalty[l] * a[(l, i)] * a[(l, j)])
                 .sum::<f64>()
     });
-    let eig = generalized_eigen(kp.as_ref(), system.mass(), "M")?;
-    let omega_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
-    if h * omega_max > RK4_LIMIT {
-        let max_step = RK4_LIMIT / omega_max;
-        return Err(NnmError::StepTooLarge {
-            step: h,
-            omega_max,
-            max_step,
-            min_steps: (duration / max_step).ceil() as usize,
-        });
-    }
+    check_rk4_step(system, kp.as_ref(), h, duration)?;
     // Precompute M^-1 K and M^-1 A^T.
     let l = cholesky_lower("M", system.mass())?;
     let solve_m = |mut b: Mat<f64>| {

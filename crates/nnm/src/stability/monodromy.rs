@@ -22,13 +22,10 @@ use faer::{Mat, MatRef, Side};
 use serde::{Deserialize, Serialize};
 
 use super::sort_multipliers;
-use crate::dense::generalized_eigen;
 use crate::error::NnmError;
+use crate::integrate::check_rk4_step;
 use crate::point::BackbonePoint;
 use crate::system::System;
-
-/// RK4 stability bound on the imaginary axis is 2 sqrt(2) ~ 2.83; require h w_max <= 2.5.
-const RK4_LIMIT: f64 = 2.5;
 
 /// Bisection steps locating a contact switch (interval / 2^60: below round-off).
 const BISECTION_STEPS: usize = 60;
@@ -170,18 +167,7 @@ fn check_step(system: &System, kappa: &[f64], h: f64, period: f64) -> Result<(),
                 .fold(0.0, |a: f64, b| a.max(*b))
         })
         .collect();
-    let eig = generalized_eigen(piece_stiffness(system, &kmax).as_ref(), system.mass(), "M")?;
-    let omega_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
-    if h * omega_max > RK4_LIMIT {
-        let max_step = RK4_LIMIT / omega_max;
-        return Err(NnmError::StepTooLarge {
-            step: h,
-            omega_max,
-            max_step,
-            min_steps: (period / max_step).ceil() as usize,
-        });
-    }
-    Ok(())
+    check_rk4_step(system, piece_stiffness(system, &kmax).as_ref(), h, period)
 }
 
 /// K + A^T diag(kappa) A.
