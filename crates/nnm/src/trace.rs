@@ -18,9 +18,19 @@ use crate::system::System;
 /// distance tried to get past it (with step = 0.05 the passes would otherwise stay inside it).
 const PASS_BASE: f64 = 0.25;
 
-/// Predictors tried past an internal-resonance tongue, at 2, 4, ... 2^PASS_ATTEMPTS steps ahead
-/// (and as many fixed-q hops, at 1, 2, ... 2^(PASS_ATTEMPTS - 1) steps).
-const PASS_ATTEMPTS: u32 = 5;
+/// Predictors tried past an internal-resonance tongue, at PASS_BASE PASS_GROWTH^k ahead,
+/// k = 1 ..= PASS_ATTEMPTS (from 0.375 to 14.4 g_ref), and as many fixed-q hops (at 1, 2, ...
+/// 2^(PASS_ATTEMPTS - 1) steps).
+const PASS_ATTEMPTS: u32 = 9;
+
+/// Growth of the predictor distance between attempts past a tongue.
+const PASS_GROWTH: f64 = 1.5;
+
+/// Points at most traced backwards from the landing point past a tongue toward it.
+const BACKFILL_POINTS: usize = 200;
+
+/// Span of q (in g_ref) over which the main branch's direction before a tongue is taken.
+const PASS_SPAN: f64 = 1.0;
 
 /// Traces the backbone family of mode `cont.mode` from q_start to q_max (docs/DESIGN.md §8),
 /// calling `progress` after every computed point. Invalid settings are errors; solver failures
@@ -533,42 +543,141 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         id
     }
 
-    /// Continues the main branch past a tongue: predictors on its own tangent at 2, 4, ... steps
-    /// beyond its last point, each corrected on the arc-length row there; the first corrector
-    /// that is out of the tongue, ahead in q and near its predictor is accepted.
+    /// Continues the main branch past a tongue by branch switching (docs/DESIGN.md §8.3):
+    /// predictors on the main branch's secant over its last `PASS_SPAN` g_ref of rising q (its
+    /// direction before the interaction bent it: near the tongue the local tangent turns toward
+    /// the tongue, and an arc-length row normal to it lets the corrector slide down the tongue to
+    /// q -> 0), at base (3/2)^k ahead, each corrected on the arc-length row normal to that
+    /// secant. The first corrector that is out of the tongue, ahead in q and near its predictor
+    /// is accepted; fixed-q hops are the last resort.
     fn step_past(&mut self, main: &mut Trace) -> bool {
         self.roll_back_to_ascent(main);
+        let (from, direction) = self.pass_secant(main);
         let xl = self.scaled(self.last_point(main));
+        let xf = self.scaled(&self.result.points[from]);
+        let span = distance(&xl, &xf);
         let base = main.last_ds.max(PASS_BASE);
         for k in 1..=PASS_ATTEMPTS {
-            let step = base * f64::from(1u32 << k);
+            let step = base * PASS_GROWTH.powi(k as i32);
             let pred: Vec<f64> = xl
                 .iter()
-                .zip(&main.tangent)
+                .zip(&direction)
                 .map(|(x, t)| x + step * t)
                 .collect();
             if pred[0] >= self.cont.q_max {
                 break;
             }
-            let guess = self.extrapolate(main, &pred, step / main.last_ds);
-            let row = self.arc_row(&main.tangent, &pred);
+            let guess = self.extrapolate_between(from, main, &pred, step / span);
+            let row = self.arc_row(&direction, &pred);
             match self.solver.solve_with_row(row, guess) {
                 Ok(p) => {
                     let xn = self.scaled(&p);
                     let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;
-                    let near = distance(&xn, &pred) <= step;
+                    // Near in (q, w): across a tongue the orbit's shape (the y coordinates)
+                    // changes more than its amplitude and frequency.
+                    let near = distance(&xn[..2], &pred[..2]) <= step;
                     if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
-                        main.dq_sign = 1.0;
-                        self.accept(main, p, &xn, step);
-                        main.ds = self.cont.step.min(self.cont.max_step);
+                        self.land_past(main, p, &direction, xl[0]);
                         return true;
                     }
-                    tracing::debug!(q = p.q, "predictor past the tongue landed in it");
+                    tracing::debug!(
+                        q = p.q,
+                        ahead,
+                        near,
+                        step,
+                        "predictor past the tongue rejected"
+                    );
                 }
                 Err(e) => tracing::debug!(step, error = %e, "predictor past the tongue failed"),
             }
         }
         self.hop_past(main)
+    }
+
+    /// Lands the main branch on `p` past a tongue, after filling the stretch between the tongue
+    /// and `p`: the branch is traced backwards from `p` (against `direction`) until it falls to
+    /// `q_top` (the last rising point before the tongue), turns, enters the tongue or stops, so
+    /// that what the main branch is past the tongue does not depend on how far the predictor
+    /// that found it reached. The filled points join the main branch in rising order.
+    fn land_past(&mut self, main: &mut Trace, p: BackbonePoint, direction: &[f64], q_top: f64) {
+        let start = self.result.points.len();
+        self.push(p, main.id);
+        let mut back = Trace {
+            id: main.id,
+            points: vec![start],
+            tangent: direction.iter().map(|t| -t).collect(),
+            ds: self.cont.step.min(self.cont.max_step),
+            last_ds: self.cont.step.min(self.cont.max_step),
+            dq_sign: -1.0,
+            // Not the pre-fold stretch after grazing (`accept` flags that on the main branch).
+            folds: 1,
+            penetrate: false,
+        };
+        for _ in 0..BACKFILL_POINTS {
+            let (p, xn, step) = match self.advance(&mut back, false) {
+                Advance::Retry => continue,
+                Advance::Stuck(_) => break,
+                Advance::Converged(p, xn, step) => (p, xn, step),
+            };
+            let xl = self.scaled(self.last_point(&back));
+            let turns = xn[0] >= xl[0];
+            if turns || xn[0] <= q_top || self.cont.tongue(&p, &self.omegas).is_some() {
+                break;
+            }
+            self.accept(&mut back, *p, &xn, step);
+        }
+        // Reorder [p, b1, ..., bk] into [bk, ..., b1, p] (rising q) at the end of the points.
+        let mut filled = self.result.points.split_off(start);
+        filled.reverse();
+        for f in &mut filled {
+            f.fold = false;
+        }
+        let count = filled.len();
+        self.result.points.extend(filled);
+        main.points.extend(start..start + count);
+        let n = main.points.len();
+        let a = self.scaled(&self.result.points[main.points[n - 2]]);
+        let b = self.scaled(&self.result.points[main.points[n - 1]]);
+        let mut t: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
+        let len = normalize(&mut t);
+        main.tangent = if count > 1 { t } else { direction.to_vec() };
+        main.last_ds = if count > 1 {
+            len.max(1e-3)
+        } else {
+            self.cont.step
+        };
+        main.dq_sign = 1.0;
+        main.ds = self.cont.step.min(self.cont.max_step);
+        if count > 1 {
+            tracing::info!(
+                points = count - 1,
+                q_over_g0 = self.result.points[start].q / self.g_ref,
+                "main branch past the tongue filled back toward it"
+            );
+        }
+    }
+
+    /// The main-branch point about `PASS_SPAN` g_ref of q below its last point (or its first
+    /// point) and the unit secant from it to the last point, in the scaled space.
+    fn pass_secant(&self, main: &Trace) -> (usize, Vec<f64>) {
+        let last = self.last_point(main);
+        let q_from = last.q / self.g_ref - PASS_SPAN;
+        let from = main.points[..main.points.len() - 1]
+            .iter()
+            .rev()
+            .copied()
+            .find(|&i| self.result.points[i].q / self.g_ref <= q_from)
+            .unwrap_or(main.points[0]);
+        let xl = self.scaled(last);
+        let mut t: Vec<f64> = xl
+            .iter()
+            .zip(self.scaled(&self.result.points[from]))
+            .map(|(a, b)| a - b)
+            .collect();
+        if normalize(&mut t) == 0.0 {
+            return (from, main.tangent.clone());
+        }
+        (from, t)
     }
 
     /// Last resort past a tongue: fixed-q solves ahead of the last ascending point, at q + base
@@ -660,6 +769,26 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             q_scale: g,
             w_scale: self.w_lin,
             y_scale: g,
+        }
+    }
+
+    /// Warm start at a predictor past a tongue: coefficients extrapolated along the secant from
+    /// point `from` to the branch's last point (ratio = predicted step / secant length).
+    fn extrapolate_between(&self, from: usize, trace: &Trace, pred: &[f64], ratio: f64) -> Guess {
+        let last = self.last_point(trace);
+        let prev = &self.result.points[from];
+        let coefficients = last
+            .coefficients
+            .iter()
+            .zip(&prev.coefficients)
+            .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x + ratio * (x - y)).collect())
+            .collect();
+        Guess {
+            mode: last.mode,
+            coefficients,
+            omega: pred[1] * self.w_lin,
+            q: pred[0] * self.g_ref,
+            multipliers: last.multipliers.clone(),
         }
     }
 
