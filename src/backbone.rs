@@ -402,14 +402,13 @@ pub fn summary(b: &Backbone) -> String {
             r.mode + 1,
             100.0 * r.detuning,
             100.0 * r.share,
-            match (r.branch, r.hopped) {
-                (Some(id), true) =>
-                    format!("followed as branch {id}; main branch continued past it"),
-                (Some(id), false) =>
-                    format!("followed as branch {id}; the main branch stopped there"),
-                (None, true) => "not followed; main branch continued past it".to_string(),
-                (None, false) => "not followed; the main branch stopped there".to_string(),
-            }
+            format!(
+                "{}; {}",
+                r.branch.map_or("not followed".to_string(), |id| format!(
+                    "followed as branch {id}"
+                )),
+                passage_phrase(r.passed)
+            )
         );
     }
     let _ = writeln!(
@@ -466,4 +465,15 @@ pub fn kept_points(
         out.push(p);
     }
     Ok(out)
+}
+
+/// How the main branch got past a tongue, in words.
+pub fn passage_phrase(passed: Option<nlmodes_nnm::Passage>) -> &'static str {
+    match passed {
+        Some(nlmodes_nnm::Passage::Predictor) => {
+            "main branch continued past it (predictor beyond it, filled back toward it)"
+        }
+        Some(nlmodes_nnm::Passage::FixedQHop) => "main branch continued past it by a fixed-q hop",
+        None => "the main branch stopped there",
+    }
 }

@@ -138,7 +138,7 @@ pub fn write_report(
             "Internal resonances met by the continuation (the main branch turned into a tongue \
              where harmonic n of the orbit drives linear mode k; the tongue is followed as its own \
              branch, up to a set number of points, and the main branch is continued past it by a \
-             predictor on its tangent, or by a fixed-q hop flagged as a jump):\n\n\
+             predictor on its secant beyond the tongue and filled back toward it, or as a last resort by a fixed-q hop flagged as a jump):\n\n\
              | q/g0 | w/w1 | mode k | harmonic n | detuning (n w - w_k)/w_k | energy share | tongue branch | main branch past it |\n\
              |---|---|---|---|---|---|---|---|"
         );
@@ -154,7 +154,11 @@ pub fn write_report(
                 100.0 * r.share,
                 r.branch
                     .map_or("not followed".to_string(), |id| id.to_string()),
-                if r.hopped { "yes" } else { "no" }
+                match r.passed {
+                    Some(nlmodes_nnm::Passage::Predictor) => "yes (predictor)",
+                    Some(nlmodes_nnm::Passage::FixedQHop) => "yes (fixed-q hop, J)",
+                    None => "no",
+                }
             );
         }
         let _ = writeln!(s);

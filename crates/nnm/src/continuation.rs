@@ -256,6 +256,17 @@ pub struct Branch {
     pub end: String,
 }
 
+/// How the main branch got past an internal-resonance tongue (docs/DESIGN.md §8.3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Passage {
+    /// Branch switching: a predictor on the main branch's secant beyond the tongue, corrected on
+    /// the arc-length row, then the branch filled back toward the tongue.
+    Predictor,
+    /// Last resort: a solve at fixed q ahead of the tongue (the point is flagged as a jump).
+    FixedQHop,
+}
+
 /// An internal resonance met by the continuation: the branch turned into a tongue where linear
 /// mode `mode` at harmonic `harmonic` took over the orbit (`harmonic` x w close to w_mode).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -273,8 +284,8 @@ pub struct InternalResonance {
     /// Relative detuning (n w - w_k) / w_k from the linear frequency of the mode (contact stiffens
     /// the modes, so the tongue may sit a few percent away from it).
     pub detuning: f64,
-    /// Whether the main branch was continued past the tongue.
-    pub hopped: bool,
+    /// How the main branch was continued past the tongue (None: it was not).
+    pub passed: Option<Passage>,
     /// The branch id of the tongue when it was followed ([`Backbone::branches`]).
     pub branch: Option<usize>,
 }
@@ -315,7 +326,7 @@ impl ContinuationSettings {
             harmonic: n,
             share: p.secondary_share,
             detuning: (n as f64 * p.omega - wk) / wk,
-            hopped: false,
+            passed: None,
             branch: None,
         })
     }

@@ -92,7 +92,7 @@ mod truncation;
 pub use augmented_lagrangian::{AlgorithmParams, Condensation, ContactMethod, PenaltyUpdate};
 pub use contact::{powell_measure, Multipliers, PowellMeasure};
 pub use continuation::{
-    Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, SkippedLevel,
+    Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Passage, SkippedLevel,
     Termination,
 };
 pub use error::NnmError;

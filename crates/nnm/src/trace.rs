@@ -4,7 +4,7 @@
 
 use crate::augmented_lagrangian::AlgorithmParams;
 use crate::continuation::{
-    Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Termination,
+    Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Passage, Termination,
 };
 use crate::error::NnmError;
 use crate::fourier::HarmonicSettings;
@@ -255,12 +255,12 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             let (p, xn, step) = match self.advance(&mut trace, true) {
                 Advance::Retry => continue,
                 Advance::Stuck(reason) => {
-                    // Last resort at a corner of the branch where no arc-length step converges:
-                    // fixed-q hops ahead of the last point (flagged as jumps), as past a tongue.
-                    if trace.dq_sign > 0.0 && self.hop_past(&mut trace) {
+                    // At a corner of the branch where no arc-length step converges: past it as
+                    // past a tongue (secant predictors, then fixed-q hops as the last resort).
+                    if trace.dq_sign > 0.0 && self.step_past(&mut trace).is_some() {
                         tracing::info!(
                             q = self.last_point(&trace).q,
-                            "no arc-length step converged: hopped ahead at fixed q"
+                            "no arc-length step converged: continued past the corner"
                         );
                         if self.last_point(&trace).q >= self.cont.q_max * self.g_ref * (1.0 - 1e-12)
                         {
@@ -344,7 +344,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             harmonic: p.secondary_harmonic,
             share: p.secondary_share,
             detuning: (p.secondary_harmonic as f64 * p.omega - wk) / wk,
-            hopped: false,
+            passed: None,
             branch: None,
         })
     }
@@ -479,8 +479,8 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             self.result.internal_resonances[record].branch = Some(branch);
         }
         let passed = self.step_past(main);
-        self.result.internal_resonances[record].hopped = passed;
-        if !passed {
+        self.result.internal_resonances[record].passed = passed;
+        if passed.is_none() {
             let q = self.last_point(main).q;
             self.result.termination = Termination::InternalResonance {
                 q,
@@ -489,7 +489,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             };
             self.end_branch(main.id, "internal resonance not passed");
         }
-        passed
+        passed.is_some()
     }
 
     /// Follows a tongue from the main branch's last point through its first point `p`, for at
@@ -550,7 +550,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// q -> 0), at base (3/2)^k ahead, each corrected on the arc-length row normal to that
     /// secant. The first corrector that is out of the tongue, ahead in q and near its predictor
     /// is accepted; fixed-q hops are the last resort.
-    fn step_past(&mut self, main: &mut Trace) -> bool {
+    fn step_past(&mut self, main: &mut Trace) -> Option<Passage> {
         self.roll_back_to_ascent(main);
         let (from, direction) = self.pass_secant(main);
         let xl = self.scaled(self.last_point(main));
@@ -578,7 +578,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                     let near = distance(&xn[..2], &pred[..2]) <= step;
                     if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
                         self.land_past(main, p, &direction, xl[0]);
-                        return true;
+                        return Some(Passage::Predictor);
                     }
                     tracing::debug!(
                         q = p.q,
@@ -591,7 +591,14 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                 Err(e) => tracing::debug!(step, error = %e, "predictor past the tongue failed"),
             }
         }
-        self.hop_past(main)
+        if self.hop_past(main) {
+            tracing::info!(
+                q_over_g0 = self.last_point(main).q / self.g_ref,
+                "no predictor got past the tongue: hopped ahead at fixed q"
+            );
+            return Some(Passage::FixedQHop);
+        }
+        None
     }
 
     /// Lands the main branch on `p` past a tongue, after filling the stretch between the tongue
