@@ -395,20 +395,17 @@ pub fn summary(b: &Backbone) -> String {
         let _ = writeln!(
             s,
             "internal resonance at q/g0 = {:.3}, w/w1 = {:.4}: harmonic {} near linear mode {} \
-             (detuning {:+.1} %, {:.0} % of the energy), {}",
+             (detuning {:+.1} %, {:.0} % of the energy), {}; {}",
             r.q / g,
             r.omega_ratio,
             r.harmonic,
             r.mode + 1,
             100.0 * r.detuning,
             100.0 * r.share,
-            format!(
-                "{}; {}",
-                r.branch.map_or("not followed".to_string(), |id| format!(
-                    "followed as branch {id}"
-                )),
-                passage_phrase(r.passed)
-            )
+            r.branch.map_or("not followed".to_string(), |id| format!(
+                "followed as branch {id}"
+            )),
+            passage_phrase(r.passed)
         );
     }
     let _ = writeln!(
