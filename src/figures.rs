@@ -31,65 +31,139 @@ fn parent_point<'a>(b: &'a BackboneFile, id: usize, first: &Orbit) -> Option<&'a
         .last()
 }
 
+/// The pieces of a main branch between its passages past tongues (docs/DESIGN.md §8.3): a
+/// passage is where another branch's points (the tongue) come between two of its points.
+fn pieces<'a>(b: &'a BackboneFile, pts: &[&'a Orbit]) -> Vec<Vec<&'a Orbit>> {
+    let index = |p: &Orbit| {
+        b.points
+            .iter()
+            .position(|q| std::ptr::eq(q, p))
+            .unwrap_or(0)
+    };
+    let mut out: Vec<Vec<&Orbit>> = vec![Vec::new()];
+    for (k, &p) in pts.iter().enumerate() {
+        if k > 0 {
+            let (i, j) = (index(pts[k - 1]), index(p));
+            if b.points[i + 1..j].iter().any(|q| b.on_tongue(q)) {
+                out.push(Vec::new());
+            }
+        }
+        out.last_mut().expect("one piece at least").push(p);
+    }
+    out
+}
+
+/// Which legend entries are already drawn.
+#[derive(Default)]
+struct Labelled {
+    stable: bool,
+    tongue: bool,
+    unstable: bool,
+    passage: bool,
+}
+
+/// Adds one connected piece of a branch to `plot`, starting at `start` (its parent's point, or
+/// none): runs of equal stability, stable (or not analysed) solid, unstable dashed.
+fn add_piece(
+    mut plot: LinePlot,
+    pts: &[&Orbit],
+    start: Option<&Orbit>,
+    tongue: bool,
+    labelled: &mut Labelled,
+    x_of: &impl Fn(&Orbit) -> f64,
+) -> LinePlot {
+    const TONGUE: Color = Color(0x9e, 0xc5, 0xe8);
+    let mut run_start = 0;
+    for k in 1..=pts.len() {
+        if k < pts.len() && pts[k].unstable() == pts[run_start].unstable() {
+            continue;
+        }
+        let unstable = pts[run_start].unstable();
+        // The first run starts at `start`, the others overlap the previous run by one point, so
+        // that the curve stays connected.
+        let head = if run_start == 0 {
+            start
+        } else {
+            Some(pts[run_start - 1])
+        };
+        let run: Vec<&Orbit> = head
+            .into_iter()
+            .chain(pts[run_start..k].iter().copied())
+            .collect();
+        let (label, seen) = match (tongue, unstable) {
+            (true, _) => ("internal-resonance tongues", &mut labelled.tongue),
+            (false, false) => ("backbone (stable)", &mut labelled.stable),
+            (false, true) => ("unstable (dashed)", &mut labelled.unstable),
+        };
+        let name = if *seen { "" } else { label };
+        *seen = true;
+        let series = Series::new(
+            name,
+            run.iter().map(|p| x_of(p)).collect::<Vec<f64>>(),
+            run.iter().map(|p| p.omega_ratio).collect::<Vec<f64>>(),
+        );
+        let series = if tongue {
+            series.color(TONGUE).width(1.2)
+        } else {
+            series.color(PALETTE[0]).markers(!unstable)
+        };
+        plot = plot.with_series(if unstable {
+            series.style(LineStyle::Dashed)
+        } else {
+            series
+        });
+        run_start = k;
+    }
+    plot
+}
+
 /// A plot of the whole family against `x_of`: the linear segment and the main branch in the
-/// first colour, each tongue in a lighter one (docs/DESIGN.md §8), folds and jumps marked.
+/// first colour, each tongue in a lighter one (docs/DESIGN.md §8), the passages of the main
+/// branch past tongues dotted, folds and jumps marked.
 fn family_plot(
     b: &BackboneFile,
     title: &str,
     xlabel: &str,
     x_of: impl Fn(&Orbit) -> f64,
 ) -> LinePlot {
-    const TONGUE: Color = Color(0x9e, 0xc5, 0xe8);
     let mut plot =
         LinePlot::new(title, xlabel, "frequency ratio w / w1").with_legend(LegendPosition::TopLeft);
-    let mut labelled = (false, false, false);
+    let mut labelled = Labelled::default();
     for (id, pts) in branches_of(b) {
         let tongue = b.on_tongue(pts[0]);
-        let mut xs = Vec::new();
-        let mut ys = Vec::new();
-        if let Some(p) = parent_point(b, id, pts[0]) {
-            xs.push(x_of(p));
-            ys.push(p.omega_ratio);
-        }
-        // Runs of equal stability: stable (or not analysed) solid, unstable dashed.
-        let mut run_start = 0;
-        for k in 1..=pts.len() {
-            if k < pts.len() && pts[k].unstable() == pts[run_start].unstable() {
-                continue;
+        let parts = if tongue {
+            vec![pts.clone()]
+        } else {
+            pieces(b, &pts)
+        };
+        let mut start = parent_point(b, id, pts[0]);
+        for part in &parts {
+            if let (Some(from), false) = (start.filter(|_| !std::ptr::eq(part, &parts[0])), tongue)
+            {
+                let name = if labelled.passage {
+                    ""
+                } else {
+                    "passage past a tongue"
+                };
+                labelled.passage = true;
+                plot = plot.with_series(
+                    Series::new(
+                        name,
+                        vec![x_of(from), x_of(part[0])],
+                        vec![from.omega_ratio, part[0].omega_ratio],
+                    )
+                    .color(Color(0x88, 0x88, 0x88))
+                    .width(1.0)
+                    .style(LineStyle::Dotted),
+                );
             }
-            let unstable = pts[run_start].unstable();
-            // The first run starts at the parent's point, the others overlap the previous run by
-            // one point, so that the curve stays connected.
-            let (mut rx, mut ry, first) = if run_start == 0 {
-                (xs.clone(), ys.clone(), 0)
+            let head = if std::ptr::eq(part, &parts[0]) {
+                start
             } else {
-                (Vec::new(), Vec::new(), run_start - 1)
+                None
             };
-            rx.extend(pts[first..k].iter().map(|p| x_of(p)));
-            ry.extend(pts[first..k].iter().map(|p| p.omega_ratio));
-            let (label, seen) = match (tongue, unstable) {
-                (true, _) => ("internal-resonance tongues", &mut labelled.1),
-                (false, false) => ("backbone (stable)", &mut labelled.0),
-                (false, true) => ("unstable (dashed)", &mut labelled.2),
-            };
-            let name = if *seen {
-                String::new()
-            } else {
-                label.to_string()
-            };
-            *seen = true;
-            let series = Series::new(name, rx, ry);
-            let series = if tongue {
-                series.color(TONGUE).width(1.2)
-            } else {
-                series.color(PALETTE[0]).markers(!unstable)
-            };
-            plot = plot.with_series(if unstable {
-                series.style(LineStyle::Dashed)
-            } else {
-                series
-            });
-            run_start = k;
+            plot = add_piece(plot, part, head, tongue, &mut labelled, &x_of);
+            start = part.last().copied();
         }
     }
     let bif: Vec<(f64, f64)> = b
