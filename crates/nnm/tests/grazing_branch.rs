@@ -17,8 +17,8 @@ mod oracle;
 
 use faer::Mat;
 use nlmodes_nnm::{
-    backbone, AlgorithmParams, Backbone, BranchKind, ContinuationSettings, HarmonicSettings,
-    System, Termination,
+    backbone, floquet, AlgorithmParams, Backbone, BranchKind, ContinuationSettings,
+    FloquetSettings, HarmonicSettings, System, Termination,
 };
 use oracle::impact::ImpactChain;
 
@@ -203,4 +203,74 @@ fn check_stability_after_grazing(harmonics: usize) {
         (flagged[0].1 - W_PLUS_ONE).abs() <= 0.01 * W_PLUS_ONE,
         "N = {harmonics}: {flagged:?}"
     );
+}
+
+/// Study behind docs/STABILITY.md Sec. 3 (not a check: run with `-- --ignored --nocapture`): on
+/// the augmented-Lagrangian points just after grazing, how Hill's multipliers move with the
+/// penalty kappa of the Jacobian (the orbit's final kappa scaled by 1, 10, 100), with N and m,
+/// and with the impact-equivalent spring, against the event-based monodromy and the exact orbit.
+#[test]
+#[ignore = "study printed for the docs (about 1 min)"]
+fn hill_near_grazing_study() {
+    let sys = chain();
+    let exact = ImpactChain::from_system(&sys);
+    for (harmonics, samples) in [(40, 256), (40, 512), (40, 1024), (60, 512)] {
+        let b = run_to(harmonics, samples, 1.02);
+        for target in [1.01, 1.02, 1.05] {
+            let p = b
+                .points
+                .iter()
+                .filter(|p| p.branch == 1)
+                .min_by(|x, y| {
+                    (x.omega_ratio - target)
+                        .abs()
+                        .total_cmp(&(y.omega_ratio - target).abs())
+                })
+                .expect("a point");
+            let orbit = exact.orbit_at_omega(p.omega_ratio).expect("exact orbit");
+            let active = p.contact_force[0].iter().filter(|&&l| l > 0.0).count();
+            let max_abs = |settings: FloquetSettings, scale: f64| {
+                let mut q = p.clone();
+                q.multipliers.kappa.iter_mut().for_each(|k| *k *= scale);
+                floquet(&sys, &q, &settings)
+                    .expect("analysis")
+                    .max_multiplier_abs
+            };
+            let raw = FloquetSettings {
+                impact_width: 0.0,
+                ..FloquetSettings::default()
+            };
+            let hill_equivalent = FloquetSettings {
+                saltation: false,
+                ..FloquetSettings::default()
+            };
+            println!(
+                "N {harmonics} m {samples} w {:.4} active samples {active} kappa {:.2e} | Hill raw \
+                 x1 {:.4} x10 {:.4} x100 {:.4} | Hill impact-equivalent {:.4} | saltation {:.4} | \
+                 exact {:.4}",
+                p.omega_ratio,
+                p.multipliers.kappa[0],
+                max_abs(raw.clone(), 1.0),
+                max_abs(raw.clone(), 10.0),
+                max_abs(raw, 100.0),
+                max_abs(hill_equivalent, 1.0),
+                max_abs(FloquetSettings::default(), 1.0),
+                exact.max_multiplier_modulus(&orbit)
+            );
+        }
+    }
+}
+
+fn run_to(harmonics: usize, samples: usize, q_max: f64) -> Backbone {
+    let settings = HarmonicSettings::new(harmonics, samples).expect("settings");
+    let params = AlgorithmParams {
+        epsilon: 1e-6,
+        ..AlgorithmParams::default()
+    };
+    let cont = ContinuationSettings {
+        q_start: 0.5,
+        q_max,
+        ..ContinuationSettings::default()
+    };
+    backbone(&chain(), settings, params, &cont, |_| {}).expect("run")
 }
