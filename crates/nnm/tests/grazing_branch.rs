@@ -131,7 +131,7 @@ fn branch_from_grazing_follows_the_exact_one_impact_mode() {
 /// monodromy (free flow times saltation matrix, docs/STABILITY.md Sec. 3), on the harmonic-balance
 /// orbit's data (impact time, impulse, displacement at the impact). Where unstable, max |mu| is
 /// also compared with the oracle's at the same w: within 2 %, the accuracy of the orbit itself
-/// (q within 0.3-1.4 % of the exact branch, O(1/N)); observed 0.03-0.3 %.
+/// (q within 0.3-1.4 % of the exact branch, O(1/N)); observed <= 0.05 %.
 #[test]
 fn stability_after_grazing_changes_where_the_exact_orbit_does() {
     for harmonics in [40, 60] {

@@ -30,6 +30,18 @@
 //! (its Newton Jacobian), whose O(1/m) quantization of the contact duration splits the trivial
 //! pair by O(m^-1/2) (docs/STABILITY.md, Sec. 3).
 //!
+//! # Event-based monodromy (unresolved impacts)
+//! For an augmented-Lagrangian orbit whose contact phases are all unresolved impacts (each shorter
+//! than `impact_width` T / N, one row at a time; [`FloquetSettings::saltation`]), no spring
+//! reproduces the impact near grazing: the saltation matrix's term 2 M^-1 a (a.acc) a^T /
+//! (c a.v-) needs a bounce much shorter than a.v- / |a.acc|, and a.v- -> 0 at grazing. Those
+//! orbits get the exact linearization of the rigid problem instead: the free linear flow between
+//! the impacts and the saltation matrix of the elastic impact at each (Leine & Nijmeijer 2004,
+//! Sec. 7.2), with the impact instant, impulse and displacement taken from the orbit, and the
+//! non-trivial multipliers read from the monodromy reduced to the energy surface modulo the flow
+//! (`saltation` module; docs/STABILITY.md, Sec. 3.1). [`Stability::method`] says which method
+//! gave a point's multipliers.
+//!
 //! # Hill's method
 //! y(t) = e^{s t} p(t) with p T-periodic on the full basis {1, sqrt2 cos(n w t), sqrt2 sin(n w t)},
 //! n = 1..N (orthonormal for the time average). The Galerkin projection gives the quadratic

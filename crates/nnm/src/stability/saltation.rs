@@ -333,7 +333,104 @@ fn multipliers_from_rho(rhos: &[c64]) -> Vec<c64> {
 
 #[cfg(test)]
 mod tests {
-    use super::positive_runs;
+    use super::{positive_runs, reduced_multipliers};
+    use faer::linalg::solvers::Solve;
+    use faer::{c64, Mat};
+
+    /// 2-DOF modal state (eta1, eta2, eta1', eta2'): a shear on mode 1 (the trivial Jordan block,
+    /// eigenvector f = e_eta1, eigenvalue +1 twice) and `pair` (2 x 2, det 1) on mode 2, mixed by
+    /// the symplectic change of variables Sigma = [[A, 0], [0, A^-T]] [[I, B], [0, I]] (B
+    /// symmetric). Returns (Sigma phi Sigma^-1, Sigma f).
+    fn mixed(pair: [[f64; 2]; 2], perturbation: f64) -> (Mat<f64>, Vec<f64>) {
+        let mut phi = Mat::<f64>::identity(4, 4);
+        phi[(0, 2)] = 0.7;
+        phi[(1, 1)] = pair[0][0];
+        phi[(1, 3)] = pair[0][1];
+        phi[(3, 1)] = pair[1][0];
+        phi[(3, 3)] = pair[1][1];
+        let a = [[1.2, 0.3], [-0.4, 0.9]];
+        let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        let a_inv_t = [
+            [a[1][1] / det, -a[1][0] / det],
+            [-a[0][1] / det, a[0][0] / det],
+        ];
+        let b = [[0.5, -0.2], [-0.2, 0.8]];
+        let scale = Mat::from_fn(4, 4, |i, j| match (i < 2, j < 2) {
+            (true, true) => a[i][j],
+            (false, false) => a_inv_t[i - 2][j - 2],
+            _ => 0.0,
+        });
+        let shear = Mat::from_fn(4, 4, |i, j| {
+            let id = f64::from(u8::from(i == j));
+            if i < 2 && j >= 2 {
+                b[i][j - 2]
+            } else {
+                id
+            }
+        });
+        let sigma = &scale * &shear;
+        let sigma_inv = sigma.partial_piv_lu().solve(Mat::<f64>::identity(4, 4));
+        let mut out = &sigma * &phi * &sigma_inv;
+        // A non-symplectic perturbation, as an O(delta) inconsistency of the orbit data.
+        for i in 0..4 {
+            for j in 0..4 {
+                out[(i, j)] += perturbation * ((3 * i + j) as f64).sin();
+            }
+        }
+        let f: Vec<f64> = (0..4).map(|i| sigma[(i, 0)]).collect();
+        (out, f)
+    }
+
+    fn nearest(values: &[c64], target: c64) -> f64 {
+        values
+            .iter()
+            .map(|v| (v - target).norm())
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn reduction_recovers_the_nontrivial_pair_and_deflates_the_jordan_block() {
+        let theta: f64 = 0.9;
+        let rotation = [[theta.cos(), theta.sin()], [-theta.sin(), theta.cos()]];
+        let (phi, f) = mixed(rotation, 0.0);
+        let (nontrivial, trivial) = reduced_multipliers(&phi, &f).expect("reduction");
+        let expected = c64::new(theta.cos(), theta.sin());
+        assert_eq!(nontrivial.len(), 2);
+        // Exact data: round-off only (the mixing has condition number ~10).
+        assert!(nearest(&nontrivial, expected) < 1e-12, "{nontrivial:?}");
+        assert!(
+            nearest(&nontrivial, expected.conj()) < 1e-12,
+            "{nontrivial:?}"
+        );
+        assert!(trivial
+            .iter()
+            .all(|mu| (mu - c64::new(1.0, 0.0)).norm() < 1e-6));
+        // Period doubling: mu = -2, -1/2.
+        let (phi, f) = mixed([[-2.0, 0.0], [0.0, -0.5]], 0.0);
+        let (nontrivial, _) = reduced_multipliers(&phi, &f).expect("reduction");
+        assert!(
+            nearest(&nontrivial, c64::new(-2.0, 0.0)) < 1e-12,
+            "{nontrivial:?}"
+        );
+        assert!(
+            nearest(&nontrivial, c64::new(-0.5, 0.0)) < 1e-12,
+            "{nontrivial:?}"
+        );
+        // A 1e-4 inconsistency splits the Jordan block of phi by ~1e-2 (sqrt) but moves the reduced
+        // pair by O(1e-4), and keeps it exactly on the unit circle.
+        let (phi, f) = mixed(rotation, 1e-4);
+        let (nontrivial, trivial) = reduced_multipliers(&phi, &f).expect("reduction");
+        assert!(nearest(&nontrivial, expected) < 1e-3, "{nontrivial:?}");
+        assert!(nontrivial.iter().all(|mu| (mu.norm() - 1.0).abs() < 1e-12));
+        let split = trivial
+            .iter()
+            .map(|mu| (mu - c64::new(1.0, 0.0)).norm())
+            .fold(0.0, f64::max);
+        assert!(
+            split > 1e-3,
+            "the trivial block splits like sqrt(delta): {split}"
+        );
+    }
 
     #[test]
     fn runs_wrap_around_the_period() {
