@@ -1,8 +1,7 @@
 //! Floquet stability (`nlmodes_nnm::FloquetAnalysis`: the event-based monodromy and Hill's
 //! method) against the exact one-impact oracle of the 2-DOF chain with a rigid, perfectly elastic
-//! stop (`tests/oracle/impact.rs`: free linear flow
-//! times the impact's saltation matrix). M = I, K = [[2, -1], [-1, 2]], stop on DOF 2 (g = 1),
-//! master DOF 1. Oracle: stable on w in (1.032392, 1.310431), period doubling at
+//! stop (`tests/oracle/impact.rs`: free linear flow times the impact's saltation matrix).
+//! M = I, K = [[2, -1], [-1, 2]], stop on DOF 2 (g = 1), master DOF 1. Oracle: stable on w in (1.032392, 1.310431), period doubling at
 //! w* = 1.310430874457, unstable above (docs/oracle_impact.md).
 //!
 //! The harmonic-balance points are solved at fixed q (the oracle's q on the branch above
