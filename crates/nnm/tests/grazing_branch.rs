@@ -18,7 +18,7 @@ mod oracle;
 use faer::Mat;
 use nlmodes_nnm::{
     backbone, floquet, AlgorithmParams, Backbone, BranchKind, ContinuationSettings,
-    FloquetSettings, HarmonicSettings, System, Termination,
+    FloquetSettings, HarmonicSettings, StabilityMethod, System, Termination,
 };
 use oracle::impact::ImpactChain;
 
@@ -173,6 +173,11 @@ fn check_stability_after_grazing(harmonics: usize) {
             "w {w:.5} q {:.5} {:?} stable {} max|mu| {:.4} trivial pair {:.1e} {:?} | \
              exact: stable {oracle_stable} max|mu| {oracle_max:.4}",
             p.q, s.method, s.stable, s.max_multiplier_abs, s.trivial_pair_error, p.bifurcation,
+        );
+        assert_eq!(
+            s.method,
+            StabilityMethod::Saltation,
+            "N = {harmonics}, w = {w}"
         );
         if (w - W_PLUS_ONE).abs() > 0.01 * W_PLUS_ONE {
             assert_eq!(s.stable, w > W_PLUS_ONE, "N = {harmonics}, w = {w}");
