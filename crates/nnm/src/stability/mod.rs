@@ -32,7 +32,8 @@
 //!
 //! # Event-based monodromy (unresolved impacts)
 //! For an augmented-Lagrangian orbit whose contact phases are all unresolved impacts (each shorter
-//! than `impact_width` T / N, one row at a time; [`FloquetSettings::saltation`]), no spring
+//! than `impact_width` T / N, one row at a time; [`FloquetSettings::saltation`]) on a model whose
+//! modes the N harmonics all resolve, no spring
 //! reproduces the impact near grazing: the saltation matrix's term 2 M^-1 a (a.acc) a^T /
 //! (c a.v-) needs a bounce much shorter than a.v- / |a.acc|, and a.v- -> 0 at grazing. Those
 //! orbits get the exact linearization of the rigid problem instead: the free linear flow between
@@ -132,7 +133,8 @@ pub struct FloquetSettings {
     /// unresolved impacts (default true): free linear flow between the impacts and the saltation
     /// matrix of the elastic impact at each (docs/STABILITY.md, Sec. 3). An impact is a run of
     /// samples with a positive contact force, with theta > 0 (the rigid law), shorter than
-    /// `impact_width` T / N, and no other row in contact on or next to its samples. Orbits with
+    /// `impact_width` T / N, and no other row in contact on or next to its samples, on a model
+    /// whose linear modes all satisfy w_k <= `mode_cutoff` (N + 1) w (all resolved). Orbits with
     /// any other contact phase (persistent contact, simultaneous impacts, penalty law) and
     /// contact-free orbits use Hill's method. Off: Hill's method everywhere.
     pub saltation: bool,
@@ -239,8 +241,7 @@ pub struct Stability {
     /// event-based monodromy, which has no copies to select from).
     pub selection_mean_harmonic_max: f64,
     /// Smallest |mean harmonic| of a rejected eigenvector (about 1 in the linear regime; 1/2 for
-    /// the discarded copies of a period-doubling quadruple; infinite for the event-based
-    /// monodromy).
+    /// the discarded copies of a period-doubling quadruple; 0 for the event-based monodromy).
     pub rejection_mean_harmonic_min: f64,
 }
 
