@@ -103,7 +103,8 @@ pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
 pub use stability::{
     analyze_backbone, classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis,
-    FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability, UnstableCounts,
+    FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability, StabilityMethod,
+    UnstableCounts,
 };
 pub use step_timing::{newton_step_timing, StepTiming};
 pub use sweep::amplitude_sweep;

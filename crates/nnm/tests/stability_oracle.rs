@@ -1,7 +1,7 @@
-//! Hill stability (`nlmodes_nnm::FloquetAnalysis`) against the exact one-impact oracle of the
-//! 2-DOF chain with a rigid, perfectly elastic stop (`tests/oracle/impact.rs`: free linear flow
-//! times the impact's saltation matrix). M = I, K = [[2, -1], [-1, 2]], stop on DOF 2 (g = 1),
-//! master DOF 1. Oracle: stable on w in (1.032392, 1.310431), period doubling at
+//! Floquet stability (`nlmodes_nnm::FloquetAnalysis`: the event-based monodromy and Hill's
+//! method) against the exact one-impact oracle of the 2-DOF chain with a rigid, perfectly elastic
+//! stop (`tests/oracle/impact.rs`: free linear flow times the impact's saltation matrix).
+//! M = I, K = [[2, -1], [-1, 2]], stop on DOF 2 (g = 1), master DOF 1. Oracle: stable on w in (1.032392, 1.310431), period doubling at
 //! w* = 1.310430874457, unstable above (docs/oracle_impact.md).
 //!
 //! The harmonic-balance points are solved at fixed q (the oracle's q on the branch above
@@ -15,7 +15,7 @@ mod oracle;
 use faer::Mat;
 use nlmodes_nnm::{
     classify, AlgorithmParams, BackbonePoint, Bifurcation, ContactMethod, FloquetAnalysis,
-    FloquetSettings, HarmonicSettings, Solver, Stability, Start, System,
+    FloquetSettings, HarmonicSettings, Solver, Stability, StabilityMethod, Start, System,
 };
 use oracle::impact::{ImpactChain, TimeOrigin};
 
@@ -36,8 +36,14 @@ struct Row {
     hill: Stability,
 }
 
-/// Solves the points q = 1.8, 1.85, ..., 3.2 (oracle w from 1.26 to 1.37) and analyses them.
-fn scan(method: ContactMethod, harmonics: usize, samples: usize) -> Vec<Row> {
+/// Solves the points q = 1.8, 1.85, ..., 3.2 (oracle w from 1.26 to 1.37) and analyses each
+/// with every settings of `floquet` (one row list per settings).
+fn scan(
+    method: ContactMethod,
+    harmonics: usize,
+    samples: usize,
+    floquet: &[FloquetSettings],
+) -> Vec<Vec<Row>> {
     let sys = two_dof();
     let chain = ImpactChain::from_system(&sys);
     let settings = HarmonicSettings::new(harmonics, samples).expect("settings");
@@ -46,11 +52,14 @@ fn scan(method: ContactMethod, harmonics: usize, samples: usize) -> Vec<Row> {
         ..AlgorithmParams::default()
     };
     let mut solver = Solver::new(&sys, settings, params).expect("solver");
-    let analysis = FloquetAnalysis::new(&sys, FloquetSettings::default()).expect("analysis");
+    let analyses: Vec<FloquetAnalysis> = floquet
+        .iter()
+        .map(|f| FloquetAnalysis::new(&sys, f.clone()).expect("analysis"))
+        .collect();
     let template = solver
         .solve_point(0.5, Start::LinearMode(0))
         .expect("linear");
-    let mut rows = Vec::new();
+    let mut rows: Vec<Vec<Row>> = floquet.iter().map(|_| Vec::new()).collect();
     let mut previous: Option<BackbonePoint> = None;
     for i in 0..29 {
         let q = 1.8 + 0.05 * i as f64;
@@ -67,11 +76,13 @@ fn scan(method: ContactMethod, harmonics: usize, samples: usize) -> Vec<Row> {
             g
         });
         let p = solver.solve_point(q, Start::Point(&guess)).expect("point");
-        rows.push(Row {
-            w_oracle: w,
-            oracle_stable: chain.instability(&orbit) <= 0.0,
-            hill: analysis.analyze(&p).expect("hill"),
-        });
+        for (list, analysis) in rows.iter_mut().zip(&analyses) {
+            list.push(Row {
+                w_oracle: w,
+                oracle_stable: chain.instability(&orbit) <= 0.0,
+                hill: analysis.analyze(&p).expect("hill"),
+            });
+        }
         previous = Some(p);
     }
     rows
@@ -111,12 +122,31 @@ fn check_against_oracle(label: &str, rows: &[Row]) -> f64 {
 
 #[test]
 fn augmented_lagrangian_orbits_match_the_rigid_impact_stability() {
-    // Augmented Lagrangian (the rigid law), N = 60, m = 512, impact-equivalent linearization of
-    // width 1.5 T / N (the default). Its transition converges like 1/N: observed w = 1.2847
-    // (N = 20, 2.0 % early), 1.2980 (N = 40, 0.95 %), 1.3009 (N = 60, 0.73 %), inside the 1 %
-    // required at N = 60.
-    let rows = scan(ContactMethod::AugmentedLagrangian, 60, 512);
-    let w = check_against_oracle("augmented Lagrangian, N = 60", &rows);
+    // Augmented Lagrangian (the rigid law), N = 60, m = 512. Default settings: the impact lasts
+    // one sample, so the event-based monodromy (free flow x saltation matrix on the orbit's data)
+    // is used; transition at w = 1.3137 (+0.25 %).
+    let hill_only = FloquetSettings {
+        saltation: false,
+        ..FloquetSettings::default()
+    };
+    let mut both = scan(
+        ContactMethod::AugmentedLagrangian,
+        60,
+        512,
+        &[FloquetSettings::default(), hill_only],
+    );
+    let rows = both.remove(0);
+    assert!(rows
+        .iter()
+        .all(|r| r.hill.method == StabilityMethod::Saltation && r.hill.impacts == 1));
+    check_against_oracle("augmented Lagrangian, N = 60, saltation", &rows);
+    // Hill's method with the impact-equivalent linearization of width 1.5 T / N (what the
+    // program uses for short impacts mixed with persistent contact). Its transition converges
+    // like 1/N: observed w = 1.2847 (N = 20, 2.0 % early), 1.2980 (N = 40, 0.95 %), 1.3009
+    // (N = 60, 0.73 %), inside the 1 % required at N = 60.
+    let rows = both.remove(0);
+    assert!(rows.iter().all(|r| r.hill.method == StabilityMethod::Hill));
+    let w = check_against_oracle("augmented Lagrangian, N = 60, Hill", &rows);
     assert!(
         w < W_PERIOD_DOUBLING,
         "the regularized bounce is found early, not late: {w}"
@@ -129,6 +159,13 @@ fn stiff_penalty_orbits_match_the_rigid_impact_stability() {
     // m = 512, the exact penalty Jacobian. The penalty branch tends to the rigid one as kc grows:
     // transition at w = 1.3328 (kc = 1e2, 1.7 %), 1.3181 (1e3, 0.6 %), 1.3137 (1e4 with N = 80,
     // 0.25 %).
-    let rows = scan(ContactMethod::Penalty { stiffness: 1e3 }, 40, 512);
+    let rows = scan(
+        ContactMethod::Penalty { stiffness: 1e3 },
+        40,
+        512,
+        &[FloquetSettings::default()],
+    )
+    .remove(0);
+    assert!(rows.iter().all(|r| r.hill.method == StabilityMethod::Hill));
     check_against_oracle("penalty kc = 1e3, N = 40", &rows);
 }

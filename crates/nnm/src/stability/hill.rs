@@ -6,7 +6,10 @@ use faer::{c64, Mat, MatRef, Side};
 
 use super::impact::impact_equivalent_pieces;
 use super::monodromy::constant_pieces;
-use super::{sort_multipliers, FloquetSettings, JacobianInTime, Stability, UnstableCounts};
+use super::saltation::{reduced_multipliers, unresolved_impacts, ModalFlow};
+use super::{
+    sort_multipliers, FloquetSettings, JacobianInTime, Stability, StabilityMethod, UnstableCounts,
+};
 use crate::dense::generalized_eigen;
 use crate::error::NnmError;
 use crate::point::BackbonePoint;
@@ -20,6 +23,8 @@ pub struct FloquetAnalysis<'s> {
     omega: Vec<f64>,
     /// A Phi (c x n), Phi mass-normalized.
     contact_modal: Mat<f64>,
+    /// Phi^T M (n x n): modal coordinates of a displacement (event-based monodromy).
+    modal_projection: Mat<f64>,
 }
 
 /// Cosine and sine moments of the projected contact stiffness, p = 0..=2N (r x r each):
@@ -80,11 +85,13 @@ impl<'s> FloquetAnalysis<'s> {
         settings.validate()?;
         let eig = generalized_eigen(system.stiffness(), system.mass(), "M")?;
         let contact_modal = system.contact_rows() * &eig.vectors;
+        let modal_projection = eig.vectors.transpose() * system.mass();
         Ok(Self {
             system,
             settings,
             omega: eig.values.iter().map(|v| v.max(0.0).sqrt()).collect(),
             contact_modal,
+            modal_projection,
         })
     }
 
@@ -100,9 +107,78 @@ impl<'s> FloquetAnalysis<'s> {
         r.max(self.settings.min_modes).min(self.omega.len())
     }
 
-    /// Floquet multipliers of `point` by Hill's method (see the module docs).
+    /// Floquet multipliers of `point`: by the event-based monodromy when the orbit is an
+    /// augmented-Lagrangian orbit whose contact phases are all unresolved impacts (and
+    /// `saltation` is on), by Hill's method otherwise (see the module docs and
+    /// docs/STABILITY.md, Sec. 3).
     pub fn analyze(&self, point: &BackbonePoint) -> Result<Stability, NnmError> {
         let (harmonics, samples) = self.check_point(point)?;
+        if let Some(out) = self.analyze_by_saltation(point, harmonics)? {
+            return Ok(out);
+        }
+        self.analyze_by_hill(point, harmonics, samples)
+    }
+
+    /// The event-based monodromy (`saltation` module) when it applies, `None` otherwise.
+    fn analyze_by_saltation(
+        &self,
+        point: &BackbonePoint,
+        harmonics: usize,
+    ) -> Result<Option<Stability>, NnmError> {
+        // The event-based monodromy uses every mode: only where the orbit's N harmonics resolve
+        // them all (the modes Hill would keep, without the `min_modes` floor). Otherwise the
+        // impacts excite modes the orbit represents only quasi-statically, and the orbit's data
+        // are far from a periodic orbit of the rigid-impact model (coarse blade: trivial pair
+        // error 36 and 73, max |mu| 50 and 93 with all 92 modes; docs/STABILITY.md, Sec. 3.1).
+        let limit = self.settings.mode_cutoff * (harmonics as f64 + 1.0) * point.omega;
+        if !self.settings.saltation
+            || self.settings.impact_width <= 0.0
+            || self.omega.iter().any(|&w| w > limit)
+        {
+            return Ok(None);
+        }
+        let width = self.settings.impact_width * point.period() / harmonics as f64;
+        let Some(impacts) = unresolved_impacts(point, width) else {
+            return Ok(None);
+        };
+        let flow = ModalFlow {
+            omega: &self.omega,
+            contact_modal: self.contact_modal.as_ref(),
+            projection: self.modal_projection.as_ref(),
+        };
+        let Some(monodromy) = flow.monodromy(point, &impacts) else {
+            return Ok(None);
+        };
+        let n = self.omega.len();
+        if (0..2 * n).any(|i| (0..2 * n).any(|j| !monodromy[(i, j)].is_finite())) {
+            return Err(NnmError::NonFiniteResult {
+                what: "event-based monodromy",
+            });
+        }
+        let flow_direction = flow.flow_direction(point, &impacts[0]);
+        let (nontrivial, trivial) = reduced_multipliers(&monodromy, &flow_direction)?;
+        let period = point.period();
+        let exponent = |mu: &c64| c64::new(mu.norm().ln() / period, mu.arg() / period);
+        let exponents: Vec<c64> = trivial.iter().chain(&nontrivial).map(exponent).collect();
+        let mut out =
+            stability_with_trivial(&exponents, Some([0, 1]), period, self.settings.tolerance);
+        out.method = StabilityMethod::Saltation;
+        // No eigenvector selection: both margins 0 (outputs must be finite).
+        out.selection_mean_harmonic_max = 0.0;
+        out.rejection_mean_harmonic_min = 0.0;
+        out.modes_kept = n;
+        out.harmonics = harmonics;
+        out.impacts = impacts.len();
+        Ok(Some(out))
+    }
+
+    /// Hill's method (module docs).
+    fn analyze_by_hill(
+        &self,
+        point: &BackbonePoint,
+        harmonics: usize,
+        samples: usize,
+    ) -> Result<Stability, NnmError> {
         let r = self.modes_kept(point.omega, harmonics);
         let moments = self.contact_moments(point, r, harmonics, samples)?;
         let lin = hill_linearization(&self.omega[..r], harmonics, point.omega, &moments);
@@ -119,6 +195,7 @@ impl<'s> FloquetAnalysis<'s> {
         out.harmonics = harmonics;
         out.selection_mean_harmonic_max = selection.chosen_max;
         out.rejection_mean_harmonic_min = selection.rejected_min;
+        out.method = StabilityMethod::Hill;
         Ok(out)
     }
 
@@ -494,31 +571,53 @@ fn has_conjugate_partner(mus: &[[f64; 2]], i: usize) -> bool {
         .any(|(j, nu)| j != i && (nu[0] - mu[0]).hypot(nu[1] + mu[1]) < threshold)
 }
 
-/// Multipliers, trivial pair and stability flags from the selected exponents.
+/// Multipliers, trivial pair and stability flags from the selected exponents (the trivial pair:
+/// the two multipliers closest to +1).
 pub(crate) fn stability_from_exponents(
     exponents: &[c64],
     period: f64,
     tolerance: f64,
 ) -> Stability {
-    let mut pairs: Vec<([f64; 2], [f64; 2])> = exponents
-        .iter()
-        .map(|s| {
-            let (modulus, angle) = ((s.re * period).exp(), s.im * period);
-            ([modulus * angle.cos(), modulus * angle.sin()], [s.re, s.im])
-        })
-        .collect();
-    let mut mus: Vec<[f64; 2]> = pairs.iter().map(|p| p.0).collect();
-    sort_multipliers(&mut mus);
-    // Reorder the exponents like the sorted multipliers.
-    let mut exps = Vec::with_capacity(mus.len());
-    for mu in &mus {
-        let pos = pairs.iter().position(|p| p.0 == *mu).unwrap_or(0);
-        exps.push(pairs.swap_remove(pos).1);
+    stability_with_trivial(exponents, None, period, tolerance)
+}
+
+/// As [`stability_from_exponents`], with the trivial pair given by its indices in `exponents`
+/// when known (`None`: the two multipliers closest to +1).
+pub(crate) fn stability_with_trivial(
+    exponents: &[c64],
+    trivial_of_exponents: Option<[usize; 2]>,
+    period: f64,
+    tolerance: f64,
+) -> Stability {
+    let multiplier = |s: &c64| {
+        let (modulus, angle) = ((s.re * period).exp(), s.im * period);
+        [modulus * angle.cos(), modulus * angle.sin()]
+    };
+    let all: Vec<[f64; 2]> = exponents.iter().map(multiplier).collect();
+    // Sort indices like `sort_multipliers` sorts values.
+    let mut sorted = all.clone();
+    sort_multipliers(&mut sorted);
+    let mut order: Vec<usize> = Vec::with_capacity(all.len());
+    for mu in &sorted {
+        let pos = (0..all.len())
+            .find(|i| !order.contains(i) && all[*i] == *mu)
+            .unwrap_or(0);
+        order.push(pos);
     }
+    let mus: Vec<[f64; 2]> = order.iter().map(|&i| all[i]).collect();
+    let exps: Vec<[f64; 2]> = order
+        .iter()
+        .map(|&i| [exponents[i].re, exponents[i].im])
+        .collect();
     let dist_one = |m: &[f64; 2]| (m[0] - 1.0).hypot(m[1]);
-    let mut by_one: Vec<usize> = (0..mus.len()).collect();
-    by_one.sort_by(|&a, &b| dist_one(&mus[a]).total_cmp(&dist_one(&mus[b])));
-    let trivial = [by_one[0], by_one.get(1).copied().unwrap_or(by_one[0])];
+    let trivial = match trivial_of_exponents {
+        Some(t) => t.map(|i| order.iter().position(|&o| o == i).unwrap_or(0)),
+        None => {
+            let mut by_one: Vec<usize> = (0..mus.len()).collect();
+            by_one.sort_by(|&a, &b| dist_one(&mus[a]).total_cmp(&dist_one(&mus[b])));
+            [by_one[0], by_one.get(1).copied().unwrap_or(by_one[0])]
+        }
+    };
     let trivial_pair_error = trivial
         .iter()
         .map(|&i| dist_one(&mus[i]))
@@ -568,5 +667,7 @@ pub(crate) fn stability_from_exponents(
         harmonics: 0,
         selection_mean_harmonic_max: 0.0,
         rejection_mean_harmonic_min: f64::INFINITY,
+        method: StabilityMethod::Hill,
+        impacts: 0,
     }
 }

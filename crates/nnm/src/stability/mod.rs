@@ -30,6 +30,19 @@
 //! (its Newton Jacobian), whose O(1/m) quantization of the contact duration splits the trivial
 //! pair by O(m^-1/2) (docs/STABILITY.md, Sec. 3).
 //!
+//! # Event-based monodromy (unresolved impacts)
+//! For an augmented-Lagrangian orbit whose contact phases are all unresolved impacts (each shorter
+//! than `impact_width` T / N, one row at a time; [`FloquetSettings::saltation`]) on a model whose
+//! modes the N harmonics all resolve, no spring
+//! reproduces the impact near grazing: the saltation matrix's term 2 M^-1 a (a.acc) a^T /
+//! (c a.v-) needs a bounce much shorter than a.v- / |a.acc|, and a.v- -> 0 at grazing. Those
+//! orbits get the exact linearization of the rigid problem instead: the free linear flow between
+//! the impacts and the saltation matrix of the elastic impact at each (Leine & Nijmeijer 2004,
+//! Sec. 7.2), with the impact instant, impulse and displacement taken from the orbit, and the
+//! non-trivial multipliers read from the monodromy reduced to the energy surface modulo the flow
+//! (`saltation` module; docs/STABILITY.md, Sec. 3.1). [`Stability::method`] says which method
+//! gave a point's multipliers.
+//!
 //! # Hill's method
 //! y(t) = e^{s t} p(t) with p T-periodic on the full basis {1, sqrt2 cos(n w t), sqrt2 sin(n w t)},
 //! n = 1..N (orthonormal for the time average). The Galerkin projection gives the quadratic
@@ -69,6 +82,7 @@ mod bifurcation;
 mod hill;
 mod impact;
 mod monodromy;
+mod saltation;
 
 pub use bifurcation::{classify, Bifurcation};
 pub use hill::FloquetAnalysis;
@@ -115,6 +129,15 @@ pub struct FloquetSettings {
     /// bounce of the perturbation). Default 1.5; 0 keeps the augmented-Lagrangian Jacobian as is.
     /// Continuous Jacobian only; penalty orbits (theta = 0) are never changed.
     pub impact_width: f64,
+    /// Event-based monodromy for augmented-Lagrangian orbits whose contact phases are all
+    /// unresolved impacts (default true): free linear flow between the impacts and the saltation
+    /// matrix of the elastic impact at each (docs/STABILITY.md, Sec. 3). An impact is a run of
+    /// samples with a positive contact force, with theta > 0 (the rigid law), shorter than
+    /// `impact_width` T / N, and no other row in contact on or next to its samples, on a model
+    /// whose linear modes all satisfy w_k <= `mode_cutoff` (N + 1) w (all resolved). Orbits with
+    /// any other contact phase (persistent contact, simultaneous impacts, penalty law) and
+    /// contact-free orbits use Hill's method. Off: Hill's method everywhere.
+    pub saltation: bool,
 }
 
 impl Default for FloquetSettings {
@@ -126,6 +149,7 @@ impl Default for FloquetSettings {
             tolerance: 1e-6,
             jacobian: JacobianInTime::Continuous,
             impact_width: 1.5,
+            saltation: true,
         }
     }
 }
@@ -172,9 +196,23 @@ pub struct UnstableCounts {
     pub complex: usize,
 }
 
-/// Floquet stability of one orbit (Hill's method).
+/// Which computation gave the multipliers of a [`Stability`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StabilityMethod {
+    /// Hill's method on the linear modes (module docs).
+    Hill,
+    /// Event-based monodromy: free linear flow between impacts, a saltation matrix at each.
+    Saltation,
+}
+
+/// Floquet stability of one orbit (Hill's method or the event-based monodromy).
 #[derive(Clone, Debug, Serialize)]
 pub struct Stability {
+    /// How the multipliers were computed.
+    pub method: StabilityMethod,
+    /// Impacts per period treated by saltation matrices (0 for Hill's method).
+    pub impacts: usize,
     /// The 2 r multipliers mu = exp(s T) as (re, im), sorted by decreasing |mu|, then by
     /// increasing argument; the trivial pair included.
     pub multipliers: Vec<[f64; 2]>,
@@ -194,15 +232,16 @@ pub struct Stability {
     pub stable: bool,
     /// Non-trivial multipliers outside the circle, by kind.
     pub unstable: UnstableCounts,
-    /// Linear modes r kept in Hill's matrix.
+    /// Linear modes r kept in Hill's matrix (all n for the event-based monodromy).
     pub modes_kept: usize,
     /// Harmonics N of Hill's basis (those of the orbit).
     pub harmonics: usize,
     /// Largest |mean harmonic| of a selected eigenvector (the centring of the selection criterion,
-    /// see the module docs): 0 in the linear regime, 1/2 at a period doubling.
+    /// see the module docs): 0 in the linear regime, 1/2 at a period doubling (0 for the
+    /// event-based monodromy, which has no copies to select from).
     pub selection_mean_harmonic_max: f64,
     /// Smallest |mean harmonic| of a rejected eigenvector (about 1 in the linear regime; 1/2 for
-    /// the discarded copies of a period-doubling quadruple).
+    /// the discarded copies of a period-doubling quadruple; 0 for the event-based monodromy).
     pub rejection_mean_harmonic_min: f64,
 }
 
