@@ -18,13 +18,13 @@ use crate::system::System;
 /// distance tried to get past it (with step = 0.05 the passes would otherwise stay inside it).
 const PASS_BASE: f64 = 0.25;
 
-/// Predictors tried past an internal-resonance tongue, at PASS_BASE PASS_GROWTH^k ahead,
-/// k = 1 ..= PASS_ATTEMPTS (from 0.375 to 14.4 g_ref), and as many fixed-q hops (at 1, 2, ...
-/// 2^(PASS_ATTEMPTS - 1) steps).
-const PASS_ATTEMPTS: u32 = 9;
+/// Predictors on the local tangent past a tongue (at 2, 4, ... 2^TANGENT_PASSES x the base
+/// distance), and fixed-q hops (at 1, 2, ... 2^(TANGENT_PASSES - 1) x the base distance).
+const TANGENT_PASSES: u32 = 5;
 
-/// Growth of the predictor distance between attempts past a tongue.
-const PASS_GROWTH: f64 = 1.5;
+/// Predictors on the secant past a tongue, at 1.5^k x the base distance, k = 1 ..= SECANT_PASSES
+/// (0.375 to 9.6 g_ref from the smallest base).
+const SECANT_PASSES: u32 = 8;
 
 /// Points at most traced backwards from the landing point past a tongue toward it.
 const BACKFILL_POINTS: usize = 200;
@@ -543,42 +543,80 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         id
     }
 
-    /// Continues the main branch past a tongue by branch switching (docs/DESIGN.md §8.3):
-    /// predictors on the main branch's secant over its last `PASS_SPAN` g_ref of rising q (its
-    /// direction before the interaction bent it: near the tongue the local tangent turns toward
-    /// the tongue, and an arc-length row normal to it lets the corrector slide down the tongue to
-    /// q -> 0), at base (3/2)^k ahead, each corrected on the arc-length row normal to that
-    /// secant. The first corrector that is out of the tongue, ahead in q and near its predictor
-    /// is accepted; fixed-q hops are the last resort.
+    /// Continues the main branch past a tongue by branch switching (docs/DESIGN.md §8.3), from
+    /// its last point where q was still rising:
+    /// 1. predictors on its local tangent at base 2^k ahead (k = 1..=5), each corrected on the
+    ///    arc-length row there, kept when out of the tongue, ahead in q and near the predictor;
+    /// 2. predictors on its secant over its last `PASS_SPAN` g_ref of q (its direction before the
+    ///    interaction bent it: near a tongue the local tangent can turn toward the tongue, and
+    ///    the row normal to it lets the corrector slide down the tongue to q -> 0), at base
+    ///    1.5^k ahead (k = 1..=9), kept when near the predictor in (q, w) (across a tongue the
+    ///    orbit's shape changes more than its amplitude and frequency);
+    /// 3. as the last resort, fixed-q hops.
+    ///
+    /// A predictor's point is then filled back toward the tongue ([`Self::land_past`]).
     fn step_past(&mut self, main: &mut Trace) -> Option<Passage> {
         self.roll_back_to_ascent(main);
-        let (from, direction) = self.pass_secant(main);
-        let xl = self.scaled(self.last_point(main));
-        let xf = self.scaled(&self.result.points[from]);
-        let span = distance(&xl, &xf);
         let base = main.last_ds.max(PASS_BASE);
-        for k in 1..=PASS_ATTEMPTS {
-            let step = base * PASS_GROWTH.powi(k as i32);
+        let tangent = main.tangent.clone();
+        let doubling = (1..=TANGENT_PASSES).map(|k| base * f64::from(1u32 << k));
+        if self.predict_past(main, None, &tangent, doubling) {
+            return Some(Passage::Predictor);
+        }
+        let (from, secant) = self.pass_secant(main);
+        let growing = (1..=SECANT_PASSES).map(|k| base * 1.5f64.powi(k as i32));
+        if self.predict_past(main, Some(from), &secant, growing) {
+            return Some(Passage::Predictor);
+        }
+        if self.hop_past(main) {
+            tracing::info!(
+                q_over_g0 = self.last_point(main).q / self.g_ref,
+                "no predictor got past the tongue: hopped ahead at fixed q"
+            );
+            return Some(Passage::FixedQHop);
+        }
+        None
+    }
+
+    /// Predictors along `direction` at the distances `steps` beyond the main branch's last
+    /// point, each corrected on the arc-length row normal to `direction`; the first acceptable
+    /// one is landed on ([`Self::land_past`]). `from`: the secant's first point (the guess is
+    /// extrapolated along the secant and nearness judged in (q, w)), or None for the local
+    /// tangent (the guess from the last two points, nearness in the whole scaled space).
+    fn predict_past(
+        &mut self,
+        main: &mut Trace,
+        from: Option<usize>,
+        direction: &[f64],
+        steps: impl Iterator<Item = f64>,
+    ) -> bool {
+        let xl = self.scaled(self.last_point(main));
+        for step in steps {
             let pred: Vec<f64> = xl
                 .iter()
-                .zip(&direction)
+                .zip(direction)
                 .map(|(x, t)| x + step * t)
                 .collect();
             if pred[0] >= self.cont.q_max {
                 break;
             }
-            let guess = self.extrapolate_between(from, main, &pred, step / span);
-            let row = self.arc_row(&direction, &pred);
+            let guess = match from {
+                Some(f) => {
+                    let span = distance(&xl, &self.scaled(&self.result.points[f]));
+                    self.extrapolate_between(f, main, &pred, step / span)
+                }
+                None => self.extrapolate(main, &pred, step / main.last_ds),
+            };
+            let row = self.arc_row(direction, &pred);
             match self.solver.solve_with_row(row, guess) {
                 Ok(p) => {
                     let xn = self.scaled(&p);
                     let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;
-                    // Near in (q, w): across a tongue the orbit's shape (the y coordinates)
-                    // changes more than its amplitude and frequency.
-                    let near = distance(&xn[..2], &pred[..2]) <= step;
+                    let dims = if from.is_some() { 2 } else { xn.len() };
+                    let near = distance(&xn[..dims], &pred[..dims]) <= step;
                     if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
-                        self.land_past(main, p, &direction, xl[0]);
-                        return Some(Passage::Predictor);
+                        self.land_past(main, p, direction, &xl);
+                        return true;
                     }
                     tracing::debug!(
                         q = p.q,
@@ -591,22 +629,16 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                 Err(e) => tracing::debug!(step, error = %e, "predictor past the tongue failed"),
             }
         }
-        if self.hop_past(main) {
-            tracing::info!(
-                q_over_g0 = self.last_point(main).q / self.g_ref,
-                "no predictor got past the tongue: hopped ahead at fixed q"
-            );
-            return Some(Passage::FixedQHop);
-        }
-        None
+        false
     }
 
     /// Lands the main branch on `p` past a tongue, after filling the stretch between the tongue
-    /// and `p`: the branch is traced backwards from `p` (against `direction`) until it falls to
-    /// `q_top` (the last rising point before the tongue), turns, enters the tongue or stops, so
+    /// and `p`: the branch is traced backwards from `p` (against `direction`) until it comes
+    /// within a step of `top` in (q, w) (the scaled last rising point before the tongue), turns
+    /// in q, enters the tongue or stops, so
     /// that what the main branch is past the tongue does not depend on how far the predictor
     /// that found it reached. The filled points join the main branch in rising order.
-    fn land_past(&mut self, main: &mut Trace, p: BackbonePoint, direction: &[f64], q_top: f64) {
+    fn land_past(&mut self, main: &mut Trace, p: BackbonePoint, direction: &[f64], top: &[f64]) {
         let start = self.result.points.len();
         self.push(p, main.id);
         let mut back = Trace {
@@ -628,7 +660,8 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             };
             let xl = self.scaled(self.last_point(&back));
             let turns = xn[0] >= xl[0];
-            if turns || xn[0] <= q_top || self.cont.tongue(&p, &self.omegas).is_some() {
+            let bridged = distance(&xn[..2], &top[..2]) <= step.max(PASS_BASE);
+            if turns || bridged || xn[0] <= 0.0 || self.cont.tongue(&p, &self.omegas).is_some() {
                 break;
             }
             self.accept(&mut back, *p, &xn, step);
@@ -694,7 +727,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     fn hop_past(&mut self, main: &mut Trace) -> bool {
         let last = self.last_point(main).clone();
         let base = main.last_ds.max(PASS_BASE);
-        for k in 0..PASS_ATTEMPTS {
+        for k in 0..TANGENT_PASSES {
             let q = (last.q / self.g_ref + base * f64::from(1u32 << k)).min(self.cont.q_max);
             if q <= last.q / self.g_ref {
                 break;

@@ -11,7 +11,9 @@
 //! velocity a.v- > 0), the elastic impact v+ = R v-, R = I - 2 M^-1 a a^T / c, c = a^T M^-1 a,
 //! has the saltation matrix
 //!
-//!     S = [[R, 0], [2 M^-1 a (a.acc) a^T / (c a.v-), R]],   a.acc = -a^T M^-1 K u(t_i),
+//! ```text
+//! S = [[R, 0], [2 M^-1 a (a.acc) a^T / (c a.v-), R]],   a.acc = -a^T M^-1 K u(t_i),
+//! ```
 //!
 //! (the oracle's formula, docs/oracle_impact.md), in modal coordinates R = I - 2 b b^T / c,
 //! M^-1 a -> b = Phi^T a^T, c = b . b, a.acc = -b^T W^2 eta(t_i). S is symplectic for any
