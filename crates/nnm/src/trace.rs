@@ -558,14 +558,14 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     fn step_past(&mut self, main: &mut Trace) -> Option<Passage> {
         self.roll_back_to_ascent(main);
         let base = main.last_ds.max(PASS_BASE);
-        let tangent = main.tangent.clone();
-        let doubling = (1..=TANGENT_PASSES).map(|k| base * f64::from(1u32 << k));
-        if self.predict_past(main, None, &tangent, doubling) {
-            return Some(Passage::Predictor);
-        }
         let (from, secant) = self.pass_secant(main);
         let growing = (1..=SECANT_PASSES).map(|k| base * 1.5f64.powi(k as i32));
         if self.predict_past(main, Some(from), &secant, growing) {
+            return Some(Passage::Predictor);
+        }
+        let tangent = main.tangent.clone();
+        let doubling = (1..=TANGENT_PASSES).map(|k| base * f64::from(1u32 << k));
+        if self.predict_past(main, None, &tangent, doubling) {
             return Some(Passage::Predictor);
         }
         if self.hop_past(main) {
@@ -600,33 +600,42 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             if pred[0] >= self.cont.q_max {
                 break;
             }
-            let guess = match from {
+            let mut guesses = vec![match from {
                 Some(f) => {
                     let span = distance(&xl, &self.scaled(&self.result.points[f]));
                     self.extrapolate_between(f, main, &pred, step / span)
                 }
                 None => self.extrapolate(main, &pred, step / main.last_ds),
-            };
-            let row = self.arc_row(direction, &pred);
-            match self.solver.solve_with_row(row, guess) {
-                Ok(p) => {
-                    let xn = self.scaled(&p);
-                    let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;
-                    let dims = if from.is_some() { 2 } else { xn.len() };
-                    let near = distance(&xn[..dims], &pred[..dims]) <= step;
-                    if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
-                        self.land_past(main, p, direction, &xl);
-                        return true;
+            }];
+            if from.is_some() {
+                // Far from the branch the secant extrapolation of the orbit may be poor: the
+                // last orbit scaled to the predicted amplitude is the second guess.
+                guesses.push(self.scaled_guess(main, &pred));
+            }
+            for guess in guesses {
+                let row = self.arc_row(direction, &pred);
+                match self.solver.solve_with_row(row, guess) {
+                    Ok(p) => {
+                        let xn = self.scaled(&p);
+                        let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;
+                        let dims = if from.is_some() { 2 } else { xn.len() };
+                        let near = distance(&xn[..dims], &pred[..dims]) <= step;
+                        if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
+                            self.land_past(main, p, direction, &xl);
+                            return true;
+                        }
+                        tracing::debug!(
+                            q = p.q,
+                            ahead,
+                            near,
+                            step,
+                            "predictor past the tongue rejected"
+                        );
                     }
-                    tracing::debug!(
-                        q = p.q,
-                        ahead,
-                        near,
-                        step,
-                        "predictor past the tongue rejected"
-                    );
+                    Err(e) => {
+                        tracing::debug!(step, error = %e, "predictor past the tongue failed")
+                    }
                 }
-                Err(e) => tracing::debug!(step, error = %e, "predictor past the tongue failed"),
             }
         }
         false
@@ -809,6 +818,24 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             q_scale: g,
             w_scale: self.w_lin,
             y_scale: g,
+        }
+    }
+
+    /// Warm start at a predictor: the branch's last orbit scaled to the predicted amplitude, at
+    /// the predicted frequency.
+    fn scaled_guess(&self, trace: &Trace, pred: &[f64]) -> Guess {
+        let last = self.last_point(trace);
+        let s = pred[0] * self.g_ref / last.q;
+        Guess {
+            mode: last.mode,
+            coefficients: last
+                .coefficients
+                .iter()
+                .map(|c| c.iter().map(|v| v * s).collect())
+                .collect(),
+            omega: pred[1] * self.w_lin,
+            q: pred[0] * self.g_ref,
+            multipliers: last.multipliers.clone(),
         }
     }
 
