@@ -19,8 +19,12 @@ use crate::system::System;
 const PASS_BASE: f64 = 0.25;
 
 /// Predictors on the local tangent past a tongue (at 2, 4, ... 2^TANGENT_PASSES x the base
-/// distance), and fixed-q hops (at 1, 2, ... 2^(TANGENT_PASSES - 1) x the base distance).
+/// distance).
 const TANGENT_PASSES: u32 = 5;
+
+/// Fixed-q hops past a tongue, at 1, 2, ... 2^(HOPS - 1) x the base distance ahead (capped at
+/// q_max, which is tried last).
+const HOPS: u32 = 8;
 
 /// Predictors on the secant past a tongue, at 1.5^k x the base distance, k = 1 ..= SECANT_PASSES
 /// (0.375 to 9.6 g_ref from the smallest base).
@@ -730,25 +734,28 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     }
 
     /// Last resort past a tongue: fixed-q solves ahead of the last ascending point, at q + base
-    /// 2^k g_ref, warm-started from it, then from the linear mode scaled to q (with the
-    /// solver's penalty homotopy). The point reached is flagged as a jump (explained by the
-    /// tongue recorded in `Backbone::internal_resonances`).
+    /// 2^k g_ref (k < HOPS, the last at q_max), warm-started from it, then from the linear mode
+    /// scaled to q (with the solver's penalty homotopy). The point reached is flagged as a jump
+    /// (explained by the tongue recorded in `Backbone::internal_resonances`) and the branch is
+    /// filled back from it toward the tongue ([`Self::land_past`]).
     fn hop_past(&mut self, main: &mut Trace) -> bool {
         let last = self.last_point(main).clone();
+        let xl = self.scaled(&last);
         let base = main.last_ds.max(PASS_BASE);
-        for k in 0..TANGENT_PASSES {
+        let mut previous = last.q / self.g_ref;
+        for k in 0..HOPS {
             let q = (last.q / self.g_ref + base * f64::from(1u32 << k)).min(self.cont.q_max);
-            if q <= last.q / self.g_ref {
+            if q <= previous {
                 break;
             }
+            previous = q;
             for start in [Start::Point(&last), Start::LinearMode(last.mode)] {
                 match self.solver.solve_point(q * self.g_ref, start) {
                     Ok(mut p) if self.cont.tongue(&p, &self.omegas).is_none() => {
                         p.jump = true;
-                        let xn = self.scaled(&p);
-                        main.dq_sign = 1.0;
-                        self.accept(main, p, &xn, base);
-                        main.ds = self.cont.step.min(self.cont.max_step);
+                        let mut along_q = vec![0.0; xl.len()];
+                        along_q[0] = 1.0;
+                        self.land_past(main, p, &along_q, &xl);
                         return true;
                     }
                     Ok(p) => tracing::debug!(q = p.q, "hop landed in a tongue"),
