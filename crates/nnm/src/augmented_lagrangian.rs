@@ -33,7 +33,6 @@ use serde::{Deserialize, Serialize};
 use crate::check::{at_least_one, greater_than_one, positive};
 use crate::contact::{powell_measure_of, violations, Multipliers, PowellMeasure};
 use crate::error::NnmError;
-use crate::newton::NewtonSettings;
 
 /// How the contact constraint is enforced.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
@@ -64,19 +63,9 @@ pub enum PenaltyUpdate {
     AsPrinted,
 }
 
-/// Which Newton linear algebra to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Condensation {
-    /// Exact condensation onto the contact coordinates and the master (see `condensation`).
-    #[default]
-    Exact,
-    /// Dense Newton on all n (N + 1) + 2 unknowns (validation, small systems).
-    None,
-}
-
-/// Parameters of Algorithm 1 and of the inner Newton solver. Every field has a default
-/// (`#[serde(default)]`), so a settings file only lists what it changes.
+/// Parameters of Algorithm 1 (the inner solver's settings are [`crate::SolverSettings`], which
+/// holds these). Every field has a default (`#[serde(default)]`), so a settings file only lists
+/// what it changes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AlgorithmParams {
@@ -106,10 +95,6 @@ pub struct AlgorithmParams {
     pub max_penalty: f64,
     /// Augmented Lagrangian (default) or plain penalty.
     pub method: ContactMethod,
-    /// Exact condensation (default) or the dense uncondensed Newton.
-    pub condensation: Condensation,
-    /// Inner Newton settings.
-    pub newton: NewtonSettings,
     /// Newton iterations allowed per point, all inner solves and fallbacks included (default 400):
     /// bounds the cost of a point that does not converge.
     pub newton_budget: usize,
@@ -132,8 +117,6 @@ impl Default for AlgorithmParams {
             initial_penalty: 10.0,
             max_penalty: 1e3,
             method: ContactMethod::AugmentedLagrangian,
-            condensation: Condensation::Exact,
-            newton: NewtonSettings::default(),
             newton_budget: 400,
             truncation_warning: 1e-3,
         }
@@ -163,7 +146,7 @@ impl AlgorithmParams {
         if let ContactMethod::Penalty { stiffness } = self.method {
             pos("method.stiffness", stiffness)?;
         }
-        self.newton.validate()
+        Ok(())
     }
 }
 

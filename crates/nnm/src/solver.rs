@@ -1,9 +1,7 @@
 //! The nonlinear-mode solver at one amplitude: Algorithm 1 around the inner Newton solve, and the
 //! assembly of a [`BackbonePoint`] from the converged state.
 
-use crate::augmented_lagrangian::{
-    run_algorithm1, AlgorithmParams, Condensation, ContactMethod, OuterReport,
-};
+use crate::augmented_lagrangian::{run_algorithm1, AlgorithmParams, ContactMethod, OuterReport};
 use crate::condensed_newton::CondensedModel;
 use crate::contact::{powell_measure, Multipliers};
 use crate::error::NnmError;
@@ -13,6 +11,7 @@ use crate::linear_model::{LinearModel, ParameterRow};
 use crate::newton::{InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork};
 use crate::newton_fallback::solve_inner_robust;
 use crate::point::BackbonePoint;
+use crate::solver_settings::{Condensation, SolverSettings};
 use crate::system::System;
 
 /// Where a solve starts from.
@@ -35,12 +34,15 @@ pub(crate) struct Guess {
     pub multipliers: Multipliers,
 }
 
-/// Reusable solver for one system, harmonic settings and algorithm parameters: FFT plans,
+/// Reusable solver for one system, harmonic settings and solver settings: FFT plans,
 /// condensation basis and Newton buffers are built once.
 pub struct Solver<'s> {
     system: &'s System,
     settings: HarmonicSettings,
+    /// Algorithm 1's parameters.
     params: AlgorithmParams,
+    /// The inner Newton solver's settings.
+    newton: NewtonSettings,
     model: Box<dyn LinearModel + 's>,
     aft: Aft,
     work: NewtonWork,
@@ -52,17 +54,25 @@ pub struct Solver<'s> {
 
 impl<'s> Solver<'s> {
     /// Validates the settings and precomputes what does not change between amplitudes.
+    /// `solver` is a [`SolverSettings`], or just the [`AlgorithmParams`] (then with the default
+    /// Newton settings and condensation).
     pub fn new(
         system: &'s System,
         settings: HarmonicSettings,
-        params: AlgorithmParams,
+        solver: impl Into<SolverSettings>,
     ) -> Result<Self, NnmError> {
+        let SolverSettings {
+            algorithm: params,
+            newton,
+            condensation,
+        } = solver.into();
         settings.validate()?;
         params.validate()?;
-        let model: Box<dyn LinearModel> = match params.condensation {
+        newton.validate()?;
+        let model: Box<dyn LinearModel> = match condensation {
             Condensation::Exact => Box::new(CondensedModel::new(
                 system,
-                params.newton.resonance_window,
+                newton.resonance_window,
                 settings.harmonics,
             )?),
             Condensation::None => Box::new(FullModel::new(system, settings.harmonics)),
@@ -76,6 +86,7 @@ impl<'s> Solver<'s> {
             settings,
             aft: Aft::new(settings),
             params,
+            newton,
             model,
             work: NewtonWork::default(),
             kappa_initial,
@@ -95,7 +106,7 @@ impl<'s> Solver<'s> {
         self.settings
     }
 
-    /// Algorithm parameters in use.
+    /// Algorithm 1's parameters in use.
     pub fn params(&self) -> &AlgorithmParams {
         &self.params
     }
@@ -200,7 +211,7 @@ impl<'s> Solver<'s> {
             aft: &mut self.aft,
             spent0: self.work.spent,
             work: &mut self.work,
-            newton: &self.params.newton,
+            newton: &self.newton,
             row: &row,
             g0,
             samples: self.settings.samples,
@@ -562,7 +573,7 @@ impl InnerSolve<'_> {
 pub fn solve_point(
     system: &System,
     settings: HarmonicSettings,
-    params: AlgorithmParams,
+    params: impl Into<SolverSettings>,
     q: f64,
     start: Start<'_>,
 ) -> Result<BackbonePoint, NnmError> {

@@ -9,12 +9,12 @@
 
 use std::time::Instant;
 
-use crate::augmented_lagrangian::Condensation;
 use crate::condensed_newton::CondensedModel;
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
 use crate::full::FullModel;
 use crate::linear_model::{JacobianData, LinearModel};
+use crate::solver_settings::Condensation;
 use crate::system::System;
 
 /// Median cost of one Newton linear solve.
