@@ -9,6 +9,7 @@
 use faer::{Mat, MatRef, Par};
 use serde::Serialize;
 
+use crate::check::{at_least_one, require};
 use crate::dense::{cholesky_lower, generalized_eigen};
 use crate::error::NnmError;
 use crate::point::BackbonePoint;
@@ -89,42 +90,30 @@ fn check_integration_inputs(
     steps: usize,
 ) -> Result<(), NnmError> {
     let (n, c) = (system.n_dofs(), system.n_contacts());
-    if penalty.len() != c {
-        return Err(NnmError::InvalidParameter {
-            name: "penalty",
-            value: penalty.len() as f64,
-            expected: "one penalty stiffness per contact row",
-        });
-    }
+    let rows = penalty.len();
+    require(
+        "penalty",
+        rows as f64,
+        rows == c,
+        "one penalty stiffness per contact row",
+    )?;
     if let Some(&bad) = penalty.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-        return Err(NnmError::InvalidParameter {
-            name: "penalty",
-            value: bad,
-            expected: "finite penalty stiffnesses >= 0",
-        });
+        require("penalty", bad, false, "finite penalty stiffnesses >= 0")?;
     }
-    if initial.u.len() != n || initial.v.len() != n {
-        return Err(NnmError::InvalidParameter {
-            name: "initial state length",
-            value: initial.u.len().max(initial.v.len()) as f64,
-            expected: "u and v of length n (the number of DOFs)",
-        });
-    }
-    if !(duration.is_finite() && duration > 0.0) {
-        return Err(NnmError::InvalidParameter {
-            name: "duration",
-            value: duration,
-            expected: "a finite duration > 0",
-        });
-    }
-    if steps == 0 {
-        return Err(NnmError::InvalidParameter {
-            name: "steps",
-            value: 0.0,
-            expected: ">= 1",
-        });
-    }
-    Ok(())
+    require(
+        "initial state length",
+        initial.u.len().max(initial.v.len()) as f64,
+        initial.u.len() == n && initial.v.len() == n,
+        "u and v of length n (the number of DOFs)",
+    )?;
+    let finite_positive = duration.is_finite() && duration > 0.0;
+    require(
+        "duration",
+        duration,
+        finite_positive,
+        "a finite duration > 0",
+    )?;
+    at_least_one("steps", steps)
 }
 
 /// K + A^T diag(kc) A: the stiffness with every contact row closed (N/m).

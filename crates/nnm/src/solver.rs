@@ -2,16 +2,15 @@
 //! assembly of a [`BackbonePoint`] from the converged state.
 
 use crate::augmented_lagrangian::{run_algorithm1, AlgorithmParams, ContactMethod, OuterReport};
-use crate::condensed_newton::CondensedModel;
 use crate::contact::{powell_measure, Multipliers};
+use crate::continuation::{Backbone, Termination};
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
-use crate::full::FullModel;
 use crate::linear_model::{LinearModel, ParameterRow};
 use crate::newton::{InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork};
 use crate::newton_fallback::solve_inner_robust;
 use crate::point::BackbonePoint;
-use crate::solver_settings::{Condensation, SolverSettings};
+use crate::solver_settings::SolverSettings;
 use crate::system::System;
 
 /// Where a solve starts from.
@@ -69,14 +68,8 @@ impl<'s> Solver<'s> {
         settings.validate()?;
         params.validate()?;
         newton.validate()?;
-        let model: Box<dyn LinearModel> = match condensation {
-            Condensation::Exact => Box::new(CondensedModel::new(
-                system,
-                newton.resonance_window,
-                settings.harmonics,
-            )?),
-            Condensation::None => Box::new(FullModel::new(system, settings.harmonics)),
-        };
+        let model =
+            condensation.linear_model(system, newton.resonance_window, settings.harmonics)?;
         let ks = system.contact_stiffness();
         let kappa_initial = ks.iter().map(|k| k * params.initial_penalty).collect();
         let kappa_cap = ks.iter().map(|k| k * params.max_penalty).collect();
@@ -120,6 +113,24 @@ impl<'s> Solver<'s> {
                 mode,
                 count: self.omegas.len(),
             })
+    }
+
+    /// A backbone of `mode` with no point yet and the given provisional termination.
+    pub(crate) fn empty_backbone(
+        &self,
+        mode: usize,
+        termination: Termination,
+    ) -> Result<Backbone, NnmError> {
+        Ok(Backbone {
+            points: Vec::new(),
+            termination,
+            omega_linear: self.linear_frequency(mode)?,
+            gap_reference: self.system.gap_reference(),
+            grazing_amplitude: self.system.grazing_amplitude(mode)?,
+            skipped: Vec::new(),
+            internal_resonances: Vec::new(),
+            branches: Vec::new(),
+        })
     }
 
     /// Solves the nonlinear mode at master amplitude `q` > 0 (Algorithm 1, or one penalty solve).

@@ -5,8 +5,12 @@
 use serde::{Deserialize, Serialize};
 
 use crate::augmented_lagrangian::AlgorithmParams;
+use crate::condensed_newton::CondensedModel;
 use crate::error::NnmError;
+use crate::full::FullModel;
+use crate::linear_model::LinearModel;
 use crate::newton::NewtonSettings;
+use crate::system::System;
 
 /// Which Newton linear algebra to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -36,6 +40,24 @@ pub struct SolverSettings {
     pub newton: NewtonSettings,
     /// Exact condensation (default) or the dense uncondensed Newton.
     pub condensation: Condensation,
+}
+
+impl Condensation {
+    /// The linear model of `system` for harmonics 0..=`harmonics` that this choice solves Newton
+    /// steps with (`resonance_window`: [`NewtonSettings::resonance_window`]).
+    pub(crate) fn linear_model<'s>(
+        self,
+        system: &'s System,
+        resonance_window: f64,
+        harmonics: usize,
+    ) -> Result<Box<dyn LinearModel + 's>, NnmError> {
+        Ok(match self {
+            Condensation::Exact => {
+                Box::new(CondensedModel::new(system, resonance_window, harmonics)?)
+            }
+            Condensation::None => Box::new(FullModel::new(system, harmonics)),
+        })
+    }
 }
 
 impl SolverSettings {
