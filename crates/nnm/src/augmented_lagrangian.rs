@@ -163,6 +163,71 @@ pub(crate) struct OuterReport {
     pub newton_iterations: usize,
 }
 
+/// The rejection branch of Algorithm 1 on L = { |v| >= threshold }: kappa_L <- beta kappa_L and
+/// theta_L <- theta_L / beta (capped at `kappa_cap`, the multiplier estimate kappa theta kept);
+/// where kappa is at its cap, the multiplier is updated by Eq. (16) instead (the method of
+/// multipliers at fixed penalty).
+fn reject(
+    mu: &mut Multipliers,
+    v: &[f64],
+    threshold: f64,
+    g0: &[f64],
+    kappa_cap: &[f64],
+    beta: f64,
+) {
+    let m = mu.samples;
+    for i in 0..v.len() {
+        if v[i].abs() >= threshold {
+            let (j, cap) = (i / m, kappa_cap[i / m]);
+            if mu.kappa[i] >= cap {
+                mu.theta[i] += v[i] * g0[j];
+            } else {
+                let old = mu.kappa[i];
+                let new = (old * beta).min(cap);
+                mu.kappa[i] = new;
+                mu.theta[i] *= old / new;
+            }
+        }
+    }
+}
+
+/// Eq. (16) at an accepted iteration: theta <- theta + max(g, -theta), with v = max(g, -theta)
+/// / g0 (v in units of g0).
+fn update_multipliers(mu: &mut Multipliers, v: &[f64], g0: &[f64]) {
+    let m = mu.samples;
+    for (j, &g0j) in g0.iter().enumerate() {
+        for k in 0..m {
+            let i = j * m + k;
+            mu.theta[i] += v[i] * g0j;
+        }
+    }
+}
+
+/// Too little progress at an accepted iteration: kappa_L <- beta kappa_L on
+/// L = { |v| >= threshold } (capped, never lowered), and theta_L <- theta_L kappa_old / kappa_new
+/// with [`PenaltyUpdate::KeepMultiplier`].
+fn raise_penalties(
+    mu: &mut Multipliers,
+    v: &[f64],
+    threshold: f64,
+    kappa_cap: &[f64],
+    beta: f64,
+    update: PenaltyUpdate,
+) {
+    let m = mu.samples;
+    for i in 0..v.len() {
+        if v[i].abs() >= threshold {
+            let cap = kappa_cap[i / m];
+            let old = mu.kappa[i];
+            let new = (old * beta).min(cap).max(old);
+            mu.kappa[i] = new;
+            if update == PenaltyUpdate::KeepMultiplier {
+                mu.theta[i] *= old / new;
+            }
+        }
+    }
+}
+
 /// Failure of Algorithm 1 with what was reached.
 pub(crate) struct OuterFailure {
     pub report: OuterReport,
@@ -211,23 +276,8 @@ where
         violations(&gaps, &multipliers.theta, g0, m, &mut v);
         let g_bar = powell_measure_of(&v, m, params.measure);
         rep.measure = g_bar;
-        let threshold = g_accepted / alpha;
         if g_bar >= g_accepted {
-            for i in 0..c * m {
-                if v[i].abs() >= threshold {
-                    let (j, cap) = (i / m, kappa_cap[i / m]);
-                    if multipliers.kappa[i] >= cap {
-                        // The penalty cannot grow any more: update the multiplier instead
-                        // (method of multipliers at fixed penalty), Eq. (16).
-                        multipliers.theta[i] += v[i] * g0[j];
-                    } else {
-                        let old = multipliers.kappa[i];
-                        let new = (old * beta).min(cap);
-                        multipliers.kappa[i] = new;
-                        multipliers.theta[i] *= old / new;
-                    }
-                }
-            }
+            reject(multipliers, &v, g_accepted / alpha, g0, kappa_cap, beta);
         } else {
             rep.accepted += 1;
             let g_previous = g_accepted;
@@ -235,24 +285,10 @@ where
             if g_bar <= params.epsilon {
                 return Ok(rep);
             }
-            for (j, &g0j) in g0.iter().enumerate() {
-                for k in 0..m {
-                    let i = j * m + k;
-                    multipliers.theta[i] += v[i] * g0j;
-                }
-            }
+            update_multipliers(multipliers, &v, g0);
             if g_bar >= g_previous / alpha {
-                for i in 0..c * m {
-                    if v[i].abs() >= g_previous / alpha {
-                        let cap = kappa_cap[i / m];
-                        let old = multipliers.kappa[i];
-                        let new = (old * beta).min(cap).max(old);
-                        multipliers.kappa[i] = new;
-                        if params.penalty_update == PenaltyUpdate::KeepMultiplier {
-                            multipliers.theta[i] *= old / new;
-                        }
-                    }
-                }
+                let update = params.penalty_update;
+                raise_penalties(multipliers, &v, g_previous / alpha, kappa_cap, beta, update);
             }
         }
     }
