@@ -3,7 +3,6 @@
 
 use crate::augmented_lagrangian::{run_algorithm1, AlgorithmParams, ContactMethod, OuterReport};
 use crate::contact::{powell_measure, Multipliers};
-use crate::continuation::{Backbone, Termination};
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
 use crate::linear_model::{LinearModel, ParameterRow};
@@ -113,24 +112,6 @@ impl<'s> Solver<'s> {
                 mode,
                 count: self.omegas.len(),
             })
-    }
-
-    /// A backbone of `mode` with no point yet and the given provisional termination.
-    pub(crate) fn empty_backbone(
-        &self,
-        mode: usize,
-        termination: Termination,
-    ) -> Result<Backbone, NnmError> {
-        Ok(Backbone {
-            points: Vec::new(),
-            termination,
-            omega_linear: self.linear_frequency(mode)?,
-            gap_reference: self.system.gap_reference(),
-            grazing_amplitude: self.system.grazing_amplitude(mode)?,
-            skipped: Vec::new(),
-            internal_resonances: Vec::new(),
-            branches: Vec::new(),
-        })
     }
 
     /// Solves the nonlinear mode at master amplitude `q` > 0 (Algorithm 1, or one penalty solve).

@@ -88,12 +88,24 @@ struct Sweep<'s, 'c> {
 
 impl<'s, 'c> Sweep<'s, 'c> {
     fn new(solver: Solver<'s>, cont: &'c ContinuationSettings) -> Result<Self, NnmError> {
-        let result = solver.empty_backbone(cont.mode, Termination::ReachedMaxAmplitude)?;
+        let system = solver.system();
+        let w1 = solver.linear_frequency(cont.mode)?;
+        let g_ref = system.gap_reference();
+        let result = Backbone {
+            points: Vec::new(),
+            termination: Termination::ReachedMaxAmplitude,
+            omega_linear: w1,
+            gap_reference: g_ref,
+            grazing_amplitude: system.grazing_amplitude(cont.mode)?,
+            skipped: Vec::new(),
+            internal_resonances: Vec::new(),
+            branches: Vec::new(),
+        };
         Ok(Self {
-            w1: result.omega_linear,
-            g_ref: result.gap_reference,
             solver,
             cont,
+            w1,
+            g_ref,
             history: Vec::new(),
             h: cont.step,
             stuck: false,
