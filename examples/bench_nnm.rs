@@ -14,9 +14,9 @@
 //! those models instead (`scripts/bench nnm` passes the coarse blade reduced with 40 to 400 modes).
 
 use nlmodes_modal::{craig_bampton, EigenOptions};
+use nlmodes_nnm::testing::newton_step_timing;
 use nlmodes_nnm::{
-    newton_step_timing, AlgorithmParams, Condensation, HarmonicSettings, NewtonSettings, Solver,
-    Start, System,
+    AlgorithmParams, Condensation, HarmonicSettings, NewtonSettings, Solver, Start, System,
 };
 use sprs::TriMat;
 use std::time::Instant;

@@ -4,8 +4,8 @@
 use anyhow::{Context, Result};
 use nlmodes_modal::ReducedModel;
 use nlmodes_nnm::{
-    analyze_backbone, backbone, AlgorithmParams, Backbone, Bifurcation, BranchKind,
-    ContinuationSettings, HarmonicSettings, System, Termination,
+    analyze_backbone, backbone, Backbone, Bifurcation, BranchKind, ContinuationSettings,
+    HarmonicSettings, SolverSettings, System, Termination,
 };
 use std::fmt::Write as _;
 
@@ -49,7 +49,7 @@ pub fn check_reaches_contact(system: &System, cont: &ContinuationSettings) -> Re
 pub fn trace(
     system: &System,
     harmonics: HarmonicSettings,
-    params: &AlgorithmParams,
+    params: &SolverSettings,
     cont: &ContinuationSettings,
 ) -> Result<Backbone> {
     let stage = ui::Stage::start("backbone");
@@ -96,7 +96,7 @@ pub fn trace(
 pub fn truncation(
     system: &System,
     harmonics: HarmonicSettings,
-    params: &AlgorithmParams,
+    params: &SolverSettings,
     b: &mut Backbone,
     extra: &mut [nlmodes_nnm::BackbonePoint],
     every: usize,
@@ -423,7 +423,7 @@ pub fn summary(b: &Backbone) -> String {
 pub fn kept_points(
     system: &System,
     harmonics: HarmonicSettings,
-    params: &AlgorithmParams,
+    params: &SolverSettings,
     b: &Backbone,
     keep: &[f64],
 ) -> Result<Vec<nlmodes_nnm::BackbonePoint>> {

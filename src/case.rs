@@ -5,7 +5,7 @@
 //! value is checked before the first stage runs (`validate::check_case`). Units: SI (m, kg, s, Pa).
 
 use anyhow::Result;
-use nlmodes_nnm::{AlgorithmParams, ContinuationSettings};
+use nlmodes_nnm::{ContinuationSettings, SolverSettings};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -26,8 +26,9 @@ pub struct Case {
     pub nnm: NnmSection,
     /// Backbone continuation (amplitudes in gaps, q / g0): `nlmodes_nnm::ContinuationSettings`.
     pub continuation: ContinuationSettings,
-    /// Algorithm 1 and the inner Newton solver: `nlmodes_nnm::AlgorithmParams`.
-    pub algorithm: AlgorithmParams,
+    /// Algorithm 1 and the inner Newton solver: `nlmodes_nnm::SolverSettings`, one flat table
+    /// (the keys of `nlmodes_nnm::AlgorithmParams`, `condensation` and the `newton` sub-table).
+    pub algorithm: SolverSettings,
     /// Floquet stability of every backbone point (Hill's method, docs/STABILITY.md).
     pub stability: StabilitySection,
 }
@@ -132,9 +133,9 @@ impl Default for Case {
             model: ModelSection::default(),
             nnm: NnmSection::default(),
             // The library defaults are the study's (q_start 0.5, q_max 35 g0, epsilon 1e-3 g0:
-            // see AlgorithmParams::epsilon and docs/VERIFICATION.md).
+            // see nlmodes_nnm::AlgorithmParams::epsilon and docs/VERIFICATION.md).
             continuation: ContinuationSettings::default(),
-            algorithm: AlgorithmParams::default(),
+            algorithm: SolverSettings::default(),
             stability: StabilitySection::default(),
         }
     }
@@ -216,7 +217,7 @@ impl Case {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct StudySettings {
-    pub algorithm: AlgorithmParams,
+    pub algorithm: SolverSettings,
     pub continuation: ContinuationSettings,
     pub stability: StabilitySection,
 }
@@ -303,14 +304,51 @@ mod tests {
         let d = Case::default();
         assert_eq!(c.continuation.q_max, d.continuation.q_max);
         assert_eq!(c.continuation.q_max, 35.0);
-        assert_eq!(c.algorithm.epsilon, 1e-3);
-        assert_eq!((c.continuation.step, c.algorithm.alpha), (0.5, 5.0));
+        assert_eq!(c.algorithm.algorithm.epsilon, 1e-3);
+        assert_eq!(
+            (c.continuation.step, c.algorithm.algorithm.alpha),
+            (0.5, 5.0)
+        );
         let s: StudySettings = with_defaults(&StudySettings::default(), text, path).unwrap();
-        assert_eq!((s.continuation.q_max, s.algorithm.epsilon), (35.0, 1e-3));
+        assert_eq!(
+            (s.continuation.q_max, s.algorithm.algorithm.epsilon),
+            (35.0, 1e-3)
+        );
         let err = with_defaults(&Case::default(), "[continuation]\nqmax = 3\n", path)
             .unwrap_err()
             .to_string();
         assert!(err.contains("qmax") && err.contains("test.toml"), "{err}");
+    }
+
+    /// The inner-solver keys stay in the flat `[algorithm]` table (`condensation`, the `newton`
+    /// sub-table) although the library keeps them out of `AlgorithmParams`; typos are named.
+    #[test]
+    fn solver_keys_are_read_from_the_algorithm_table() {
+        let path = Path::new("test.toml");
+        let text = "[algorithm]\nalpha = 5.0\ncondensation = \"none\"\nnewton.tolerance = 1e-12\n";
+        let c: Case = with_defaults(&Case::default(), text, path).unwrap();
+        assert_eq!(c.algorithm.algorithm.alpha, 5.0);
+        assert_eq!(c.algorithm.condensation, nlmodes_nnm::Condensation::None);
+        assert_eq!(c.algorithm.newton.tolerance, 1e-12);
+        let default_newton = nlmodes_nnm::NewtonSettings::default();
+        assert_eq!(
+            c.algorithm.newton.max_iterations,
+            default_newton.max_iterations
+        );
+        for typo in [
+            "[algorithm]\ncondensaton = \"none\"\n",
+            "[algorithm.newton]\ntolerence = 1.0\n",
+        ] {
+            let err = with_defaults(&Case::default(), typo, path)
+                .unwrap_err()
+                .to_string();
+            let key = if typo.contains("tolerence") {
+                "tolerence"
+            } else {
+                "condensaton"
+            };
+            assert!(err.contains(key), "{err}");
+        }
     }
 
     /// The shipped case file states the defaults: reading it equals `Case::default()` (but

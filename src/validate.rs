@@ -3,7 +3,7 @@
 //! expected; all problems are reported together, as bad input (exit code 2, [`crate::exit`]).
 
 use anyhow::Result;
-use nlmodes_nnm::{AlgorithmParams, ContinuationSettings};
+use nlmodes_nnm::{ContinuationSettings, SolverSettings};
 use std::path::Path;
 
 use crate::case::{Case, MasterChoice};
@@ -246,7 +246,7 @@ pub fn check_nnm(harmonics: usize, samples: usize, p: &mut Problems) {
 }
 
 /// The `[algorithm]` and `[continuation]` tables: the ranges of the nnm crate, named by table.
-pub fn check_settings(alg: &AlgorithmParams, cont: &ContinuationSettings, p: &mut Problems) {
+pub fn check_settings(alg: &SolverSettings, cont: &ContinuationSettings, p: &mut Problems) {
     if let Err(e) = alg.validate() {
         p.note("algorithm", &e.to_string());
     }

@@ -252,11 +252,14 @@ fn truncated_blade_hill_agrees_with_the_integrated_monodromy() {
     let q = 1.5 * sys.grazing_amplitude(0).expect("mode").expect("touches");
     let mut distances = Vec::new();
     for harmonics in [12, 24, 48] {
-        let params = AlgorithmParams {
-            method: ContactMethod::Penalty { stiffness: kc },
+        let params = nlmodes_nnm::SolverSettings {
+            algorithm: AlgorithmParams {
+                method: ContactMethod::Penalty { stiffness: kc },
+                ..AlgorithmParams::default()
+            },
             // 24 rows on 8 modes are dependent: the dense Newton, as in blade_time_integration.
             condensation: nlmodes_nnm::Condensation::None,
-            ..AlgorithmParams::default()
+            ..Default::default()
         };
         let settings = HarmonicSettings::new(harmonics, 16 * harmonics).expect("settings");
         let p = Solver::new(&sys, settings, params)

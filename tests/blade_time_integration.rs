@@ -48,7 +48,7 @@ use faer::Mat;
 use nlmodes_modal::{craig_bampton, dense_generalized_eigen, EigenMethod, EigenOptions};
 use nlmodes_nnm::{
     check_periodicity, AlgorithmParams, BackbonePoint, Condensation, ContactMethod,
-    HarmonicSettings, NnmError, Solver, Start, System,
+    HarmonicSettings, NnmError, Solver, SolverSettings, Start, System,
 };
 
 type TestResult = Result<(), NnmError>;
@@ -355,10 +355,13 @@ fn penalty_orbit(
     harmonics: usize,
     condensation: Condensation,
 ) -> Result<BackbonePoint, NnmError> {
-    let params = AlgorithmParams {
-        method: ContactMethod::Penalty { stiffness: kc },
+    let params = SolverSettings {
+        algorithm: AlgorithmParams {
+            method: ContactMethod::Penalty { stiffness: kc },
+            ..AlgorithmParams::default()
+        },
         condensation,
-        ..AlgorithmParams::default()
+        ..SolverSettings::default()
     };
     let q = AMPLITUDE_FACTOR
         * sys

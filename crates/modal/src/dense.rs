@@ -1,17 +1,16 @@
-//! Dense generalized symmetric eigenproblem K phi = lambda M phi with faer,
-//! for validation and for small matrices (reduced models, tiny full models).
-//!
-//! Method: M = L L^T (Cholesky), C = L^-1 K L^-T (symmetric), C = Q Lambda Q^T,
-//! Phi = L^-T Q, so that Phi^T M Phi = I and Phi^T K Phi = Lambda.
+//! Dense helpers for validation and small matrices (reduced models, tiny full models): the
+//! generalized symmetric eigenproblem K phi = lambda M phi is `nlmodes_dense::generalized_eigen`
+//! (shared with the nnm crate), wrapped here with modal's input checks, errors and sign
+//! convention.
 
-use faer::linalg::triangular_solve::{
-    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
-};
-use faer::{Mat, MatRef, Par, Side};
+use faer::{Mat, MatRef};
 use sprs::CsMat;
 
 use crate::error::ModalError;
-use crate::sparse_ops::SYMMETRY_TOLERANCE;
+pub use nlmodes_dense::{max_abs as max_abs_dense, symmetrize, SYMMETRY_TOLERANCE};
+
+// The sparse checks' tolerance is the shared one (one symmetry tolerance for modal and nnm).
+const _: () = assert!(crate::sparse_ops::SYMMETRY_TOLERANCE == SYMMETRY_TOLERANCE);
 
 /// Dense copy of a sparse matrix (any storage order).
 pub fn csmat_to_dense(a: &CsMat<f64>) -> Mat<f64> {
@@ -20,17 +19,6 @@ pub fn csmat_to_dense(a: &CsMat<f64>) -> Mat<f64> {
         out[(i, j)] += v;
     }
     out
-}
-
-/// Largest absolute entry of a dense matrix (0 when empty).
-pub fn max_abs_dense(a: MatRef<'_, f64>) -> f64 {
-    let mut m = 0.0_f64;
-    for j in 0..a.ncols() {
-        for i in 0..a.nrows() {
-            m = m.max(a[(i, j)].abs());
-        }
-    }
-    m
 }
 
 /// max |A - A^T| / max |A| (0 for a zero matrix): the relative asymmetry
@@ -47,18 +35,6 @@ pub fn relative_asymmetry(a: MatRef<'_, f64>) -> f64 {
         }
     }
     worst / scale
-}
-
-/// Replaces A by (A + A^T) / 2 (its leading square block if A is not square).
-pub fn symmetrize(a: &mut Mat<f64>) {
-    let n = a.nrows().min(a.ncols());
-    for j in 0..n {
-        for i in 0..j {
-            let avg = 0.5 * (a[(i, j)] + a[(j, i)]);
-            a[(i, j)] = avg;
-            a[(j, i)] = avg;
-        }
-    }
 }
 
 /// Checks that a dense matrix is square, finite and symmetric within
@@ -125,52 +101,21 @@ pub fn dense_generalized_eigen(
             found: n_m,
         });
     }
-    if n == 0 {
-        return Ok((Vec::new(), Mat::zeros(0, 0)));
-    }
-    let llt = m
-        .llt(Side::Lower)
-        .map_err(|e| ModalError::NotPositiveDefinite {
+    let eig = nlmodes_dense::generalized_eigen(k, m).map_err(|e| match e.pivot() {
+        Some(index) => ModalError::NotPositiveDefinite {
             what: "M (dense mass matrix)".to_string(),
-            index: match e {
-                faer::linalg::solvers::LltError::NonPositivePivot { index } => index,
-            },
+            index,
             hint: String::new(),
-        })?;
-    let l = llt.L();
-    // X = L^-1 K, then C = L^-1 X^T = L^-1 K L^-T (K symmetric).
-    let mut x = k.to_owned();
-    solve_lower_triangular_in_place(l, x.as_mut(), Par::Seq);
-    let mut c = x.transpose().to_owned();
-    solve_lower_triangular_in_place(l, c.as_mut(), Par::Seq);
-    symmetrize(&mut c);
-    // faer 0.24's divide-and-conquer path (order >= 128) does not scale the tridiagonal matrix to
-    // unit norm as LAPACK's dstedc does, and its deflation test then loses accuracy in proportion
-    // to max|C| (residuals of 1e-3 at max|C| ~ 1e9, measured). Scale C by a power of two (exact in
-    // floating point) to max|C| ~ 1 and scale the eigenvalues back.
-    let scale = power_of_two_scale(&c);
-    for j in 0..n {
-        for i in 0..n {
-            c[(i, j)] *= scale;
-        }
-    }
-    let evd = c
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|_| ModalError::DenseEigen {
+        },
+        None => ModalError::DenseEigen {
             what: "L^-1 K L^-T".to_string(),
-        })?;
-    let s = evd.S();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| s[a].total_cmp(&s[b]));
-    let eigenvalues: Vec<f64> = order.iter().map(|&i| s[i] / scale).collect();
-    let u = evd.U();
-    let mut phi = Mat::<f64>::from_fn(n, n, |i, j| u[(i, order[j])]);
-    // Phi = L^-T Q.
-    solve_upper_triangular_in_place(l.transpose(), phi.as_mut(), Par::Seq);
+        },
+    })?;
+    let mut phi = eig.vectors;
     for j in 0..n {
         fix_sign(phi.col_as_slice_mut(j));
     }
-    Ok((eigenvalues, phi))
+    Ok((eig.values, phi))
 }
 
 /// Flips the vector so that its largest-magnitude component is positive;
@@ -189,21 +134,6 @@ pub fn fix_sign(v: &mut [f64]) -> bool {
         return true;
     }
     false
-}
-
-/// 2^-round(log2 max|C|): multiplying by it is exact and brings max|C| to [0.7, 1.4].
-fn power_of_two_scale(c: &Mat<f64>) -> f64 {
-    let mut max = 0.0f64;
-    for j in 0..c.ncols() {
-        for i in 0..c.nrows() {
-            max = max.max(c[(i, j)].abs());
-        }
-    }
-    if max > 0.0 && max.is_finite() {
-        2f64.powi(-(max.log2().round() as i32))
-    } else {
-        1.0
-    }
 }
 
 #[cfg(test)]

@@ -33,7 +33,6 @@ use serde::{Deserialize, Serialize};
 use crate::check::{at_least_one, greater_than_one, positive};
 use crate::contact::{powell_measure_of, violations, Multipliers, PowellMeasure};
 use crate::error::NnmError;
-use crate::newton::NewtonSettings;
 
 /// How the contact constraint is enforced.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
@@ -64,19 +63,9 @@ pub enum PenaltyUpdate {
     AsPrinted,
 }
 
-/// Which Newton linear algebra to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Condensation {
-    /// Exact condensation onto the contact coordinates and the master (see `condensation`).
-    #[default]
-    Exact,
-    /// Dense Newton on all n (N + 1) + 2 unknowns (validation, small systems).
-    None,
-}
-
-/// Parameters of Algorithm 1 and of the inner Newton solver. Every field has a default
-/// (`#[serde(default)]`), so a settings file only lists what it changes.
+/// Parameters of Algorithm 1 (the inner solver's settings are [`crate::SolverSettings`], which
+/// holds these). Every field has a default (`#[serde(default)]`), so a settings file only lists
+/// what it changes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AlgorithmParams {
@@ -106,10 +95,6 @@ pub struct AlgorithmParams {
     pub max_penalty: f64,
     /// Augmented Lagrangian (default) or plain penalty.
     pub method: ContactMethod,
-    /// Exact condensation (default) or the dense uncondensed Newton.
-    pub condensation: Condensation,
-    /// Inner Newton settings.
-    pub newton: NewtonSettings,
     /// Newton iterations allowed per point, all inner solves and fallbacks included (default 400):
     /// bounds the cost of a point that does not converge.
     pub newton_budget: usize,
@@ -132,8 +117,6 @@ impl Default for AlgorithmParams {
             initial_penalty: 10.0,
             max_penalty: 1e3,
             method: ContactMethod::AugmentedLagrangian,
-            condensation: Condensation::Exact,
-            newton: NewtonSettings::default(),
             newton_budget: 400,
             truncation_warning: 1e-3,
         }
@@ -163,7 +146,7 @@ impl AlgorithmParams {
         if let ContactMethod::Penalty { stiffness } = self.method {
             pos("method.stiffness", stiffness)?;
         }
-        self.newton.validate()
+        Ok(())
     }
 }
 
@@ -178,6 +161,71 @@ pub(crate) struct OuterReport {
     pub solves: usize,
     /// Newton iterations summed over the inner solves.
     pub newton_iterations: usize,
+}
+
+/// The rejection branch of Algorithm 1 on L = { |v| >= threshold }: kappa_L <- beta kappa_L and
+/// theta_L <- theta_L / beta (capped at `kappa_cap`, the multiplier estimate kappa theta kept);
+/// where kappa is at its cap, the multiplier is updated by Eq. (16) instead (the method of
+/// multipliers at fixed penalty).
+fn reject(
+    mu: &mut Multipliers,
+    v: &[f64],
+    threshold: f64,
+    g0: &[f64],
+    kappa_cap: &[f64],
+    beta: f64,
+) {
+    let m = mu.samples;
+    for i in 0..v.len() {
+        if v[i].abs() >= threshold {
+            let (j, cap) = (i / m, kappa_cap[i / m]);
+            if mu.kappa[i] >= cap {
+                mu.theta[i] += v[i] * g0[j];
+            } else {
+                let old = mu.kappa[i];
+                let new = (old * beta).min(cap);
+                mu.kappa[i] = new;
+                mu.theta[i] *= old / new;
+            }
+        }
+    }
+}
+
+/// Eq. (16) at an accepted iteration: theta <- theta + max(g, -theta), with v = max(g, -theta)
+/// / g0 (v in units of g0).
+fn update_multipliers(mu: &mut Multipliers, v: &[f64], g0: &[f64]) {
+    let m = mu.samples;
+    for (j, &g0j) in g0.iter().enumerate() {
+        for k in 0..m {
+            let i = j * m + k;
+            mu.theta[i] += v[i] * g0j;
+        }
+    }
+}
+
+/// Too little progress at an accepted iteration: kappa_L <- beta kappa_L on
+/// L = { |v| >= threshold } (capped, never lowered), and theta_L <- theta_L kappa_old / kappa_new
+/// with [`PenaltyUpdate::KeepMultiplier`].
+fn raise_penalties(
+    mu: &mut Multipliers,
+    v: &[f64],
+    threshold: f64,
+    kappa_cap: &[f64],
+    beta: f64,
+    update: PenaltyUpdate,
+) {
+    let m = mu.samples;
+    for i in 0..v.len() {
+        if v[i].abs() >= threshold {
+            let cap = kappa_cap[i / m];
+            let old = mu.kappa[i];
+            let new = (old * beta).min(cap).max(old);
+            mu.kappa[i] = new;
+            if update == PenaltyUpdate::KeepMultiplier {
+                mu.theta[i] *= old / new;
+            }
+        }
+    }
 }
 
 /// Failure of Algorithm 1 with what was reached.
@@ -228,23 +276,8 @@ where
         violations(&gaps, &multipliers.theta, g0, m, &mut v);
         let g_bar = powell_measure_of(&v, m, params.measure);
         rep.measure = g_bar;
-        let threshold = g_accepted / alpha;
         if g_bar >= g_accepted {
-            for i in 0..c * m {
-                if v[i].abs() >= threshold {
-                    let (j, cap) = (i / m, kappa_cap[i / m]);
-                    if multipliers.kappa[i] >= cap {
-                        // The penalty cannot grow any more: update the multiplier instead
-                        // (method of multipliers at fixed penalty), Eq. (16).
-                        multipliers.theta[i] += v[i] * g0[j];
-                    } else {
-                        let old = multipliers.kappa[i];
-                        let new = (old * beta).min(cap);
-                        multipliers.kappa[i] = new;
-                        multipliers.theta[i] *= old / new;
-                    }
-                }
-            }
+            reject(multipliers, &v, g_accepted / alpha, g0, kappa_cap, beta);
         } else {
             rep.accepted += 1;
             let g_previous = g_accepted;
@@ -252,24 +285,10 @@ where
             if g_bar <= params.epsilon {
                 return Ok(rep);
             }
-            for (j, &g0j) in g0.iter().enumerate() {
-                for k in 0..m {
-                    let i = j * m + k;
-                    multipliers.theta[i] += v[i] * g0j;
-                }
-            }
+            update_multipliers(multipliers, &v, g0);
             if g_bar >= g_previous / alpha {
-                for i in 0..c * m {
-                    if v[i].abs() >= g_previous / alpha {
-                        let cap = kappa_cap[i / m];
-                        let old = multipliers.kappa[i];
-                        let new = (old * beta).min(cap).max(old);
-                        multipliers.kappa[i] = new;
-                        if params.penalty_update == PenaltyUpdate::KeepMultiplier {
-                            multipliers.theta[i] *= old / new;
-                        }
-                    }
-                }
+                let update = params.penalty_update;
+                raise_penalties(multipliers, &v, g_previous / alpha, kappa_cap, beta, update);
             }
         }
     }

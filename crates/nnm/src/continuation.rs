@@ -290,7 +290,7 @@ pub struct InternalResonance {
     pub branch: Option<usize>,
 }
 
-/// An amplitude level of [`crate::amplitude_sweep`] that did not converge.
+/// An amplitude level of `testing::amplitude_sweep` that did not converge.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SkippedLevel {
     /// Master amplitude q (length unit of the system).

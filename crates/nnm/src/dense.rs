@@ -1,20 +1,19 @@
 //! Small dense linear-algebra helpers on top of faer: symmetric checks, the generalized symmetric
-//! eigenproblem K phi = lambda M phi, and an in-place LU with partial pivoting that reuses its buffers
-//! (no allocation once the size has been seen).
+//! eigenproblem K phi = lambda M phi (`nlmodes_dense`, shared with the modal crate, with nnm's
+//! errors), and an in-place LU with partial pivoting that reuses its buffers (no allocation once the
+//! size has been seen).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::{factor, solve};
 use faer::perm::PermRef;
 use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+pub(crate) use nlmodes_dense::GeneralizedEigen;
+use nlmodes_dense::{DenseError, SYMMETRY_TOLERANCE};
 
 use crate::error::NnmError;
 
-/// Relative tolerance on |a_ij - a_ji| / max|a| above which a matrix is rejected as asymmetric.
-/// Reduced matrices built numerically (Craig-Bampton products) carry asymmetry of order
-/// n * 1e-16 * max|a|; 1e-9 accepts that round-off and rejects any genuine asymmetry.
-pub(crate) const SYMMETRY_TOLERANCE: f64 = 1e-9;
-
-/// Checks that `a` is square of size `n`, finite and symmetric; returns the symmetrized copy.
+/// Checks that `a` is square of size `n`, finite and symmetric to `nlmodes_dense::SYMMETRY_TOLERANCE`
+/// (1e-10 max|a|, the modal crate's bound too); returns the symmetrized copy.
 pub(crate) fn checked_symmetric(
     name: &'static str,
     a: &Mat<f64>,
@@ -76,74 +75,27 @@ pub(crate) fn cholesky_lower(name: &'static str, a: MatRef<'_, f64>) -> Result<M
     }
 }
 
-/// Solution of the symmetric-definite generalized eigenproblem `K phi = lambda M phi`:
-/// eigenvalues ascending, eigenvectors mass-normalized (`Phi^T M Phi = I`).
-pub(crate) struct GeneralizedEigen {
-    /// Eigenvalues lambda (squared circular frequencies, rad^2/s^2), ascending.
-    pub values: Vec<f64>,
-    /// Mass-normalized eigenvectors, one per column.
-    pub vectors: Mat<f64>,
-}
-
-/// Solves `K phi = lambda M phi` with `M = L L^T`: `L^-1 K L^-T v = lambda v`, `phi = L^-T v`.
+/// Solves `K phi = lambda M phi` (K symmetric, M SPD of the same order, checked by the caller):
+/// eigenvalues ascending, eigenvectors mass-normalized (`Phi^T M Phi = I`). `m_name` names M in
+/// the error when it is not positive definite.
 pub(crate) fn generalized_eigen(
     k: MatRef<'_, f64>,
     m: MatRef<'_, f64>,
     m_name: &'static str,
 ) -> Result<GeneralizedEigen, NnmError> {
-    let n = k.nrows();
-    if n == 0 {
-        return Ok(GeneralizedEigen {
-            values: Vec::new(),
-            vectors: Mat::zeros(0, 0),
-        });
-    }
-    let l = cholesky_lower(m_name, m)?;
-    // C = L^-1 K L^-T
-    let mut c = k.to_owned();
-    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-        l.as_ref(),
-        c.as_mut(),
-        Par::Seq,
-    );
-    let mut ct = c.transpose().to_owned();
-    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-        l.as_ref(),
-        ct.as_mut(),
-        Par::Seq,
-    );
-    // faer 0.24's divide-and-conquer eigensolver (order >= 128) loses accuracy in proportion to
-    // max|C| (it does not scale the tridiagonal matrix as LAPACK's dstedc does): scale C by a power
-    // of two (exact) to max|C| ~ 1 and scale the eigenvalues back.
-    let max = (0..n)
-        .flat_map(|j| (0..n).map(move |i| (i, j)))
-        .fold(0.0f64, |a, (i, j)| a.max(ct[(i, j)].abs()));
-    let scale = if max > 0.0 && max.is_finite() {
-        2f64.powi(-(max.log2().round() as i32))
-    } else {
-        1.0
-    };
-    let c = Mat::from_fn(n, n, |i, j| scale * 0.5 * (ct[(i, j)] + ct[(j, i)]));
-    let evd = c
-        .self_adjoint_eigen(Side::Lower)
-        .map_err(|e| NnmError::Decomposition {
+    nlmodes_dense::generalized_eigen(k, m).map_err(|e| match e {
+        DenseError::NotPositiveDefinite(_) => NnmError::NotPositiveDefinite {
+            name: m_name,
+            detail: e.to_string(),
+        },
+        DenseError::Eigen(detail) => NnmError::Decomposition {
             what: "symmetric eigen-decomposition",
-            detail: format!("{e:?}"),
-        })?;
-    let s = evd.S().column_vector();
-    let values: Vec<f64> = (0..n).map(|i| s[i] / scale).collect();
-    let mut vectors = evd.U().to_owned();
-    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-        l.transpose(),
-        vectors.as_mut(),
-        Par::Seq,
-    );
-    if values.iter().any(|v| !v.is_finite()) {
-        return Err(NnmError::NonFiniteResult {
+            detail: format!("{detail:?}"),
+        },
+        DenseError::NonFinite => NnmError::NonFiniteResult {
             what: "generalized eigenvalues",
-        });
-    }
-    Ok(GeneralizedEigen { values, vectors })
+        },
+    })
 }
 
 /// LU factorization with partial pivoting, in place in a reusable buffer.

@@ -6,9 +6,10 @@
 //! continuous and piecewise linear in u, so the solution is C^2 in time and the scheme keeps at
 //! least third order at the (finitely many) contact transitions.
 
-use faer::{Mat, Par};
+use faer::{Mat, MatRef, Par};
 use serde::Serialize;
 
+use crate::check::{at_least_one, require};
 use crate::dense::{cholesky_lower, generalized_eigen};
 use crate::error::NnmError;
 use crate::point::BackbonePoint;
@@ -59,116 +60,17 @@ pub fn integrate_penalty(
     duration: f64,
     steps: usize,
 ) -> Result<MotionState, NnmError> {
-    let (n, c) = (system.n_dofs(), system.n_contacts());
-    if penalty.len() != c {
-        return Err(NnmError::InvalidParameter {
-            name: "penalty",
-            value: penalty.len() as f64,
-            expected: "one penalty stiffness per contact row",
-        });
-    }
-    if let Some(&bad) = penalty.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-        return Err(NnmError::InvalidParameter {
-            name: "penalty",
-            value: bad,
-            expected: "finite penalty stiffnesses >= 0",
-        });
-    }
-    if initial.u.len() != n || initial.v.len() != n {
-        return Err(NnmError::InvalidParameter {
-            name: "initial state length",
-            value: initial.u.len().max(initial.v.len()) as f64,
-            expected: "u and v of length n (the number of DOFs)",
-        });
-    }
-    if !(duration.is_finite() && duration > 0.0) {
-        return Err(NnmError::InvalidParameter {
-            name: "duration",
-            value: duration,
-            expected: "a finite duration > 0",
-        });
-    }
-    if steps == 0 {
-        return Err(NnmError::InvalidParameter {
-            name: "steps",
-            value: 0.0,
-            expected: ">= 1",
-        });
-    }
-    let a = system.contact_rows();
+    check_integration_inputs(system, penalty, initial, duration, steps)?;
     let h = duration / steps as f64;
     // Stiffest mode of the penalized system.
-    let kp = Mat::from_fn(n, n, |i, j| {
-        system.stiffness()[(i, j)]
-            + (0..c)
-                .map(|l| penalty[l] * a[(l, i)] * a[(l, j)])
-                .sum::<f64>()
-    });
+    let kp = penalized_stiffness(system, penalty);
     check_rk4_step(system, kp.as_ref(), h, duration)?;
-    // Precompute M^-1 K and M^-1 A^T.
-    let l = cholesky_lower("M", system.mass())?;
-    let solve_m = |mut b: Mat<f64>| {
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-            l.as_ref(),
-            b.as_mut(),
-            Par::Seq,
-        );
-        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-            l.transpose(),
-            b.as_mut(),
-            Par::Seq,
-        );
-        b
-    };
-    let mk = solve_m(system.stiffness().to_owned());
-    let ma = solve_m(a.transpose().to_owned());
-    let g0 = system.gaps();
-    let accel = |u: &[f64], out: &mut [f64], lam: &mut [f64]| {
-        for j in 0..c {
-            let g: f64 = (0..n).map(|i| a[(j, i)] * u[i]).sum::<f64>() - g0[j];
-            lam[j] = penalty[j] * g.max(0.0);
-        }
-        for (i, o) in out.iter_mut().enumerate() {
-            let mut v = 0.0;
-            for jj in 0..n {
-                v -= mk[(i, jj)] * u[jj];
-            }
-            for j in 0..c {
-                v -= ma[(i, j)] * lam[j];
-            }
-            *o = v;
-        }
-    };
+    let dynamics = PenaltyDynamics::new(system, penalty)?;
+    let mut rk4 = Rk4Stages::new(system.n_dofs(), system.n_contacts());
     let mut u = initial.u.clone();
     let mut v = initial.v.clone();
-    let mut lam = vec![0.0; c];
-    let (mut k1u, mut k1v) = (vec![0.0; n], vec![0.0; n]);
-    let (mut k2u, mut k2v) = (vec![0.0; n], vec![0.0; n]);
-    let (mut k3u, mut k3v) = (vec![0.0; n], vec![0.0; n]);
-    let (mut k4u, mut k4v) = (vec![0.0; n], vec![0.0; n]);
-    let mut tmp = vec![0.0; n];
     for _ in 0..steps {
-        k1u.copy_from_slice(&v);
-        accel(&u, &mut k1v, &mut lam);
-        for i in 0..n {
-            tmp[i] = u[i] + 0.5 * h * k1u[i];
-            k2u[i] = v[i] + 0.5 * h * k1v[i];
-        }
-        accel(&tmp, &mut k2v, &mut lam);
-        for i in 0..n {
-            tmp[i] = u[i] + 0.5 * h * k2u[i];
-            k3u[i] = v[i] + 0.5 * h * k2v[i];
-        }
-        accel(&tmp, &mut k3v, &mut lam);
-        for i in 0..n {
-            tmp[i] = u[i] + h * k3u[i];
-            k4u[i] = v[i] + h * k3v[i];
-        }
-        accel(&tmp, &mut k4v, &mut lam);
-        for i in 0..n {
-            u[i] += h / 6.0 * (k1u[i] + 2.0 * k2u[i] + 2.0 * k3u[i] + k4u[i]);
-            v[i] += h / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i]);
-        }
+        rk4.step(&dynamics, &mut u, &mut v, h);
     }
     if u.iter().chain(&v).any(|x| !x.is_finite()) {
         return Err(NnmError::NonFiniteResult {
@@ -176,6 +78,168 @@ pub fn integrate_penalty(
         });
     }
     Ok(MotionState { u, v })
+}
+
+/// The arguments of [`integrate_penalty`]: one finite penalty >= 0 per contact row, states of
+/// length n, a finite duration > 0 and at least one step.
+fn check_integration_inputs(
+    system: &System,
+    penalty: &[f64],
+    initial: &MotionState,
+    duration: f64,
+    steps: usize,
+) -> Result<(), NnmError> {
+    let (n, c) = (system.n_dofs(), system.n_contacts());
+    let rows = penalty.len();
+    require(
+        "penalty",
+        rows as f64,
+        rows == c,
+        "one penalty stiffness per contact row",
+    )?;
+    if let Some(&bad) = penalty.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+        require("penalty", bad, false, "finite penalty stiffnesses >= 0")?;
+    }
+    require(
+        "initial state length",
+        initial.u.len().max(initial.v.len()) as f64,
+        initial.u.len() == n && initial.v.len() == n,
+        "u and v of length n (the number of DOFs)",
+    )?;
+    let finite_positive = duration.is_finite() && duration > 0.0;
+    require(
+        "duration",
+        duration,
+        finite_positive,
+        "a finite duration > 0",
+    )?;
+    at_least_one("steps", steps)
+}
+
+/// K + A^T diag(kc) A: the stiffness with every contact row closed (N/m).
+fn penalized_stiffness(system: &System, penalty: &[f64]) -> Mat<f64> {
+    let (n, c) = (system.n_dofs(), system.n_contacts());
+    let a = system.contact_rows();
+    Mat::from_fn(n, n, |i, j| {
+        system.stiffness()[(i, j)]
+            + (0..c)
+                .map(|l| penalty[l] * a[(l, i)] * a[(l, j)])
+                .sum::<f64>()
+    })
+}
+
+/// u'' = -M^-1 K u - M^-1 A^T lambda(u) with lambda_j = kc_j max(0, A_j u - g0_j).
+struct PenaltyDynamics<'a> {
+    contact_rows: MatRef<'a, f64>,
+    gaps: &'a [f64],
+    penalty: &'a [f64],
+    /// M^-1 K and M^-1 A^T.
+    mk: Mat<f64>,
+    ma: Mat<f64>,
+}
+
+impl<'a> PenaltyDynamics<'a> {
+    fn new(system: &'a System, penalty: &'a [f64]) -> Result<Self, NnmError> {
+        let a = system.contact_rows();
+        let l = cholesky_lower("M", system.mass())?;
+        let solve_m = |mut b: Mat<f64>| {
+            faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                l.as_ref(),
+                b.as_mut(),
+                Par::Seq,
+            );
+            faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+                l.transpose(),
+                b.as_mut(),
+                Par::Seq,
+            );
+            b
+        };
+        Ok(Self {
+            contact_rows: a,
+            gaps: system.gaps(),
+            penalty,
+            mk: solve_m(system.stiffness().to_owned()),
+            ma: solve_m(a.transpose().to_owned()),
+        })
+    }
+
+    /// Writes the acceleration at displacement `u` into `out` (`lam`: contact-force scratch).
+    fn acceleration(&self, u: &[f64], out: &mut [f64], lam: &mut [f64]) {
+        let (a, n) = (self.contact_rows, u.len());
+        for j in 0..lam.len() {
+            let g: f64 = (0..n).map(|i| a[(j, i)] * u[i]).sum::<f64>() - self.gaps[j];
+            lam[j] = self.penalty[j] * g.max(0.0);
+        }
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut v = 0.0;
+            for (jj, uj) in u.iter().enumerate() {
+                v -= self.mk[(i, jj)] * uj;
+            }
+            for (j, l) in lam.iter().enumerate() {
+                v -= self.ma[(i, j)] * l;
+            }
+            *o = v;
+        }
+    }
+}
+
+/// The stages of the classical RK4 scheme (reused between steps).
+struct Rk4Stages {
+    k1: (Vec<f64>, Vec<f64>),
+    k2: (Vec<f64>, Vec<f64>),
+    k3: (Vec<f64>, Vec<f64>),
+    k4: (Vec<f64>, Vec<f64>),
+    tmp: Vec<f64>,
+    lam: Vec<f64>,
+}
+
+impl Rk4Stages {
+    fn new(n: usize, c: usize) -> Self {
+        let pair = || (vec![0.0; n], vec![0.0; n]);
+        Self {
+            k1: pair(),
+            k2: pair(),
+            k3: pair(),
+            k4: pair(),
+            tmp: vec![0.0; n],
+            lam: vec![0.0; c],
+        }
+    }
+
+    /// One step of length `h` (s) of (u, v).
+    fn step(&mut self, dynamics: &PenaltyDynamics<'_>, u: &mut [f64], v: &mut [f64], h: f64) {
+        let n = u.len();
+        let Self {
+            k1: (k1u, k1v),
+            k2: (k2u, k2v),
+            k3: (k3u, k3v),
+            k4: (k4u, k4v),
+            tmp,
+            lam,
+        } = self;
+        k1u.copy_from_slice(v);
+        dynamics.acceleration(u, k1v, lam);
+        for i in 0..n {
+            tmp[i] = u[i] + 0.5 * h * k1u[i];
+            k2u[i] = v[i] + 0.5 * h * k1v[i];
+        }
+        dynamics.acceleration(tmp, k2v, lam);
+        for i in 0..n {
+            tmp[i] = u[i] + 0.5 * h * k2u[i];
+            k3u[i] = v[i] + 0.5 * h * k2v[i];
+        }
+        dynamics.acceleration(tmp, k3v, lam);
+        for i in 0..n {
+            tmp[i] = u[i] + h * k3u[i];
+            k4u[i] = v[i] + h * k3v[i];
+        }
+        dynamics.acceleration(tmp, k4v, lam);
+        for i in 0..n {
+            u[i] += h / 6.0 * (k1u[i] + 2.0 * k2u[i] + 2.0 * k3u[i] + k4u[i]);
+            v[i] += h / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i]);
+        }
+    }
 }
 
 /// Result of integrating a computed orbit over one period.

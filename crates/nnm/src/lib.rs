@@ -36,8 +36,11 @@
 //! contact coordinates and the master.
 //!
 //! Entry points: [`Solver::solve_point`] / [`solve_point`] (one amplitude), [`backbone`]
-//! (pseudo-arc-length continuation that follows folds), [`amplitude_sweep`] (given amplitude
-//! levels), [`check_periodicity`] / [`integrate_penalty`] (independent time-integration check).
+//! (pseudo-arc-length continuation that follows folds), [`check_periodicity`] /
+//! [`integrate_penalty`] (independent time-integration check). A solver is configured by
+//! [`HarmonicSettings`] and [`SolverSettings`] (Algorithm 1's [`AlgorithmParams`], the
+//! [`NewtonSettings`] and the [`Condensation`]). Tests and benchmarks also use `testing`
+//! (feature `testing`): `amplitude_sweep` (given amplitude levels) and `newton_step_timing`.
 //!
 //! Choices that depart from a literal reading, each with its reason in the module docs:
 //! * Powell's measure defaults to the entrywise maximum [`PowellMeasure::Entrywise`]; docs/DESIGN.md §3's
@@ -60,8 +63,8 @@
 //! (inner solve, `NewtonSolve`), `newton_fallback` (smoothing path), `condensation_basis` (the
 //! precomputed condensation basis) and `condensed_newton` (the Newton step in it), `modal_tail`
 //! (series for the high modes), `full` (uncondensed validation model), `augmented_lagrangian`
-//! (Algorithm 1), `solver` (one point, `InnerSolve`), `continuation` (backbone), `sweep` (amplitude
-//! levels), `point` (outputs), `integrate` (time-integration cross-check), `dense` (faer helpers),
+//! (Algorithm 1), `solver` (one point, `InnerSolve`), `solver_settings`, `continuation` (backbone),
+//! `sweep` (amplitude levels, tests only), `step_timing` (benchmarks only), `point` (outputs), `integrate` (time-integration cross-check), `dense` (faer helpers),
 //! `error`. Design: docs/DESIGN.md (sections cited as "DESIGN §k").
 
 mod augmented_lagrangian;
@@ -82,14 +85,17 @@ mod newton;
 mod newton_fallback;
 mod point;
 mod solver;
+mod solver_settings;
 mod stability;
+#[cfg(feature = "testing")]
 mod step_timing;
+#[cfg(feature = "testing")]
 mod sweep;
 mod system;
 mod trace;
 mod truncation;
 
-pub use augmented_lagrangian::{AlgorithmParams, Condensation, ContactMethod, PenaltyUpdate};
+pub use augmented_lagrangian::{AlgorithmParams, ContactMethod, PenaltyUpdate};
 pub use contact::{powell_measure, Multipliers, PowellMeasure};
 pub use continuation::{
     Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Passage, SkippedLevel,
@@ -101,13 +107,21 @@ pub use integrate::{check_periodicity, integrate_penalty, MotionState, Periodici
 pub use newton::NewtonSettings;
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
+pub use solver_settings::{Condensation, SolverSettings};
 pub use stability::{
     analyze_backbone, classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis,
     FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability, StabilityMethod,
     UnstableCounts,
 };
-pub use step_timing::{newton_step_timing, StepTiming};
-pub use sweep::amplitude_sweep;
 pub use system::{ModalShares, System};
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};
+
+/// What only this crate's tests and benchmarks use, outside the public API: compiled with the
+/// `testing` feature, which the crate's own tests (a dev-dependency on itself) and the workspace's
+/// `examples/bench_nnm.rs` enable.
+#[cfg(feature = "testing")]
+pub mod testing {
+    pub use crate::step_timing::{newton_step_timing, StepTiming};
+    pub use crate::sweep::amplitude_sweep;
+}

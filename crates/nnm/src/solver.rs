@@ -1,18 +1,15 @@
 //! The nonlinear-mode solver at one amplitude: Algorithm 1 around the inner Newton solve, and the
 //! assembly of a [`BackbonePoint`] from the converged state.
 
-use crate::augmented_lagrangian::{
-    run_algorithm1, AlgorithmParams, Condensation, ContactMethod, OuterReport,
-};
-use crate::condensed_newton::CondensedModel;
+use crate::augmented_lagrangian::{run_algorithm1, AlgorithmParams, ContactMethod, OuterReport};
 use crate::contact::{powell_measure, Multipliers};
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
-use crate::full::FullModel;
 use crate::linear_model::{LinearModel, ParameterRow};
 use crate::newton::{InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork};
 use crate::newton_fallback::solve_inner_robust;
 use crate::point::BackbonePoint;
+use crate::solver_settings::SolverSettings;
 use crate::system::System;
 
 /// Where a solve starts from.
@@ -35,12 +32,15 @@ pub(crate) struct Guess {
     pub multipliers: Multipliers,
 }
 
-/// Reusable solver for one system, harmonic settings and algorithm parameters: FFT plans,
+/// Reusable solver for one system, harmonic settings and solver settings: FFT plans,
 /// condensation basis and Newton buffers are built once.
 pub struct Solver<'s> {
     system: &'s System,
     settings: HarmonicSettings,
+    /// Algorithm 1's parameters.
     params: AlgorithmParams,
+    /// The inner Newton solver's settings.
+    newton: NewtonSettings,
     model: Box<dyn LinearModel + 's>,
     aft: Aft,
     work: NewtonWork,
@@ -52,21 +52,23 @@ pub struct Solver<'s> {
 
 impl<'s> Solver<'s> {
     /// Validates the settings and precomputes what does not change between amplitudes.
+    /// `solver` is a [`SolverSettings`], or just the [`AlgorithmParams`] (then with the default
+    /// Newton settings and condensation).
     pub fn new(
         system: &'s System,
         settings: HarmonicSettings,
-        params: AlgorithmParams,
+        solver: impl Into<SolverSettings>,
     ) -> Result<Self, NnmError> {
+        let SolverSettings {
+            algorithm: params,
+            newton,
+            condensation,
+        } = solver.into();
         settings.validate()?;
         params.validate()?;
-        let model: Box<dyn LinearModel> = match params.condensation {
-            Condensation::Exact => Box::new(CondensedModel::new(
-                system,
-                params.newton.resonance_window,
-                settings.harmonics,
-            )?),
-            Condensation::None => Box::new(FullModel::new(system, settings.harmonics)),
-        };
+        newton.validate()?;
+        let model =
+            condensation.linear_model(system, newton.resonance_window, settings.harmonics)?;
         let ks = system.contact_stiffness();
         let kappa_initial = ks.iter().map(|k| k * params.initial_penalty).collect();
         let kappa_cap = ks.iter().map(|k| k * params.max_penalty).collect();
@@ -76,6 +78,7 @@ impl<'s> Solver<'s> {
             settings,
             aft: Aft::new(settings),
             params,
+            newton,
             model,
             work: NewtonWork::default(),
             kappa_initial,
@@ -95,7 +98,7 @@ impl<'s> Solver<'s> {
         self.settings
     }
 
-    /// Algorithm parameters in use.
+    /// Algorithm 1's parameters in use.
     pub fn params(&self) -> &AlgorithmParams {
         &self.params
     }
@@ -200,7 +203,7 @@ impl<'s> Solver<'s> {
             aft: &mut self.aft,
             spent0: self.work.spent,
             work: &mut self.work,
-            newton: &self.params.newton,
+            newton: &self.newton,
             row: &row,
             g0,
             samples: self.settings.samples,
@@ -252,6 +255,8 @@ impl<'s> Solver<'s> {
         self.build_point(guess.mode, &state, multipliers, report)
     }
 
+    /// The converged point: orbit in physical coordinates, contact summary, energy, truncation
+    /// indicator and modal shares.
     fn build_point(
         &self,
         mode: usize,
@@ -260,16 +265,73 @@ impl<'s> Solver<'s> {
         report: OuterReport,
     ) -> Result<BackbonePoint, NnmError> {
         let sys = self.system;
-        let layout = self.model.layout();
-        let (n, nh, m, c) = (
-            sys.n_dofs(),
-            layout.count(),
-            self.settings.samples,
-            sys.n_contacts(),
-        );
+        let (n, nh) = (sys.n_dofs(), self.model.layout().count());
         let mut flat = vec![0.0; n * nh];
         self.model.model_to_physical(&state.x, nh, &mut flat);
         let coefficients: Vec<Vec<f64>> = flat.chunks(n).map(<[f64]>::to_vec).collect();
+        let contact = self.contact_summary();
+        let energy = self.turning_point_energy(&coefficients);
+        let truncation_share = self.truncation_share();
+        let truncation_warning = truncation_share > self.params.truncation_warning;
+        let w_ref = self.linear_frequency(mode)?;
+        let shares = sys.modal_shares(&coefficients);
+        let (secondary_mode, secondary_harmonic, secondary_share) = shares.largest_other(mode);
+        let point = BackbonePoint {
+            mode,
+            q: state.q,
+            omega: state.omega,
+            omega_ratio: state.omega / w_ref,
+            frequency_hz: state.omega / (2.0 * std::f64::consts::PI),
+            energy,
+            mean_gap: contact.mean_gap,
+            max_gap: contact.max_gap,
+            mean_gap_overall: contact.mean_gap_overall,
+            max_gap_overall: contact.max_gap_overall,
+            max_penetration: contact.max_gap_overall.max(0.0),
+            contact_fraction: contact.contact_fraction,
+            powell_measure: report.measure,
+            outer_iterations: report.accepted,
+            inner_solves: report.solves,
+            newton_iterations: report.newton_iterations,
+            fold: false,
+            jump: false,
+            branch: 0,
+            pre_fold: false,
+            truncation: None,
+            stability: None,
+            bifurcation: None,
+            truncation_share,
+            truncation_warning,
+            primary_share: shares.share(mode, 1),
+            secondary_mode,
+            secondary_harmonic,
+            secondary_share,
+            coefficients,
+            contact_force: contact.contact_force,
+            multipliers,
+        };
+        if !(point.omega.is_finite() && point.q.is_finite() && point.energy.is_finite())
+            || point.coefficients.iter().flatten().any(|v| !v.is_finite())
+        {
+            return Err(NnmError::NonFiniteResult {
+                what: "the converged orbit",
+            });
+        }
+        if truncation_warning {
+            tracing::debug!(
+                q = point.q,
+                share = truncation_share,
+                limit = self.params.truncation_warning,
+                "highest harmonic holds a large share of the contact motion: N = {} may be too small",
+                self.settings.harmonics
+            );
+        }
+        Ok(point)
+    }
+
+    /// Gaps and contact forces of the last evaluated state, per contact row and overall.
+    fn contact_summary(&self) -> ContactSummary {
+        let (m, c) = (self.settings.samples, self.system.n_contacts());
         let ev = &self.work.current;
         let mut mean_gap = Vec::with_capacity(c);
         let mut max_gap = Vec::with_capacity(c);
@@ -292,7 +354,21 @@ impl<'s> Solver<'s> {
             .iter()
             .fold(f64::NEG_INFINITY, |a: f64, &v| a.max(v));
         let max_gap_overall = if c > 0 { max_gap_overall } else { 0.0 };
-        // Energy at the turning point t = 0.
+        ContactSummary {
+            mean_gap,
+            max_gap,
+            contact_fraction,
+            contact_force,
+            mean_gap_overall,
+            max_gap_overall,
+        }
+    }
+
+    /// Energy at the turning point t = 0: (1/2) u(0)^T K u(0), plus (1/2) kc (g_j(0))_+^2 per row
+    /// with the plain penalty law (joules for SI input).
+    fn turning_point_energy(&self, coefficients: &[Vec<f64>]) -> f64 {
+        let sys = self.system;
+        let (n, m, c) = (sys.n_dofs(), self.settings.samples, sys.n_contacts());
         let u0: Vec<f64> = (0..n)
             .map(|i| coefficients.iter().map(|u| u[i]).sum())
             .collect();
@@ -306,11 +382,20 @@ impl<'s> Solver<'s> {
             energy += 0.5 * kj * u0[j];
         }
         if let ContactMethod::Penalty { stiffness } = self.params.method {
+            let gaps = &self.work.current.gaps;
             for j in 0..c {
-                energy += 0.5 * stiffness * ev.gaps[j * m].max(0.0).powi(2);
+                energy += 0.5 * stiffness * gaps[j * m].max(0.0).powi(2);
             }
         }
-        // Truncation indicator: top harmonic of the contact motion relative to its whole motion.
+        energy
+    }
+
+    /// Truncation indicator: the top harmonic of the contact motion relative to its whole motion,
+    /// max_j |A_j u_N| / max_j (sum_{n>=1} |A_j u_n|^2)^(1/2).
+    fn truncation_share(&self) -> f64 {
+        let layout = self.model.layout();
+        let (nh, c) = (layout.count(), self.system.n_contacts());
+        let ev = &self.work.current;
         let mut top = 0.0_f64;
         let mut total = 0.0_f64;
         for j in 0..c {
@@ -318,63 +403,22 @@ impl<'s> Solver<'s> {
             top = top.max(coef[nh - 1].abs());
             total = total.max(coef[1..].iter().map(|v| v * v).sum::<f64>().sqrt());
         }
-        let truncation_share = if total > 0.0 { top / total } else { 0.0 };
-        let truncation_warning = truncation_share > self.params.truncation_warning;
-        let w_ref = self.linear_frequency(mode)?;
-        let shares = sys.modal_shares(&coefficients);
-        let (secondary_mode, secondary_harmonic, secondary_share) = shares.largest_other(mode);
-        let point = BackbonePoint {
-            mode,
-            q: state.q,
-            omega: state.omega,
-            omega_ratio: state.omega / w_ref,
-            frequency_hz: state.omega / (2.0 * std::f64::consts::PI),
-            energy,
-            mean_gap,
-            max_gap,
-            mean_gap_overall,
-            max_gap_overall,
-            max_penetration: max_gap_overall.max(0.0),
-            contact_fraction,
-            powell_measure: report.measure,
-            outer_iterations: report.accepted,
-            inner_solves: report.solves,
-            newton_iterations: report.newton_iterations,
-            fold: false,
-            jump: false,
-            branch: 0,
-            pre_fold: false,
-            truncation: None,
-            stability: None,
-            bifurcation: None,
-            truncation_share,
-            truncation_warning,
-            primary_share: shares.share(mode, 1),
-            secondary_mode,
-            secondary_harmonic,
-            secondary_share,
-            coefficients,
-            contact_force,
-            multipliers,
-        };
-        if !(point.omega.is_finite() && point.q.is_finite() && point.energy.is_finite())
-            || point.coefficients.iter().flatten().any(|v| !v.is_finite())
-        {
-            return Err(NnmError::NonFiniteResult {
-                what: "the converged orbit",
-            });
+        if total > 0.0 {
+            top / total
+        } else {
+            0.0
         }
-        if truncation_warning {
-            tracing::debug!(
-                q = point.q,
-                share = truncation_share,
-                limit = self.params.truncation_warning,
-                "highest harmonic holds a large share of the contact motion: N = {} may be too small",
-                self.settings.harmonics
-            );
-        }
-        Ok(point)
     }
+}
+
+/// Gaps (A u - g0, length unit of the system) and contact forces of an orbit's samples.
+struct ContactSummary {
+    mean_gap: Vec<f64>,
+    max_gap: Vec<f64>,
+    contact_fraction: Vec<f64>,
+    contact_force: Vec<Vec<f64>>,
+    mean_gap_overall: f64,
+    max_gap_overall: f64,
 }
 
 /// One plain penalty solve (no multiplier update): Eq. (20) with lambda = kc (g)_+.
@@ -562,7 +606,7 @@ impl InnerSolve<'_> {
 pub fn solve_point(
     system: &System,
     settings: HarmonicSettings,
-    params: AlgorithmParams,
+    params: impl Into<SolverSettings>,
     q: f64,
     start: Start<'_>,
 ) -> Result<BackbonePoint, NnmError> {

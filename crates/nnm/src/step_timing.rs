@@ -9,12 +9,11 @@
 
 use std::time::Instant;
 
-use crate::augmented_lagrangian::Condensation;
-use crate::condensed_newton::CondensedModel;
+use crate::check::require;
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
-use crate::full::FullModel;
 use crate::linear_model::{JacobianData, LinearModel};
+use crate::solver_settings::Condensation;
 use crate::system::System;
 
 /// Median cost of one Newton linear solve.
@@ -42,51 +41,21 @@ pub fn newton_step_timing(
     repeats: usize,
 ) -> Result<StepTiming, NnmError> {
     settings.validate()?;
-    if !(contact_share > 0.0 && contact_share <= 1.0) {
-        return Err(NnmError::InvalidParameter {
-            name: "contact_share",
-            value: contact_share,
-            expected: "a fraction of the period in (0, 1]",
-        });
-    }
-    if !(omega.is_finite() && omega > 0.0) {
-        return Err(NnmError::InvalidParameter {
-            name: "omega",
-            value: omega,
-            expected: "a finite frequency > 0 (rad/s)",
-        });
-    }
-    let mut model: Box<dyn LinearModel> = match condensation {
-        Condensation::Exact => Box::new(CondensedModel::new(
-            system,
-            resonance_window,
-            settings.harmonics,
-        )?),
-        Condensation::None => Box::new(FullModel::new(system, settings.harmonics)),
-    };
-    let (n, c, m) = (system.n_dofs(), system.n_contacts(), settings.samples);
+    let in_period = contact_share > 0.0 && contact_share <= 1.0;
+    let expected_share = "a fraction of the period in (0, 1]";
+    require("contact_share", contact_share, in_period, expected_share)?;
+    let finite_positive = omega.is_finite() && omega > 0.0;
+    require(
+        "omega",
+        omega,
+        finite_positive,
+        "a finite frequency > 0 (rad/s)",
+    )?;
+    let mut model = condensation.linear_model(system, resonance_window, settings.harmonics)?;
     let layout = model.layout();
-    let (nh, np) = (layout.count(), layout.moments());
-    // A state: a smooth displacement pattern at harmonic 1, in model coordinates.
-    let mut u = vec![0.0; n * nh];
-    for (i, v) in layout
-        .with_dim(n)
-        .harmonic_mut(&mut u, 1)
-        .iter_mut()
-        .enumerate()
-    {
-        *v = 1.0 + 0.1 * i as f64;
-    }
-    let mut x = vec![0.0; layout.len()];
-    model.physical_to_model(&u, nh, &mut x);
-    let contact_samples = ((contact_share * m as f64).ceil() as usize).clamp(1, m);
-    let stiffness = system.contact_stiffness();
-    let mut slopes = vec![0.0; c * m];
-    for j in 0..c {
-        slopes[j * m..j * m + contact_samples].fill(stiffness[j]);
-    }
-    let mut moments = vec![0.0; c * np];
-    Aft::new(settings).cosine_moments(&slopes, c, &mut moments);
+    let x = smooth_state(system, model.as_ref());
+    let moments = contact_moments(system, settings, layout.moments(), contact_share);
+    let c = system.n_contacts();
     let active: Vec<usize> = (0..c).collect();
     let master = system.master();
     let jac = JacobianData {
@@ -122,4 +91,43 @@ pub fn newton_step_timing(
         min_seconds: times[0],
         unknowns: layout.newton_len(),
     })
+}
+
+/// A state for the Jacobian: a smooth displacement pattern at harmonic 1, in model coordinates.
+fn smooth_state(system: &System, model: &dyn LinearModel) -> Vec<f64> {
+    let n = system.n_dofs();
+    let layout = model.layout();
+    let nh = layout.count();
+    let mut u = vec![0.0; n * nh];
+    for (i, v) in layout
+        .with_dim(n)
+        .harmonic_mut(&mut u, 1)
+        .iter_mut()
+        .enumerate()
+    {
+        *v = 1.0 + 0.1 * i as f64;
+    }
+    let mut x = vec![0.0; layout.len()];
+    model.physical_to_model(&u, nh, &mut x);
+    x
+}
+
+/// Cosine moments of the contact slopes: every row active with slope kappa = its contact
+/// stiffness over the first `contact_share` of the period's samples (`np` moments per row).
+fn contact_moments(
+    system: &System,
+    settings: HarmonicSettings,
+    np: usize,
+    contact_share: f64,
+) -> Vec<f64> {
+    let (c, m) = (system.n_contacts(), settings.samples);
+    let contact_samples = ((contact_share * m as f64).ceil() as usize).clamp(1, m);
+    let stiffness = system.contact_stiffness();
+    let mut slopes = vec![0.0; c * m];
+    for j in 0..c {
+        slopes[j * m..j * m + contact_samples].fill(stiffness[j]);
+    }
+    let mut moments = vec![0.0; c * np];
+    Aft::new(settings).cosine_moments(&slopes, c, &mut moments);
+    moments
 }

@@ -2,13 +2,13 @@
 //! continuation with adaptive sub-steps. Unlike [`crate::backbone`] it cannot follow a fold of q,
 //! but it returns exactly the requested levels (the paper's way of plotting w against q).
 
-use crate::augmented_lagrangian::AlgorithmParams;
 use crate::continuation::{Backbone, ContinuationSettings, SkippedLevel, Termination};
 use crate::error::NnmError;
 use crate::fourier::HarmonicSettings;
 use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
+use crate::solver_settings::SolverSettings;
 use crate::system::System;
 
 /// Natural-parameter sweep: solves at the given master amplitudes `levels` (units of g_ref, increasing),
@@ -25,7 +25,7 @@ use crate::system::System;
 pub fn amplitude_sweep<F>(
     system: &System,
     settings: HarmonicSettings,
-    params: AlgorithmParams,
+    params: impl Into<SolverSettings>,
     cont: &ContinuationSettings,
     levels: &[f64],
     mut progress: F,
@@ -34,6 +34,29 @@ where
     F: FnMut(&BackbonePoint),
 {
     cont.validate()?;
+    check_levels(levels)?;
+    let mut sweep = Sweep::new(Solver::new(system, settings, params)?, cont)?;
+    for (index, &level) in levels.iter().enumerate() {
+        match sweep.reach(level) {
+            Ok(p) => {
+                progress(&p);
+                sweep.result.points.push(p);
+                if index + 1 == levels.len() {
+                    sweep.result.termination = Termination::ReachedMaxAmplitude;
+                }
+            }
+            Err(last_error) => {
+                if !sweep.skip(level, last_error) {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(sweep.result)
+}
+
+/// The levels must be finite, positive and increasing.
+fn check_levels(levels: &[f64]) -> Result<(), NnmError> {
     for (i, &l) in levels.iter().enumerate() {
         if !(l.is_finite() && l > 0.0) || (i > 0 && l <= levels[i - 1]) {
             return Err(NnmError::InvalidParameter {
@@ -43,117 +66,155 @@ where
             });
         }
     }
-    let mode = cont.mode;
-    let mut solver = Solver::new(system, settings, params)?;
-    let w1 = solver.linear_frequency(mode)?;
-    let g_ref = system.gap_reference();
-    let mut result = Backbone {
-        points: Vec::new(),
-        termination: Termination::ReachedMaxAmplitude,
-        omega_linear: w1,
-        gap_reference: g_ref,
-        grazing_amplitude: system.grazing_amplitude(mode)?,
-        skipped: Vec::new(),
-        internal_resonances: Vec::new(),
-        branches: Vec::new(),
-    };
-    // Last two converged states (not necessarily at levels).
-    let mut history: Vec<BackbonePoint> = Vec::new();
-    let mut h = cont.step;
-    // After a skipped level the continuation is stuck (typically at a fold of q): the following
-    // levels are only tried from the linear mode directly (cold starts), until one converges.
-    let mut stuck = false;
-    for (index, &level) in levels.iter().enumerate() {
-        let mut last_error = String::new();
-        let mut reached = None;
-        if stuck {
-            match solver.solve_point(level * g_ref, Start::LinearMode(mode)) {
-                Ok(mut p) => {
-                    p.jump = true;
-                    history.clear();
-                    history.push(p.clone());
-                    reached = Some(p);
-                    stuck = false;
-                    h = cont.step;
-                }
-                Err(e) => last_error = e.to_string(),
-            }
+    Ok(())
+}
+
+/// The state of a sweep between levels.
+struct Sweep<'s, 'c> {
+    solver: Solver<'s>,
+    cont: &'c ContinuationSettings,
+    /// Linear frequency of `cont.mode` (rad/s) and the gap reference g_ref.
+    w1: f64,
+    g_ref: f64,
+    /// Last two converged states (not necessarily at levels).
+    history: Vec<BackbonePoint>,
+    /// Next sub-step (units of g_ref).
+    h: f64,
+    /// After a skipped level the continuation is stuck (typically at a fold of q): the following
+    /// levels are only tried from the linear mode directly (cold starts), until one converges.
+    stuck: bool,
+    result: Backbone,
+}
+
+impl<'s, 'c> Sweep<'s, 'c> {
+    fn new(solver: Solver<'s>, cont: &'c ContinuationSettings) -> Result<Self, NnmError> {
+        let system = solver.system();
+        let w1 = solver.linear_frequency(cont.mode)?;
+        let g_ref = system.gap_reference();
+        let result = Backbone {
+            points: Vec::new(),
+            termination: Termination::ReachedMaxAmplitude,
+            omega_linear: w1,
+            gap_reference: g_ref,
+            grazing_amplitude: system.grazing_amplitude(cont.mode)?,
+            skipped: Vec::new(),
+            internal_resonances: Vec::new(),
+            branches: Vec::new(),
+        };
+        Ok(Self {
+            solver,
+            cont,
+            w1,
+            g_ref,
+            history: Vec::new(),
+            h: cont.step,
+            stuck: false,
+            result,
+        })
+    }
+
+    /// The point at `level` (units of g_ref), or the last error's message.
+    fn reach(&mut self, level: f64) -> Result<BackbonePoint, String> {
+        if self.stuck {
+            self.cold_start(level)
+        } else {
+            self.substeps_to(level)
         }
-        while reached.is_none() && !stuck {
-            let from = history.last().map(|p| p.q / g_ref);
-            let target = match from {
+    }
+
+    /// Solves at `level` from the linear mode; on success the sweep goes on from there.
+    fn cold_start(&mut self, level: f64) -> Result<BackbonePoint, String> {
+        let mut p = self
+            .solver
+            .solve_point(level * self.g_ref, Start::LinearMode(self.cont.mode))
+            .map_err(|e| e.to_string())?;
+        p.jump = true;
+        self.history.clear();
+        self.history.push(p.clone());
+        self.stuck = false;
+        self.h = self.cont.step;
+        Ok(p)
+    }
+
+    /// Fixed-q sub-steps up to `level`, shrinking the sub-step after a failure; the sweep is
+    /// stuck when it falls below `cont.min_step`.
+    fn substeps_to(&mut self, level: f64) -> Result<BackbonePoint, String> {
+        loop {
+            let target = match self.history.last() {
                 None => level,
-                Some(f) => level.min(f + h),
+                Some(p) => level.min(p.q / self.g_ref + self.h),
             };
-            let attempt = match history.len() {
-                0 => solver.solve_point(target * g_ref, Start::LinearMode(mode)),
-                _ => {
-                    let guess = extrapolate_in_q(&history, target * g_ref);
-                    let row = ParameterRow::fixed_amplitude(target * g_ref, g_ref, w1);
-                    solver.solve_with_row(row, guess)
-                }
-            };
-            match attempt {
-                Ok(mut p) => {
-                    match history.last() {
-                        Some(prev) => {
-                            p.jump = (p.omega - prev.omega).abs() > SWEEP_JUMP_RATIO * prev.omega;
-                            h = (h * cont.growth).min(cont.max_step);
-                        }
-                        None => p.jump = !result.points.is_empty(),
-                    }
-                    history.push(p);
-                    if history.len() > 2 {
-                        history.remove(0);
-                    }
+            match self.substep(target) {
+                Ok(p) => {
+                    self.accept(p);
                     if target >= level {
-                        reached = history.last().cloned();
+                        return Ok(self.history[self.history.len() - 1].clone());
                     }
                 }
                 Err(e) => {
-                    last_error = e.to_string();
-                    if history.is_empty() {
-                        break;
+                    if self.history.is_empty() {
+                        return Err(e.to_string());
                     }
-                    h *= cont.shrink;
-                    if h < cont.min_step {
-                        h = cont.step;
-                        stuck = true;
+                    self.h *= self.cont.shrink;
+                    if self.h < self.cont.min_step {
+                        self.h = self.cont.step;
+                        self.stuck = true;
+                        return Err(e.to_string());
                     }
-                }
-            }
-        }
-        match reached {
-            Some(p) => {
-                progress(&p);
-                result.points.push(p);
-                if index + 1 == levels.len() {
-                    result.termination = Termination::ReachedMaxAmplitude;
-                }
-            }
-            None => {
-                tracing::warn!(q = level * g_ref, "amplitude level skipped: {last_error}");
-                result.skipped.push(SkippedLevel {
-                    q: level * g_ref,
-                    reason: last_error.clone(),
-                });
-                result.termination = match history.last() {
-                    None => Termination::StartFailed {
-                        reason: last_error.clone(),
-                    },
-                    Some(p) => Termination::StepTooSmall {
-                        q: p.q,
-                        step: level - p.q / g_ref,
-                        reason: last_error.clone(),
-                    },
-                };
-                if history.is_empty() {
-                    return Ok(result);
                 }
             }
         }
     }
-    Ok(result)
+
+    /// One solve at `target` (units of g_ref): from the linear mode first, then extrapolated.
+    fn substep(&mut self, target: f64) -> Result<BackbonePoint, NnmError> {
+        let q = target * self.g_ref;
+        if self.history.is_empty() {
+            return self
+                .solver
+                .solve_point(q, Start::LinearMode(self.cont.mode));
+        }
+        let guess = extrapolate_in_q(&self.history, q);
+        let row = ParameterRow::fixed_amplitude(q, self.g_ref, self.w1);
+        self.solver.solve_with_row(row, guess)
+    }
+
+    /// Flags a jump of w, grows the sub-step and keeps the point in the history.
+    fn accept(&mut self, mut p: BackbonePoint) {
+        match self.history.last() {
+            Some(prev) => {
+                p.jump = (p.omega - prev.omega).abs() > SWEEP_JUMP_RATIO * prev.omega;
+                self.h = (self.h * self.cont.growth).min(self.cont.max_step);
+            }
+            None => p.jump = !self.result.points.is_empty(),
+        }
+        self.history.push(p);
+        if self.history.len() > 2 {
+            self.history.remove(0);
+        }
+    }
+
+    /// Records `level` as skipped and the termination so far; false when nothing has converged
+    /// yet (the sweep then ends).
+    fn skip(&mut self, level: f64, last_error: String) -> bool {
+        let q = level * self.g_ref;
+        tracing::warn!(q, "amplitude level skipped: {last_error}");
+        self.result.termination = match self.history.last() {
+            None => Termination::StartFailed {
+                reason: last_error.clone(),
+            },
+            Some(p) => Termination::StepTooSmall {
+                q: p.q,
+                step: level - p.q / self.g_ref,
+                reason: last_error.clone(),
+            },
+        };
+        self.result.skipped.push(SkippedLevel {
+            q,
+            reason: last_error,
+        });
+        !self.history.is_empty()
+    }
 }
 
 /// Warm start at amplitude `q` extrapolated linearly in q from the last two points of `history`.

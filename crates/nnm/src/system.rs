@@ -72,7 +72,7 @@ impl std::fmt::Debug for System {
 impl System {
     /// Validates and builds a system.
     ///
-    /// * `m`, `k`: n x n mass and stiffness, symmetric (asymmetry up to 1e-9 x max|a| is treated as
+    /// * `m`, `k`: n x n mass and stiffness, symmetric (asymmetry up to 1e-10 x max|a| is treated as
     ///   round-off and removed by symmetrization) and positive definite (checked by Cholesky; the
     ///   error names the matrix).
     /// * `contact_rows`: c x n; row j gives the normal displacement of contact DOF j as `A_j . u`

@@ -2,7 +2,6 @@
 //! owns the solver and the growing [`Backbone`]; each branch being traced is a [`Trace`] (its
 //! points, unit tangent and step), advanced by predict / correct / accept.
 
-use crate::augmented_lagrangian::AlgorithmParams;
 use crate::continuation::{
     Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Passage, Termination,
 };
@@ -11,6 +10,7 @@ use crate::fourier::HarmonicSettings;
 use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
+use crate::solver_settings::SolverSettings;
 use crate::system::System;
 
 /// Smallest base distance (scaled arc length, i.e. about g_ref in q) of the predictors and hops
@@ -42,7 +42,7 @@ const PASS_SPAN: f64 = 1.0;
 pub fn backbone<F>(
     system: &System,
     settings: HarmonicSettings,
-    params: AlgorithmParams,
+    params: impl Into<SolverSettings>,
     cont: &ContinuationSettings,
     progress: F,
 ) -> Result<Backbone, NnmError>

@@ -8,11 +8,11 @@
 
 use serde::Serialize;
 
-use crate::augmented_lagrangian::AlgorithmParams;
 use crate::error::NnmError;
 use crate::fourier::HarmonicSettings;
 use crate::point::BackbonePoint;
 use crate::solver::{Solver, Start};
+use crate::solver_settings::SolverSettings;
 use crate::system::System;
 
 /// Largest change of the primary modal share for the 2N solve to count as the same orbit.
@@ -53,7 +53,7 @@ impl TruncationEstimate {
 pub fn truncation_estimate(
     system: &System,
     settings: HarmonicSettings,
-    params: &AlgorithmParams,
+    params: &SolverSettings,
     point: &BackbonePoint,
 ) -> Result<TruncationEstimate, NnmError> {
     let harmonics = 2 * settings.harmonics;

@@ -207,12 +207,12 @@ fn non_convergence_is_reported_with_the_last_measure() {
     }
     assert!(err.to_string().contains("i_max"), "{err}");
     // Newton failure is reported too (one iteration allowed, far from the solution).
-    let params = AlgorithmParams {
+    let params = nlmodes_nnm::SolverSettings {
         newton: nlmodes_nnm::NewtonSettings {
             max_iterations: 1,
             ..Default::default()
         },
-        ..AlgorithmParams::default()
+        ..Default::default()
     };
     let err = nlmodes_nnm::solve_point(&sys, settings, params, 3.0, Start::LinearMode(0))
         .expect_err("Newton cannot converge in one iteration");

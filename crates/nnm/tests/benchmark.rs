@@ -5,9 +5,9 @@
 
 mod common;
 
+use nlmodes_nnm::testing::amplitude_sweep;
 use nlmodes_nnm::{
-    amplitude_sweep, backbone, AlgorithmParams, ContactMethod, ContinuationSettings,
-    HarmonicSettings, Solver, Start,
+    backbone, AlgorithmParams, ContactMethod, ContinuationSettings, HarmonicSettings, Solver, Start,
 };
 
 #[test]

@@ -19,7 +19,8 @@ use common::{penalty_ratio as penalty_spring_ratio, rigid_stop_ratio};
 use faer::Mat;
 use nlmodes_nnm::{
     backbone, check_periodicity, AlgorithmParams, BackbonePoint, Condensation, ContactMethod,
-    ContinuationSettings, HarmonicSettings, NnmError, Solver, Start, System, Termination,
+    ContinuationSettings, HarmonicSettings, NnmError, Solver, SolverSettings, Start, System,
+    Termination,
 };
 
 /// Contact DOF of both 4-mass chains (the last mass) and their master coordinate (mass 1, not a
@@ -169,7 +170,7 @@ fn perturbed(p: &BackbonePoint, relative: f64) -> BackbonePoint {
 fn below_grazing_the_mode_is_linear() -> TestResult {
     let reference = linear_reference(soft_chain());
     let sys = chain_system(soft_chain())?;
-    let mut params = AlgorithmParams::default();
+    let mut params = SolverSettings::default();
     params.newton.tolerance = 1e-12;
     let mut solver = Solver::new(&sys, HarmonicSettings::with_default_samples(8)?, params)?;
     for fraction in [0.3, 0.9] {
@@ -660,10 +661,13 @@ fn condensed_and_full_newton_agree() -> TestResult {
         ContactMethod::AugmentedLagrangian,
     ] {
         let solver = |condensation: Condensation| -> Result<Solver<'_>, NnmError> {
-            let mut params = AlgorithmParams {
-                method: method.clone(),
+            let mut params = SolverSettings {
+                algorithm: AlgorithmParams {
+                    method: method.clone(),
+                    ..AlgorithmParams::default()
+                },
                 condensation,
-                ..AlgorithmParams::default()
+                ..SolverSettings::default()
             };
             params.newton.tolerance = 1e-12;
             Solver::new(&sys, settings, params)

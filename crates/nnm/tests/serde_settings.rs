@@ -4,30 +4,33 @@ mod common;
 
 use nlmodes_nnm::{
     AlgorithmParams, Condensation, ContactMethod, ContinuationSettings, HarmonicSettings,
-    PenaltyUpdate, PowellMeasure, Start,
+    PenaltyUpdate, PowellMeasure, SolverSettings, Start,
 };
 
 #[test]
 fn algorithm_parameters_deserialize_with_defaults() {
-    let empty: AlgorithmParams = serde_json::from_str("{}").expect("empty object");
-    assert_eq!(empty, AlgorithmParams::default());
-    let p: AlgorithmParams = serde_json::from_str(
+    let empty: SolverSettings = serde_json::from_str("{}").expect("empty object");
+    assert_eq!(empty, SolverSettings::default());
+    let p: SolverSettings = serde_json::from_str(
         r#"{"alpha": 2.0, "epsilon": 1e-8, "measure": "row_maximum",
             "penalty_update": "as_printed", "condensation": "none",
             "method": {"kind": "penalty", "stiffness": 100.0},
             "newton": {"tolerance": 1e-12}}"#,
     )
     .expect("parameters");
-    assert_eq!(p.alpha, 2.0);
-    assert_eq!(p.beta, AlgorithmParams::default().beta);
-    assert_eq!(p.measure, PowellMeasure::RowMaximum);
-    assert_eq!(p.penalty_update, PenaltyUpdate::AsPrinted);
+    assert_eq!(p.algorithm.alpha, 2.0);
+    assert_eq!(p.algorithm.beta, AlgorithmParams::default().beta);
+    assert_eq!(p.algorithm.measure, PowellMeasure::RowMaximum);
+    assert_eq!(p.algorithm.penalty_update, PenaltyUpdate::AsPrinted);
     assert_eq!(p.condensation, Condensation::None);
-    assert_eq!(p.method, ContactMethod::Penalty { stiffness: 100.0 });
+    assert_eq!(
+        p.algorithm.method,
+        ContactMethod::Penalty { stiffness: 100.0 }
+    );
     assert_eq!(p.newton.tolerance, 1e-12);
     assert_eq!(p.newton.max_iterations, 50);
     // Unknown keys are errors that name the key.
-    let err = serde_json::from_str::<AlgorithmParams>(r#"{"alpah": 2.0}"#).expect_err("typo");
+    let err = serde_json::from_str::<SolverSettings>(r#"{"alpah": 2.0}"#).expect_err("typo");
     assert!(err.to_string().contains("alpah"), "{err}");
     let c: ContinuationSettings = serde_json::from_str(r#"{"q_max": 35.0}"#).expect("continuation");
     assert_eq!(c.q_max, 35.0);

@@ -6,16 +6,17 @@
 mod common;
 
 use nlmodes_nnm::{
-    truncation_estimate, AlgorithmParams, ContactMethod, HarmonicSettings, Solver, Start,
+    truncation_estimate, AlgorithmParams, ContactMethod, HarmonicSettings, Solver, SolverSettings,
+    Start,
 };
 
 #[test]
 fn doubling_the_harmonics_estimates_the_truncation_error_of_w() {
     let sys = common::one_dof(1.0);
-    let params = AlgorithmParams {
+    let params = SolverSettings::from(AlgorithmParams {
         method: ContactMethod::Penalty { stiffness: 100.0 },
         ..AlgorithmParams::default()
-    };
+    });
     let q = 2.0;
     let solve = |harmonics: usize| {
         let settings = HarmonicSettings::with_default_samples(harmonics).expect("settings");
