@@ -218,6 +218,12 @@ fn check_model(case: &Case, p: &mut Problems) {
         m.linear_modes,
         "at least 1",
     );
+    p.check(
+        crate::reduce::FullCheck::parse(&m.full_check).is_some(),
+        "model.full_check",
+        &m.full_check,
+        "\"auto\" (up to 200000 DOFs), \"on\" or \"off\"",
+    );
     if let MasterChoice::Auto(s) = &m.master {
         p.check(
             s == "auto",

@@ -31,7 +31,7 @@ use faer::prelude::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
-use crate::cholesky::SparseCholesky;
+use crate::cholesky::FactoredSolve;
 use crate::eigen_options::{block_size, max_basis, EigenOptions};
 use crate::error::ModalError;
 use crate::modes::{finalize_modes, Modes};
@@ -48,7 +48,7 @@ pub(crate) fn block_lanczos(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
-    factor: &SparseCholesky,
+    factor: &dyn FactoredSolve,
     nev: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<Modes, ModalError> {
@@ -85,7 +85,7 @@ pub(crate) fn block_lanczos(
         let j0 = filled - b;
         // W = OP V_j = (K - sigma M)^-1 (M V_j).
         w.copy_from(mv.get(.., j0..filled));
-        factor.solve_many(w.as_mut())?;
+        factor.solve_block(w.as_mut())?;
         solves += b;
         if let Some(cb) = opts.on_iteration {
             cb(solves);
@@ -262,7 +262,7 @@ fn extract(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
-    factor: &SparseCholesky,
+    factor: &dyn FactoredSolve,
     mv: &Mat<f64>,
     t: &Mat<f64>,
     filled: usize,
@@ -274,7 +274,7 @@ fn extract(
     let cols: Vec<usize> = (0..nev).map(|i| filled - 1 - i).collect();
     let yw = Mat::from_fn(filled, nev, |r, c| y[(r, cols[c])]);
     let mut x = mv.get(.., ..filled) * &yw;
-    factor.solve_many(x.as_mut())?;
+    factor.solve_block(x.as_mut())?;
     let values: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
     Ok(finalize_modes(k, m, &values, &x))
 }

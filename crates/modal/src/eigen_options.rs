@@ -122,3 +122,21 @@ pub(crate) fn use_dense(nev: usize, n: usize, ncv: usize, method: EigenMethod) -
         EigenMethod::Auto => nev >= n || n <= 2 * ncv,
     }
 }
+
+/// Bytes the shift-invert eigensolver `EigenMethod::Auto` picks allocates for `nev` pairs of an
+/// n-DOF problem (for the memory check of large reductions, [`crate::memory`]): block Lanczos's
+/// basis ([`basis_bytes`]), its projected matrix, a few blocks and the Ritz vectors; ARPACK's
+/// ncv Lanczos vectors, its 3 n work vector and the eigenvectors; both with the n x nev result.
+pub fn eigensolver_bytes(n: usize, nev: usize) -> usize {
+    let f64_bytes = std::mem::size_of::<f64>();
+    let result = 2 * n * nev * f64_bytes;
+    if auto_prefers_arpack(n, nev) {
+        let ncv = (2 * nev + 1).max(20).min(n);
+        (n * (ncv + 3) + ncv * ncv) * f64_bytes + result
+    } else {
+        let b = block_size(nev).min(n);
+        let cap = max_basis(nev, b, n);
+        // W and M W, and the row-major copies of a block product with M (2 x 2 blocks).
+        basis_bytes(n, nev) + (cap * cap + 6 * n * b) * f64_bytes + result
+    }
+}
