@@ -7,7 +7,6 @@
 //! 3-5x, DESIGN 6) and reuse one workspace buffer.
 
 use std::sync::Mutex;
-use std::time::Instant;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{LltError, LltRegularization};
@@ -20,6 +19,7 @@ use faer::{Conj, MatMut, Par, Side, Spec};
 use sprs::CsMat;
 
 use crate::error::ModalError;
+use crate::memory::StepTimer;
 use crate::ordering::{metis_nested_dissection, FillOrdering};
 use crate::sparse_ops::{as_csc, check_symmetric_input};
 
@@ -30,7 +30,12 @@ pub use crate::sparse_ops::shifted;
 pub struct CholeskyOptions {
     /// Fill-reducing ordering (METIS by default).
     pub ordering: FillOrdering,
-    /// Parallelism of the numerical factorization (solves are always sequential).
+    /// Parallelism of the numerical factorization (solves are always sequential). Default:
+    /// rayon on every core; faer's supernodal factorization parallelizes inside the dense
+    /// kernels of each supernode, and gave bitwise the same factor as the sequential one on a
+    /// 102k-DOF 3-D stiffness and on the 93k-DOF blade (the default blade's reduced model files
+    /// are byte-identical; docs/BENCHMARKS.md, "Industrial size"). DESIGN 6.2: about 1.6x
+    /// faster on 2 idle cores.
     pub factorization_par: Par,
 }
 
@@ -38,7 +43,7 @@ impl Default for CholeskyOptions {
     fn default() -> Self {
         Self {
             ordering: FillOrdering::Metis,
-            factorization_par: Par::Seq,
+            factorization_par: Par::rayon(0),
         }
     }
 }
@@ -88,7 +93,7 @@ impl std::fmt::Debug for SparseCholesky {
 }
 
 impl SparseCholesky {
-    /// Factorizes the SPD matrix `a` (METIS ordering, sequential).
+    /// Factorizes the SPD matrix `a` (METIS ordering, parallel numeric factorization).
     ///
     /// Errors: not square, non-finite or asymmetric entries, empty matrix,
     /// not positive definite ([`ModalError::NotPositiveDefinite`]).
@@ -209,7 +214,18 @@ impl CholeskyAnalysis {
     /// Errors: not square, non-finite or asymmetric entries, empty matrix, faer's symbolic
     /// failures (index overflow, out of memory).
     pub fn new(a: &CsMat<f64>, what: &str, options: CholeskyOptions) -> Result<Self, ModalError> {
-        let n = check_symmetric_input(a, what)?;
+        check_symmetric_input(a, what)?;
+        Self::new_prechecked(a, what, options)
+    }
+
+    /// [`CholeskyAnalysis::new`] for a matrix already checked square, finite and symmetric
+    /// (a principal submatrix of a checked matrix).
+    pub(crate) fn new_prechecked(
+        a: &CsMat<f64>,
+        what: &str,
+        options: CholeskyOptions,
+    ) -> Result<Self, ModalError> {
+        let n = a.rows();
         if n == 0 {
             return Err(ModalError::InvalidArgument(format!(
                 "{what} is empty (0 x 0): nothing to factorize"
@@ -231,7 +247,7 @@ impl CholeskyAnalysis {
             )
             .map_err(factorization_error)
         };
-        let start = Instant::now();
+        let start = StepTimer::start();
         let (symbolic, ordering) = match options.ordering {
             FillOrdering::Natural => (
                 symbolic_with(SymmetricOrdering::Identity)?,
@@ -241,8 +257,8 @@ impl CholeskyAnalysis {
             FillOrdering::Metis => match metis_nested_dissection(&a) {
                 Ok(perm) => {
                     tracing::info!(
-                        "{what}: METIS ordering of {n} unknowns in {:.2} s",
-                        start.elapsed().as_secs_f64()
+                        "{what}: METIS ordering of {n} unknowns in {}",
+                        start.elapsed()
                     );
                     let perm_ref =
                         faer::perm::PermRef::new_checked(&perm.forward, &perm.inverse, n);
@@ -258,8 +274,8 @@ impl CholeskyAnalysis {
             },
         };
         tracing::info!(
-            "{what}: ordering and symbolic analysis in {:.2} s, nnz(L) = {} ({:.2} GB)",
-            start.elapsed().as_secs_f64(),
+            "{what}: ordering and symbolic analysis in {}, nnz(L) = {} ({:.2} GB)",
+            start.elapsed(),
             symbolic.len_val(),
             (symbolic.len_val() * std::mem::size_of::<f64>()) as f64 * 1e-9
         );
@@ -318,7 +334,7 @@ impl CholeskyAnalysis {
                 found: a.rows(),
             });
         }
-        let start = Instant::now();
+        let start = StepTimer::start();
         let a = as_csc(a);
         let col_ptr = a.proper_indptr();
         let structure = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr[..], None, a.indices());
@@ -356,11 +372,11 @@ impl CholeskyAnalysis {
             .map_err(|_| out_of_memory("the solve workspace"))?;
         tracing::info!(
             "{what}: numeric Cholesky of order {n}, nnz(A) = {}, nnz(L) = {}, ordering {:?}, \
-             {:.2} s",
+             {}",
             a.nnz(),
             l_values.len(),
             self.ordering,
-            start.elapsed().as_secs_f64()
+            start.elapsed()
         );
         Ok(SparseCholesky {
             n,

@@ -23,15 +23,13 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use sprs::CsMat;
 
-use std::time::Instant;
-
-use crate::arpack::eigs_shift_invert_factored;
+use crate::arpack::eigs_factored_prechecked;
 use crate::bordered::BorderedSolve;
 use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
 use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
 use crate::eigen_options::{eigensolver_bytes, EigenOptions};
 use crate::error::ModalError;
-use crate::memory::{available_bytes, check_fits, MemoryEstimate};
+use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
 use crate::modes::Modes;
 use crate::sparse_ops::{check_symmetric_input, spmm_symmetric, submatrix_unchecked};
 
@@ -150,6 +148,7 @@ pub fn craig_bampton_with_check(
     check_modes: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<(CraigBampton, Option<Modes>), ModalError> {
+    let start = StepTimer::start();
     let n = check_symmetric_input(k, "K")?;
     let n_m = check_symmetric_input(m, "M")?;
     if n != n_m {
@@ -167,8 +166,12 @@ pub fn craig_bampton_with_check(
              ({n} DOFs, {n_b} on the boundary)"
         )));
     }
+    tracing::info!(
+        "Craig-Bampton: K and M checked (square, finite, symmetric) in {}",
+        start.elapsed()
+    );
+    let start = StepTimer::start();
 
-    let start = Instant::now();
     let k_ii = submatrix_unchecked(k, &interior, &interior);
     let m_ii = submatrix_unchecked(m, &interior, &interior);
     let k_ib = submatrix_unchecked(k, &interior, boundary);
@@ -180,20 +183,21 @@ pub fn craig_bampton_with_check(
     };
     let factor = factor_interior(&k_ii, &interior, &sizes, opts)?;
     tracing::info!(
-        "Craig-Bampton: partition and factorization of K_ii in {:.2} s",
-        start.elapsed().as_secs_f64()
+        "Craig-Bampton: partition and factorization of K_ii in {}",
+        start.elapsed()
     );
     let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
     let (phi, fixed_interface_eigenvalues) = if n_modes > 0 {
-        let start = Instant::now();
-        let modes = eigs_shift_invert_factored(&k_ii, &m_ii, 0.0, &factor, n_modes, opts)?;
+        let start = StepTimer::start();
+        // K_ii and M_ii are principal submatrices of the checked K and M.
+        let modes = eigs_factored_prechecked(&k_ii, &m_ii, 0.0, &factor, n_modes, opts)?;
         let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
         tracing::info!(
             "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
-             {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}, {:.2} s",
+             {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}, {}",
             modes.frequencies_hz()[0],
             modes.frequencies_hz()[n_modes - 1],
-            start.elapsed().as_secs_f64()
+            start.elapsed()
         );
         (modes.vectors, modes.eigenvalues)
     } else {
@@ -201,13 +205,13 @@ pub fn craig_bampton_with_check(
     };
     drop((k_ii, m_ii));
     let full_modes = if check_modes > 0 {
-        let start = Instant::now();
+        let start = StepTimer::start();
         let bordered = BorderedSolve::new(k, &interior, boundary, &factor, &k_ib, psi.as_ref())?;
-        let modes = eigs_shift_invert_factored(k, m, 0.0, &bordered, check_modes, opts)?;
+        let modes = eigs_factored_prechecked(k, m, 0.0, &bordered, check_modes, opts)?;
         tracing::info!(
             "full-model check: {check_modes} modes of the {n}-DOF model from the factor of K_ii \
-             and the Schur complement of the boundary, {:.2} s",
-            start.elapsed().as_secs_f64()
+             and the Schur complement of the boundary, {}",
+            start.elapsed()
         );
         Some(modes)
     } else {
@@ -215,16 +219,16 @@ pub fn craig_bampton_with_check(
     };
     drop(factor);
 
-    let start = Instant::now();
+    let start = StepTimer::start();
     let (mut k_r, mut m_r) = project(k, m, boundary, &interior, &psi, &phi);
     let asymmetry_k = relative_asymmetry(k_r.as_ref());
     let asymmetry_m = relative_asymmetry(m_r.as_ref());
     tracing::info!(
         "Craig-Bampton: reduced order {} ({n_b} boundary DOFs + {n_modes} modes) from {n}; \
          asymmetry before symmetrization: K_r {asymmetry_k:.1e}, M_r {asymmetry_m:.1e}; \
-         projection {:.2} s",
+         projection {}",
         n_b + n_modes,
-        start.elapsed().as_secs_f64()
+        start.elapsed()
     );
     symmetrize(&mut k_r);
     symmetrize(&mut m_r);
@@ -298,7 +302,7 @@ fn factor_interior(
 ) -> Result<SparseCholesky, ModalError> {
     let n_i = interior.len();
     let what = format!("K_ii (stiffness of the {n_i} interior DOFs with the boundary DOFs fixed)");
-    let analysis = CholeskyAnalysis::new(k_ii, &what, opts.cholesky)?;
+    let analysis = CholeskyAnalysis::new_prechecked(k_ii, &what, opts.cholesky)?;
     let solve_bytes = analysis.solve_bytes(sizes.n_b);
     let estimate = reduction_memory(sizes, analysis.factorization_bytes(), solve_bytes);
     check_fits(
@@ -332,7 +336,7 @@ fn constraint_modes(
     n_i: usize,
     n_b: usize,
 ) -> Result<Mat<f64>, ModalError> {
-    let start = Instant::now();
+    let start = StepTimer::start();
     let mut psi = Mat::<f64>::zeros(n_i, n_b);
     for (j, col) in k_ib.outer_iterator().enumerate() {
         for (r, &v) in col.iter() {
@@ -341,8 +345,8 @@ fn constraint_modes(
     }
     factor.solve_many(psi.as_mut())?;
     tracing::info!(
-        "Craig-Bampton: {n_b} constraint modes in one block solve, {:.2} s",
-        start.elapsed().as_secs_f64()
+        "Craig-Bampton: {n_b} constraint modes in one block solve, {}",
+        start.elapsed()
     );
     Ok(psi)
 }

@@ -79,6 +79,42 @@ pub fn check_fits(
     }
 }
 
+/// CPU time (user + system, all threads) this process has used so far, seconds, from
+/// `/proc/self/stat` (fields 14 and 15, in clock ticks of 1/100 s, the Linux USER_HZ); None
+/// when it cannot be read. On a shared machine wall times depend on the load; CPU times less.
+pub fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after_name = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = after_name.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i)?.parse::<f64>().ok();
+    Some((ticks(11)? + ticks(12)?) / 100.0)
+}
+
+/// Wall-clock and CPU time of a step, for log lines: "12.34 s (CPU 20.10 s)".
+pub struct StepTimer {
+    wall: std::time::Instant,
+    cpu: Option<f64>,
+}
+
+impl StepTimer {
+    /// Starts timing.
+    pub fn start() -> Self {
+        Self {
+            wall: std::time::Instant::now(),
+            cpu: cpu_seconds(),
+        }
+    }
+
+    /// "12.34 s (CPU 20.10 s)" since the start (no CPU part when it cannot be read).
+    pub fn elapsed(&self) -> String {
+        let wall = self.wall.elapsed().as_secs_f64();
+        match (self.cpu, cpu_seconds()) {
+            (Some(a), Some(b)) => format!("{wall:.2} s (CPU {:.2} s)", b - a),
+            _ => format!("{wall:.2} s"),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
