@@ -148,28 +148,8 @@ pub fn craig_bampton_with_check(
     check_modes: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<(CraigBampton, Option<Modes>), ModalError> {
-    let start = StepTimer::start();
-    let n = check_symmetric_input(k, "K")?;
-    let n_m = check_symmetric_input(m, "M")?;
-    if n != n_m {
-        return Err(ModalError::DimensionMismatch {
-            what: "order of M compared with K".to_string(),
-            expected: n,
-            found: n_m,
-        });
-    }
-    let interior = interior_dofs(n, boundary)?;
+    let (n, interior) = checked_partition(k, m, boundary, n_modes)?;
     let (n_b, n_i) = (boundary.len(), interior.len());
-    if n_modes > n_i {
-        return Err(ModalError::InvalidReduction(format!(
-            "{n_modes} fixed-interface modes requested but there are only {n_i} interior DOFs \
-             ({n} DOFs, {n_b} on the boundary)"
-        )));
-    }
-    tracing::info!(
-        "Craig-Bampton: K and M checked (square, finite, symmetric) in {}",
-        start.elapsed()
-    );
     let start = StepTimer::start();
 
     let k_ii = submatrix_unchecked(k, &interior, &interior);
@@ -187,22 +167,8 @@ pub fn craig_bampton_with_check(
         start.elapsed()
     );
     let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
-    let (phi, fixed_interface_eigenvalues) = if n_modes > 0 {
-        let start = StepTimer::start();
-        // K_ii and M_ii are principal submatrices of the checked K and M.
-        let modes = eigs_factored_prechecked(&k_ii, &m_ii, 0.0, &factor, n_modes, opts)?;
-        let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
-        tracing::info!(
-            "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
-             {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}, {}",
-            modes.frequencies_hz()[0],
-            modes.frequencies_hz()[n_modes - 1],
-            start.elapsed()
-        );
-        (modes.vectors, modes.eigenvalues)
-    } else {
-        (Mat::<f64>::zeros(n_i, 0), Vec::new())
-    };
+    let (phi, fixed_interface_eigenvalues) =
+        fixed_interface_modes(&k_ii, &m_ii, &factor, n_modes, opts)?;
     drop((k_ii, m_ii));
     let full_modes = if check_modes > 0 {
         let start = StepTimer::start();
@@ -245,6 +211,39 @@ pub fn craig_bampton_with_check(
         n_full: n,
     };
     Ok((cb, full_modes))
+}
+
+/// Checks K and M (square, finite, symmetric, same order; once: the steps after work on their
+/// principal submatrices) and the boundary list; returns the order and the interior DOFs.
+fn checked_partition(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    boundary: &[usize],
+    n_modes: usize,
+) -> Result<(usize, Vec<usize>), ModalError> {
+    let start = StepTimer::start();
+    let n = check_symmetric_input(k, "K")?;
+    let n_m = check_symmetric_input(m, "M")?;
+    if n != n_m {
+        return Err(ModalError::DimensionMismatch {
+            what: "order of M compared with K".to_string(),
+            expected: n,
+            found: n_m,
+        });
+    }
+    let interior = interior_dofs(n, boundary)?;
+    let (n_b, n_i) = (boundary.len(), interior.len());
+    if n_modes > n_i {
+        return Err(ModalError::InvalidReduction(format!(
+            "{n_modes} fixed-interface modes requested but there are only {n_i} interior DOFs \
+             ({n} DOFs, {n_b} on the boundary)"
+        )));
+    }
+    tracing::info!(
+        "Craig-Bampton: K and M checked (square, finite, symmetric) in {}",
+        start.elapsed()
+    );
+    Ok((n, interior))
 }
 
 /// Sizes of a reduction, for its memory estimate.
@@ -326,6 +325,33 @@ fn factor_interior(
         },
         other => other,
     })
+}
+
+/// The `n_modes` lowest modes of K_ii phi = lambda M_ii phi (shift-invert at sigma = 0 with the
+/// factor of K_ii), mass-normalized, and their eigenvalues (rad^2/s^2 for SI input).
+fn fixed_interface_modes(
+    k_ii: &CsMat<f64>,
+    m_ii: &CsMat<f64>,
+    factor: &SparseCholesky,
+    n_modes: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<(Mat<f64>, Vec<f64>), ModalError> {
+    let n_i = k_ii.rows();
+    if n_modes == 0 {
+        return Ok((Mat::<f64>::zeros(n_i, 0), Vec::new()));
+    }
+    let start = StepTimer::start();
+    // K_ii and M_ii are principal submatrices of the checked K and M.
+    let modes = eigs_factored_prechecked(k_ii, m_ii, 0.0, factor, n_modes, opts)?;
+    let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
+    tracing::info!(
+        "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
+         {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}, {}",
+        modes.frequencies_hz()[0],
+        modes.frequencies_hz()[n_modes - 1],
+        start.elapsed()
+    );
+    Ok((modes.vectors, modes.eigenvalues))
 }
 
 /// Constraint modes Psi = -K_ii^-1 K_ib: all n_b right-hand sides in one block solve (one pass
