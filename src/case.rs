@@ -91,6 +91,9 @@ pub struct ModelSection {
     pub fixed_interface_modes: usize,
     /// Number of linear modes of the full model computed and written (for reference and Fig. 5).
     pub linear_modes: usize,
+    /// The full model's modes (stage modes: the reference of the reduced frequencies and
+    /// `modes/`): "auto" (only up to 200000 DOFs, counted as 3 x the mesh's nodes), "on", "off".
+    pub full_check: String,
     /// Master coordinate: `auto` (the contact DOF with the largest first-mode amplitude) or a reduced
     /// DOF index.
     pub master: MasterChoice,
@@ -172,6 +175,7 @@ impl Default for ModelSection {
             gap: 2.0e-4,
             fixed_interface_modes: 40,
             linear_modes: 10,
+            full_check: "auto".into(),
             master: MasterChoice::Auto("auto".into()),
         }
     }

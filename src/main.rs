@@ -128,6 +128,10 @@ struct ReduceArgs {
     /// Number of full-model modes computed to compare with the reduced model (0 to skip).
     #[arg(long, default_value_t = 10)]
     compare: usize,
+    /// The full-model comparison: `auto` runs it up to 200000 free DOFs, `on` always, `off`
+    /// never. It reuses the reduction's factorization of K_ii.
+    #[arg(long, value_enum, default_value_t = reduce::FullCheck::Auto)]
+    full_check: reduce::FullCheck,
     /// Output directory (the reduced model).
     #[arg(long, short)]
     out: PathBuf,
@@ -307,19 +311,27 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
     validate::check_output_dir(&a.out, "--out")?;
     let fe = fe_model::FeModel::build(&a.mesh, &a.material.material()?, &a.fix)?;
+    let dofs = fe.dofs.n_free();
+    let check = a.full_check.wanted(dofs);
+    if a.compare > 0 && !check {
+        tracing::info!(
+            "full-model check skipped: {dofs} free DOFs > {} (--full-check on to run it)",
+            reduce::FULL_CHECK_AUTO_MAX_DOFS
+        );
+    }
     let settings = reduce::ReduceSettings {
         contact_group: &a.contact,
         axis,
         gap: a.gap,
         modes: a.modes,
         master: a.master,
+        check_modes: if check { a.compare.min(dofs) } else { 0 },
     };
-    let (mut model, _) = reduce::reduce(&fe, &settings)?;
+    let (mut model, full) = reduce::reduce(&fe, &settings)?;
     reduce::write_model(&mut model, &a.out, &a.mesh)?;
-    if a.compare > 0 {
-        let full = fe.modes(a.compare, 0.0)?;
+    if let Some(full) = full {
         ui::say(&reduce::comparison_table(
-            &full.frequencies_hz(),
+            &full,
             &model.linear_frequencies_hz,
         ));
     }

@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use faer::Mat;
 use nlmodes_modal::{
-    craig_bampton, reduced_eigen, ContactNode, CraigBampton, MasterCoordinate, MeshReference,
+    craig_bampton_with_check, reduced_eigen, ContactNode, MasterCoordinate, MeshReference,
     ReducedModel, RotorAxis,
 };
 use std::path::Path;
@@ -23,6 +23,61 @@ pub struct ReduceSettings<'a> {
     pub modes: usize,
     /// Master coordinate: `None` = the contact DOF with the largest first-mode amplitude.
     pub master: Option<usize>,
+    /// Full-model modes computed to check the reduced frequencies (0: no check).
+    pub check_modes: usize,
+}
+
+/// Up to this many DOFs the full-model check runs by default (`auto`): at 93k DOFs (the default
+/// blade) it costs a few seconds more with the reduction's factorization reused; at 0.9M DOFs its
+/// eigen-solve alone took 83 s (docs/BENCHMARKS.md, "Industrial size").
+pub const FULL_CHECK_AUTO_MAX_DOFS: usize = 200_000;
+
+/// Whether the full model's modes are computed to check the reduction (`--full-check`,
+/// `[model] full_check`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FullCheck {
+    /// Only up to [`FULL_CHECK_AUTO_MAX_DOFS`] DOFs.
+    Auto,
+    /// Always.
+    On,
+    /// Never.
+    Off,
+}
+
+impl FullCheck {
+    /// `"auto"`, `"on"` or `"off"` (the case key's values).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(Self::Auto),
+            "on" => Some(Self::On),
+            "off" => Some(Self::Off),
+            _ => None,
+        }
+    }
+
+    /// Whether the check runs for a model of `dofs` DOFs.
+    pub fn wanted(self, dofs: usize) -> bool {
+        match self {
+            Self::Auto => dofs <= FULL_CHECK_AUTO_MAX_DOFS,
+            Self::On => true,
+            Self::Off => false,
+        }
+    }
+}
+
+/// Number of nodes of an MSH 4.1 file, from its `$Nodes` header (`numEntityBlocks numNodes
+/// minNodeTag maxNodeTag`), without reading the mesh; None if the file has no such header.
+pub fn msh_node_count(path: &Path) -> Option<usize> {
+    use std::io::BufRead;
+    let file = std::fs::File::open(path).ok()?;
+    let mut lines = std::io::BufReader::new(file).lines();
+    while let Some(Ok(line)) = lines.next() {
+        if line.trim() == "$Nodes" {
+            let header = lines.next()?.ok()?;
+            return header.split_whitespace().nth(1)?.parse().ok();
+        }
+    }
+    None
 }
 
 /// Contact nodes of `group` (mesh node indices), ordered from the leading edge to the trailing edge:
@@ -81,8 +136,9 @@ fn check_distinct_positions(fe: &FeModel, nodes: &[usize], group: &str) -> Resul
     Ok(())
 }
 
-/// Reduce `fe` by Craig-Bampton onto the three DOFs of every contact node.
-pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBampton)> {
+/// Reduce `fe` by Craig-Bampton onto the three DOFs of every contact node; with the frequencies
+/// (Hz) of the full model's first `s.check_modes` modes when asked.
+pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<Vec<f64>>)> {
     if !(s.gap > 0.0 && s.gap.is_finite()) {
         return Err(bad_input(format!(
             "the initial gap must be > 0 m, got {}",
@@ -120,8 +176,8 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBa
         }
     }
     let stage = ui::Stage::start("reduce");
-    let cb = ui::with_solve_spinner("reduce", |opts| {
-        craig_bampton(&fe.k, &fe.m, &boundary, s.modes, opts)
+    let (cb, full) = ui::with_solve_spinner("reduce", |opts| {
+        craig_bampton_with_check(&fe.k, &fe.m, &boundary, s.modes, s.check_modes, opts)
     })
     .with_context(|| {
         format!(
@@ -178,7 +234,7 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, CraigBa
         boundary.len(),
         s.modes
     ));
-    Ok((model, cb))
+    Ok((model, full.map(|m| m.frequencies_hz())))
 }
 
 /// The master coordinate: given, or the contact DOF with the largest amplitude in the first mode.
@@ -234,6 +290,8 @@ pub fn write_model(model: &mut ReducedModel, dir: &Path, msh: &Path) -> Result<(
 }
 
 /// The first reduced frequencies beside the full model's, with their relative error.
+/// (For `nlmodes reduce` the full ones come from the same factorization, see
+/// `nlmodes_modal::craig_bampton_with_check`.)
 pub fn comparison_table(full_hz: &[f64], reduced_hz: &[f64]) -> String {
     let mut s = format!(
         "{:>5} {:>14} {:>14} {:>12}\n",
@@ -247,4 +305,33 @@ pub fn comparison_table(full_hz: &[f64], reduced_hz: &[f64]) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn full_check_auto_stops_above_the_threshold() {
+        assert!(FullCheck::Auto.wanted(93_138));
+        assert!(FullCheck::Auto.wanted(FULL_CHECK_AUTO_MAX_DOFS));
+        assert!(!FullCheck::Auto.wanted(FULL_CHECK_AUTO_MAX_DOFS + 1));
+        assert!(FullCheck::On.wanted(2_000_000));
+        assert!(!FullCheck::Off.wanted(10));
+        assert_eq!(FullCheck::parse("off"), Some(FullCheck::Off));
+        assert_eq!(FullCheck::parse("yes"), None);
+    }
+
+    #[test]
+    fn node_count_comes_from_the_nodes_header() {
+        let dir = std::env::temp_dir().join(format!("nlmodes-msh-count-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("m.msh");
+        let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n3 78840 1 78840\n1 0 0 1\n";
+        std::fs::write(&path, text).unwrap();
+        assert_eq!(msh_node_count(&path), Some(78840));
+        std::fs::write(&path, "$MeshFormat\n4.1 0 8\n").unwrap();
+        assert_eq!(msh_node_count(&path), None);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

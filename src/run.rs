@@ -117,7 +117,13 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         layout.modes().join("modes.vtu"),
     ];
     let mut modes_child = None;
-    if wants(Only::Modes)
+    if wants(Only::Modes) && !full_check_wanted(&case, &layout) {
+        tracing::info!(
+            "stage modes: skipped ([model] full_check = \"{}\", about {} DOFs)",
+            case.model.full_check,
+            3 * crate::reduce::msh_node_count(&layout.mesh()).unwrap_or(0)
+        );
+    } else if wants(Only::Modes)
         && (forced(Only::Modes) || !up_to_date(&layout, "modes", &modes_hash, &modes_out))
     {
         modes_child = Some(ModesChild::spawn(&case, &layout)?);
@@ -230,6 +236,15 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     Ok(())
 }
 
+/// Whether the full model's modes are computed (`[model] full_check`); `auto` counts the DOFs as
+/// 3 x the mesh's nodes (read from its header: the model is not assembled yet).
+fn full_check_wanted(case: &Case, layout: &Layout) -> bool {
+    let check = crate::reduce::FullCheck::parse(&case.model.full_check)
+        .unwrap_or(crate::reduce::FullCheck::Auto);
+    let dofs = crate::reduce::msh_node_count(&layout.mesh()).map_or(0, |n| 3 * n);
+    check.wanted(dofs)
+}
+
 /// The reduce stage: builds the FE model if needed, reduces it and writes the reduced model.
 fn reduce_stage(
     case: &Case,
@@ -252,6 +267,8 @@ fn reduce_stage(
                 anyhow::bail!("[model] master = \"{s}\": expected \"auto\" or a reduced DOF index")
             }
         },
+        // The full model's modes come from the modes stage, alongside.
+        check_modes: 0,
     };
     let (mut model, _) = reduce::reduce(&fe, &settings)?;
     reduce::write_model(&mut model, &layout.model(), &layout.mesh())?;

@@ -218,6 +218,12 @@ fn check_model(case: &Case, p: &mut Problems) {
         m.linear_modes,
         "at least 1",
     );
+    p.check(
+        crate::reduce::FullCheck::parse(&m.full_check).is_some(),
+        "model.full_check",
+        &m.full_check,
+        "\"auto\" (up to 200000 DOFs), \"on\" or \"off\"",
+    );
     if let MasterChoice::Auto(s) = &m.master {
         p.check(
             s == "auto",
@@ -323,6 +329,7 @@ mod tests {
         c.nnm.keep = vec![f64::NAN, -1.0, 40.0, 5.0];
         c.nnm.frames = 0;
         c.model.linear_modes = 0;
+        c.model.full_check = "sometimes".into();
         c.model.contact_group = "root".into();
         let e = problems(&c);
         for part in [
@@ -332,6 +339,7 @@ mod tests {
             "nnm.keep[2] = 40.0",
             "nnm.frames = 0",
             "model.linear_modes = 0",
+            "c.toml: model.full_check = \"sometimes\": expected \"auto\"",
             "model.contact_group = \"root\": expected a group that is not clamped",
         ] {
             assert!(e.contains(part), "missing `{part}` in:\n{e}");

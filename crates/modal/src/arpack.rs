@@ -24,7 +24,7 @@ use faer::Mat;
 use sprs::CsMat;
 
 use crate::block_lanczos::block_lanczos;
-use crate::cholesky::SparseCholesky;
+use crate::cholesky::{FactoredSolve, SparseCholesky};
 use crate::dense::{csmat_to_dense, dense_generalized_eigen};
 use crate::eigen_options::{auto_prefers_arpack, use_dense, EigenMethod, EigenOptions};
 use crate::error::ModalError;
@@ -59,23 +59,39 @@ pub fn eigs_shift_invert(
     run_iterative(k, m, sigma, &factor, nev, ncv, opts)
 }
 
-/// Same as [`eigs_shift_invert`] with an existing Cholesky factorization of
-/// K - sigma M (reused, e.g., by the Craig-Bampton reduction at sigma = 0).
+/// Same as [`eigs_shift_invert`] with an existing factorization of K - sigma M (reused, e.g.,
+/// by the Craig-Bampton reduction at sigma = 0: [`SparseCholesky`], or
+/// [`crate::bordered::BorderedSolve`] for the full model from the interior factor).
 pub fn eigs_shift_invert_factored(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
-    factor: &SparseCholesky,
+    factor: &dyn FactoredSolve,
     nev: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<Modes, ModalError> {
-    let n = check_pair(k, m)?;
+    check_pair(k, m)?;
+    eigs_factored_prechecked(k, m, sigma, factor, nev, opts)
+}
+
+/// [`eigs_shift_invert_factored`] for K and M already checked square, finite, symmetric and of
+/// the same order (principal submatrices of checked matrices): the check reads every entry
+/// with a binary search for its transpose, seconds per call at a million DOFs.
+pub(crate) fn eigs_factored_prechecked(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    sigma: f64,
+    factor: &dyn FactoredSolve,
+    nev: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<Modes, ModalError> {
+    let n = k.rows();
     check_sigma(sigma)?;
-    if factor.n() != n {
+    if factor.order() != n {
         return Err(ModalError::DimensionMismatch {
             what: "order of the factorization of K - sigma M compared with K".to_string(),
             expected: n,
-            found: factor.n(),
+            found: factor.order(),
         });
     }
     let ncv = resolve_ncv(nev, n, opts)?;
@@ -90,7 +106,7 @@ fn run_iterative(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
-    factor: &SparseCholesky,
+    factor: &dyn FactoredSolve,
     nev: usize,
     ncv: usize,
     opts: &EigenOptions<'_>,
@@ -263,7 +279,7 @@ fn run_arpack(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
-    factor: &SparseCholesky,
+    factor: &dyn FactoredSolve,
     nev: usize,
     ncv: usize,
     opts: &EigenOptions<'_>,
@@ -345,7 +361,7 @@ fn run_arpack(
                     spmv_unchecked(m, &x, &mut y);
                 }
                 if ido != 2 {
-                    factor.solve_in_place(&mut y)?;
+                    factor.solve_vector(&mut y)?;
                     op_count += 1;
                     if let Some(callback) = opts.on_iteration {
                         callback(op_count);

@@ -13,18 +13,24 @@
 //! matrices are K_r = T^T K T, M_r = T^T M T (dense). Exactly, K_r is
 //! block diagonal: [[K_bb + K_bi Psi, 0], [0, Lambda]]; M_r is full.
 //!
-//! One sparse factorization of K_ii serves both the constraint modes and the
-//! shift-invert eigensolver at sigma = 0.
+//! One sparse factorization of K_ii serves the constraint modes (one block solve with n_b
+//! right-hand sides), the shift-invert eigensolver at sigma = 0 and, when asked, the full
+//! model's modes for the accuracy check ([`crate::bordered`]). Its memory, and that of the
+//! rest of the reduction, is checked against the memory available after the symbolic analysis,
+//! before any numeric work ([`crate::memory`]).
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use sprs::CsMat;
 
-use crate::arpack::eigs_shift_invert_factored;
-use crate::cholesky::SparseCholesky;
+use crate::arpack::eigs_factored_prechecked;
+use crate::bordered::BorderedSolve;
+use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
 use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
-use crate::eigen_options::EigenOptions;
+use crate::eigen_options::{eigensolver_bytes, EigenOptions};
 use crate::error::ModalError;
+use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
+use crate::modes::Modes;
 use crate::sparse_ops::{check_symmetric_input, spmm_symmetric, submatrix_unchecked};
 
 /// A Craig-Bampton reduced model and the basis that produced it.
@@ -118,7 +124,8 @@ impl CraigBampton {
 /// Errors: empty boundary, boundary index out of range or duplicated,
 /// boundary covering every DOF, more modes than interior DOFs, K or M not
 /// square/finite/symmetric or of different sizes, K_ii not positive definite
-/// (structure not held once the boundary is fixed), eigensolver failures.
+/// (structure not held once the boundary is fixed), eigensolver failures, not enough memory
+/// ([`ModalError::InsufficientMemory`], checked before the numeric factorization).
 pub fn craig_bampton(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
@@ -126,6 +133,95 @@ pub fn craig_bampton(
     n_modes: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<CraigBampton, ModalError> {
+    craig_bampton_with_check(k, m, boundary, n_modes, 0, opts).map(|(cb, _)| cb)
+}
+
+/// [`craig_bampton`], and when `check_modes > 0` also the `check_modes` lowest modes of the
+/// full model (K, M) at sigma = 0, the reference of the reduction's accuracy, computed from the
+/// same factorization of K_ii bordered by the Schur complement of the boundary
+/// ([`BorderedSolve`]): no second sparse factorization.
+pub fn craig_bampton_with_check(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    boundary: &[usize],
+    n_modes: usize,
+    check_modes: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<(CraigBampton, Option<Modes>), ModalError> {
+    let (n, interior) = checked_partition(k, m, boundary, n_modes)?;
+    let (n_b, n_i) = (boundary.len(), interior.len());
+    let start = StepTimer::start();
+
+    let k_ii = submatrix_unchecked(k, &interior, &interior);
+    let m_ii = submatrix_unchecked(m, &interior, &interior);
+    let k_ib = submatrix_unchecked(k, &interior, boundary);
+    let sizes = Sizes {
+        n,
+        n_b,
+        n_modes,
+        check_modes,
+    };
+    let factor = factor_interior(&k_ii, &interior, &sizes, opts)?;
+    tracing::info!(
+        "Craig-Bampton: partition and factorization of K_ii in {}",
+        start.elapsed()
+    );
+    let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
+    let (phi, fixed_interface_eigenvalues) =
+        fixed_interface_modes(&k_ii, &m_ii, &factor, n_modes, opts)?;
+    drop((k_ii, m_ii));
+    let full_modes = if check_modes > 0 {
+        let start = StepTimer::start();
+        let bordered = BorderedSolve::new(k, &interior, boundary, &factor, &k_ib, psi.as_ref())?;
+        let modes = eigs_factored_prechecked(k, m, 0.0, &bordered, check_modes, opts)?;
+        tracing::info!(
+            "full-model check: {check_modes} modes of the {n}-DOF model from the factor of K_ii \
+             and the Schur complement of the boundary, {}",
+            start.elapsed()
+        );
+        Some(modes)
+    } else {
+        None
+    };
+    drop(factor);
+
+    let start = StepTimer::start();
+    let (mut k_r, mut m_r) = project(k, m, boundary, &interior, &psi, &phi);
+    let asymmetry_k = relative_asymmetry(k_r.as_ref());
+    let asymmetry_m = relative_asymmetry(m_r.as_ref());
+    tracing::info!(
+        "Craig-Bampton: reduced order {} ({n_b} boundary DOFs + {n_modes} modes) from {n}; \
+         asymmetry before symmetrization: K_r {asymmetry_k:.1e}, M_r {asymmetry_m:.1e}; \
+         projection {}",
+        n_b + n_modes,
+        start.elapsed()
+    );
+    symmetrize(&mut k_r);
+    symmetrize(&mut m_r);
+    let cb = CraigBampton {
+        k_r,
+        m_r,
+        psi,
+        phi,
+        interior,
+        boundary: boundary.to_vec(),
+        fixed_interface_eigenvalues,
+        asymmetry_k,
+        asymmetry_m,
+        n_full: n,
+    };
+    Ok((cb, full_modes))
+}
+
+/// Checks K and M (square, finite, symmetric, same order; once: the steps after work on their
+/// principal submatrices) and the boundary list; returns the order and the interior DOFs.
+fn checked_partition(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    boundary: &[usize],
+    n_modes: usize,
+) -> Result<(usize, Vec<usize>), ModalError> {
+    let start = StepTimer::start();
     let n = check_symmetric_input(k, "K")?;
     let n_m = check_symmetric_input(m, "M")?;
     if n != n_m {
@@ -143,27 +239,130 @@ pub fn craig_bampton(
              ({n} DOFs, {n_b} on the boundary)"
         )));
     }
+    tracing::info!(
+        "Craig-Bampton: K and M checked (square, finite, symmetric) in {}",
+        start.elapsed()
+    );
+    Ok((n, interior))
+}
 
-    let k_ii = submatrix_unchecked(k, &interior, &interior);
-    let m_ii = submatrix_unchecked(m, &interior, &interior);
-    let k_ib = submatrix_unchecked(k, &interior, boundary);
+/// Sizes of a reduction, for its memory estimate.
+struct Sizes {
+    /// Order of the full model.
+    n: usize,
+    /// Boundary DOFs.
+    n_b: usize,
+    /// Fixed-interface modes.
+    n_modes: usize,
+    /// Full-model modes of the check (0: none).
+    check_modes: usize,
+}
+
+/// The bytes a reduction allocates after the symbolic analysis of K_ii (whose factor takes
+/// `factor_bytes`): while the factor lives, the constraint modes (n_i n_b) with the workspace of
+/// their block solve, the eigensolver's basis and the check's; after it, the projection's
+/// basis T and the products K T, M T with their row-major copies (6 n n_r), next to Psi and
+/// Phi (n_i n_r). The larger of the two phases.
+fn reduction_memory(sizes: &Sizes, factor_bytes: usize, solve_bytes: usize) -> MemoryEstimate {
+    let f64_bytes = std::mem::size_of::<f64>();
+    let n_i = sizes.n - sizes.n_b;
+    let n_r = sizes.n_b + sizes.n_modes;
+    let eigen = if sizes.n_modes > 0 {
+        eigensolver_bytes(n_i, sizes.n_modes)
+    } else {
+        0
+    };
+    let check = if sizes.check_modes > 0 {
+        eigensolver_bytes(sizes.n, sizes.check_modes) + 2 * sizes.n * f64_bytes
+    } else {
+        0
+    };
+    let basis = n_i * n_r * f64_bytes;
+    let projection = 6 * sizes.n * n_r * f64_bytes;
+    let mut e = MemoryEstimate::default();
+    if factor_bytes + solve_bytes + eigen.max(check) >= projection {
+        e.add("factor L of K_ii", factor_bytes);
+        e.add("constraint-mode solve workspace", solve_bytes);
+        e.add("eigensolver", eigen.max(check));
+    } else {
+        e.add("projection", projection);
+    }
+    e.add("reduction basis", basis);
+    e
+}
+
+/// The sparse Cholesky factor of K_ii, after checking that it and the rest of the reduction fit
+/// in the memory available. A non-positive pivot is reported in the input numbering.
+fn factor_interior(
+    k_ii: &CsMat<f64>,
+    interior: &[usize],
+    sizes: &Sizes,
+    opts: &EigenOptions<'_>,
+) -> Result<SparseCholesky, ModalError> {
+    let n_i = interior.len();
     let what = format!("K_ii (stiffness of the {n_i} interior DOFs with the boundary DOFs fixed)");
-    let factor =
-        SparseCholesky::with_options(&k_ii, &what, opts.cholesky).map_err(|e| match e {
-            ModalError::NotPositiveDefinite { what, index, .. } => {
-                ModalError::NotPositiveDefinite {
-                    what,
-                    index: interior[index],
-                    hint: " (index in the input numbering); the structure must be held \
-                           (clamped) once the boundary DOFs are fixed, and K must be \
-                           positive semi-definite"
-                        .to_string(),
-                }
-            }
-            other => other,
-        })?;
+    let analysis = CholeskyAnalysis::new_prechecked(k_ii, &what, opts.cholesky)?;
+    let solve_bytes = analysis.solve_bytes(sizes.n_b);
+    let estimate = reduction_memory(sizes, analysis.factorization_bytes(), solve_bytes);
+    check_fits(
+        &format!(
+            "the Craig-Bampton reduction of the {}-DOF model (nnz(L) = {} for its {n_i} interior \
+             DOFs)",
+            sizes.n,
+            analysis.nnz_l()
+        ),
+        &estimate,
+        available_bytes(),
+    )?;
+    analysis.factorize(k_ii).map_err(|e| match e {
+        ModalError::NotPositiveDefinite { what, index, .. } => ModalError::NotPositiveDefinite {
+            what,
+            index: interior[index],
+            hint: " (index in the input numbering); the structure must be held \
+                   (clamped) once the boundary DOFs are fixed, and K must be \
+                   positive semi-definite"
+                .to_string(),
+        },
+        other => other,
+    })
+}
 
-    // Constraint modes: Psi = -K_ii^-1 K_ib.
+/// The `n_modes` lowest modes of K_ii phi = lambda M_ii phi (shift-invert at sigma = 0 with the
+/// factor of K_ii), mass-normalized, and their eigenvalues (rad^2/s^2 for SI input).
+fn fixed_interface_modes(
+    k_ii: &CsMat<f64>,
+    m_ii: &CsMat<f64>,
+    factor: &SparseCholesky,
+    n_modes: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<(Mat<f64>, Vec<f64>), ModalError> {
+    let n_i = k_ii.rows();
+    if n_modes == 0 {
+        return Ok((Mat::<f64>::zeros(n_i, 0), Vec::new()));
+    }
+    let start = StepTimer::start();
+    // K_ii and M_ii are principal submatrices of the checked K and M.
+    let modes = eigs_factored_prechecked(k_ii, m_ii, 0.0, factor, n_modes, opts)?;
+    let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
+    tracing::info!(
+        "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
+         {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}, {}",
+        modes.frequencies_hz()[0],
+        modes.frequencies_hz()[n_modes - 1],
+        start.elapsed()
+    );
+    Ok((modes.vectors, modes.eigenvalues))
+}
+
+/// Constraint modes Psi = -K_ii^-1 K_ib: all n_b right-hand sides in one block solve (one pass
+/// over the factor).
+fn constraint_modes(
+    factor: &SparseCholesky,
+    k_ib: &CsMat<f64>,
+    n_i: usize,
+    n_b: usize,
+) -> Result<Mat<f64>, ModalError> {
+    let start = StepTimer::start();
     let mut psi = Mat::<f64>::zeros(n_i, n_b);
     for (j, col) in k_ib.outer_iterator().enumerate() {
         for (r, &v) in col.iter() {
@@ -171,45 +370,11 @@ pub fn craig_bampton(
         }
     }
     factor.solve_many(psi.as_mut())?;
-
-    // Fixed-interface modes at sigma = 0, reusing the factorization of K_ii.
-    let (phi, fixed_interface_eigenvalues) = if n_modes > 0 {
-        let modes = eigs_shift_invert_factored(&k_ii, &m_ii, 0.0, &factor, n_modes, opts)?;
-        let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
-        tracing::info!(
-            "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
-             {:.4e} .. {:.4e} Hz, largest residual {worst:.1e}",
-            modes.frequencies_hz()[0],
-            modes.frequencies_hz()[n_modes - 1]
-        );
-        (modes.vectors, modes.eigenvalues)
-    } else {
-        (Mat::<f64>::zeros(n_i, 0), Vec::new())
-    };
-    drop(factor);
-
-    let (mut k_r, mut m_r) = project(k, m, boundary, &interior, &psi, &phi);
-    let asymmetry_k = relative_asymmetry(k_r.as_ref());
-    let asymmetry_m = relative_asymmetry(m_r.as_ref());
     tracing::info!(
-        "Craig-Bampton: reduced order {} ({n_b} boundary DOFs + {n_modes} modes) from {n}; \
-         asymmetry before symmetrization: K_r {asymmetry_k:.1e}, M_r {asymmetry_m:.1e}",
-        n_b + n_modes
+        "Craig-Bampton: {n_b} constraint modes in one block solve, {}",
+        start.elapsed()
     );
-    symmetrize(&mut k_r);
-    symmetrize(&mut m_r);
-    Ok(CraigBampton {
-        k_r,
-        m_r,
-        psi,
-        phi,
-        interior,
-        boundary: boundary.to_vec(),
-        fixed_interface_eigenvalues,
-        asymmetry_k,
-        asymmetry_m,
-        n_full: n,
-    })
+    Ok(psi)
 }
 
 /// Dense generalized eigenpairs of the reduced model (K_r, M_r): eigenvalues

@@ -85,14 +85,31 @@ impl std::fmt::Debug for EigenOptions<'_> {
 pub const AUTO_MAX_NEV: usize = 48;
 
 /// Largest memory (bytes) the basis and M times it may take for [`crate::EigenMethod::Auto`] to
-/// choose block Lanczos: 1 GiB keeps the 93k-DOF blade (450 MB for 40 modes) on block Lanczos
-/// and sends the 234k-DOF one (1.1 GB) to ARPACK, whose basis is 3 times smaller, so that peak
-/// memory stays as measured with ARPACK (docs/BENCHMARKS.md).
+/// choose block Lanczos, and for block Lanczos to keep M V beside V: 1 GiB keeps the 93k-DOF
+/// blade (450 MB for 40 modes) on block Lanczos and sends the 234k-DOF one (1.1 GB) to ARPACK,
+/// whose basis is 3 times smaller. Above it a block Lanczos asked for explicitly stores V alone
+/// and recomputes M W (half the memory, two more block products with M per step); at 234k DOFs
+/// that took 82 s of CPU for 256 solves against ARPACK's 103 solves in under 40 s (shared
+/// machine, docs/BENCHMARKS.md "Industrial size"), so Auto keeps ARPACK there.
 pub const AUTO_MAX_BASIS_BYTES: usize = 1 << 30;
 
-/// Bytes of the basis and M times it for `nev` pairs on an n-DOF problem.
+/// Bytes of one copy of the basis for `nev` pairs on an n-DOF problem.
+fn one_basis_bytes(n: usize, nev: usize) -> usize {
+    n * max_basis(nev, block_size(nev).min(n), n) * std::mem::size_of::<f64>()
+}
+
+/// Whether block Lanczos keeps M V beside V ([`AUTO_MAX_BASIS_BYTES`]).
+pub(crate) fn keeps_m_basis(n: usize, nev: usize) -> bool {
+    2 * one_basis_bytes(n, nev) <= AUTO_MAX_BASIS_BYTES
+}
+
+/// Bytes of the basis (and M times it when kept) for `nev` pairs on an n-DOF problem.
 pub fn basis_bytes(n: usize, nev: usize) -> usize {
-    2 * n * max_basis(nev, block_size(nev).min(n), n) * std::mem::size_of::<f64>()
+    if keeps_m_basis(n, nev) {
+        2 * one_basis_bytes(n, nev)
+    } else {
+        one_basis_bytes(n, nev)
+    }
 }
 
 /// Block size for `nev` wanted pairs: about nev / 2, between 4 and 16 (16 right-hand sides
@@ -109,9 +126,9 @@ pub(crate) fn max_basis(nev: usize, b: usize, n: usize) -> usize {
 }
 
 /// Auto: ARPACK rather than block Lanczos for `nev` pairs on an n-DOF problem (too many pairs,
-/// or a basis larger than [`AUTO_MAX_BASIS_BYTES`]).
+/// or a basis and M times it larger than [`AUTO_MAX_BASIS_BYTES`]).
 pub(crate) fn auto_prefers_arpack(n: usize, nev: usize) -> bool {
-    nev > AUTO_MAX_NEV || basis_bytes(n, nev) > AUTO_MAX_BASIS_BYTES
+    nev > AUTO_MAX_NEV || !keeps_m_basis(n, nev)
 }
 
 /// Auto: the dense solver when all pairs are wanted or the problem is small (ARPACK needs ncv < n).
@@ -120,5 +137,23 @@ pub(crate) fn use_dense(nev: usize, n: usize, ncv: usize, method: EigenMethod) -
         EigenMethod::Dense => true,
         EigenMethod::Arpack | EigenMethod::BlockLanczos => false,
         EigenMethod::Auto => nev >= n || n <= 2 * ncv,
+    }
+}
+
+/// Bytes the shift-invert eigensolver `EigenMethod::Auto` picks allocates for `nev` pairs of an
+/// n-DOF problem (for the memory check of large reductions, [`crate::memory`]): block Lanczos's
+/// basis ([`basis_bytes`]), its projected matrix, a few blocks and the Ritz vectors; ARPACK's
+/// ncv Lanczos vectors, its 3 n work vector and the eigenvectors; both with the n x nev result.
+pub fn eigensolver_bytes(n: usize, nev: usize) -> usize {
+    let f64_bytes = std::mem::size_of::<f64>();
+    let result = 2 * n * nev * f64_bytes;
+    if auto_prefers_arpack(n, nev) {
+        let ncv = (2 * nev + 1).max(20).min(n);
+        (n * (ncv + 3) + ncv * ncv) * f64_bytes + result
+    } else {
+        let b = block_size(nev).min(n);
+        let cap = max_basis(nev, b, n);
+        // W and M W, and the row-major copies of a block product with M (2 x 2 blocks).
+        basis_bytes(n, nev) + (cap * cap + 6 * n * b) * f64_bytes + result
     }
 }

@@ -213,4 +213,21 @@ pub enum ModalError {
         /// serde_json's diagnostic (with line and column).
         source: serde_json::Error,
     },
+
+    /// A computation would need more memory than the system has available.
+    #[error(
+        "{what} needs about {needed} more memory ({parts}) but only {available} are available \
+         (MemAvailable of /proc/meminfo): use a coarser mesh, fewer modes, or a machine with \
+         more memory"
+    )]
+    InsufficientMemory {
+        /// The computation and the size of the model.
+        what: String,
+        /// Bytes needed, formatted ("14.60 GB").
+        needed: String,
+        /// The parts of the estimate.
+        parts: String,
+        /// Bytes available, formatted.
+        available: String,
+    },
 }

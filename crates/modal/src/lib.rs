@@ -8,6 +8,7 @@
 
 pub mod arpack;
 pub mod block_lanczos;
+pub mod bordered;
 pub mod cholesky;
 pub mod contact_geometry;
 pub mod craig_bampton;
@@ -15,6 +16,7 @@ pub mod dense;
 pub mod eigen_options;
 pub mod error;
 pub mod matrix_market;
+pub mod memory;
 pub mod model_checks;
 pub mod modes;
 pub mod ordering;
@@ -22,9 +24,10 @@ pub mod reduced_model;
 pub mod sparse_ops;
 
 pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored};
-pub use cholesky::{shifted, CholeskyOptions, SparseCholesky};
+pub use bordered::BorderedSolve;
+pub use cholesky::{shifted, CholeskyAnalysis, CholeskyOptions, FactoredSolve, SparseCholesky};
 pub use contact_geometry::{radial_unit_vector, RotorAxis};
-pub use craig_bampton::{craig_bampton, reduced_eigen, CraigBampton};
+pub use craig_bampton::{craig_bampton, craig_bampton_with_check, reduced_eigen, CraigBampton};
 pub use dense::{csmat_to_dense, dense_generalized_eigen};
 pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;

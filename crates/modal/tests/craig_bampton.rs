@@ -4,8 +4,8 @@ mod common;
 
 use common::{column, far_face, mac, norm, spring_grid, Lcg};
 use nlmodes_modal::{
-    craig_bampton, eigs_shift_invert, reduced_eigen, EigenMethod, EigenOptions, ModalError,
-    SparseCholesky,
+    craig_bampton, craig_bampton_with_check, eigs_shift_invert, reduced_eigen, EigenMethod,
+    EigenOptions, ModalError, SparseCholesky,
 };
 use sprs::{CsMat, TriMat};
 
@@ -252,4 +252,29 @@ fn invalid_inputs_give_errors() {
         other => panic!("unexpected error {other}"),
     }
     assert!(err.to_string().contains("K_ii"), "{err}");
+}
+
+/// The full-model check reuses the factor of K_ii bordered by the Schur complement of the
+/// boundary (`BorderedSolve`): its eigenvalues equal those of a separate factorization of the
+/// whole K to the eigensolvers' accuracy (tol 1e-10 on the Ritz estimates gives eigenvalue errors
+/// of order 1e-14 relative, docs of `EigenOptions::tol`; 1e-11 leaves room for the different
+/// round-off of the two factorizations), and its shapes agree (MAC > 1 - 1e-9).
+#[test]
+fn full_model_check_from_the_interior_factor_matches_a_separate_factorization() {
+    let (k, m, boundary) = structure();
+    let n_check = 6;
+    let reference = eigs_shift_invert(&k, &m, n_check, 0.0, &arpack()).unwrap();
+    for opts in [arpack(), EigenOptions::default()] {
+        let (cb, full) = craig_bampton_with_check(&k, &m, &boundary, 10, n_check, &opts).unwrap();
+        let full = full.expect("check modes requested");
+        assert_eq!(cb.n_reduced(), boundary.len() + 10);
+        for i in 0..n_check {
+            let (a, b) = (full.eigenvalues[i], reference.eigenvalues[i]);
+            assert!((a - b).abs() <= 1e-11 * b.abs(), "mode {i}: {a} vs {b}");
+            let mac_value = mac(&column(&full.vectors, i), &column(&reference.vectors, i));
+            assert!(mac_value > 1.0 - 1e-9, "mode {i}: MAC {mac_value}");
+        }
+    }
+    let (_, none) = craig_bampton_with_check(&k, &m, &boundary, 10, 0, &arpack()).unwrap();
+    assert!(none.is_none());
 }
