@@ -9,9 +9,6 @@ use sprs::CsMat;
 use crate::error::ModalError;
 pub use nlmodes_dense::{max_abs as max_abs_dense, symmetrize, SYMMETRY_TOLERANCE};
 
-// The sparse checks' tolerance is the shared one (one symmetry tolerance for modal and nnm).
-const _: () = assert!(crate::sparse_ops::SYMMETRY_TOLERANCE == SYMMETRY_TOLERANCE);
-
 /// Dense copy of a sparse matrix (any storage order).
 pub fn csmat_to_dense(a: &CsMat<f64>) -> Mat<f64> {
     let mut out = Mat::<f64>::zeros(a.rows(), a.cols());

@@ -14,13 +14,11 @@ use sprs::CsMat;
 
 use crate::error::ModalError;
 
-/// Relative tolerance of the symmetry checks: |a_ij - a_ji| <= tol * max|a|.
-///
-/// Finite-element assembly produces matrices symmetric to a few ulps per
-/// entry (relative 1e-16 to 1e-14); 1e-10 leaves four orders of margin for
-/// round-off while catching any genuine asymmetry (a wrong sign, a missing
-/// triangle, a mis-assembled entry).
-pub const SYMMETRY_TOLERANCE: f64 = 1e-10;
+/// Relative tolerance of the symmetry checks, |a_ij - a_ji| <= tol * max|a|: the one shared by
+/// modal and nnm (`nlmodes_dense`). Finite-element assembly produces matrices symmetric to a few
+/// ulps per entry (relative 1e-16 to 1e-14); 1e-10 leaves four orders of margin for round-off
+/// while catching any genuine asymmetry (a wrong sign, a missing triangle, a mis-assembled entry).
+pub use nlmodes_dense::SYMMETRY_TOLERANCE;
 
 /// Returns the matrix in CSC storage, borrowing when it already is.
 pub fn as_csc(a: &CsMat<f64>) -> Cow<'_, CsMat<f64>> {
