@@ -18,6 +18,7 @@ pub mod matrix_market;
 pub mod model_checks;
 pub mod modes;
 pub mod ordering;
+mod recovery_codec;
 pub mod reduced_model;
 pub mod sparse_ops;
 
@@ -30,4 +31,6 @@ pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
 pub use modes::Modes;
 pub use ordering::FillOrdering;
-pub use reduced_model::{ContactNode, MasterCoordinate, MeshReference, ReducedModel};
+pub use reduced_model::{
+    ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
+};
