@@ -229,8 +229,15 @@ pub fn write_model(model: &mut ReducedModel, dir: &Path, msh: &Path) -> Result<(
         m.msh_file = abs.to_string_lossy().into_owned();
     }
     // The compact recovery file: R feeds only the Float32 output fields and pictures.
+    let predictions = match &model.mesh {
+        Some(reference) => crate::output::mid_edge_predictions(msh, reference)?,
+        None => Vec::new(),
+    };
     model
-        .write_with(dir, nlmodes_modal::RecoveryStorage::Fixed24)
+        .write_with(
+            dir,
+            &nlmodes_modal::RecoveryStorage::Fixed24 { predictions },
+        )
         .with_context(|| format!("writing the reduced model to {}", dir.display()))
 }
 

@@ -105,7 +105,7 @@ fn displacement_at_zero(res: &Path, orbit: &serde_json::Value) -> Vec<f64> {
 }
 
 /// The reduce stage stores the recovery basis compactly (`model/recovery.q24`: 24-bit fixed
-/// point per column, `nlmodes_modal` recovery_codec). Its rounding, at most s_j / 2 on column j
+/// point per column, mid-edge rows predicted, `nlmodes_modal` recovery_codec). Its rounding, at most s_j / 2 on column j
 /// (s_j = max |R_j| / (2^23 - 1), read from the file's column table), moves the displacement of
 /// the kept orbit at t = 0 by at most sum_j |q_j| s_j / 2 (a worst case: the roundings add up
 /// with no cancellation). This bound must stay below 1e-5 of the largest |u|: 100 times below
@@ -122,10 +122,25 @@ fn compact_recovery_rounding_is_below_the_output_precision() {
     let bytes = std::fs::read(model_dir.join("recovery.q24")).unwrap();
     assert_eq!(&bytes[..8], b"NLMRCV02");
     let word = |i: usize| <[u8; 8]>::try_from(&bytes[i..i + 8]).unwrap();
-    let cols = u64::from_le_bytes(word(16)) as usize;
+    // Header: magic, rows, columns, predicted rows, prediction table length; then per column
+    // (scale, stream length).
+    let (rows, cols) = (
+        u64::from_le_bytes(word(8)) as usize,
+        u64::from_le_bytes(word(16)) as usize,
+    );
+    let predicted = u64::from_le_bytes(word(24)) as usize;
+    // TET10: every free mid-edge DOF is predicted from its edge's vertices (most of the rows).
+    assert!(
+        predicted > rows / 2 && predicted < rows,
+        "{predicted} of {rows} rows predicted"
+    );
     let scales: Vec<f64> = (0..cols)
-        .map(|j| f64::from_le_bytes(word(24 + 16 * j)))
+        .map(|j| f64::from_le_bytes(word(40 + 16 * j)))
         .collect();
+    assert!(
+        scales.iter().all(|s| s.is_finite() && *s > 0.0),
+        "{scales:?}"
+    );
     let orbit = kept_orbit(res);
     let coefficients: Vec<Vec<f64>> = orbit["coefficients"]
         .as_array()

@@ -66,9 +66,9 @@
 //! zeros on the fixed DOFs ([`MeshReference::expand_to_full`]).
 //!
 //! [`ReducedModel::write_with`] and [`RecoveryStorage::Fixed24`] write instead the compact
-//! `recovery.q24` (magic `NLMRCV02`: each column in 24-bit fixed point, byte-shuffled and
-//! zlib-compressed; layout and accuracy, 2^-24 of the column's largest entry, in
-//! `recovery_codec`). The reader tells the two apart by their magic bytes.
+//! `recovery.q24` (magic `NLMRCV02`: each column in 24-bit fixed point, mid-edge rows predicted
+//! from their edge's end rows, byte-shuffled and zlib-compressed; layout and accuracy, 2^-24 of
+//! the column's largest entry, in `recovery_codec`). The reader tells the two apart by their magic bytes.
 //!
 //! ## Contact rows
 //!
@@ -127,14 +127,19 @@ pub const RECOVERY_MAGIC: &[u8; 8] = b"NLMRCV01";
 pub const RECOVERY_COMPACT_FILE: &str = "recovery.q24";
 
 /// How [`ReducedModel::write_with`] stores the recovery basis.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum RecoveryStorage {
     /// `recovery.f64`: Float64, bit for bit.
     #[default]
     Float64,
     /// `recovery.q24`: 24-bit fixed point per column, compressed (module documentation):
-    /// enough for output fields written in Float32, about 3.3 times smaller.
-    Fixed24,
+    /// enough for output fields written in Float32, about 4 times smaller.
+    Fixed24 {
+        /// Rows (m, a, b) of R stored as their difference to the mean of rows a and b (e.g.
+        /// the DOF of a TET10 mid-edge node and the same DOF of its edge's vertices); a and b
+        /// must not be predicted rows themselves. Empty: no prediction.
+        predictions: Vec<[usize; 3]>,
+    },
 }
 /// Tolerance on |r| - 1 for radial vectors and the axis direction: vectors
 /// normalized in f64 are unit to ~1e-16; 1e-9 allows values written by other
@@ -519,12 +524,12 @@ impl ReducedModel {
     /// written atomically; the model is validated first. The recovery basis
     /// goes to `recovery.f64`, bit for bit.
     pub fn write(&self, dir: &Path) -> Result<(), ModalError> {
-        self.write_with(dir, RecoveryStorage::Float64)
+        self.write_with(dir, &RecoveryStorage::Float64)
     }
 
     /// As [`ReducedModel::write`], the recovery basis stored as `storage` says; a
     /// recovery file of the other kind left in `dir` by an earlier write is removed.
-    pub fn write_with(&self, dir: &Path, storage: RecoveryStorage) -> Result<(), ModalError> {
+    pub fn write_with(&self, dir: &Path, storage: &RecoveryStorage) -> Result<(), ModalError> {
         self.validate(dir)?;
         std::fs::create_dir_all(dir).map_err(|source| ModalError::Io {
             action: "cannot create the directory",
@@ -545,13 +550,16 @@ impl ReducedModel {
         let recovery = match &self.recovery {
             Some(r) => {
                 let file = match storage {
-                    RecoveryStorage::Float64 => RECOVERY_FILE,
-                    RecoveryStorage::Fixed24 => RECOVERY_COMPACT_FILE,
+                    RecoveryStorage::Float64 => {
+                        write_recovery(&dir.join(RECOVERY_FILE), r)?;
+                        RECOVERY_FILE
+                    }
+                    RecoveryStorage::Fixed24 { predictions } => {
+                        let path = dir.join(RECOVERY_COMPACT_FILE);
+                        write_compact_recovery(&path, r, predictions)?;
+                        RECOVERY_COMPACT_FILE
+                    }
                 };
-                match storage {
-                    RecoveryStorage::Float64 => write_recovery(&dir.join(file), r)?,
-                    RecoveryStorage::Fixed24 => write_compact_recovery(&dir.join(file), r)?,
-                }
                 Some(RecoveryEntry {
                     file: file.to_string(),
                     rows: r.nrows(),
@@ -717,9 +725,19 @@ fn write_recovery(path: &Path, r: &Mat<f64>) -> Result<(), ModalError> {
 }
 
 /// Writes the recovery basis as `recovery.q24` (`recovery_codec`).
-fn write_compact_recovery(path: &Path, r: &Mat<f64>) -> Result<(), ModalError> {
+fn write_compact_recovery(
+    path: &Path,
+    r: &Mat<f64>,
+    predictions: &[[usize; 3]],
+) -> Result<(), ModalError> {
+    crate::recovery_codec::check_predictions(r.nrows(), predictions).map_err(|message| {
+        ModalError::ReducedModel {
+            path: path.to_path_buf(),
+            message: format!("row predictions of the recovery basis: {message}"),
+        }
+    })?;
     let columns: Vec<&[f64]> = (0..r.ncols()).map(|j| r.col_as_slice(j)).collect();
-    let bytes = crate::recovery_codec::encode(r.nrows(), &columns);
+    let bytes = crate::recovery_codec::encode(r.nrows(), &columns, predictions);
     write_atomic(path, |w: &mut BufWriter<File>| w.write_all(&bytes))
 }
 
