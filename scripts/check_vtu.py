@@ -3,6 +3,7 @@
 
 Usage: scripts/check_vtu.py FILE.vtu [FIELD ...]
        scripts/check_vtu.py --series FILE.pvd
+       scripts/check_vtu.py --series FILE.xdmf
 Checks of a VTU: the file opens; cells are tetra (VTK 10) or tetra10 (VTK 24); for tetra10, every
 edge node sits at the midpoint of VTK's edge for that slot (VTK order: 4:(0,1) 5:(1,2) 6:(0,2)
 7:(0,3) 8:(1,3) 9:(2,3)) up to the curvature of the mesh, i.e. is far closer to its own edge than
@@ -10,7 +11,8 @@ to the swapped one; the named point fields exist and are finite, except the cont
 (radial_gap_m, contact_force_n), which must be finite exactly on the contact nodes (contact_node
 = 1) and NaN elsewhere, with contact_force_n >= 0. Prints one summary line; exits non-zero on
 failure.
-With --series: every data set of the PVD collection is checked as above (with the fields
+With --series: every data set of the PVD collection, or every step of the XDMF time series (read
+by meshio.xdmf.TimeSeriesReader, HDF5 through h5py), is checked as above (with the fields
 displacement_m, radial_gap_m, contact_force_n), all on the same points and cells; the time values
 must start at 0 and be equally spaced. Prints one JSON line: points, cells, frames, times, the
 largest |displacement| of each frame, the number of contact nodes, the range of the gap and the
@@ -22,6 +24,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import meshio
+import meshio.xdmf
 import numpy as np
 
 VTK_EDGES = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
@@ -33,7 +36,10 @@ class CheckError(Exception):
 
 
 def check_vtu(path, fields):
-    mesh = meshio.read(path)
+    return check_mesh(path, meshio.read(path), fields)
+
+
+def check_mesh(path, mesh, fields):
     kinds = [c.type for c in mesh.cells]
     if kinds not in (["tetra"], ["tetra10"]):
         raise CheckError(f"{path}: unexpected cell types {kinds}")
@@ -72,25 +78,44 @@ def check_vtu(path, fields):
     return mesh, kinds[0], cells
 
 
-def check_series(pvd):
+def pvd_frames(pvd):
+    """(time, meshio mesh, name) of every data set of a PVD collection."""
     root = ET.parse(pvd).getroot()
     sets = root.findall("./Collection/DataSet")
     if not sets:
         raise CheckError(f"{pvd}: no DataSet")
-    times = [float(s.get("timestep")) for s in sets]
+    base = os.path.dirname(pvd)
+    for s in sets:
+        path = os.path.join(base, s.get("file"))
+        yield float(s.get("timestep")), meshio.read(path), path
+
+
+def xdmf_frames(xdmf):
+    """(time, meshio mesh, name) of every step of an XDMF time series."""
+    with meshio.xdmf.TimeSeriesReader(xdmf) as reader:
+        points, cells = reader.read_points_cells()
+        if reader.num_steps == 0:
+            raise CheckError(f"{xdmf}: no time step")
+        for k in range(reader.num_steps):
+            t, point_data, _ = reader.read_data(k)
+            yield t, meshio.Mesh(points, cells, point_data=point_data), f"{xdmf} step {k}"
+
+
+def check_series(series):
+    frames = list(xdmf_frames(series) if series.endswith((".xdmf", ".xmf")) else pvd_frames(series))
+    times = [t for t, _, _ in frames]
     steps = np.diff(times)
     if times[0] != 0.0 or np.any(steps <= 0) or np.ptp(steps) > 1e-9 * max(times):
-        raise CheckError(f"{pvd}: time values {times} do not start at 0 with a uniform step")
-    base = os.path.dirname(pvd)
+        raise CheckError(f"{series}: time values {times} do not start at 0 with a uniform step")
     fields = ["displacement_m", "radial_gap_m", "contact_force_n"]
     shape = None
-    summary = {"times": times, "frames": len(sets), "max_displacement": []}
+    summary = {"times": times, "frames": len(frames), "max_displacement": []}
     gap_lo, gap_hi, force_hi = np.inf, -np.inf, 0.0
-    for s in sets:
-        mesh, kind, cells = check_vtu(os.path.join(base, s.get("file")), fields)
+    for _, frame, name in frames:
+        mesh, kind, cells = check_mesh(name, frame, fields)
         this = (len(mesh.points), len(cells), kind)
         if shape is not None and this != shape:
-            raise CheckError(f"{pvd}: frame {s.get('file')} has {this}, the first frame {shape}")
+            raise CheckError(f"{series}: {name} has {this}, the first frame {shape}")
         shape = this
         u = np.asarray(mesh.point_data["displacement_m"], dtype=float)
         summary["max_displacement"].append(float(np.linalg.norm(u, axis=1).max()))

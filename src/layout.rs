@@ -5,9 +5,9 @@
 //! results/<case>/
 //!   mesh/mesh.msh            gmsh MSH 4.1
 //!   modes/                   frequencies.csv, modes.vtu (clamped full-model modes)
-//!   model/                   the reduced model (model.json, K.mtx, M.mtx, recovery.f64)
+//!   model/                   the reduced model (model.json, K.mtx, M.mtx, recovery.q24)
 //!   backbone/                backbone.csv, backbone.json, kept.json
-//!   amplitude_q<q/g0>/       per kept amplitude: CSV, figures, VTU frames, PVD
+//!   amplitude_q<q/g0>/       per kept amplitude: CSV, figures, XDMF + HDF5 series for ParaView
 //!   figures/                 mode-shape pictures of the report (Fig. 5)
 //!   report.md, *.png, *.svg  the report and the figures of the whole backbone
 //!   .stamps/<stage>          content hashes of each stage's inputs

@@ -33,3 +33,40 @@ pub fn write_mesh_vtu(
     let writer = VtuWriter::new(path, &vtu_mesh(mesh), VtuEncoding::Zlib, Precision::F32)?;
     Ok(writer.write(path, &f, &[])?)
 }
+
+/// The rows of the recovery basis (free DOFs of `reference`) that `recovery.q24` predicts from
+/// two others: for each TET10 edge of the mesh in `msh`, component c of its mid-edge node from
+/// component c of the edge's two vertices (all three free; each mid-edge DOF once). Vertices are
+/// never mid-edge nodes, so no predicted row is a parent. None for a TET4 mesh.
+pub fn mid_edge_predictions(
+    msh: &Path,
+    reference: &nlmodes_modal::MeshReference,
+) -> Result<Vec<[usize; 3]>> {
+    let mesh = nlmodes_fem::read_msh(msh)?;
+    let npc = mesh.kind.nodes_per_element();
+    if npc != 10 || 3 * mesh.n_nodes() != reference.n_full_dofs {
+        return Ok(Vec::new());
+    }
+    let mut free = vec![usize::MAX; reference.n_full_dofs];
+    for (row, dof) in reference.free_to_full().into_iter().enumerate() {
+        free[dof] = row;
+    }
+    // gmsh TET10 edge nodes 4..9: (0,1) (1,2) (0,2) (0,3) (2,3) (1,3).
+    const EDGES: [(usize, usize); 6] = [(0, 1), (1, 2), (0, 2), (0, 3), (2, 3), (1, 3)];
+    let mut seen = vec![false; reference.n_full_dofs];
+    let mut predictions = Vec::new();
+    for cell in mesh.connectivity.chunks_exact(10) {
+        for (k, &(a, b)) in EDGES.iter().enumerate() {
+            let (m, a, b) = (cell[4 + k], cell[a], cell[b]);
+            for c in 0..3 {
+                let (dm, da, db) = (3 * m + c, 3 * a + c, 3 * b + c);
+                let rows = [free[dm], free[da], free[db]];
+                if !seen[dm] && rows.iter().all(|&r| r != usize::MAX) {
+                    seen[dm] = true;
+                    predictions.push(rows);
+                }
+            }
+        }
+    }
+    Ok(predictions)
+}

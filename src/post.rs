@@ -6,9 +6,7 @@
 
 use anyhow::{Context, Result};
 use nlmodes_modal::{MeshReference, ReducedModel};
-use nlmodes_output::{
-    write_pvd_with_note, CsvTable, Field, Precision, PvdEntry, VtuEncoding, VtuWriter,
-};
+use nlmodes_output::{write_xdmf_series, CsvTable, Field, Precision, XdmfFrame};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -49,9 +47,9 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     // The full mesh, read once for every VTU series and picture.
     let full = FullMesh::of(&model)?;
     if full.is_none() {
-        tracing::warn!("the reduced model has no recovery basis or mesh: VTU output and mode-shape pictures skipped");
+        tracing::warn!("the reduced model has no recovery basis or mesh: ParaView series and mode-shape pictures skipped");
     }
-    // The VTU series and tables alongside the pictures: the series' sequential parts (tables,
+    // The ParaView series and tables alongside the pictures: the series' sequential parts (tables,
     // figures, file writes) leave the second core free for the pictures' rasterization.
     let (dirs, pictures) = rayon::join(
         || -> Result<Vec<PathBuf>> {
@@ -64,7 +62,7 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
                 radial_history(&model, orbit, g0, &dir, &tag)?;
                 contact_map(orbit, &dir, &tag)?;
                 if let Some(full) = &full {
-                    vtu_series(case, &model, full, orbit, g0, &dir, &tag)?;
+                    xdmf_series(case, &model, full, orbit, g0, &dir, &tag)?;
                 }
                 dirs.push(dir);
             }
@@ -85,7 +83,7 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
         .collect();
     crate::report::write_report(case, layout, &model, &b, &written, modes_picture.as_deref())?;
     stage.done(&format!(
-        "figures, tables and {} VTU series in {}",
+        "figures, tables and {} ParaView series in {}",
         written.len(),
         out.display()
     ));
@@ -115,13 +113,12 @@ fn pictures(
     Ok((shapes?, Some(modes?)))
 }
 
-/// The full FE mesh of the reduced model, its boundary surface and the VTU encoder of its frames.
+/// The full FE mesh of the reduced model and its boundary surface.
 struct FullMesh<'a> {
     mesh: nlmodes_fem::Mesh,
     recovery: &'a faer::Mat<f64>,
     reference: &'a MeshReference,
     surface: Surface,
-    vtu: VtuWriter,
     /// Mesh node (0-based) of every contact node.
     contact_nodes: Vec<usize>,
 }
@@ -151,20 +148,12 @@ impl<'a> FullMesh<'a> {
             .map(|c| c.mesh_node.map(|t| t as usize - 1))
             .collect::<Option<Vec<usize>>>()
             .context("contact node without mesh node")?;
-        // Float32 coordinates: 6e-8 relative, 2e-8 m on this blade, far below any mesh size.
-        let vtu = VtuWriter::new(
-            Path::new(&reference.msh_file),
-            &crate::output::vtu_mesh(&mesh),
-            VtuEncoding::Zlib,
-            Precision::F32,
-        )?;
         let surface = Surface::of_mesh(&mesh);
         Ok(Some(FullMesh {
             mesh,
             recovery,
             reference,
             surface,
-            vtu,
             contact_nodes,
         }))
     }
@@ -270,14 +259,18 @@ fn contact_map(o: &Orbit, dir: &Path, tag: &str) -> Result<()> {
     figures::contact_map_figure(&o.contact_force, o.q, dir, tag)
 }
 
-/// The frames of one kept amplitude for ParaView: a VTU per frame over one period on the full
-/// FE mesh and a PVD collection whose time values are in seconds (t = f T / frames).
+/// The frames of one kept amplitude for ParaView: an XDMF time series over one period on the full
+/// FE mesh (`mode_<tag>.xdmf` + `mode_<tag>.h5`, `nlmodes_output::xdmf`), time values in seconds
+/// (t = f T / frames). The mesh is stored once; the frames at t and T - t hold the same state
+/// (the orbit is a cosine series, even in time: Eq. 10), computed bitwise equal by
+/// [`Orbit::at_frame`], so they share their datasets.
 ///
-/// Point fields (Float32, see `FullMesh::of`): `displacement_m` (m); `radial_gap_m` (m), the
-/// radial displacement minus the initial gap (0 = touching, negative = open) and
-/// `contact_force_n` (N, at the nearest of the m force samples), both defined on the contact
-/// nodes only and NaN elsewhere; `contact_node`, 1 on the contact nodes and 0 elsewhere.
-fn vtu_series(
+/// Point fields (Float32: relative rounding 6e-8, far below what a picture shows):
+/// `displacement_m` (m); `radial_gap_m` (m), the radial displacement minus the initial gap
+/// (0 = touching, negative = open) and `contact_force_n` (N, at the nearest of the m force
+/// samples), both defined on the contact nodes only and NaN elsewhere; `contact_node`, 1 on the
+/// contact nodes and 0 elsewhere. Coordinates are Float32 too (2e-8 m on this blade).
+fn xdmf_series(
     case: &Case,
     model: &ReducedModel,
     full: &FullMesh,
@@ -292,52 +285,74 @@ fn vtu_series(
     for &n in &full.contact_nodes {
         is_contact[n] = 1.0;
     }
-    let fractions: Vec<f64> = (0..frames).map(|f| f as f64 / frames as f64).collect();
-    let states: Vec<Vec<f64>> = fractions.iter().map(|t| o.at_phase(2.0 * PI * t)).collect();
+    let states: Vec<Vec<f64>> = (0..frames).map(|f| o.at_frame(f, frames)).collect();
     let recovered = full.recover(&states)?;
-    let files: Vec<PathBuf> = (0..frames)
-        .into_par_iter()
-        .map(|f| -> Result<PathBuf> {
-            let radial_disp = radial(model, &states[f]);
-            let k = o.force_sample_at(fractions[f]);
-            let mut gap = vec![f64::NAN; n_nodes];
-            let mut force = vec![f64::NAN; n_nodes];
-            for (j, &n) in full.contact_nodes.iter().enumerate() {
-                gap[n] = radial_disp[j] - model.contact_nodes[j].gap;
-                force[n] = o.contact_force[j][k];
-            }
-            let name = format!("frame_{f:03}.vtu");
-            let fields = [
-                Field::vector("displacement_m", &recovered[f]).f32(),
-                Field::scalar("radial_gap_m", &gap).f32().partial(),
-                Field::scalar("contact_force_n", &force).f32().partial(),
-                Field::scalar("contact_node", &is_contact).f32(),
-            ];
-            full.vtu.write(&dir.join(&name), &fields, &[])?;
-            Ok(PathBuf::from(name))
-        })
-        .collect::<Result<_>>()?;
+    let mut gaps = vec![vec![f64::NAN; n_nodes]; frames];
+    let mut forces = vec![vec![f64::NAN; n_nodes]; frames];
+    for f in 0..frames {
+        let radial_disp = radial(model, &states[f]);
+        let k = o.force_sample_at_frame(f, frames);
+        for (j, &n) in full.contact_nodes.iter().enumerate() {
+            gaps[f][n] = radial_disp[j] - model.contact_nodes[j].gap;
+            forces[f][n] = o.contact_force[j][k];
+        }
+    }
     let period = o.period();
-    let entries: Vec<PvdEntry> = files
-        .iter()
-        .zip(&fractions)
-        .map(|(f, &t)| PvdEntry {
-            time: t * period,
-            file: f,
+    let series: Vec<XdmfFrame> = (0..frames)
+        .map(|f| XdmfFrame {
+            time: f as f64 / frames as f64 * period,
+            fields: vec![
+                Field::vector("displacement_m", &recovered[f]).f32(),
+                Field::scalar("radial_gap_m", &gaps[f]).f32().partial(),
+                Field::scalar("contact_force_n", &forces[f]).f32().partial(),
+                Field::scalar("contact_node", &is_contact).f32(),
+            ],
         })
         .collect();
     let note = format!(
         "nlmodes: nonlinear mode at q/g0 = {:.4}, one period T = {:.9e} s (f = {:.6} Hz, \
          w/w1 = {:.6}) in {frames} frames; time values in seconds, frame f at t = f T / {frames}. \
-         Point fields: displacement_m (m); radial_gap_m (m, radial displacement minus gap: 0 = \
-         touching, < 0 = open) and contact_force_n (N), defined on the contact nodes only, NaN \
-         elsewhere; contact_node (1 on the contact nodes).",
+         Point fields (Float32): displacement_m (m); radial_gap_m (m, radial displacement minus \
+         gap: 0 = touching, < 0 = open) and contact_force_n (N), defined on the contact nodes \
+         only, NaN elsewhere; contact_node (1 on the contact nodes). Heavy data in mode_{tag}.h5; \
+         frames at t and T - t share their arrays (the orbit is even in time).",
         o.q / g0,
         period,
         o.frequency_hz,
         o.omega_ratio
     );
-    write_pvd_with_note(&dir.join(format!("mode_{tag}.pvd")), &entries, &note)?;
+    remove_vtu_series(dir)?;
+    let written = write_xdmf_series(
+        &dir.join(format!("mode_{tag}.xdmf")),
+        &crate::output::vtu_mesh(&full.mesh),
+        Precision::F32,
+        &series,
+        &note,
+    )?;
+    tracing::debug!(
+        "{}: {} field arrays in {} datasets",
+        written.heavy_data.display(),
+        written.field_arrays,
+        written.field_datasets
+    );
+    Ok(())
+}
+
+/// Removes the VTU frames and PVD that earlier versions wrote in an amplitude folder (the XDMF
+/// series replaces them; stale frames of another orbit would mislead).
+fn remove_vtu_series(dir: &Path) -> Result<()> {
+    for entry in std::fs::read_dir(dir).with_context(|| format!("cannot list {}", dir.display()))? {
+        let path = entry?.path();
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+        let stale = name.is_some_and(|n| {
+            (n.starts_with("frame_") && n.ends_with(".vtu"))
+                || (n.starts_with("mode_") && n.ends_with(".pvd"))
+        });
+        if stale {
+            std::fs::remove_file(&path)
+                .with_context(|| format!("cannot remove {}", path.display()))?;
+        }
+    }
     Ok(())
 }
 

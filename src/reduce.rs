@@ -284,8 +284,16 @@ pub fn write_model(model: &mut ReducedModel, dir: &Path, msh: &Path) -> Result<(
         let abs = std::fs::canonicalize(msh).unwrap_or_else(|_| msh.to_path_buf());
         m.msh_file = abs.to_string_lossy().into_owned();
     }
+    // The compact recovery file: R feeds only the Float32 output fields and pictures.
+    let predictions = match &model.mesh {
+        Some(reference) => crate::output::mid_edge_predictions(msh, reference)?,
+        None => Vec::new(),
+    };
     model
-        .write(dir)
+        .write_with(
+            dir,
+            &nlmodes_modal::RecoveryStorage::Fixed24 { predictions },
+        )
         .with_context(|| format!("writing the reduced model to {}", dir.display()))
 }
 

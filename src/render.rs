@@ -189,7 +189,7 @@ pub fn amplitude_figure(
         .iter()
         .map(|s| {
             let positions = warped(mesh, &s.displacement, warp);
-            let markers = contact_nodes
+            let mut markers: Vec<Marker> = contact_nodes
                 .iter()
                 .zip(&s.contact_force)
                 .map(|(&n, &f)| Marker {
@@ -197,6 +197,9 @@ pub fn amplitude_figure(
                     filled: f > 0.0,
                 })
                 .collect();
+            // Nodes in contact drawn last: seen along the tip edge the markers overlap, and an
+            // open neighbour must not hide a red one.
+            markers.sort_by_key(|m| m.filled);
             SurfacePanel {
                 subtitle: s.label.clone(),
                 values: magnitudes(&s.displacement, 1e3),

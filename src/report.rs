@@ -253,7 +253,7 @@ pub fn write_report(
         let _ = writeln!(
             s,
             "![radial]({d}/radial_{tag}.png)\n![contact map]({d}/contact_map_{tag}.png)\n\n\
-             ParaView: `scripts/paraview {}/{d}/mode_{tag}.pvd` (time values in seconds over \
+             ParaView: `scripts/paraview {}/{d}/mode_{tag}.xdmf` (time values in seconds over \
              one period; warp factor from the data).\n",
             root.display()
         );

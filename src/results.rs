@@ -93,6 +93,36 @@ impl Orbit {
         nlmodes_nnm::reconstruct(&self.coefficients, 1.0, theta)
     }
 
+    /// u at frame `f` of `frames` over one period (t = f T / frames), with the phases reduced
+    /// exactly: cos(n w t) = cos(2 pi k / frames) with k = n f mod frames folded onto
+    /// [0, frames / 2], so frames f and frames - f come out bitwise equal, as the cosine series
+    /// is even in time (Eq. 10). Agrees with [`Orbit::at_phase`] to rounding.
+    pub fn at_frame(&self, f: usize, frames: usize) -> Vec<f64> {
+        let n = self.coefficients.first().map_or(0, Vec::len);
+        let mut u = vec![0.0; n];
+        for (h, c) in self.coefficients.iter().enumerate() {
+            let k = (h * f) % frames;
+            let k = k.min(frames - k);
+            let factor = (2.0 * std::f64::consts::PI * k as f64 / frames as f64).cos();
+            u.iter_mut().zip(c).for_each(|(ui, ci)| *ui += factor * ci);
+        }
+        u
+    }
+
+    /// The contact-force sample nearest frame `f` of `frames` (t = f T / frames), mirrored for
+    /// the second half of the period (sample m - k for frame frames - f), so that even-in-time
+    /// frames use mirrored samples.
+    pub fn force_sample_at_frame(&self, f: usize, frames: usize) -> usize {
+        let m = self.force_samples().max(1);
+        let mirrored = f.min(frames - f);
+        let k = self.force_sample_at(mirrored as f64 / frames as f64);
+        if mirrored == f {
+            k
+        } else {
+            (m - k) % m
+        }
+    }
+
     /// du/dt (m/s) at phase theta = w t (rad), by `nlmodes_nnm::velocity`.
     pub fn rate_at_phase(&self, theta: f64) -> Vec<f64> {
         nlmodes_nnm::velocity(&self.coefficients, self.omega, theta / self.omega)

@@ -1,5 +1,5 @@
-//! The files a user keeps (issue 15), on the coarse blade: the VTU/PVD series read back by
-//! independent readers (meshio always; ParaView's pvpython where ParaView is installed), the
+//! The files a user keeps (issue 15), on the coarse blade: the XDMF/HDF5 series and modes.vtu read
+//! back by independent readers (meshio always; ParaView's pvpython where ParaView is installed), the
 //! report's mode-shape pictures, and `nlmodes backbone --settings` honouring the file's q range.
 //!
 //! One `nlmodes run` of a coarse case serves every test of this file (run once, shared).
@@ -104,26 +104,92 @@ fn displacement_at_zero(res: &Path, orbit: &serde_json::Value) -> Vec<f64> {
     model.mesh.as_ref().unwrap().expand_to_full(&free).unwrap()
 }
 
+/// The reduce stage stores the recovery basis compactly (`model/recovery.q24`: 24-bit fixed
+/// point per column, mid-edge rows predicted, `nlmodes_modal` recovery_codec). Its rounding, at most s_j / 2 on column j
+/// (s_j = max |R_j| / (2^23 - 1), read from the file's column table), moves the displacement of
+/// the kept orbit at t = 0 by at most sum_j |q_j| s_j / 2 (a worst case: the roundings add up
+/// with no cancellation). This bound must stay below 1e-5 of the largest |u|: 100 times below
+/// what a picture or a colour map resolves (a pixel of a 1000 px view, one of 256 colour levels,
+/// 1e-3 .. 4e-3 of the range). Measured: 1.6e-6 on this coarse blade.
+#[test]
+fn compact_recovery_rounding_is_below_the_output_precision() {
+    let res = results();
+    let model_dir = res.join("model");
+    assert!(!model_dir.join("recovery.f64").exists());
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(model_dir.join("model.json")).unwrap()).unwrap();
+    assert_eq!(json["recovery"]["file"], "recovery.q24");
+    let bytes = std::fs::read(model_dir.join("recovery.q24")).unwrap();
+    assert_eq!(&bytes[..8], b"NLMRCV02");
+    let word = |i: usize| <[u8; 8]>::try_from(&bytes[i..i + 8]).unwrap();
+    // Header: magic, rows, columns, predicted rows, prediction table length; then per column
+    // (scale, stream length).
+    let (rows, cols) = (
+        u64::from_le_bytes(word(8)) as usize,
+        u64::from_le_bytes(word(16)) as usize,
+    );
+    let predicted = u64::from_le_bytes(word(24)) as usize;
+    // TET10: every free mid-edge DOF is predicted from its edge's vertices (most of the rows).
+    assert!(
+        predicted > rows / 2 && predicted < rows,
+        "{predicted} of {rows} rows predicted"
+    );
+    let scales: Vec<f64> = (0..cols)
+        .map(|j| f64::from_le_bytes(word(40 + 16 * j)))
+        .collect();
+    assert!(
+        scales.iter().all(|s| s.is_finite() && *s > 0.0),
+        "{scales:?}"
+    );
+    let orbit = kept_orbit(res);
+    let coefficients: Vec<Vec<f64>> = orbit["coefficients"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(f64s)
+        .collect();
+    let q: Vec<f64> = (0..cols)
+        .map(|j| coefficients.iter().map(|c| c[j]).sum())
+        .collect();
+    let bound: f64 = q.iter().zip(&scales).map(|(q, s)| q.abs() * s / 2.0).sum();
+    let u0 = max_norm(&displacement_at_zero(res, &orbit));
+    assert!(
+        bound <= 1e-5 * u0,
+        "rounding bound {bound:e} m against max |u| {u0:e} m"
+    );
+    // The reduced model reads back with the basis decoded (every entry finite, checked on read).
+    let model = nlmodes_modal::ReducedModel::read(&model_dir).unwrap();
+    assert_eq!(model.recovery.as_ref().unwrap().ncols(), cols);
+}
+
 fn max_norm(u: &[f64]) -> f64 {
     u.chunks_exact(3)
         .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
         .fold(0.0, f64::max)
 }
 
+/// The XDMF series of the kept amplitude (coarse case).
+fn series(res: &Path) -> PathBuf {
+    res.join("amplitude_q12.0/mode_q12.0.xdmf")
+}
+
 #[test]
-fn vtu_and_pvd_read_back_with_meshio() {
+fn xdmf_series_and_modes_read_back_with_meshio() {
     let res = results();
     let mesh = nlmodes_fem::read_msh(&res.join("mesh/mesh.msh")).unwrap();
     let orbit = kept_orbit(res);
     let omega = orbit["omega"].as_f64().unwrap();
     let period = 2.0 * std::f64::consts::PI / omega;
-    let pvd = res.join("amplitude_q12.0/mode_q12.0.pvd");
+    let xdmf = series(res);
     let py = Command::new("/usr/bin/python3")
         .arg(root().join("scripts/check_vtu.py"))
         .arg("--series")
-        .arg(&pvd)
+        .arg(&xdmf)
         .output()
-        .expect("/usr/bin/python3 with python3-meshio is needed (scripts/deps installs it)");
+        .expect(
+            "/usr/bin/python3 with python3-meshio and python3-h5py is needed (scripts/deps \
+             installs them)",
+        );
     assert!(py.status.success(), "meshio check failed: {}", text(&py));
     let s: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
     // Same mesh in every frame: the FE mesh's nodes and TET10 cells.
@@ -141,11 +207,28 @@ fn vtu_and_pvd_read_back_with_meshio() {
             "frame {f}: time {t} s, expected {expected} s"
         );
     }
-    let note = std::fs::read_to_string(&pvd).unwrap();
+    let note = std::fs::read_to_string(&xdmf).unwrap();
     assert!(
         note.contains("time values in seconds") && note.contains(&format!("{period:.9e} s")),
-        "the PVD must state the unit and the period:\n{note}"
+        "the XDMF must state the unit and the period:\n{note}"
     );
+    // One mesh, and the frames at t and T - t (the orbit is even in time) share their
+    // displacement: FRAMES / 2 + 1 arrays for FRAMES frames.
+    let stored = |field: &str| {
+        let mut d: Vec<&str> = note
+            .match_indices(&format!("/fields/{field}/"))
+            .map(|(i, _)| &note[i..i + field.len() + 12])
+            .collect();
+        d.sort();
+        d.dedup();
+        d.len()
+    };
+    assert_eq!(stored("displacement_m"), FRAMES / 2 + 1, "{note}");
+    assert_eq!(stored("contact_node"), 1);
+    assert_eq!(note.matches(".h5:/mesh/points<").count(), FRAMES);
+    // The displacement of frame FRAMES - 1 is that of frame 1, as the maximum shows.
+    let maxima = f64s(&s["max_displacement"]);
+    assert_eq!(maxima[1], maxima[FRAMES - 1]);
     // Displacement of frame 0 against the model's own reconstruction; the file holds Float32
     // (relative rounding 6e-8 per value), so 1e-6 relative on the largest magnitude.
     let u0 = max_norm(&displacement_at_zero(res, &orbit));
@@ -191,24 +274,34 @@ fn paraview_reads_the_series() {
         return;
     };
     let res = results();
+    // Opened as a user would (OpenDataFile picks ParaView's own XDMF reader); cell type 24 is
+    // VTK_QUADRATIC_TETRA, whose node order the file keeps: the first cell's point ids must be
+    // those of the HDF5 connectivity (read here with h5py, another reader).
     let script = r#"
 import sys, json
+import h5py
 import numpy as np
 from paraview.simple import OpenDataFile
 from paraview import servermanager
 from vtk.numpy_interface import dataset_adapter as dsa
 src = OpenDataFile(sys.argv[1])
 times = list(src.TimestepValues)
-out = {"times": times, "frames": []}
+out = {"times": times, "frames": [], "reader": src.GetXMLName()}
+heavy = h5py.File(sys.argv[1][:-len(".xdmf")] + ".h5", "r")
+first_cell = [int(i) for i in heavy["/mesh/connectivity"][0]]
 for t in times:
     src.UpdatePipeline(t)
-    d = dsa.WrapDataObject(servermanager.Fetch(src))
+    grid = servermanager.Fetch(src)
+    ids = grid.GetCell(0).GetPointIds()
+    d = dsa.WrapDataObject(grid)
     on = np.asarray(d.PointData["contact_node"]) == 1
     f = np.asarray(d.PointData["contact_force_n"])
     g = np.asarray(d.PointData["radial_gap_m"])
     u = np.asarray(d.PointData["displacement_m"])
     out["frames"].append({
         "points": int(d.GetNumberOfPoints()), "cells": int(d.GetNumberOfCells()),
+        "cell_type": int(grid.GetCellType(0)),
+        "first_cell_as_stored": [ids.GetId(i) for i in range(ids.GetNumberOfIds())] == first_cell,
         "contact": int(on.sum()),
         "nan_off_contact": bool(np.isnan(f[~on]).all() and np.isnan(g[~on]).all()),
         "finite_on_contact": bool(np.isfinite(f[on]).all() and np.isfinite(g[on]).all()),
@@ -219,7 +312,7 @@ print("RESULT " + json.dumps(out))
     std::fs::write(&file, script).unwrap();
     let out = Command::new(pv)
         .arg(&file)
-        .arg(res.join("amplitude_q12.0/mode_q12.0.pvd"))
+        .arg(series(res))
         .env_remove("DISPLAY")
         .output()
         .unwrap();
@@ -241,6 +334,8 @@ print("RESULT " + json.dumps(out))
         assert_eq!(fr["points"].as_u64().unwrap() as usize, mesh.n_nodes());
         assert_eq!(fr["cells"].as_u64().unwrap() as usize, mesh.n_elements());
         assert_eq!(fr["contact"].as_u64().unwrap() as usize, CONTACT_NODES);
+        assert_eq!(fr["cell_type"], 24, "frame {f}");
+        assert_eq!(fr["first_cell_as_stored"], true, "frame {f}");
         assert_eq!(fr["nan_off_contact"], true, "frame {f}");
         assert_eq!(fr["finite_on_contact"], true, "frame {f}");
         if f == 0 {

@@ -20,6 +20,7 @@ pub mod memory;
 pub mod model_checks;
 pub mod modes;
 pub mod ordering;
+mod recovery_codec;
 pub mod reduced_model;
 pub mod sparse_ops;
 
@@ -33,4 +34,6 @@ pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
 pub use modes::Modes;
 pub use ordering::FillOrdering;
-pub use reduced_model::{ContactNode, MasterCoordinate, MeshReference, ReducedModel};
+pub use reduced_model::{
+    ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
+};

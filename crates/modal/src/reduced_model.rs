@@ -55,7 +55,7 @@
 //!   component c = x, y, z of the k-th node of the FE DOF map), and the
 //!   strictly increasing list of DOFs fixed by the Dirichlet conditions.
 //!
-//! ## `recovery.f64`
+//! ## `recovery.f64` and `recovery.q24`
 //!
 //! Binary, little-endian: 8 bytes of magic `NLMRCV01`, the number of rows
 //! N_r (u64), the number of columns n (u64), then N_r x n f64 values in
@@ -64,6 +64,11 @@
 //! `mesh` is given, N_r = n_full_dofs - len(fixed_dofs) and row r is the
 //! r-th non-fixed DOF in increasing order, so the full displacement puts
 //! zeros on the fixed DOFs ([`MeshReference::expand_to_full`]).
+//!
+//! [`ReducedModel::write_with`] and [`RecoveryStorage::Fixed24`] write instead the compact
+//! `recovery.q24` (magic `NLMRCV02`: each column in 24-bit fixed point, mid-edge rows predicted
+//! from their edge's end rows, byte-shuffled and zlib-compressed; layout and accuracy, 2^-24 of
+//! the column's largest entry, in `recovery_codec`). The reader tells the two apart by their magic bytes.
 //!
 //! ## Contact rows
 //!
@@ -118,6 +123,24 @@ pub const MODEL_FILE: &str = "model.json";
 pub const RECOVERY_FILE: &str = "recovery.f64";
 /// Magic bytes opening `recovery.f64`.
 pub const RECOVERY_MAGIC: &[u8; 8] = b"NLMRCV01";
+/// File name of the compact recovery basis ([`RecoveryStorage::Fixed24`]).
+pub const RECOVERY_COMPACT_FILE: &str = "recovery.q24";
+
+/// How [`ReducedModel::write_with`] stores the recovery basis.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum RecoveryStorage {
+    /// `recovery.f64`: Float64, bit for bit.
+    #[default]
+    Float64,
+    /// `recovery.q24`: 24-bit fixed point per column, compressed (module documentation):
+    /// enough for output fields written in Float32, about 4 times smaller.
+    Fixed24 {
+        /// Rows (m, a, b) of R stored as their difference to the mean of rows a and b (e.g.
+        /// the DOF of a TET10 mid-edge node and the same DOF of its edge's vertices); a and b
+        /// must not be predicted rows themselves. Empty: no prediction.
+        predictions: Vec<[usize; 3]>,
+    },
+}
 /// Tolerance on |r| - 1 for radial vectors and the axis direction: vectors
 /// normalized in f64 are unit to ~1e-16; 1e-9 allows values written by other
 /// tools with ~10 significant digits.
@@ -498,8 +521,15 @@ impl ReducedModel {
     }
 
     /// Writes the model into `dir` (created if missing). Every file is
-    /// written atomically; the model is validated first.
+    /// written atomically; the model is validated first. The recovery basis
+    /// goes to `recovery.f64`, bit for bit.
     pub fn write(&self, dir: &Path) -> Result<(), ModalError> {
+        self.write_with(dir, &RecoveryStorage::Float64)
+    }
+
+    /// As [`ReducedModel::write`], the recovery basis stored as `storage` says; a
+    /// recovery file of the other kind left in `dir` by an earlier write is removed.
+    pub fn write_with(&self, dir: &Path, storage: &RecoveryStorage) -> Result<(), ModalError> {
         self.validate(dir)?;
         std::fs::create_dir_all(dir).map_err(|source| ModalError::Io {
             action: "cannot create the directory",
@@ -519,9 +549,19 @@ impl ReducedModel {
         )?;
         let recovery = match &self.recovery {
             Some(r) => {
-                write_recovery(&dir.join(RECOVERY_FILE), r)?;
+                let file = match storage {
+                    RecoveryStorage::Float64 => {
+                        write_recovery(&dir.join(RECOVERY_FILE), r)?;
+                        RECOVERY_FILE
+                    }
+                    RecoveryStorage::Fixed24 { predictions } => {
+                        let path = dir.join(RECOVERY_COMPACT_FILE);
+                        write_compact_recovery(&path, r, predictions)?;
+                        RECOVERY_COMPACT_FILE
+                    }
+                };
                 Some(RecoveryEntry {
-                    file: RECOVERY_FILE.to_string(),
+                    file: file.to_string(),
                     rows: r.nrows(),
                     cols: r.ncols(),
                 })
@@ -548,7 +588,21 @@ impl ReducedModel {
         write_atomic(&json_path, |w| {
             w.write_all(text.as_bytes())?;
             w.write_all(b"\n")
-        })
+        })?;
+        // The model.json just written names the recovery file in use: another one is stale.
+        for stale in [RECOVERY_FILE, RECOVERY_COMPACT_FILE] {
+            if document.recovery.as_ref().is_none_or(|e| e.file != stale) {
+                let path = dir.join(stale);
+                if path.exists() {
+                    std::fs::remove_file(&path).map_err(|source| ModalError::Io {
+                        action: "cannot remove the stale recovery file",
+                        path,
+                        source,
+                    })?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Reads and validates the model in `dir`.
@@ -670,8 +724,48 @@ fn write_recovery(path: &Path, r: &Mat<f64>) -> Result<(), ModalError> {
     })
 }
 
-/// Reads a recovery basis, checking the magic, the sizes and the file length.
+/// Writes the recovery basis as `recovery.q24` (`recovery_codec`).
+fn write_compact_recovery(
+    path: &Path,
+    r: &Mat<f64>,
+    predictions: &[[usize; 3]],
+) -> Result<(), ModalError> {
+    crate::recovery_codec::check_predictions(r.nrows(), predictions).map_err(|message| {
+        ModalError::ReducedModel {
+            path: path.to_path_buf(),
+            message: format!("row predictions of the recovery basis: {message}"),
+        }
+    })?;
+    let columns: Vec<&[f64]> = (0..r.ncols()).map(|j| r.col_as_slice(j)).collect();
+    let bytes = crate::recovery_codec::encode(r.nrows(), &columns, predictions);
+    write_atomic(path, |w: &mut BufWriter<File>| w.write_all(&bytes))
+}
+
+/// Reads a recovery basis of either kind (by its magic), checking the sizes and the length.
 fn read_recovery(path: &Path) -> Result<Mat<f64>, ModalError> {
+    let mut magic = [0u8; 8];
+    let compact = File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok()
+        && &magic == crate::recovery_codec::MAGIC;
+    if !compact {
+        return read_float64_recovery(path);
+    }
+    let bytes = std::fs::read(path).map_err(|source| ModalError::Io {
+        action: "cannot read",
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let (rows, columns) =
+        crate::recovery_codec::decode(&bytes).map_err(|message| ModalError::ReducedModel {
+            path: path.to_path_buf(),
+            message,
+        })?;
+    Ok(Mat::from_fn(rows, columns.len(), |i, j| columns[j][i]))
+}
+
+/// Reads a `recovery.f64`, checking the magic, the sizes and the file length.
+fn read_float64_recovery(path: &Path) -> Result<Mat<f64>, ModalError> {
     let io = |source| ModalError::Io {
         action: "cannot read",
         path: path.to_path_buf(),

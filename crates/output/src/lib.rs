@@ -6,6 +6,8 @@
 //! * [`finite`]: guards that refuse NaN and infinities, naming the field ([`check_finite`]).
 //! * [`vtu`] / [`pvd`]: VTK XML unstructured grids (TET4 / TET10) with point and cell data for
 //!   ParaView, and PVD collections of them for time series.
+//! * [`xdmf`]: XDMF 3 time series with HDF5 heavy data (one mesh, per-frame fields, identical
+//!   arrays stored once) for ParaView and meshio.
 //! * [`csv`]: small CSV tables written at full precision; [`json`]: pretty JSON of any
 //!   `serde::Serialize` value, refusing non-finite numbers.
 //! * [`plot`]: line plots and heat maps as SVG, rasterized to PNG with `resvg`.
@@ -23,6 +25,7 @@ mod number;
 pub mod plot;
 pub mod pvd;
 pub mod vtu;
+pub mod xdmf;
 mod xml;
 
 pub use atomic::{remove_stale_temporaries, write_atomic, write_atomic_with, AtomicFile};
@@ -37,3 +40,4 @@ pub use pvd::{write_pvd, write_pvd_with_note, PvdEntry};
 pub use vtu::{
     vtu_document, write_vtu, write_vtu_with, Field, Precision, VtuEncoding, VtuMesh, VtuWriter,
 };
+pub use xdmf::{write_xdmf_series, XdmfFrame, XdmfWritten};

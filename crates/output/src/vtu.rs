@@ -303,7 +303,7 @@ impl VtuWriter {
 }
 
 /// Validates the mesh and returns its VTK cell type.
-fn check_mesh(file: &str, mesh: &VtuMesh) -> Result<u8, OutputError> {
+pub(crate) fn check_mesh(file: &str, mesh: &VtuMesh) -> Result<u8, OutputError> {
     let cell_type = match mesh.nodes_per_cell {
         4 => VTK_TETRA,
         10 => VTK_QUADRATIC_TETRA,
@@ -347,7 +347,12 @@ fn check_mesh(file: &str, mesh: &VtuMesh) -> Result<u8, OutputError> {
     Ok(cell_type)
 }
 
-fn check_fields(file: &str, kind: &str, fields: &[Field], count: usize) -> Result<(), OutputError> {
+pub(crate) fn check_fields(
+    file: &str,
+    kind: &str,
+    fields: &[Field],
+    count: usize,
+) -> Result<(), OutputError> {
     for (k, f) in fields.iter().enumerate() {
         let what = format!("{kind} field `{}` of {file}", f.name);
         if f.name.trim().is_empty() {
