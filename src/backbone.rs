@@ -315,7 +315,7 @@ pub fn write(b: &Backbone, dir: &Path) -> Result<()> {
         );
     }
     backbone_csv(b)?.write(&dir.join("backbone.csv"))?;
-    nlmodes_output::write_json(&dir.join("backbone.json"), b)?;
+    nlmodes_output::write_json_compact(&dir.join("backbone.json"), b)?;
     Ok(())
 }
 

@@ -15,6 +15,16 @@ use crate::OutputError;
 /// Serializes `value` as pretty JSON, refusing non-finite numbers; `what` names the output in
 /// errors.
 pub fn to_json_string<T: Serialize + ?Sized>(what: &str, value: &T) -> Result<String, OutputError> {
+    serialize(what, value, true)
+}
+
+/// `value` as JSON, pretty or compact (one line: for large number arrays, where the pretty form's
+/// one number per indented line doubles the size), non-finite numbers refused.
+fn serialize<T: Serialize + ?Sized>(
+    what: &str,
+    value: &T,
+    pretty: bool,
+) -> Result<String, OutputError> {
     value
         .serialize(FiniteCheck {
             path: String::new(),
@@ -30,8 +40,12 @@ pub fn to_json_string<T: Serialize + ?Sized>(what: &str, value: &T) -> Result<St
             },
             CheckError::Custom(msg) => OutputError::invalid(what.to_string(), msg),
         })?;
-    let mut text = serde_json::to_string_pretty(value)
-        .map_err(|e| OutputError::invalid(what.to_string(), e.to_string()))?;
+    let text = if pretty {
+        serde_json::to_string_pretty(value)
+    } else {
+        serde_json::to_string(value)
+    };
+    let mut text = text.map_err(|e| OutputError::invalid(what.to_string(), e.to_string()))?;
     text.push('\n');
     Ok(text)
 }
@@ -39,6 +53,16 @@ pub fn to_json_string<T: Serialize + ?Sized>(what: &str, value: &T) -> Result<St
 /// Writes `value` as pretty JSON to `path` atomically (see [`to_json_string`]).
 pub fn write_json<T: Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), OutputError> {
     let text = to_json_string(&path.display().to_string(), value)?;
+    write_atomic(path, text.as_bytes())
+}
+
+/// Writes `value` as compact (one-line) JSON to `path` atomically, non-finite numbers refused:
+/// for files of large number arrays (backbone.json: every orbit's Fourier coefficients).
+pub fn write_json_compact<T: Serialize + ?Sized>(
+    path: &Path,
+    value: &T,
+) -> Result<(), OutputError> {
+    let text = serialize(&path.display().to_string(), value, false)?;
     write_atomic(path, text.as_bytes())
 }
 
@@ -346,6 +370,21 @@ mod tests {
         q: f64,
         omega: f64,
         note: Option<String>,
+    }
+
+    #[test]
+    fn compact_json_is_one_line_that_reads_back_and_refuses_nan() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("b.json");
+        let points = vec![1.5f64, -2.25, 3e-9];
+        write_json_compact(&path, &points).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.trim_end().lines().count(), 1, "{text}");
+        let back: Vec<f64> = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, points);
+        let bad = write_json_compact(&dir.path().join("c.json"), &[f64::NAN]);
+        assert!(bad.is_err());
+        assert!(!dir.path().join("c.json").exists());
     }
 
     #[derive(Serialize)]

@@ -32,7 +32,7 @@ pub use atomic::{remove_stale_temporaries, write_atomic, write_atomic_with, Atom
 pub use csv::{write_csv_columns, CsvTable, CsvValue};
 pub use error::OutputError;
 pub use finite::{check_finite, check_finite_value};
-pub use json::{to_json_string, write_json};
+pub use json::{to_json_string, write_json, write_json_compact};
 pub use plot::{
     Color, Colormap, HeatMap, LegendPosition, LinePlot, LineStyle, Orientation, RefLine, Series,
 };
