@@ -833,21 +833,16 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     fn scaled_guess(&self, trace: &Trace, pred: &[f64]) -> Guess {
         let last = self.last_point(trace);
         let s = pred[0] * self.g_ref / last.q;
-        Guess {
-            mode: last.mode,
-            coefficients: last
-                .coefficients
-                .iter()
-                .map(|c| c.iter().map(|v| v * s).collect())
-                .collect(),
-            omega: pred[1] * self.w_lin,
-            q: pred[0] * self.g_ref,
-            multipliers: last.multipliers.clone(),
-        }
+        let coefficients = last
+            .coefficients
+            .iter()
+            .map(|c| c.iter().map(|v| v * s).collect())
+            .collect();
+        self.guess_at(last, coefficients, pred)
     }
 
-    /// Warm start at a predictor past a tongue: coefficients extrapolated along the secant from
-    /// point `from` to the branch's last point (ratio = predicted step / secant length).
+    /// Warm start at a predictor: coefficients extrapolated along the secant from point `from`
+    /// to the branch's last point (ratio = predicted step / secant length).
     fn extrapolate_between(&self, from: usize, trace: &Trace, pred: &[f64], ratio: f64) -> Guess {
         let last = self.last_point(trace);
         let prev = &self.result.points[from];
@@ -857,34 +852,23 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             .zip(&prev.coefficients)
             .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x + ratio * (x - y)).collect())
             .collect();
-        Guess {
-            mode: last.mode,
-            coefficients,
-            omega: pred[1] * self.w_lin,
-            q: pred[0] * self.g_ref,
-            multipliers: last.multipliers.clone(),
-        }
+        self.guess_at(last, coefficients, pred)
     }
 
     /// Warm start at the predictor: coefficients extrapolated along the secant of the branch's
-    /// last two points (ratio = predicted step / last step), theta and kappa of the last point.
+    /// last two points (ratio = predicted step / last step), or the last orbit scaled to the
+    /// predicted amplitude on a one-point branch; theta and kappa of the last point.
     fn extrapolate(&self, trace: &Trace, pred: &[f64], ratio: f64) -> Guess {
         let pts = &trace.points;
-        let last = &self.result.points[pts[pts.len() - 1]];
-        let coefficients = if pts.len() >= 2 {
-            let prev = &self.result.points[pts[pts.len() - 2]];
-            last.coefficients
-                .iter()
-                .zip(&prev.coefficients)
-                .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x + ratio * (x - y)).collect())
-                .collect()
+        if pts.len() >= 2 {
+            self.extrapolate_between(pts[pts.len() - 2], trace, pred, ratio)
         } else {
-            let s = pred[0] * self.g_ref / last.q;
-            last.coefficients
-                .iter()
-                .map(|c| c.iter().map(|v| v * s).collect())
-                .collect()
-        };
+            self.scaled_guess(trace, pred)
+        }
+    }
+
+    /// The guess at predictor `pred` with `coefficients`, the mode and multipliers of `last`.
+    fn guess_at(&self, last: &BackbonePoint, coefficients: Vec<Vec<f64>>, pred: &[f64]) -> Guess {
         Guess {
             mode: last.mode,
             coefficients,
