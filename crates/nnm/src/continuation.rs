@@ -224,6 +224,28 @@ pub struct Backbone {
     pub branches: Vec<Branch>,
 }
 
+impl Backbone {
+    /// A backbone with no point yet: `termination` until the run says otherwise, the linear
+    /// frequency `omega_linear`, the gap reference and the grazing amplitude of the mode.
+    pub(crate) fn empty(
+        termination: Termination,
+        omega_linear: f64,
+        gap_reference: f64,
+        grazing_amplitude: Option<f64>,
+    ) -> Self {
+        Self {
+            points: Vec::new(),
+            termination,
+            omega_linear,
+            gap_reference,
+            grazing_amplitude,
+            skipped: Vec::new(),
+            internal_resonances: Vec::new(),
+            branches: Vec::new(),
+        }
+    }
+}
+
 /// What a branch of [`Backbone::branches`] is.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]

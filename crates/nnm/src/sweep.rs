@@ -91,16 +91,12 @@ impl<'s, 'c> Sweep<'s, 'c> {
         let system = solver.system();
         let w1 = solver.linear_frequency(cont.mode)?;
         let g_ref = system.gap_reference();
-        let result = Backbone {
-            points: Vec::new(),
-            termination: Termination::ReachedMaxAmplitude,
-            omega_linear: w1,
-            gap_reference: g_ref,
-            grazing_amplitude: system.grazing_amplitude(cont.mode)?,
-            skipped: Vec::new(),
-            internal_resonances: Vec::new(),
-            branches: Vec::new(),
-        };
+        let result = Backbone::empty(
+            Termination::ReachedMaxAmplitude,
+            w1,
+            g_ref,
+            system.grazing_amplitude(cont.mode)?,
+        );
         Ok(Self {
             solver,
             cont,

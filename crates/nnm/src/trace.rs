@@ -108,16 +108,12 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         let system = solver.system();
         let w_lin = solver.linear_frequency(cont.mode)?;
         let g_ref = system.gap_reference();
-        let result = Backbone {
-            points: Vec::new(),
-            termination: Termination::MaxPoints,
-            omega_linear: w_lin,
-            gap_reference: g_ref,
-            grazing_amplitude: system.grazing_amplitude(cont.mode)?,
-            skipped: Vec::new(),
-            internal_resonances: Vec::new(),
-            branches: Vec::new(),
-        };
+        let result = Backbone::empty(
+            Termination::MaxPoints,
+            w_lin,
+            g_ref,
+            system.grazing_amplitude(cont.mode)?,
+        );
         Ok(Self {
             y_norm: ((system.n_contacts() + 1) as f64).sqrt(),
             omegas: system.linear_frequencies(),
