@@ -359,12 +359,33 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     });
     validate::check_nnm(a.harmonics, a.samples, &mut problems);
     validate::check_settings(&params, &cont, &mut problems);
+    if !(cont.modes.is_empty() || cont.modes == [cont.mode]) {
+        problems.check(
+            false,
+            "continuation.modes",
+            &cont.modes,
+            "no list here: `nlmodes backbone` traces one mode (`mode = k`); \
+             `nlmodes run` traces several",
+        );
+    }
     if let Err(e) = stab.hill.validate() {
         problems.note("stability.hill", &e.to_string());
     }
     problems.finish()?;
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = load_model(&a.model)?;
+    let mode_count = reduced.n();
+    if cont.mode >= mode_count {
+        return Err(bad_input(format!(
+            "{}: continuation.mode = {}: expected a linear mode index (0-based) below {mode_count}, \
+             the order of the reduced model {}",
+            a.settings
+                .as_deref()
+                .map_or_else(|| "defaults".to_string(), |p| p.display().to_string()),
+            cont.mode,
+            a.model.display()
+        )));
+    }
     if let Some(m) = a.master.filter(|&m| m >= reduced.n()) {
         return Err(bad_input(format!(
             "--master {m}: expected a reduced coordinate index < {} (the model's order)",

@@ -97,6 +97,7 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
     check_model(case, &mut p);
     check_nnm(case.nnm.harmonics, case.nnm.samples, &mut p);
     check_settings(&case.algorithm, &case.continuation, &mut p);
+    check_traced_modes(case, &mut p);
     let tol = case.nnm.truncation_tolerance;
     p.check(
         tol.is_finite() && tol > 0.0 && tol < 1.0,
@@ -249,6 +250,23 @@ pub fn check_nnm(harmonics: usize, samples: usize, p: &mut Problems) {
         samples,
         &format!("at least 2 nnm.harmonics + 1 = {min} time samples per period"),
     );
+}
+
+/// The modes a case traces (`continuation.mode`, or each of `continuation.modes`): below
+/// `model.fixed_interface_modes`, the modes the Craig-Bampton basis is built to represent (the
+/// reduced model's higher modes are not converged), so a bad index is refused before meshing and
+/// reduction.
+fn check_traced_modes(case: &Case, p: &mut Problems) {
+    let limit = case.model.fixed_interface_modes;
+    let expected =
+        format!("a linear mode index (0-based) below model.fixed_interface_modes = {limit}");
+    let cont = &case.continuation;
+    if cont.modes.is_empty() {
+        p.check(cont.mode < limit, "continuation.mode", cont.mode, &expected);
+    }
+    for (i, &k) in cont.modes.iter().enumerate() {
+        p.check(k < limit, &format!("continuation.modes[{i}]"), k, &expected);
+    }
 }
 
 /// The `[algorithm]` and `[continuation]` tables: the ranges of the nnm crate, named by table.

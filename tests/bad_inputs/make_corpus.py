@@ -174,6 +174,9 @@ def case_files(c, geo):
         ("growth_below_1", "q_max = 14.0\ngrowth = 0.5", r"continuation: parameter growth = 0\.5"),
         ("shrink_above_1", "q_max = 14.0\nshrink = 1.5", r"continuation: parameter shrink = 1\.5"),
         ("q_max_default_is_35", "step = 0.25", r"nnm\.keep\[0\] = 36\.0: expected .*\[0\.5, 35\]"),
+        ("modes_twice", "q_max = 14.0\nmodes = [0, 1, 0]", r"continuation: parameter modes = 0 is invalid: expected each mode listed once"),
+        ("modes_beyond_basis", "q_max = 14.0\nmodes = [0, 25]", r"continuation\.modes\[1\] = 25: expected a linear mode index \(0-based\) below model\.fixed_interface_modes = 20"),
+        ("mode_beyond_basis", "q_max = 14.0\nmode = 57", r"continuation\.mode = 57: expected a linear mode index \(0-based\) below model\.fixed_interface_modes = 20"),
     ]:
         text = base_case(c, geo, continuation=lines)
         if name == "q_max_default_is_35":
@@ -279,6 +282,9 @@ def settings_files(c, model):
     bad("q_max_default_is_35", "[continuation]\nstep = 0.25\n",
         r"parameter q_max = 35 is invalid: expected a value > q_start", extra=["--q-start", "36"])
     bad("max_penalty_below_initial", "[algorithm]\nmax_penalty = 5.0\n", r"parameter max_penalty = 5")
+    bad("modes_list", "[continuation]\nmodes = [0, 1]\n", r"continuation\.modes = \[0, 1\]: expected no list here: `nlmodes backbone` traces one mode")
+    bad("mode_beyond_model", "[continuation]\nmode = 5000\n", r"continuation\.mode = 5000: expected a linear mode index \(0-based\) below \d+, the order of the reduced model")
+    bad("step_huge", "[continuation]\nstep = 1e300\n", r"parameter step = 1e300 is invalid: expected min_step <= step <= max_step")
     c.add("settings file", "settings_missing", ["backbone", model, "--settings", c.path("settings/none.toml"), "-o", out],
           r"cannot read the settings file .*none\.toml")
 

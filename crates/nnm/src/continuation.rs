@@ -157,6 +157,17 @@ impl ContinuationSettings {
                 expected: ">= 1",
             });
         }
+        if let Some(twice) = (1..self.modes.len()).find_map(|i| {
+            self.modes[..i]
+                .contains(&self.modes[i])
+                .then_some(self.modes[i])
+        }) {
+            return Err(NnmError::InvalidParameter {
+                name: "modes",
+                value: twice as f64,
+                expected: "each mode listed once (0-based linear mode indices)",
+            });
+        }
         Ok(())
     }
 }

@@ -134,7 +134,7 @@ pub enum NnmError {
         detail: String,
     },
     /// An algorithm or continuation parameter out of range.
-    #[error("parameter {name} = {value} is invalid: expected {expected}")]
+    #[error("parameter {name} = {} is invalid: expected {expected}", show_value(*.value))]
     InvalidParameter {
         /// Parameter name as in the settings file.
         name: &'static str,
@@ -232,4 +232,48 @@ pub enum NnmError {
         /// What does not match.
         detail: String,
     },
+}
+
+/// A parameter value as a person reads it: plain decimal (`35`, `0.25`) unless very large or
+/// very small, then in exponent form (`1e300`, `2.5e-9`), not 300 digits.
+fn show_value(value: f64) -> String {
+    let a = value.abs();
+    if value.is_finite() && a != 0.0 && !(1e-6..1e9).contains(&a) {
+        format!("{value:e}")
+    } else {
+        format!("{value}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameter_values_are_printed_readably() {
+        let msg = |value: f64| {
+            NnmError::InvalidParameter {
+                name: "step",
+                value,
+                expected: "x",
+            }
+            .to_string()
+        };
+        assert_eq!(msg(0.25), "parameter step = 0.25 is invalid: expected x");
+        assert_eq!(msg(35.0), "parameter step = 35 is invalid: expected x");
+        assert_eq!(msg(0.0), "parameter step = 0 is invalid: expected x");
+        assert_eq!(
+            msg(-1e300),
+            "parameter step = -1e300 is invalid: expected x"
+        );
+        assert_eq!(
+            msg(2.5e-9),
+            "parameter step = 2.5e-9 is invalid: expected x"
+        );
+        assert_eq!(msg(f64::NAN), "parameter step = NaN is invalid: expected x");
+        assert_eq!(
+            msg(f64::INFINITY),
+            "parameter step = inf is invalid: expected x"
+        );
+    }
 }

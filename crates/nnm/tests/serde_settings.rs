@@ -87,3 +87,16 @@ fn modes_default_to_the_single_mode() {
         serde_json::from_str(r#"{"modes": [0, 1, 2]}"#).expect("json");
     assert_eq!(several.modes_to_trace(), vec![0, 1, 2]);
 }
+
+#[test]
+fn a_mode_listed_twice_is_refused() {
+    let twice: ContinuationSettings =
+        serde_json::from_str(r#"{"modes": [0, 2, 1, 2]}"#).expect("json");
+    let err = twice.validate().expect_err("mode 2 is listed twice");
+    assert_eq!(
+        err.to_string(),
+        "parameter modes = 2 is invalid: expected each mode listed once (0-based linear mode indices)"
+    );
+    let once: ContinuationSettings = serde_json::from_str(r#"{"modes": [2, 0, 1]}"#).expect("json");
+    once.validate().expect("distinct modes");
+}
