@@ -80,7 +80,13 @@ fn augmented_lagrangian_condensed_solve_is_history_free() {
     let sys = common::lattice_blade(6, 4, 6, 1.0);
     let settings = HarmonicSettings::with_default_samples(8).expect("settings");
     let solver = SolverSettings::from(AlgorithmParams::default());
-    let history = [(1.5, true), (6.0, true), (4.0, false), (30.0, true), (1.2, true)];
+    let history = [
+        (1.5, true),
+        (6.0, true),
+        (4.0, false),
+        (30.0, true),
+        (1.2, true),
+    ];
     check_history_free(&sys, settings, solver, 1.3, &history, &[1.4, 2.5]);
 }
 
@@ -128,5 +134,12 @@ fn augmented_lagrangian_impact_system_solve_is_history_free() {
         (1.3 * qg, false),
         (3.0 * qg, true),
     ];
-    check_history_free(&sys, settings, solver, 1.02 * qg, &history, &[1.1 * qg, 1.4 * qg]);
+    check_history_free(
+        &sys,
+        settings,
+        solver,
+        1.02 * qg,
+        &history,
+        &[1.1 * qg, 1.4 * qg],
+    );
 }
