@@ -2,13 +2,18 @@
 //! third of the second mode's frequency (issue 12, "Tongues"; docs/DESIGN.md §8.3).
 //!
 //! System: two unit masses, a spring k1 = 1 from the wall to mass 1 and k2 = 1.7 between the
-//! masses (K = [[2.7, -1.7], [-1.7, 1.7]], M = I), penalty contact on mass 2 (gap g = 1), which
-//! is also the master; kc = 0.3 and kc = 3 (two tests). Linear frequencies w1 = 0.654214,
-//! w2 = 1.992989: w2 / w1 = 3.0464. With the contact closed for good (K + kc A^T A) the second
-//! mode would be at w2c = w2 (1 + 1.42e-2) (kc = 0.3) or w2 (1 + 0.195) (kc = 3). Mode 1 grazes
-//! at q = 1 and then stiffens (3 w / w2 from 0.985 to 1.063 at q = 10, kc = 0.3), so 3 w crosses
-//! w2 at w = 1.0155 w1: a 1:3 internal resonance, where the contact force's third harmonic drives
-//! mode 2.
+//! masses (K = [[2.7, -1.7], [-1.7, 1.7]], M = I), one penalty contact row (gap g = 1) on one
+//! mass, which is also the master. Linear frequencies w1 = 0.654214, w2 = 1.992989:
+//! w2 / w1 = 3.0464. Mass-normalized modes phi1 = (0.599, 0.801), phi2 = (0.801, -0.599). Mode 1
+//! grazes and then stiffens (3 w / w2 from 0.985 to 1.063 at q = 10 g with kc = 0.3 on mass 2),
+//! so 3 w crosses w2 at w = 1.0155 w1: a 1:3 internal resonance, where the contact force's third
+//! harmonic drives mode 2. Three tests:
+//! * kc = 0.3 on mass 2; with the contact closed for good (K + kc A^T A) mode 2 would be at
+//!   w2c = w2 (1 + 1.42e-2);
+//! * kc = 3 on mass 2 (w2c = w2 (1 + 0.195));
+//! * kc = 0.3 on mass 1 (w2c = w2 (1 + 2.46e-2)), where mode 2 moves the contact row more
+//!   (|a2| = 0.801 against 0.599 on mass 2): mode 2 grazes at a smaller modal amplitude
+//!   (eta = 1.249 against 1.669) and the tongue takes it well into its own contact regime.
 //!
 //! Which w_k the tongue locks to. Along the tongue the energy flows into mode 2 at harmonic 3,
 //! and the tongue ends (q -> 0) on mode 2's own branch, seen as a period-3 orbit. The contact
@@ -29,34 +34,53 @@
 //! |3 w / Omega2 - 1| <= D = kc |a1 a2| max|y1| (f_t + f_2) / (Omega2^2 eta).
 //! Neglected: the difference of the mode-2 motions themselves (the tongue's mode 2 is not
 //! exactly mode 2's own orbit while mode 1 still acts on it), and the truncation (Omega2 with
-//! N = 6, the resolution of mode 2 in the N = 18 tongue, differs from N = 60 by < 2e-6). D is
-//! large where the tongue leaves the main branch (mode 1 still holds 40-50 % of the energy and
-//! dominates the contact motion) and small where the tongue ends on mode 2's branch.
+//! N = 12, the resolution of mode 2 in the N = 36 tongue, differs from N = 60 by at most 1.2e-6
+//! on these tongues, 12 times below the smallest D). D is large where the tongue leaves the main
+//! branch (mode 1 still holds about half the energy and dominates the contact motion) and small
+//! where the tongue ends on mode 2's branch. The continuation's last tongue point is at
+//! q = 0.03-0.06 g; the tongue is followed further toward q = 0 by fixed-q solves (halving q,
+//! down to q <= 0.005 g), where D is smaller still.
 //!
-//! Measured (N = 18, m = 192; both tests 0.35 s in release):
-//! * kc = 0.3: tongue detected at q = 1.518 (mode 2 at harmonic 3 holds 0.59 of the energy,
-//!   3 w / w2 - 1 = +1.6e-3), followed for 24 points down to q = 0.034 (mode-1 share 1e-4),
-//!   where it leaves the amplitude range; 3 w / Omega2 - 1 from +2.4e-3 (largest, q = 1.47) to
-//!   +1.0e-5 (last), D from 3.5e-2 to 1.5e-4, at most 0.29 D. Omega2 / w2 - 1 <= 1.5e-4: the
-//!   tongue ends at eta = 1.729, just past mode 2's own grazing (eta = 1 / |a2| = 1.669).
-//! * kc = 3: detected at q = 1.218 (share 0.50, +2.5e-3), 21 points down to q = 0.036;
+//! Measured (N = 36, m = 384; the three tests take 0.8-1.3 s in release on 2 shared cores):
+//! * kc = 0.3, mass 2: tongue detected at q = 1.518 (mode 2 at harmonic 3 holds 0.59 of the
+//!   energy, 3 w / w2 - 1 = +1.6e-3), followed for 24 points down to q = 0.034 (mode-1 share
+//!   1e-4), where it leaves the amplitude range. 3 w / Omega2 - 1 from +2.4e-3 (q = 1.47) to
+//!   +1.0e-5 (last), D from 3.4e-2 to 1.4e-4, at most 0.28 D. Omega2 / w2 - 1 <= 1.5e-4: the
+//!   tongue ends at eta = 1.729, just past mode 2's own grazing. At q = 0.0042: 2.2e-7
+//!   (D = 1.6e-5), Omega2 / w2 - 1 = 2.8e-5.
+//! * kc = 3, mass 2: detected at q = 1.218 (share 0.50, +2.6e-3), 21 points down to q = 0.036;
 //!   3 w / Omega2 - 1 from +3.2e-3 to +6.7e-5, at most 0.21 D; the tongue ends at eta = 1.659,
-//!   just below mode 2's grazing, so Omega2 = w2 there.
+//!   below mode 2's grazing, so Omega2 = w2 along it. At q = 0.0044: 7.2e-6 (D = 3.2e-5).
+//! * kc = 0.3, mass 1: detected at q = 2.161 (share 0.50, +7.0e-3), 35 points down to q = 0.059;
+//!   3 w / Omega2 - 1 from +7.2e-3 to +2.6e-5, at most 0.14 D; Omega2 / w2 - 1 up to 2.1e-3
+//!   along the tongue. At q = 0.0037 (eta = 1.355): 3 w / Omega2 - 1 = -2.1e-7 (D = 5.8e-5)
+//!   while 3 w / w2 - 1 = +3.1e-4: there the tongue locks to mode 2's nonlinear frequency, and the
+//!   linear w2 is rejected (the test asserts |3 w / w2 - 1| > D there).
 //!
-//! On this system the honest w_k is thus within 1.5e-4 of the linear w2, and the test cannot tell
-//! them apart; it does reject the contact-closed w2c (3 w / w2c - 1 = -1.2e-2 to -1.4e-2 for
-//! kc = 0.3, beyond D from q = 1.28 on; -0.16 for kc = 3).
+//! On the mass-2 systems the honest w_k is within 1.5e-4 of the linear w2 along the continuation's
+//! points, and the bound cannot tell them apart there.
 //!
-//! What it catches: a wrong harmonic (4 w or 2 w against Omega2: 33 % off) or mode, the
-//! contact-closed linearization as w_k, a tongue that drifts with amplitude instead of locking
-//! (as the main branch does), a tongue not on the output as its own branch with the main branch
-//! as parent, a tongue that does not return to mode 2's branch, a main branch that stops at the
-//! tongue or hops past it, and tongue orbits that are not periodic solutions. The RK4 check is
-//! also an independent check of the tongue's frequency: with w off by 1e-4 (measured) the
-//! velocity after one period misses by 3-4e-3, above its tolerance.
+//! Every tongue orbit is also checked by time integration (`check_periodicity`, RK4, 40 000 steps
+//! per period): tolerances 2e-4 (displacement, relative to max |u(0)|) and 2e-3 (velocity,
+//! relative to w max |u(0)|), as in tests/fold.rs. Measured maxima over the tongues: du 1.7e-6,
+//! 4.1e-5, 5.6e-7 and dv 2.7e-5, 1.7e-4, 3.3e-5 (the stiff contact has the largest truncation
+//! error; with N = 18 it reached du = 2.05e-4, hence N = 36). With w off by 1e-4 (measured on
+//! these orbits) the velocity after one period misses by 3-4e-3: the integration also checks the
+//! tongue's frequency independently, to about 1e-4.
 //!
-//! The rigid stop (augmented Lagrangian, Algorithm 1) on the same chain does not give a tongue
-//! that can be checked: see `rigid_stop_tongue_study` (ignored) and its doc.
+//! What it catches: a wrong harmonic (2 w or 4 w against Omega2: 33 % off) or mode, the
+//! contact-closed linearization as w_k (rejected from q = 1.28, 1.20 and 1.02 on), the linear w2
+//! where mode 2's own stiffening matters (tongue's end, mass 1), a tongue that drifts with
+//! amplitude instead of locking (as the main branch does), a tongue not on the output as its
+//! own branch with the main branch as parent, a tongue that does not return to mode 2's branch,
+//! a main branch that stops at the tongue or hops past it, and tongue orbits that are not
+//! periodic solutions.
+//!
+//! Not covered: with kc = 3 on mass 1 the tongue is entered by a fold of q while mode 1 still
+//! holds most of the energy, and the continuation leaves it after 2 points ("left the
+//! resonance": the share test decides); the rigid stop (augmented Lagrangian, Algorithm 1) on
+//! the same chain does not give a tongue that can be checked: see `rigid_stop_tongue_study`
+//! (ignored) and its doc.
 
 use faer::Mat;
 use nlmodes_nnm::{
@@ -71,14 +95,9 @@ const K2: f64 = 1.7;
 const MODE_2: usize = 1;
 const HARMONIC: usize = 3;
 
-/// The 2-DOF chain with one contact row on mass 2 and extra stiffness `closed` on that row
-/// (0: the system; kc: the contact closed for good).
-fn two_mass_chain(closed: f64) -> System {
-    chain_with_contact(1, 1, closed)
-}
-
 /// The 2-DOF chain with the contact row on mass `contact` (0-based, gap 1), master `master`, and
-/// extra stiffness `closed` on the contact row's DOF.
+/// extra stiffness `closed` on the contact row's DOF (0: the system; kc: the contact closed for
+/// good).
 fn chain_with_contact(contact: usize, master: usize, closed: f64) -> System {
     let m = Mat::from_fn(2, 2, |i, j| if i == j { 1.0 } else { 0.0 });
     let mut k = [[1.0 + K2, -K2], [-K2, K2]];
@@ -160,21 +179,27 @@ fn mode2_at(
 
 #[test]
 fn one_to_three_tongue_locks_to_a_third_of_mode_2_soft_penalty() {
-    tongue_locks(0.3);
+    tongue_locks(0.3, 1);
 }
 
 #[test]
 fn one_to_three_tongue_locks_to_a_third_of_mode_2_stiff_penalty() {
-    tongue_locks(3.0);
+    tongue_locks(3.0, 1);
 }
 
-/// The whole check with penalty stiffness `kc` (see the module doc).
-fn tongue_locks(kc: f64) {
-    let sys = two_mass_chain(0.0);
+#[test]
+fn one_to_three_tongue_locks_to_mode_2_nonlinear_frequency() {
+    tongue_locks(0.3, 0);
+}
+
+/// The whole check with penalty stiffness `kc` on mass `contact` (0-based, also the master; see
+/// the module doc).
+fn tongue_locks(kc: f64, contact: usize) {
+    let sys = chain_with_contact(contact, contact, 0.0);
     let w = sys.linear_frequencies();
-    let w2_closed = two_mass_chain(kc).linear_frequencies()[MODE_2];
-    // N = 18 harmonics of w resolve mode 2 at 3 w with 6; m = 192 = 3 x 64 samples.
-    let settings = HarmonicSettings::new(18, 192).expect("settings");
+    let w2_closed = chain_with_contact(contact, contact, kc).linear_frequencies()[MODE_2];
+    // N = 36 harmonics of w resolve mode 2 at 3 w with 12; m = 384 = 3 x 128 samples.
+    let settings = HarmonicSettings::new(36, 384).expect("settings");
     let cont = ContinuationSettings {
         q_start: 0.5,
         q_max: 10.0,
@@ -195,29 +220,18 @@ fn tongue_locks(kc: f64) {
     println!("{:?}\n{:?}", b.internal_resonances, b.branches);
     let pts = tongue_branch(&b, cont.q_max);
     check_locking(&sys, kc, &pts, w[1], w2_closed);
+    check_tongue_end(&sys, kc, settings, pts[pts.len() - 1], contact == 0);
 
-    // Two tongue orbits, one where mode 1 still holds > 10 % of the energy and one deep in the
-    // tongue, are periodic solutions of the penalty system (RK4, independent of harmonic
-    // balance). Tolerances as in tests/fold.rs: 2e-4 (displacement, relative to max |u(0)|) and
-    // 2e-3 (velocity, relative to w max |u(0)|) cover the N = 18 truncation of the contact force,
-    // while a non-periodic initial state misses by O(1).
-    let early = pts
-        .iter()
-        .rev()
-        .find(|p| p.primary_share > 0.1)
-        .expect("an early tongue point");
-    let deep = pts[pts.len() / 2];
-    for p in [early, &deep] {
+    // Every tongue orbit is a periodic solution of the penalty system (RK4 over one period,
+    // independent of harmonic balance); see the module doc for the tolerances.
+    let (mut du, mut dv) = (0.0_f64, 0.0_f64);
+    for p in &pts {
         let chk = check_periodicity(&sys, &[kc], p, 40_000).expect("integration");
-        println!(
-            "  periodicity at q = {:.4}, w/w1 = {:.6}, primary share {:.3}: du = {:.2e}, dv = {:.2e}",
-            p.q, p.omega_ratio, p.primary_share, chk.displacement_error, chk.velocity_error
-        );
-        assert!(
-            chk.displacement_error <= 2e-4 && chk.velocity_error <= 2e-3,
-            "{chk:?}"
-        );
+        du = du.max(chk.displacement_error);
+        dv = dv.max(chk.velocity_error);
     }
+    println!("largest periodicity errors over the tongue: du = {du:.2e}, dv = {dv:.2e}");
+    assert!(du <= 2e-4 && dv <= 2e-3, "du = {du:.2e}, dv = {dv:.2e}");
 }
 
 /// The 3:1 tongue with mode 2 is detected, followed as its own branch off the main branch, and
@@ -267,48 +281,139 @@ fn tongue_branch(b: &Backbone, q_max: f64) -> Vec<&BackbonePoint> {
     pts
 }
 
+/// The independent reference of the locking: mode 2's own nonlinear mode (N = 60), and the
+/// coupling bound D of the module doc.
+struct ModeTwoReference<'s> {
+    sys: &'s System,
+    kc: f64,
+    solver: Solver<'s>,
+    /// |a1 a2|, a_k = A phi_k the contact displacement of mass-normalized mode k.
+    a1a2: f64,
+    /// The last reference orbit (warm start of the next).
+    warm: Option<BackbonePoint>,
+}
+
+/// A tongue point against mode 2's own orbit at the same modal amplitude.
+struct Locking {
+    /// Modal amplitude of mode 2 at harmonic 3 in the tongue orbit.
+    eta: f64,
+    /// Omega2(eta) (rad/s).
+    omega2: f64,
+    /// 3 w / Omega2 - 1.
+    detuning: f64,
+    /// D.
+    bound: f64,
+}
+
+impl<'s> ModeTwoReference<'s> {
+    fn new(sys: &'s System, kc: f64) -> Self {
+        let fine = HarmonicSettings::with_default_samples(60).expect("settings");
+        let a = |mode: usize| {
+            let phi = sys.linear_mode(mode).expect("mode");
+            (0..sys.n_dofs())
+                .map(|i| sys.contact_rows()[(0, i)] * phi[i])
+                .sum::<f64>()
+        };
+        Self {
+            sys,
+            kc,
+            solver: Solver::new(sys, fine, penalty(kc)).expect("solver"),
+            a1a2: (a(0) * a(MODE_2)).abs(),
+            warm: None,
+        }
+    }
+
+    fn at(&mut self, p: &BackbonePoint) -> Locking {
+        let eta = modal_amplitude(self.sys, MODE_2, &p.coefficients[HARMONIC]).abs();
+        let own = mode2_at(&mut self.solver, self.sys, eta, self.warm.as_ref());
+        // The two contact forces differ only where one of the orbits is in contact.
+        let in_contact = p.contact_fraction[0] + own.contact_fraction[0];
+        let bound = self.kc * self.a1a2 * modal_peak(self.sys, 0, p) * in_contact
+            / (own.omega.powi(2) * eta);
+        let locking = Locking {
+            eta,
+            omega2: own.omega,
+            detuning: HARMONIC as f64 * p.omega / own.omega - 1.0,
+            bound,
+        };
+        self.warm = Some(own);
+        locking
+    }
+}
+
 /// Along the tongue, |3 w / Omega2(eta) - 1| <= D (see the module doc) at every point; the
 /// tongue returns to q -> 0 on mode 2's own branch, where the mode-1 content vanishes.
 fn check_locking(sys: &System, kc: f64, pts: &[&BackbonePoint], w2: f64, w2_closed: f64) {
-    let fine = HarmonicSettings::with_default_samples(60).expect("settings");
-    let mut solver = Solver::new(sys, fine, penalty(kc)).expect("solver");
-    let a = |mode: usize| {
-        let phi = sys.linear_mode(mode).expect("mode");
-        (0..sys.n_dofs())
-            .map(|i| sys.contact_rows()[(0, i)] * phi[i])
-            .sum::<f64>()
-    };
-    let (a1, a2) = (a(0), a(MODE_2));
-    let mut warm: Option<BackbonePoint> = None;
+    let mut reference = ModeTwoReference::new(sys, kc);
     let mut worst: f64 = 0.0;
     for p in pts {
-        let eta = modal_amplitude(sys, MODE_2, &p.coefficients[HARMONIC]).abs();
-        let own = mode2_at(&mut solver, sys, eta, warm.as_ref());
-        let locking = HARMONIC as f64 * p.omega / own.omega - 1.0;
-        // The two contact forces differ only where one of the orbits is in contact.
-        let in_contact = p.contact_fraction[0] + own.contact_fraction[0];
-        let bound =
-            kc * (a1 * a2).abs() * modal_peak(sys, 0, p) * in_contact / (own.omega.powi(2) * eta);
+        let l = reference.at(p);
         println!(
             "q {:.4} mode-1 share {:.4} eta {:.4}: 3w/w2 - 1 = {:+.3e}, Omega2/w2 - 1 = {:+.3e}, \
              3w/Omega2 - 1 = {:+.3e} (bound D = {:.3e}), 3w/w2c - 1 = {:+.3e}",
             p.q,
             p.primary_share,
-            eta,
+            l.eta,
             HARMONIC as f64 * p.omega / w2 - 1.0,
-            own.omega / w2 - 1.0,
-            locking,
-            bound,
+            l.omega2 / w2 - 1.0,
+            l.detuning,
+            l.bound,
             HARMONIC as f64 * p.omega / w2_closed - 1.0
         );
-        assert!(locking.abs() <= bound, "not locked at q = {}", p.q);
-        worst = worst.max(locking.abs() / bound);
-        warm = Some(own);
+        assert!(l.detuning.abs() <= l.bound, "not locked at q = {}", p.q);
+        worst = worst.max(l.detuning.abs() / l.bound);
     }
     println!("largest |3w/Omega2 - 1| / D = {worst:.3}");
     // The tongue ends on mode 2's own branch (q -> 0, mode 1's share -> 0).
     let last = pts[pts.len() - 1];
     assert!(last.q < 0.1 && last.primary_share < 1e-3, "{:?}", last.q);
+}
+
+/// The tongue's end, closer to q = 0 than the continuation's last point: fixed-q solves from it,
+/// halving q down to q <= 0.005 g. There D is small, and the tongue must lock to Omega2(eta)
+/// there too; with `separates_w2` (mode 2 well into its own contact regime) the linear w2 must be
+/// outside the band: |3 w / w2 - 1| > D.
+fn check_tongue_end(
+    sys: &System,
+    kc: f64,
+    settings: HarmonicSettings,
+    last: &BackbonePoint,
+    separates_w2: bool,
+) {
+    let mut solver = Solver::new(sys, settings, penalty(kc)).expect("solver");
+    let mut p = last.clone();
+    while p.q > 0.005 {
+        p = solver
+            .solve_point(0.5 * p.q, Start::Point(&p))
+            .expect("tongue toward q = 0");
+        assert!(
+            (p.secondary_mode, p.secondary_harmonic) == (MODE_2, HARMONIC)
+                && p.secondary_share > 0.99,
+            "left the tongue at q = {}",
+            p.q
+        );
+    }
+    let l = ModeTwoReference::new(sys, kc).at(&p);
+    let w2 = sys.linear_frequencies()[MODE_2];
+    let linear = HARMONIC as f64 * p.omega / w2 - 1.0;
+    println!(
+        "tongue end q = {:.5}, mode-1 share {:.2e}, eta {:.4}: 3w/Omega2 - 1 = {:+.3e} (D = {:.3e}), \
+         Omega2/w2 - 1 = {:+.3e}, 3w/w2 - 1 = {:+.3e}",
+        p.q,
+        p.primary_share,
+        l.eta,
+        l.detuning,
+        l.bound,
+        l.omega2 / w2 - 1.0,
+        linear
+    );
+    assert!(
+        l.detuning.abs() <= l.bound,
+        "not locked at the tongue's end"
+    );
+    if separates_w2 {
+        assert!(linear.abs() > l.bound, "w2 not separated from Omega2");
+    }
 }
 
 /// Study of the rigid stop (augmented Lagrangian, Algorithm 1) on the same chain (not a check:
@@ -339,7 +444,7 @@ fn check_locking(sys: &System, kc: f64, pts: &[&BackbonePoint], w2: f64, w2_clos
 #[test]
 #[ignore = "study of the rigid-stop tongue, printed (a few seconds)"]
 fn rigid_stop_tongue_study() {
-    let settings = HarmonicSettings::new(18, 192).expect("settings");
+    let settings = HarmonicSettings::new(36, 384).expect("settings");
     let cont = ContinuationSettings {
         q_start: 0.5,
         q_max: 10.0,
