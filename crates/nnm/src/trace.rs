@@ -77,6 +77,17 @@ struct Trace {
 }
 
 /// Result of one predictor-corrector step.
+/// What the main branch met at a new point (`Continuation::tongue_entry`).
+enum Entry {
+    /// An internal-resonance tongue (by its energy shares, or a fold of q toward another mode's
+    /// harmonic n >= 2).
+    Tongue(InternalResonance),
+    /// q turned back without another mode taking the energy (no harmonic n >= 2 of another mode
+    /// is the largest secondary component), or by a step accepted as a jump: a corner of the
+    /// sampled branch, passed like one where no step converges.
+    Corner,
+}
+
 enum Advance {
     /// A converged corrector, its scaled coordinates and the step taken.
     Converged(Box<BackbonePoint>, Vec<f64>, f64),
@@ -257,15 +268,8 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                 Advance::Stuck(reason) => {
                     // At a corner of the branch where no arc-length step converges: past it as
                     // past a tongue (secant predictors, then fixed-q hops as the last resort).
-                    if trace.dq_sign > 0.0 && self.step_past(&mut trace).is_some() {
-                        tracing::info!(
-                            q = self.last_point(&trace).q,
-                            "no arc-length step converged: continued past the corner"
-                        );
-                        if self.last_point(&trace).q >= self.cont.q_max * self.g_ref * (1.0 - 1e-12)
-                        {
-                            self.result.termination = Termination::ReachedMaxAmplitude;
-                            self.end_branch(trace.id, "q_max reached");
+                    if trace.dq_sign > 0.0 && self.pass_corner(&mut trace) {
+                        if self.ends_at_q_max(&trace) {
                             return;
                         }
                         continue;
@@ -286,13 +290,19 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                 self.end_branch(trace.id, "amplitude not positive");
                 return;
             }
-            if let Some(res) = self.tongue_entry(&trace, &p, &xn) {
-                if !self.pass_tongue(&mut trace, *p, res) {
-                    return;
+            let corner = match self.tongue_entry(&trace, &p, &xn) {
+                Some(Entry::Tongue(res)) => {
+                    if !self.pass_tongue(&mut trace, *p, res) || self.ends_at_q_max(&trace) {
+                        return;
+                    }
+                    continue;
                 }
-                if self.last_point(&trace).q >= self.cont.q_max * self.g_ref * (1.0 - 1e-12) {
-                    self.result.termination = Termination::ReachedMaxAmplitude;
-                    self.end_branch(trace.id, "q_max reached");
+                Some(Entry::Corner) => true,
+                None => false,
+            };
+            // A corner not passed: the point is taken as it is (a fold of the main branch).
+            if corner && self.pass_corner(&mut trace) {
+                if self.ends_at_q_max(&trace) {
                     return;
                 }
                 continue;
@@ -314,30 +324,54 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         }
     }
 
+    /// Whether the main branch's last point (after a passage) is at q_max: then the run ends
+    /// there, as reaching q_max.
+    fn ends_at_q_max(&mut self, trace: &Trace) -> bool {
+        let done = self.last_point(trace).q >= self.cont.q_max * self.g_ref * (1.0 - 1e-12);
+        if done {
+            self.result.termination = Termination::ReachedMaxAmplitude;
+            self.end_branch(trace.id, "q_max reached");
+        }
+        done
+    }
+
+    /// Continues the main branch past a corner (no arc-length step converges there, or q turns
+    /// back by a jump or with no other mode taking the energy) as past a tongue, without
+    /// recording an internal resonance. Returns whether it got past.
+    fn pass_corner(&mut self, trace: &mut Trace) -> bool {
+        let passed = self.step_past(trace).is_some();
+        if passed {
+            tracing::info!(
+                q = self.last_point(trace).q,
+                "continued past a corner of the main branch"
+            );
+        }
+        passed
+    }
+
     /// Whether the main branch enters an internal-resonance tongue at `p`: its energy has moved
     /// into another mode at a harmonic n >= 2 (`ContinuationSettings::tongue`), or q turns back
     /// (a fold from rising to falling q; the main branch of a stiffening contact mode rises in q
     /// except in the tongues, where the energy flows into another mode while q passes a maximum).
-    fn tongue_entry(
-        &self,
-        trace: &Trace,
-        p: &BackbonePoint,
-        xn: &[f64],
-    ) -> Option<InternalResonance> {
+    fn tongue_entry(&self, trace: &Trace, p: &BackbonePoint, xn: &[f64]) -> Option<Entry> {
         if let Some(res) = self.cont.tongue(p, &self.omegas) {
-            return Some(res);
+            return Some(Entry::Tongue(res));
         }
         let xl = self.scaled(self.last_point(trace));
         let turns_back = trace.points.len() > 1 && trace.dq_sign > 0.0 && xn[0] < xl[0];
         if !turns_back || self.cont.skip_folds {
             return None;
         }
+        let resonant = p.secondary_harmonic >= 2 && p.secondary_mode != p.mode;
+        if p.jump || !resonant {
+            return Some(Entry::Corner);
+        }
         let wk = self
             .omegas
             .get(p.secondary_mode)
             .copied()
             .unwrap_or(f64::NAN);
-        Some(InternalResonance {
+        Some(Entry::Tongue(InternalResonance {
             q: p.q,
             omega_ratio: p.omega_ratio,
             mode: p.secondary_mode,
@@ -346,7 +380,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             detuning: (p.secondary_harmonic as f64 * p.omega - wk) / wk,
             passed: None,
             branch: None,
-        })
+        }))
     }
 
     fn last_point(&self, trace: &Trace) -> &BackbonePoint {
@@ -493,8 +527,9 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     }
 
     /// Follows a tongue from the main branch's last point through its first point `p`, for at
-    /// most `tongue_points` points, until it leaves the resonance, turns to q <= 0 or passes
-    /// q_max. Returns the branch id.
+    /// most `tongue_points` points, until it leaves the resonance (its energy shares no longer
+    /// show it, and, for a tongue entered by a fold of q, q no longer falls while the primary
+    /// component's share shrinks), turns to q <= 0 or passes q_max. Returns the branch id.
     fn follow_tongue(&mut self, main: &Trace, p: BackbonePoint, res: &InternalResonance) -> usize {
         let kind = BranchKind::Tongue {
             mode: res.mode,
@@ -511,6 +546,12 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             folds: 0,
             penetrate: false,
         };
+        // Entered by a fold of q before the energy shares show the resonance: followed while q
+        // keeps falling and the primary component's share keeps shrinking (energy flowing out of
+        // the traced mode; a fold of the main branch itself, traced back, gains it back), as well
+        // as while the shares show it.
+        let by_fold = self.cont.tongue(&p, &self.omegas).is_none();
+        let mut primary = p.primary_share;
         let xn = self.scaled(&p);
         let step = distance(&xn, &self.scaled(self.last_point(&trace)));
         self.accept(&mut trace, p, &xn, step);
@@ -532,7 +573,11 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                 why = "left the amplitude range";
                 break;
             }
-            let inside = self.cont.tongue(&p, &self.omegas).is_some();
+            let falling = xn[0] < self.scaled(self.last_point(&trace))[0];
+            let draining = p.primary_share < primary;
+            primary = p.primary_share;
+            let inside =
+                self.cont.tongue(&p, &self.omegas).is_some() || (by_fold && falling && draining);
             self.accept(&mut trace, *p, &xn, step);
             if !inside {
                 why = "left the resonance";
