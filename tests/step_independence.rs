@@ -12,7 +12,12 @@
 //!   epsilon buys: measured differences up to 2.7e-4 in w/w1 between grazing and the first
 //!   tongue, 1.2e-4 beyond the last one (docs/VERIFICATION.md: w moves by 1.1e-4 between epsilon
 //!   = 1e-3 and 1e-4 on this blade). Tolerance: 5e-4 on the main branch, and the 1e-4
-//!   at q_max.
+//!   at q_max. The difference is the stopping tolerance, not the path: between grazing and
+//!   q/g0 = 10 (steps 0.05 against 1) it is 2.7e-4 at epsilon = 1e-3, 9.9e-5 at 3e-4 and 4.0e-5
+//!   at 1e-4. The 1e-4 over the whole branch is not reached this way: at epsilon = 3e-4
+//!   scattered points beyond q/g0 = 10 still differ by up to 2.4e-4 (measured 2026-11-24, step
+//!   0.25, 83 % within 1e-4), and at 1e-4 Algorithm 1 stalls at some tongue passages (Powell's
+//!   measure floors at 1.1-1.7e-4 with many nodes in contact, docs/VERIFICATION.md).
 //!
 //! Points are compared by their distance, in the (q / g0, w / w1) plane, to the dense run's main
 //! branch (second-order interpolation through its points), on the stretches both runs traced: a
