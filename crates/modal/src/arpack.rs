@@ -114,7 +114,7 @@ fn run_iterative(
     match opts.method {
         EigenMethod::Arpack => run_arpack(k, m, sigma, factor, nev, ncv, opts),
         EigenMethod::BlockLanczos => block_lanczos(k, m, sigma, factor, nev, opts),
-        EigenMethod::Auto if auto_prefers_arpack(k.rows(), nev) => {
+        EigenMethod::Auto if auto_prefers_arpack(nev) => {
             run_arpack(k, m, sigma, factor, nev, ncv, opts)
         }
         EigenMethod::Auto | EigenMethod::Dense => {

@@ -166,10 +166,11 @@ pub fn craig_bampton_with_check(
         "Craig-Bampton: partition and factorization of K_ii in {}",
         start.elapsed()
     );
-    let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
+    // The eigensolver's basis, its largest allocation, is freed before Psi is allocated.
     let (phi, fixed_interface_eigenvalues) =
         fixed_interface_modes(&k_ii, &m_ii, &factor, n_modes, opts)?;
     drop((k_ii, m_ii));
+    let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
     let full_modes = if check_modes > 0 {
         let start = StepTimer::start();
         let bordered = BorderedSolve::new(k, &interior, boundary, &factor, &k_ib, psi.as_ref())?;
@@ -258,12 +259,20 @@ struct Sizes {
     check_modes: usize,
 }
 
-/// The bytes a reduction allocates after the symbolic analysis of K_ii (whose factor takes
-/// `factor_bytes`): while the factor lives, the constraint modes (n_i n_b) with the workspace of
-/// their block solve, the eigensolver's basis and the check's; after it, the projection's
-/// basis T and the products K T, M T with their row-major copies (6 n n_r), next to Psi and
-/// Phi (n_i n_r). The larger of the two phases.
-fn reduction_memory(sizes: &Sizes, factor_bytes: usize, solve_bytes: usize) -> MemoryEstimate {
+/// The bytes a reduction allocates after the symbolic analysis of K_ii, in its largest phase:
+/// the numeric factorization (the values of L, `l_bytes`, and faer's workspace,
+/// `factor_workspace`), the eigen-solve (L and the eigensolver's allocations), the constraint
+/// modes and the full-model check (L, Psi and Phi, the workspace of the n_b-column solve,
+/// `solve_bytes`, and the check's eigensolver), or the projection (Psi and Phi, the basis T
+/// and the products K T, M T with their row-major copies, 6 n n_r). The phases follow each
+/// other, so only the largest counts: summing them overstated the need at a million DOFs by
+/// about 2 GB.
+fn reduction_memory(
+    sizes: &Sizes,
+    l_bytes: usize,
+    factor_workspace: usize,
+    solve_bytes: usize,
+) -> MemoryEstimate {
     let f64_bytes = std::mem::size_of::<f64>();
     let n_i = sizes.n - sizes.n_b;
     let n_r = sizes.n_b + sizes.n_modes;
@@ -278,16 +287,30 @@ fn reduction_memory(sizes: &Sizes, factor_bytes: usize, solve_bytes: usize) -> M
         0
     };
     let basis = n_i * n_r * f64_bytes;
-    let projection = 6 * sizes.n * n_r * f64_bytes;
+    let l = "factor L of K_ii";
+    let phases = [
+        vec![(l, l_bytes), ("factorization workspace", factor_workspace)],
+        vec![(l, l_bytes), ("eigensolver", eigen)],
+        vec![
+            (l, l_bytes),
+            ("constraint-mode solve workspace", solve_bytes),
+            ("reduction basis", basis),
+            ("full-model check", check),
+        ],
+        vec![
+            ("reduction basis", basis),
+            ("projection", 6 * sizes.n * n_r * f64_bytes),
+        ],
+    ];
+    let total = |phase: &Vec<(&str, usize)>| phase.iter().map(|(_, b)| b).sum::<usize>();
+    let largest = phases
+        .iter()
+        .max_by_key(|phase| total(phase))
+        .expect("four phases");
     let mut e = MemoryEstimate::default();
-    if factor_bytes + solve_bytes + eigen.max(check) >= projection {
-        e.add("factor L of K_ii", factor_bytes);
-        e.add("constraint-mode solve workspace", solve_bytes);
-        e.add("eigensolver", eigen.max(check));
-    } else {
-        e.add("projection", projection);
+    for &(what, bytes) in largest.iter().filter(|(_, bytes)| *bytes > 0) {
+        e.add(what, bytes);
     }
-    e.add("reduction basis", basis);
     e
 }
 
@@ -303,7 +326,13 @@ fn factor_interior(
     let what = format!("K_ii (stiffness of the {n_i} interior DOFs with the boundary DOFs fixed)");
     let analysis = CholeskyAnalysis::new_prechecked(k_ii, &what, opts.cholesky)?;
     let solve_bytes = analysis.solve_bytes(sizes.n_b);
-    let estimate = reduction_memory(sizes, analysis.factorization_bytes(), solve_bytes);
+    let l_bytes = analysis.nnz_l() * std::mem::size_of::<f64>();
+    let estimate = reduction_memory(
+        sizes,
+        l_bytes,
+        analysis.factorization_bytes() - l_bytes,
+        solve_bytes,
+    );
     check_fits(
         &format!(
             "the Craig-Bampton reduction of the {}-DOF model (nnz(L) = {} for its {n_i} interior \
