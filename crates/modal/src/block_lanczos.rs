@@ -37,27 +37,26 @@ use sprs::CsMat;
 use crate::cholesky::FactoredSolve;
 use crate::eigen_options::{BlockShape, EigenOptions};
 use crate::error::ModalError;
-use crate::modes::{finalize_modes, Modes};
 use crate::sparse_ops::spmm_symmetric;
 use crate::tall::{tall_gram, tall_product, tall_sub_product, tall_transform_in_place};
 
 /// Thick restarts allowed before giving up.
 const MAX_RESTARTS: usize = 10;
 
-/// The `nev` eigenpairs nearest above `sigma`, using the factorization `factor` of K - sigma M.
-/// `k`, `m`: symmetric, checked by the caller; `opts.tol` is the convergence tolerance (as for
-/// ARPACK) and `opts.on_iteration` is called after each block with the number of applications
-/// of (K - sigma M)^-1 so far.
+/// The `nev` eigenvalues nearest above `sigma` and their eigenvectors (not yet normalized:
+/// [`crate::modes::finalize_modes`] does it with K), using the factorization `factor` of
+/// K - sigma M. `m`: symmetric, checked by the caller; `opts.tol` is the convergence tolerance
+/// (as for ARPACK) and `opts.on_iteration` is called after each block with the number of
+/// applications of (K - sigma M)^-1 so far.
 pub(crate) fn block_lanczos(
-    k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
     factor: &dyn FactoredSolve,
     nev: usize,
     opts: &EigenOptions<'_>,
-) -> Result<Modes, ModalError> {
-    let shape = BlockShape::for_problem(k.rows(), nev);
-    block_lanczos_shaped(k, m, sigma, factor, nev, opts, shape)
+) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
+    let shape = BlockShape::for_problem(m.rows(), nev);
+    block_lanczos_shaped(m, sigma, factor, nev, opts, shape)
 }
 
 /// The Krylov basis V, M V and the projected matrix T of a block Lanczos run.
@@ -80,15 +79,14 @@ impl Basis {
 
 /// [`block_lanczos`] with the given block size and largest basis.
 fn block_lanczos_shaped(
-    k: &CsMat<f64>,
     m: &CsMat<f64>,
     sigma: f64,
     factor: &dyn FactoredSolve,
     nev: usize,
     opts: &EigenOptions<'_>,
     shape: BlockShape,
-) -> Result<Modes, ModalError> {
-    let n = k.rows();
+) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
+    let n = m.rows();
     let (b, cap) = (shape.block.min(n), shape.max_basis.min(n));
     let tol = if opts.tol > 0.0 {
         opts.tol
@@ -137,7 +135,7 @@ fn block_lanczos_shaped(
             0
         };
         if converged == nev {
-            let modes = extract(k, m, sigma, factor, basis, nev)?;
+            let modes = extract(sigma, factor, basis, nev)?;
             tracing::info!(
                 "block Lanczos: {nev} pairs, basis {filled} of at most {cap}, {solves} solves in \
                  blocks of {b} ({solve_seconds:.2} s wall in the block solves), {restarts} \
@@ -216,8 +214,8 @@ fn column_m_norms2(w: MatRef<'_, f64>, mw: MatRef<'_, f64>) -> Vec<f64> {
 /// OP V = V T + V_next R E_last^T, the Ritz vectors X = V Y satisfy
 /// OP X = X diag(theta) + V_next (R Y_last), so the new projected matrix is diag(theta) bordered
 /// by the coupling R Y_last to the next block; the relation keeps its form and the iteration goes
-/// on from the next block. Returns the new `filled` (keep + b); the caller stores the next block
-/// (and M times it) in the last b columns.
+/// on from the next block. Sets `filled` to keep + b; the caller stores the next block (and M
+/// times it) in the last b columns.
 fn thick_restart(basis: &mut Basis, b: usize, keep: usize, r: &Mat<f64>) -> Result<(), ModalError> {
     let filled = basis.filled;
     let (theta, y) = projected_eigen(&basis.t, filled).ok_or_else(|| ModalError::DenseEigen {
@@ -283,19 +281,18 @@ fn projected_eigen(t: &Mat<f64>, filled: usize) -> Option<(Vec<f64>, Mat<f64>)> 
     Some((theta, eig.U().to_owned()))
 }
 
-/// Ritz vectors of the `nev` largest theta, as eigenpairs of (K, M), each improved by one more
+/// Ritz vectors of the `nev` largest theta, as eigenpairs of (K, M) (eigenvalues, vectors not
+/// yet normalized), each improved by one more
 /// application of OP (x <- OP x, one block solve with nev right-hand sides): the Ritz vector's
 /// error in the modes far above sigma, which dominates the residual K x - lambda M x, is damped
 /// by (lambda - sigma) / (lambda_far - sigma); the eigenvalue is the Ritz value. The basis is
 /// freed once M x is formed.
 fn extract(
-    k: &CsMat<f64>,
-    m: &CsMat<f64>,
     sigma: f64,
     factor: &dyn FactoredSolve,
     basis: Basis,
     nev: usize,
-) -> Result<Modes, ModalError> {
+) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
     let filled = basis.filled;
     let (theta, y) = projected_eigen(&basis.t, filled).ok_or_else(|| ModalError::DenseEigen {
         what: "the block Lanczos projected matrix".to_string(),
@@ -308,7 +305,7 @@ fn extract(
     drop(basis);
     factor.solve_block(x.as_mut())?;
     let values: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
-    Ok(finalize_modes(k, m, &values, &x))
+    Ok((values, x))
 }
 
 /// M-orthonormalizes the columns of `w` in place by two Cholesky-QR passes (CholeskyQR2), `mw`
@@ -388,6 +385,7 @@ mod tests {
     use super::*;
     use crate::cholesky::SparseCholesky;
     use crate::dense::{csmat_to_dense, dense_generalized_eigen};
+    use crate::modes::finalize_modes;
     use sprs::TriMat;
 
     /// Fixed-free chain of n unit masses with springs 1 + i / n (no repeated eigenvalues).
@@ -420,8 +418,12 @@ mod tests {
                 .unwrap();
         let (full, compact) = (BlockShape::full(400, nev), BlockShape::compact(400, nev));
         assert!(compact.max_basis < full.max_basis && compact.block < full.block);
-        let by_full = block_lanczos_shaped(&k, &m, 0.0, &factor, nev, &opts, full).unwrap();
-        let by_compact = block_lanczos_shaped(&k, &m, 0.0, &factor, nev, &opts, compact).unwrap();
+        let finished = |shape| {
+            let (values, vectors) =
+                block_lanczos_shaped(&m, 0.0, &factor, nev, &opts, shape).unwrap();
+            finalize_modes(&k, &m, &values, &vectors)
+        };
+        let (by_full, by_compact) = (finished(full), finished(compact));
         let arpack = crate::eigs_shift_invert_factored(
             &k,
             &m,

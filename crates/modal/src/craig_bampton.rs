@@ -23,7 +23,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use sprs::CsMat;
 
-use crate::arpack::eigs_factored_prechecked;
+use crate::arpack::{eigs_factored_deferred_k, eigs_factored_prechecked};
 use crate::bordered::BorderedSolve;
 use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
 use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
@@ -166,10 +166,12 @@ pub fn craig_bampton_with_check(
         "Craig-Bampton: partition and factorization of K_ii in {}",
         start.elapsed()
     );
-    // The eigensolver's basis, its largest allocation, is freed before Psi is allocated.
+    // The eigensolver's basis, its largest allocation, is freed before Psi is allocated; K_ii
+    // is dropped during the iteration and rebuilt for the residuals of the modes.
+    let rebuild_k_ii = || submatrix_unchecked(k, &interior, &interior);
     let (phi, fixed_interface_eigenvalues) =
-        fixed_interface_modes(&k_ii, &m_ii, &factor, n_modes, opts)?;
-    drop((k_ii, m_ii));
+        fixed_interface_modes(k_ii, &rebuild_k_ii, &m_ii, &factor, n_modes, opts)?;
+    drop(m_ii);
     let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
     let full_modes = if check_modes > 0 {
         let start = StepTimer::start();
@@ -357,9 +359,12 @@ fn factor_interior(
 }
 
 /// The `n_modes` lowest modes of K_ii phi = lambda M_ii phi (shift-invert at sigma = 0 with the
-/// factor of K_ii), mass-normalized, and their eigenvalues (rad^2/s^2 for SI input).
+/// factor of K_ii), mass-normalized, and their eigenvalues (rad^2/s^2 for SI input). K_ii is
+/// dropped during the iteration and rebuilt by `rebuild_k_ii` for the residuals, so that it and
+/// the eigensolver's basis are never in memory together.
 fn fixed_interface_modes(
-    k_ii: &CsMat<f64>,
+    k_ii: CsMat<f64>,
+    rebuild_k_ii: &dyn Fn() -> CsMat<f64>,
     m_ii: &CsMat<f64>,
     factor: &SparseCholesky,
     n_modes: usize,
@@ -371,7 +376,7 @@ fn fixed_interface_modes(
     }
     let start = StepTimer::start();
     // K_ii and M_ii are principal submatrices of the checked K and M.
-    let modes = eigs_factored_prechecked(k_ii, m_ii, 0.0, factor, n_modes, opts)?;
+    let modes = eigs_factored_deferred_k(k_ii, rebuild_k_ii, m_ii, 0.0, factor, n_modes, opts)?;
     let worst = modes.residuals.iter().copied().fold(0.0, f64::max);
     tracing::info!(
         "Craig-Bampton: {n_modes} fixed-interface modes of {n_i} interior DOFs, \
