@@ -516,3 +516,34 @@ fn project(
     }
     (k_r, m_r)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The memory estimate is that of the largest phase, not the sum of all: at a million DOFs
+    /// with a 7.5 GB factor, the eigen-solve (L and the eigensolver); with a negligible factor,
+    /// the projection (Psi and Phi, and 6 n n_r values).
+    #[test]
+    fn memory_estimate_is_the_largest_phase() {
+        let sizes = Sizes {
+            n: 1_000_000,
+            n_b: 72,
+            n_modes: 40,
+            check_modes: 0,
+        };
+        let names = |e: &MemoryEstimate| -> Vec<String> {
+            e.parts.iter().map(|(what, _)| what.clone()).collect()
+        };
+        let large = reduction_memory(&sizes, 7_500_000_000, 600_000_000, 50_000_000);
+        assert_eq!(names(&large), ["factor L of K_ii", "eigensolver"]);
+        let eigen = eigensolver_bytes(1_000_000 - 72, 40);
+        assert_eq!(large.total(), 7_500_000_000 + eigen);
+        let small = reduction_memory(&sizes, 1_000_000, 0, 0);
+        assert_eq!(names(&small), ["reduction basis", "projection"]);
+        assert_eq!(
+            small.total(),
+            (1_000_000 - 72) * 112 * 8 + 6 * 1_000_000 * 112 * 8
+        );
+    }
+}
