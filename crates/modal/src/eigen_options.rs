@@ -9,9 +9,8 @@ use crate::cholesky::CholeskyOptions;
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub enum EigenMethod {
     /// Dense solver when n <= 2 ncv or nev >= n (ARPACK needs ncv < n); otherwise block
-    /// Lanczos for nev <= [`AUTO_MAX_NEV`] when its basis fits in
-    /// [`AUTO_MAX_BASIS_BYTES`] (ARPACK if it does not converge, logged),
-    /// ARPACK otherwise.
+    /// Lanczos for nev <= [`AUTO_MAX_NEV`] (its shape, [`BlockShape::for_problem`], follows
+    /// the size of the problem; ARPACK if it does not converge, logged), ARPACK otherwise.
     #[default]
     Auto,
     /// Always ARPACK (error when nev >= n).
@@ -84,51 +83,72 @@ impl std::fmt::Debug for EigenOptions<'_> {
 /// which the cheaper block solves (0.013 s against 0.085 s per vector) turn into a gain.
 pub const AUTO_MAX_NEV: usize = 48;
 
-/// Largest memory (bytes) the basis and M times it may take for [`crate::EigenMethod::Auto`] to
-/// choose block Lanczos, and for block Lanczos to keep M V beside V: 1 GiB keeps the 93k-DOF
-/// blade (450 MB for 40 modes) on block Lanczos and sends the 234k-DOF one (1.1 GB) to ARPACK,
-/// whose basis is 3 times smaller. Above it a block Lanczos asked for explicitly stores V alone
-/// and recomputes M W (half the memory, two more block products with M per step); at 234k DOFs
-/// that took 82 s of CPU for 256 solves against ARPACK's 103 solves in under 40 s (shared
-/// machine, docs/BENCHMARKS.md "Industrial size"), so Auto keeps ARPACK there.
-pub const AUTO_MAX_BASIS_BYTES: usize = 1 << 30;
+/// Largest memory (bytes) of the full block-Lanczos basis V and M V (blocks of up to 16,
+/// [`BlockShape::full`]): 1 GiB keeps the 93k-DOF blade (450 MB for 40 modes) on it. Larger
+/// problems use the compact shape ([`BlockShape::compact`]: blocks of 8, a basis of 3 nev
+/// vectors, thick restarts), whose basis and M times it take 1.9 GB for 40 modes at a million
+/// DOFs against 4.9 GB for the full one.
+pub const FULL_BASIS_MAX_BYTES: usize = 1 << 30;
 
-/// Bytes of one copy of the basis for `nev` pairs on an n-DOF problem.
-fn one_basis_bytes(n: usize, nev: usize) -> usize {
-    n * max_basis(nev, block_size(nev).min(n), n) * std::mem::size_of::<f64>()
+/// Block size and largest basis of the block Lanczos for a problem.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct BlockShape {
+    /// Right-hand sides per block (solved in one pass over the factor per thread).
+    pub block: usize,
+    /// Largest basis (columns of V); M V is stored alongside.
+    pub max_basis: usize,
 }
 
-/// Whether block Lanczos keeps M V beside V ([`AUTO_MAX_BASIS_BYTES`]).
-pub(crate) fn keeps_m_basis(n: usize, nev: usize) -> bool {
-    2 * one_basis_bytes(n, nev) <= AUTO_MAX_BASIS_BYTES
-}
+impl BlockShape {
+    /// The shape for `nev` pairs of an n-DOF problem: [`BlockShape::full`] while its V and M V
+    /// fit in [`FULL_BASIS_MAX_BYTES`], [`BlockShape::compact`] above.
+    pub fn for_problem(n: usize, nev: usize) -> Self {
+        let full = Self::full(n, nev);
+        if full.basis_bytes(n) <= FULL_BASIS_MAX_BYTES {
+            full
+        } else {
+            Self::compact(n, nev)
+        }
+    }
 
-/// Bytes of the basis (and M times it when kept) for `nev` pairs on an n-DOF problem.
-pub fn basis_bytes(n: usize, nev: usize) -> usize {
-    if keeps_m_basis(n, nev) {
-        2 * one_basis_bytes(n, nev)
-    } else {
-        one_basis_bytes(n, nev)
+    /// Blocks of about nev / 2 (4 to 16) and a basis of 6 nev + 4 b: 40 modes of the 93k-DOF
+    /// blade converge within 240 vectors without restart.
+    pub fn full(n: usize, nev: usize) -> Self {
+        let block = block_size(nev).min(n);
+        Self {
+            block,
+            max_basis: (6 * nev + 4 * block).min(n),
+        }
+    }
+
+    /// Blocks of about nev / 5 (4 to 8) and a basis of 3 nev (at least nev + 3 blocks), thickly
+    /// restarted: for 40 modes of the 234k-DOF blade, 176 solves in 22 blocks of 8 with two
+    /// restarts, against 256 solves in 16 blocks of 16 for the full shape, in 40 % of the
+    /// memory (docs/LARGE_MODELS.md).
+    pub fn compact(n: usize, nev: usize) -> Self {
+        let block = nev.div_ceil(5).clamp(4, 8).min(n);
+        Self {
+            block,
+            max_basis: (3 * nev).max(nev + 3 * block).min(n),
+        }
+    }
+
+    /// Bytes of the basis V and M V for an n-DOF problem.
+    pub fn basis_bytes(&self, n: usize) -> usize {
+        2 * n * self.max_basis * std::mem::size_of::<f64>()
     }
 }
 
-/// Block size for `nev` wanted pairs: about nev / 2, between 4 and 16 (16 right-hand sides
-/// already amortize the pass over the factor; larger blocks only grow the basis).
+/// Block size of [`BlockShape::full`] for `nev` wanted pairs: about nev / 2, between 4 and 16
+/// (16 right-hand sides already amortize the pass over the factor; larger blocks only grow the
+/// basis).
 pub fn block_size(nev: usize) -> usize {
     nev.div_ceil(2).clamp(4, 16)
 }
 
-/// The largest basis for `nev` pairs with blocks of `b` on an n-DOF problem (the basis and M
-/// times it are stored: 2 n max_basis values; 40 modes of the 93k-DOF blade converge within
-/// 240 vectors, so 304 avoids a restart there).
-pub(crate) fn max_basis(nev: usize, b: usize, n: usize) -> usize {
-    (6 * nev + 4 * b).min(n)
-}
-
-/// Auto: ARPACK rather than block Lanczos for `nev` pairs on an n-DOF problem (too many pairs,
-/// or a basis and M times it larger than [`AUTO_MAX_BASIS_BYTES`]).
-pub(crate) fn auto_prefers_arpack(n: usize, nev: usize) -> bool {
-    nev > AUTO_MAX_NEV || !keeps_m_basis(n, nev)
+/// Auto: ARPACK rather than block Lanczos for `nev` pairs (too many pairs: [`AUTO_MAX_NEV`]).
+pub(crate) fn auto_prefers_arpack(nev: usize) -> bool {
+    nev > AUTO_MAX_NEV
 }
 
 /// Auto: the dense solver when all pairs are wanted or the problem is small (ARPACK needs ncv < n).
@@ -142,18 +162,20 @@ pub(crate) fn use_dense(nev: usize, n: usize, ncv: usize, method: EigenMethod) -
 
 /// Bytes the shift-invert eigensolver `EigenMethod::Auto` picks allocates for `nev` pairs of an
 /// n-DOF problem (for the memory check of large reductions, [`crate::memory`]): block Lanczos's
-/// basis ([`basis_bytes`]), its projected matrix, a few blocks and the Ritz vectors; ARPACK's
-/// ncv Lanczos vectors, its 3 n work vector and the eigenvectors; both with the n x nev result.
+/// basis ([`BlockShape::basis_bytes`]), its projected matrix and a few blocks, or the n x nev
+/// result (twice: the Ritz vectors and the normalized modes) once the basis is freed; ARPACK's
+/// ncv Lanczos vectors, its 3 n work vector and the eigenvectors with the result.
 pub fn eigensolver_bytes(n: usize, nev: usize) -> usize {
     let f64_bytes = std::mem::size_of::<f64>();
     let result = 2 * n * nev * f64_bytes;
-    if auto_prefers_arpack(n, nev) {
+    if auto_prefers_arpack(nev) {
         let ncv = (2 * nev + 1).max(20).min(n);
         (n * (ncv + 3) + ncv * ncv) * f64_bytes + result
     } else {
-        let b = block_size(nev).min(n);
-        let cap = max_basis(nev, b, n);
-        // W and M W, and the row-major copies of a block product with M (2 x 2 blocks).
-        basis_bytes(n, nev) + (cap * cap + 6 * n * b) * f64_bytes + result
+        let shape = BlockShape::for_problem(n, nev);
+        let (b, cap) = (shape.block, shape.max_basis);
+        // While iterating: the basis, W and M W, and the row-major copies of a block product
+        // with M (2 blocks); the basis is freed before the Ritz vectors are finished.
+        (shape.basis_bytes(n) + (cap * cap + 4 * n * b) * f64_bytes).max(result)
     }
 }

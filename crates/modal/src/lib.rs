@@ -23,6 +23,7 @@ pub mod ordering;
 mod recovery_codec;
 pub mod reduced_model;
 pub mod sparse_ops;
+mod tall;
 
 pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored};
 pub use bordered::BorderedSolve;

@@ -90,7 +90,20 @@ pub fn cpu_seconds() -> Option<f64> {
     Some((ticks(11)? + ticks(12)?) / 100.0)
 }
 
-/// Wall-clock and CPU time of a step, for log lines: "12.34 s (CPU 20.10 s)".
+/// Resident memory of this process now and at its peak so far, bytes (`VmRSS` and `VmHWM` of
+/// `/proc/self/status`); None when it cannot be read (not Linux).
+pub fn resident_bytes() -> Option<(usize, usize)> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let field = |name: &str| -> Option<usize> {
+        let line = status.lines().find(|l| l.starts_with(name))?;
+        let kib: usize = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kib * 1024)
+    };
+    Some((field("VmRSS:")?, field("VmHWM:")?))
+}
+
+/// Wall-clock and CPU time of a step, and the resident memory at its end, for log lines:
+/// "12.34 s (CPU 20.10 s), RSS 3.10 GB (peak so far 3.40 GB)".
 pub struct StepTimer {
     wall: std::time::Instant,
     cpu: Option<f64>,
@@ -105,12 +118,21 @@ impl StepTimer {
         }
     }
 
-    /// "12.34 s (CPU 20.10 s)" since the start (no CPU part when it cannot be read).
+    /// "12.34 s (CPU 20.10 s), RSS 3.10 GB (peak so far 3.40 GB)" since the start (no CPU or
+    /// RSS part when it cannot be read).
     pub fn elapsed(&self) -> String {
         let wall = self.wall.elapsed().as_secs_f64();
-        match (self.cpu, cpu_seconds()) {
+        let time = match (self.cpu, cpu_seconds()) {
             (Some(a), Some(b)) => format!("{wall:.2} s (CPU {:.2} s)", b - a),
             _ => format!("{wall:.2} s"),
+        };
+        match resident_bytes() {
+            Some((now, peak)) => format!(
+                "{time}, RSS {} (peak so far {})",
+                gigabytes(now),
+                gigabytes(peak)
+            ),
+            None => time,
         }
     }
 }

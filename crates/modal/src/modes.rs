@@ -1,7 +1,9 @@
 //! Linear modes of K phi = lambda M phi: eigenvalues, mass-normalized shapes
 //! and residuals, as returned by the eigensolvers.
 
+use faer::prelude::ReborrowMut;
 use faer::Mat;
+use rayon::prelude::*;
 use sprs::CsMat;
 
 use crate::dense::fix_sign;
@@ -52,7 +54,8 @@ impl Modes {
 }
 
 /// Builds [`Modes`] from raw eigenpairs: sorts ascending, mass-normalizes,
-/// fixes signs and computes residuals against the sparse K and M.
+/// fixes signs and computes residuals against the sparse K and M (the modes in parallel, each
+/// with its own two sparse products).
 pub(crate) fn finalize_modes(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
@@ -64,49 +67,68 @@ pub(crate) fn finalize_modes(
     let mut order: Vec<usize> = (0..count).collect();
     order.sort_by(|&a, &b| eigenvalues[a].total_cmp(&eigenvalues[b]));
     let k_norm = norm_one(k);
+    let sorted_values: Vec<f64> = order.iter().map(|&src| eigenvalues[src]).collect();
     let mut out_vectors = Mat::<f64>::zeros(n, count);
-    let mut residuals = Vec::with_capacity(count);
-    let mut sorted_values = Vec::with_capacity(count);
-    let mut m_phi = vec![0.0; n];
-    let mut k_phi = vec![0.0; n];
-    for (j, &src) in order.iter().enumerate() {
-        let lambda = eigenvalues[src];
-        let phi = out_vectors.col_as_slice_mut(j);
-        phi.copy_from_slice(vectors.col_as_slice(src));
-        spmv_unchecked(m, phi, &mut m_phi);
-        let mass = dot(phi, &m_phi);
-        if mass > 0.0 {
-            let scale = 1.0 / mass.sqrt();
-            phi.iter_mut().for_each(|x| *x *= scale);
-            m_phi.iter_mut().for_each(|x| *x *= scale);
-        }
-        if fix_sign(phi) {
-            m_phi.iter_mut().for_each(|x| *x = -*x);
-        }
-        spmv_unchecked(k, phi, &mut k_phi);
-        let r = k_phi
-            .iter()
-            .zip(&m_phi)
-            .map(|(kp, mp)| (kp - lambda * mp).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let m_phi_norm = norm2(&m_phi);
-        let phi_norm = norm2(phi);
-        let elastic_scale = lambda.abs() * m_phi_norm;
-        let residual = if elastic_scale > RIGID_MODE_THRESHOLD * k_norm * phi_norm {
-            r / elastic_scale
-        } else if k_norm * phi_norm > 0.0 {
-            r / (k_norm * phi_norm)
-        } else {
-            r
-        };
-        residuals.push(residual);
-        sorted_values.push(lambda);
-    }
+    let residuals: Vec<f64> = out_vectors
+        .as_mut()
+        .par_col_chunks_mut(1)
+        .zip(order.par_iter())
+        .map(|(mut column, &src)| {
+            let phi = column
+                .rb_mut()
+                .col_mut(0)
+                .try_as_col_major_mut()
+                .map(|c| c.as_slice_mut());
+            let phi = phi.expect("a column of a column-major matrix is contiguous");
+            phi.copy_from_slice(vectors.col_as_slice(src));
+            normalized_residual(k, m, k_norm, eigenvalues[src], phi)
+        })
+        .collect();
     Modes {
         eigenvalues: sorted_values,
         vectors: out_vectors,
         residuals,
+    }
+}
+
+/// Mass-normalizes `phi` in place (sign fixed: largest component positive) and returns the
+/// relative residual of (lambda, phi) as [`Modes::residuals`] defines it.
+fn normalized_residual(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    k_norm: f64,
+    lambda: f64,
+    phi: &mut [f64],
+) -> f64 {
+    let n = phi.len();
+    let mut m_phi = vec![0.0; n];
+    let mut k_phi = vec![0.0; n];
+    spmv_unchecked(m, phi, &mut m_phi);
+    let mass = dot(phi, &m_phi);
+    if mass > 0.0 {
+        let scale = 1.0 / mass.sqrt();
+        phi.iter_mut().for_each(|x| *x *= scale);
+        m_phi.iter_mut().for_each(|x| *x *= scale);
+    }
+    if fix_sign(phi) {
+        m_phi.iter_mut().for_each(|x| *x = -*x);
+    }
+    spmv_unchecked(k, phi, &mut k_phi);
+    let r = k_phi
+        .iter()
+        .zip(&m_phi)
+        .map(|(kp, mp)| (kp - lambda * mp).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let m_phi_norm = norm2(&m_phi);
+    let phi_norm = norm2(phi);
+    let elastic_scale = lambda.abs() * m_phi_norm;
+    if elastic_scale > RIGID_MODE_THRESHOLD * k_norm * phi_norm {
+        r / elastic_scale
+    } else if k_norm * phi_norm > 0.0 {
+        r / (k_norm * phi_norm)
+    } else {
+        r
     }
 }
 
