@@ -443,10 +443,12 @@ fn check_tongue_end(
 ///   fold at q = 1.164 (w = 1.01712 w1, 3 w / w2 - 1 = +1.6e-3), 2 points with mode 2's share
 ///   0.12-0.15, and the main branch resumes at q = 1.393, w = 1.197 w1 (nothing in between).
 /// * stop on mass 1, master mass 2: the same tongue at q = 1.574 (2 points, share 0.13-0.14), the
-///   main branch resumes at q = 2.825, w = 1.230 w1; then two more "tongues" are recorded as
+///   main branch resumes at q = 2.825, w = 1.230 w1; then two more "tongues" were recorded as
 ///   (mode 0, harmonic 0), detuning -1, at q = 4.68 and 5.26: steps accepted at the smallest step
 ///   as jumps (w from 1.2990 to 1.3543 w1 at q 4.708 -> 4.681) that lower q, read as folds into a
-///   tongue whose largest secondary share is the mean (harmonic 0) of mode 1 itself.
+///   tongue whose largest secondary share is the mean (harmonic 0) of mode 1 itself. Since such
+///   steps are corners (docs/DESIGN.md §8.3) the run passes two corners (q = 4.95 and 7.01) and
+///   reaches q_max with no false tongue.
 ///
 /// With stiffer coupling (k2 = 2.0 to 2.8, w2 / w1 = 3.23 to 3.67, stop on mass 1) the tongue is
 /// entered 2.8-6.5 % away from 3 w = w2 and followed for 2-4 points, some flagged as jumps; with
