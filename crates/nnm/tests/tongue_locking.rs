@@ -436,9 +436,10 @@ fn check_tongue_end(
 ///   `StepTooSmall` at q = 1.1676 (w = 1.01095 w1, 3 w / w2 = 0.9956): Newton stagnates
 ///   (relative residual 2e-3). The same with N = 40, m = 512, epsilon = 1e-6, and with
 ///   step = 0.01, max_step = 0.02.
-/// * the same with epsilon = 1e-4 g0: the tongue is entered by a fold of q at q = 1.1673, followed
-///   for 2 points (w = 1.01678 w1, 3 w / w2 - 1 = +1.3e-3, mode 2's share 0.36 < mode 1's, so it
-///   "left the resonance"), and no predictor gets past it: `Termination::InternalResonance`.
+/// * the same with epsilon = 1e-4 g0: the tongue is entered by a fold of q at q = 1.1673 (w =
+///   1.01678 w1, 3 w / w2 - 1 = +1.3e-3, mode 2's share 0.36 < mode 1's), followed for 2 points
+///   before tongues entered by a fold were followed while q falls (37 points in all now, 26
+///   before), and no predictor gets past it: `Termination::InternalResonance`.
 /// * stop on mass 1, master mass 1: reaches q_max; the (mode 2, harmonic 3) tongue is entered by a
 ///   fold at q = 1.164 (w = 1.01712 w1, 3 w / w2 - 1 = +1.6e-3), 2 points with mode 2's share
 ///   0.12-0.15, and the main branch resumes at q = 1.393, w = 1.197 w1 (nothing in between).
@@ -458,7 +459,7 @@ fn check_tongue_end(
 #[test]
 #[ignore = "study of the rigid-stop tongue, printed (a few seconds)"]
 fn rigid_stop_tongue_study() {
-    let settings = HarmonicSettings::new(36, 384).expect("settings");
+    let settings = HarmonicSettings::new(18, 192).expect("settings");
     let cont = ContinuationSettings {
         q_start: 0.5,
         q_max: 10.0,
