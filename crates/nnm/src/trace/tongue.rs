@@ -11,6 +11,8 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// into another mode at a harmonic n >= 2 (`ContinuationSettings::tongue`), or q turns back
     /// (a fold from rising to falling q; the main branch of a stiffening contact mode rises in q
     /// except in the tongues, where the energy flows into another mode while q passes a maximum).
+    /// A turn of q by a step accepted as a jump, or with no other mode's harmonic n >= 2 as the
+    /// largest secondary component, is a corner ([`Entry::Corner`]), not a tongue.
     pub(super) fn tongue_entry(
         &self,
         trace: &Trace,
