@@ -4,7 +4,7 @@
 //!
 //! * [`HarmonicLayout`]: `dim` coordinates over the harmonics 0..=N, harmonic-major,
 //!   `x[n * dim + i]` (a column-major dim x (N + 1) matrix: one column per harmonic). The Newton
-//!   unknowns of every [`crate::newton::LinearModel`] use it, followed by w and q.
+//!   unknowns of every [`crate::linear_model::LinearModel`] use it, followed by w and q.
 //! * [`SignalLayout`]: `rows` scalar signals each given by its N + 1 cosine coefficients,
 //!   signal-major, `c[j * (N + 1) + n]` (one contiguous series per signal): what the AFT transforms
 //!   (the contact displacements A_j u_n and forces lambda_{j,n}).
