@@ -192,7 +192,8 @@ fn add_shift_hint(e: ModalError) -> ModalError {
     }
 }
 
-fn check_pair(k: &CsMat<f64>, m: &CsMat<f64>) -> Result<usize, ModalError> {
+/// K and M square, finite, symmetric and of the same order; returns the order.
+pub(crate) fn check_pair(k: &CsMat<f64>, m: &CsMat<f64>) -> Result<usize, ModalError> {
     let n = check_symmetric_input(k, "K")?;
     let n_m = check_symmetric_input(m, "M")?;
     if n != n_m {

@@ -23,7 +23,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 use sprs::CsMat;
 
-use crate::arpack::{eigs_factored_deferred_k, eigs_factored_prechecked};
+use crate::arpack::{check_pair, eigs_factored_deferred_k, eigs_factored_prechecked};
 use crate::bordered::BorderedSolve;
 use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
 use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
@@ -31,7 +31,7 @@ use crate::eigen_options::{eigensolver_bytes, EigenOptions};
 use crate::error::ModalError;
 use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
 use crate::modes::Modes;
-use crate::sparse_ops::{check_symmetric_input, spmm_symmetric, submatrix_unchecked};
+use crate::sparse_ops::{spmm_symmetric, submatrix_unchecked};
 
 /// A Craig-Bampton reduced model and the basis that produced it.
 #[derive(Clone, Debug)]
@@ -225,15 +225,7 @@ fn checked_partition(
     n_modes: usize,
 ) -> Result<(usize, Vec<usize>), ModalError> {
     let start = StepTimer::start();
-    let n = check_symmetric_input(k, "K")?;
-    let n_m = check_symmetric_input(m, "M")?;
-    if n != n_m {
-        return Err(ModalError::DimensionMismatch {
-            what: "order of M compared with K".to_string(),
-            expected: n,
-            found: n_m,
-        });
-    }
+    let n = check_pair(k, m)?;
     let interior = interior_dofs(n, boundary)?;
     let (n_b, n_i) = (boundary.len(), interior.len());
     if n_modes > n_i {
