@@ -352,10 +352,11 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
         .settings
         .as_deref()
         .map_or_else(|| "defaults".to_string(), |p| p.display().to_string());
+    let label = source.clone();
     let mut problems = validate::Problems::new(move |key| match key {
         "nnm.harmonics" => "--harmonics".to_string(),
         "nnm.samples" => "--samples".to_string(),
-        other => format!("{source} (with --q-max/--q-start): {other}"),
+        other => format!("{label} (with --q-max/--q-start): {other}"),
     });
     validate::check_nnm(a.harmonics, a.samples, &mut problems);
     validate::check_settings(&params, &cont, &mut problems);
@@ -374,22 +375,18 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     problems.finish()?;
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = load_model(&a.model)?;
-    let mode_count = reduced.n();
-    if cont.mode >= mode_count {
+    let order = reduced.n();
+    if cont.mode >= order {
         return Err(bad_input(format!(
-            "{}: continuation.mode = {}: expected a linear mode index (0-based) below {mode_count}, \
-             the order of the reduced model {}",
-            a.settings
-                .as_deref()
-                .map_or_else(|| "defaults".to_string(), |p| p.display().to_string()),
+            "{source}: continuation.mode = {}: expected a linear mode index (0-based) below \
+             {order}, the order of the reduced model {}",
             cont.mode,
             a.model.display()
         )));
     }
-    if let Some(m) = a.master.filter(|&m| m >= reduced.n()) {
+    if let Some(m) = a.master.filter(|&m| m >= order) {
         return Err(bad_input(format!(
-            "--master {m}: expected a reduced coordinate index < {} (the model's order)",
-            reduced.n()
+            "--master {m}: expected a reduced coordinate index < {order} (the model's order)"
         )));
     }
     let system = backbone::system_of(&reduced, a.master)?;
