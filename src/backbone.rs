@@ -349,8 +349,9 @@ pub fn load_model(dir: &Path) -> Result<ReducedModel> {
     ReducedModel::read(dir).with_context(|| format!("reading the reduced model {}", dir.display()))
 }
 
-/// A short table of the backbone (about 15 rows) for the terminal.
-pub fn summary(b: &Backbone) -> String {
+/// A short table of the backbone (about 15 rows) for the terminal; `params` are the solver
+/// settings it was traced with (for the points accepted above epsilon).
+pub fn summary(b: &Backbone, params: &SolverSettings) -> String {
     let g = b.gap_reference;
     let mut s = format!(
         "linear frequency {:.4} Hz, grazing at q/g0 = {}\n{:>8} {:>10} {:>14} {:>8} {:>6}\n",
@@ -407,6 +408,26 @@ pub fn summary(b: &Backbone) -> String {
             )),
             passage_phrase(r.passed)
         );
+    }
+    let algorithm = &params.algorithm;
+    if algorithm.method == nlmodes_nnm::ContactMethod::AugmentedLagrangian {
+        let above: Vec<f64> = b
+            .points
+            .iter()
+            .map(|p| p.powell_measure)
+            .filter(|&g| g > algorithm.epsilon)
+            .collect();
+        if let Some(worst) = above.iter().copied().reduce(f64::max) {
+            let _ = writeln!(
+                s,
+                "{} points accepted where Algorithm 1 stalled above epsilon = {:e} (G up to {:.2e} \
+                 g0, stall_tolerance {:e}; powell_measure in backbone.csv)",
+                above.len(),
+                algorithm.epsilon,
+                worst,
+                algorithm.stall_tolerance
+            );
+        }
     }
     let _ = writeln!(
         s,

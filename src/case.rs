@@ -135,7 +135,7 @@ impl Default for Case {
             material: MaterialSection::default(),
             model: ModelSection::default(),
             nnm: NnmSection::default(),
-            // The library defaults are the study's (q_start 0.5, q_max 35 g0, epsilon 1e-3 g0:
+            // The library defaults are the study's (q_start 0.5, q_max 35 g0, epsilon 1e-4 g0:
             // see nlmodes_nnm::AlgorithmParams::epsilon and docs/VERIFICATION.md).
             continuation: ContinuationSettings::default(),
             algorithm: SolverSettings::default(),
@@ -299,7 +299,7 @@ mod tests {
     }
 
     /// Deleting a key of a present table takes the value `Case::default()` documents, not
-    /// the library default (issue 14: q_max 35 not 10, epsilon 1e-3 not 1e-4).
+    /// the library default (issue 14: q_max 35 not 10).
     #[test]
     fn a_deleted_key_takes_the_case_default() {
         let path = Path::new("test.toml");
@@ -308,7 +308,7 @@ mod tests {
         let d = Case::default();
         assert_eq!(c.continuation.q_max, d.continuation.q_max);
         assert_eq!(c.continuation.q_max, 35.0);
-        assert_eq!(c.algorithm.algorithm.epsilon, 1e-3);
+        assert_eq!(c.algorithm.algorithm.epsilon, 1e-4);
         assert_eq!(
             (c.continuation.step, c.algorithm.algorithm.alpha),
             (0.5, 5.0)
@@ -316,7 +316,7 @@ mod tests {
         let s: StudySettings = with_defaults(&StudySettings::default(), text, path).unwrap();
         assert_eq!(
             (s.continuation.q_max, s.algorithm.algorithm.epsilon),
-            (35.0, 1e-3)
+            (35.0, 1e-4)
         );
         let err = with_defaults(&Case::default(), "[continuation]\nqmax = 3\n", path)
             .unwrap_err()

@@ -160,7 +160,7 @@ struct BackboneArgs {
     master: Option<usize>,
     /// Algorithm 1 parameters and continuation settings as a TOML file with [algorithm] and
     /// [continuation] tables (see cases/blade.toml); --q-max and --q-start override it. A key
-    /// it does not set takes the default of a case file (epsilon = 1e-3 g0, q_max = 35).
+    /// it does not set takes the default of a case file (epsilon = 1e-4 g0, q_max = 35).
     #[arg(long)]
     settings: Option<PathBuf>,
     /// Output directory.
@@ -395,7 +395,7 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     let mut b = backbone::trace(&system, hs, &params, &cont)?;
     backbone::stability(&system, &mut b, &stab)?;
     backbone::write(&b, &a.out)?;
-    ui::say(&backbone::summary(&b));
+    ui::say(&backbone::summary(&b, &params));
     backbone::stopped_early(&b, &a.out)
 }
 

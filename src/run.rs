@@ -364,6 +364,6 @@ fn backbone_stage(
     )?;
     backbone::write(&b, &layout.backbone())?;
     nlmodes_output::write_json(&layout.backbone().join("kept.json"), &kept)?;
-    ui::say(&backbone::summary(&b));
+    ui::say(&backbone::summary(&b, &case.algorithm));
     backbone::stopped_early(&b, &layout.backbone())
 }

@@ -66,6 +66,8 @@ struct Row {
     share: f64,
     fold: bool,
     jump: bool,
+    /// On the main branch (or its linear part), not on a tongue.
+    main: bool,
 }
 
 fn read_backbone(path: &Path) -> Vec<Row> {
@@ -81,6 +83,7 @@ fn read_backbone(path: &Path) -> Vec<Row> {
         col("fold"),
         col("jump"),
     );
+    let kind = col("branch_kind");
     lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
@@ -91,6 +94,7 @@ fn read_backbone(path: &Path) -> Vec<Row> {
                 share: f[is].parse().unwrap(),
                 fold: f[ifo] == "1",
                 jump: f[ij] == "1",
+                main: matches!(f[kind], "main" | "linear"),
             }
         })
         .collect()
@@ -143,8 +147,10 @@ fn coarse_blade_study_end_to_end() {
         );
         assert_eq!(r.touching, 0);
     }
+    // The main branch only: a tongue's rows follow the point it was detected at.
     let first_stretch: Vec<&Row> = rows
         .iter()
+        .filter(|r| r.main)
         .take_while(|r| !r.fold && !r.jump)
         .filter(|r| r.q > qg * 1.05)
         .collect();

@@ -180,8 +180,8 @@ def case_files(c, geo):
     ]:
         text = base_case(c, geo, continuation=lines)
         if name == "q_max_default_is_35":
-            # Deleting q_max from a present [continuation] table takes the documented 35, not the
-            # library's 10: a kept amplitude of 36 is named against [0.5, 35].
+            # Deleting q_max from a present [continuation] table takes the documented 35: a kept
+            # amplitude of 36 is named against [0.5, 35].
             text = re.sub(r"^keep = .*\n", "keep = [36.0]\n", text, flags=re.M)
         bad(name, pat, text=text)
     for name, line, pat in [
@@ -190,6 +190,7 @@ def case_files(c, geo):
         ("epsilon_0", "epsilon = 0.0", r"algorithm: parameter epsilon = 0"),
         ("epsilon_negative", "epsilon = -1e-3", r"algorithm: parameter epsilon = -0\.001"),
         ("max_iterations_0", "max_iterations = 0", r"algorithm: parameter max_iterations"),
+        ("stall_tolerance_negative", "stall_tolerance = -1e-3", r"algorithm: parameter stall_tolerance = -0\.001 is invalid: expected a finite value >= 0"),
     ]:
         bad(name, pat, algorithm=line)
     bad("name_parent", r"name = \"\.\./x\": expected a plain directory name", base_case(c, geo, extra_top='name = "../x"'))

@@ -47,7 +47,7 @@ pub const MASS_CONDITION_LIMIT: f64 = 1e-12;
 
 /// Smallest accepted gap and distance between two contact nodes, relative to the largest distance
 /// of a contact node from the rotor axis. Positions are known to eps |x| (~1e-16 relative); a gap
-/// of 1e-9 of the radius keeps the solver's tolerance (epsilon g0, epsilon = 1e-3) 1e4 times above
+/// of 1e-9 of the radius keeps the solver's tolerance (epsilon g0, epsilon = 1e-4) 1e3 times above
 /// that round-off. Physical gaps are about 1e-3 of the radius.
 pub const MIN_RELATIVE_GAP: f64 = 1e-9;
 

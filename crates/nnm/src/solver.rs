@@ -1,12 +1,16 @@
 //! The nonlinear-mode solver at one amplitude: Algorithm 1 around the inner Newton solve, and the
 //! assembly of a [`BackbonePoint`] from the converged state.
 
-use crate::augmented_lagrangian::{run_algorithm1, AlgorithmParams, ContactMethod, OuterReport};
+use crate::augmented_lagrangian::{
+    run_algorithm1, AlgorithmParams, ContactMethod, InnerSolves, OuterReport,
+};
 use crate::contact::{powell_measure, Multipliers};
 use crate::error::NnmError;
 use crate::fourier::{Aft, HarmonicSettings};
 use crate::linear_model::{LinearModel, ParameterRow};
-use crate::newton::{InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork};
+use crate::newton::{
+    Evaluation, InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork,
+};
 use crate::newton_fallback::solve_inner_robust;
 use crate::point::BackbonePoint;
 use crate::solver_settings::SolverSettings;
@@ -217,6 +221,7 @@ impl<'s> Solver<'s> {
                 q: guess.q,
             },
             last_good: None,
+            kept: None,
         };
         let report = match self.params.method {
             ContactMethod::Penalty { stiffness } => {
@@ -239,7 +244,7 @@ impl<'s> Solver<'s> {
                 g0,
                 &self.kappa_cap,
                 &mut multipliers,
-                |mu, gaps| inner.solve(mu, gaps),
+                &mut inner,
             )
             .map_err(|f| NnmError::NotConverged {
                 q: inner.state.q,
@@ -316,6 +321,14 @@ impl<'s> Solver<'s> {
             return Err(NnmError::NonFiniteResult {
                 what: "the converged orbit",
             });
+        }
+        if report.stalled {
+            tracing::debug!(
+                q = point.q,
+                measure = report.measure,
+                epsilon = self.params.epsilon,
+                "Algorithm 1 stalled above epsilon: point accepted at its last accepted iterate"
+            );
         }
         if truncation_warning {
             tracing::debug!(
@@ -440,6 +453,7 @@ fn penalty_solve(
         accepted: 1,
         solves: 1,
         newton_iterations: iterations,
+        stalled: false,
     })
 }
 
@@ -468,9 +482,11 @@ struct InnerSolve<'a> {
     spent0: usize,
     state: NewtonState,
     last_good: Option<(NewtonState, Multipliers)>,
+    /// The orbit of Algorithm 1's last accepted iterate and its evaluation.
+    kept: Option<(NewtonState, Evaluation)>,
 }
 
-impl InnerSolve<'_> {
+impl InnerSolves for InnerSolve<'_> {
     /// Solves Eq. (20) at `mu` (with the fallbacks), writes the gap samples (c x m) and returns
     /// the Newton iterations spent.
     fn solve(&mut self, mu: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, NnmError> {
@@ -484,6 +500,19 @@ impl InnerSolve<'_> {
         Ok(iterations)
     }
 
+    fn keep(&mut self) {
+        self.kept = Some((self.state.clone(), self.work.current.clone()));
+    }
+
+    fn restore(&mut self) {
+        if let Some((state, evaluation)) = &self.kept {
+            self.state.clone_from(state);
+            self.work.current.clone_from(evaluation);
+        }
+    }
+}
+
+impl InnerSolve<'_> {
     fn solve_from(&mut self, mu: &Multipliers, state: &mut NewtonState) -> Result<usize, NnmError> {
         let start = state.clone();
         let first = match self.attempt(mu, state, true) {
