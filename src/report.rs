@@ -258,11 +258,46 @@ pub fn write_report(
             root.display()
         );
     }
+    let _ = writeln!(s, "## Convergence\n\n{}", convergence_text(case, b));
     let _ = writeln!(
         s,
-        "## Convergence\n\n![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n"
+        "![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n"
     );
     crate::output::write_atomic(&root.join("report.md"), s.as_bytes())
+}
+
+/// What Algorithm 1 reached: every point within epsilon, or how many were accepted stalled above
+/// it (docs/DESIGN.md §3.5, `stall_tolerance`).
+fn convergence_text(case: &Case, b: &BackboneFile) -> String {
+    let a = &case.algorithm.algorithm;
+    if a.method != nlmodes_nnm::ContactMethod::AugmentedLagrangian {
+        return "Plain penalty law: one Newton solve per point, no multiplier update.\n".into();
+    }
+    let above: Vec<f64> = b
+        .points
+        .iter()
+        .map(|p| p.powell_measure)
+        .filter(|&g| g > a.epsilon)
+        .collect();
+    let mut text = format!(
+        "Algorithm 1 stops when Powell's measure G (penetration and complementarity error, units \
+         of g0) is at most epsilon = {:e}.",
+        a.epsilon
+    );
+    match above.iter().copied().reduce(f64::max) {
+        None => text += " Every point reached it.\n",
+        Some(worst) => {
+            text += &format!(
+                " {} of {} points stalled above it and were kept at their last accepted iterate \
+                 (G up to {worst:.2e}, `stall_tolerance` = {:e}; `powell_measure` in \
+                 backbone.csv).\n",
+                above.len(),
+                b.points.len(),
+                a.stall_tolerance
+            )
+        }
+    }
+    text
 }
 
 /// The harmonic-truncation estimates (docs/DESIGN.md §8.5): the backbone points where it was made

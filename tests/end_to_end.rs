@@ -200,6 +200,29 @@ fn coarse_blade_study_end_to_end() {
     ] {
         assert!(res.join(f).is_file(), "missing {f}");
     }
+    // The report states how Algorithm 1 converged: the count of points above epsilon (1e-4, the
+    // default) is the backbone's.
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    let csv = std::fs::read_to_string(res.join("backbone/backbone.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let ig = header.iter().position(|h| *h == "powell_measure").unwrap();
+    let above = csv
+        .lines()
+        .skip(1)
+        .filter(|l| l.split(',').nth(ig).unwrap().parse::<f64>().unwrap() > 1e-4)
+        .count();
+    let stated = if above == 0 {
+        "Every point reached it.".to_string()
+    } else {
+        format!(
+            "{above} of {} points stalled above it",
+            csv.lines().count() - 1
+        )
+    };
+    assert!(
+        report.contains("is at most epsilon = 1e-4.") && report.contains(&stated),
+        "report.md does not say `{stated}`"
+    );
     let kept = res.join("amplitude_q12.0");
     for f in [
         "radial_q12.0.csv",
