@@ -108,7 +108,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                         let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;
                         let dims = if from.is_some() { 2 } else { xn.len() };
                         let near = distance(&xn[..dims], &pred[..dims]) <= step;
-                        if ahead && near && self.cont.tongue(&p, &self.omegas).is_none() {
+                        if ahead && near && self.on_the_traced_mode(&p) {
                             self.land_past(main, p, direction, &xl);
                             return true;
                         }
@@ -117,7 +117,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                             ahead,
                             near,
                             step,
-                            "predictor past the tongue rejected"
+                            "predictor past the tongue rejected (behind, far, or not on the traced mode)"
                         );
                     }
                     Err(e) => {
@@ -241,19 +241,28 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             previous = q;
             for start in [Start::Point(&last), Start::LinearMode(last.mode)] {
                 match self.solver.solve_point(q * self.g_ref, start) {
-                    Ok(mut p) if self.cont.tongue(&p, &self.omegas).is_none() => {
+                    Ok(mut p) if self.on_the_traced_mode(&p) => {
                         p.jump = true;
                         let mut along_q = vec![0.0; xl.len()];
                         along_q[0] = 1.0;
                         self.land_past(main, p, &along_q, &xl);
                         return true;
                     }
-                    Ok(p) => tracing::debug!(q = p.q, "hop landed in a tongue"),
+                    Ok(p) => tracing::debug!(q = p.q, "hop landed in a tongue or on another mode"),
                     Err(e) => tracing::debug!(q, error = %e, "hop failed"),
                 }
             }
         }
         false
+    }
+
+    /// A point past a tongue continues the traced mode's branch when no other component holds
+    /// more of its energy than the traced mode's fundamental: neither another mode's harmonic
+    /// n >= 2 (still in a tongue) nor any component n = 0, 1 (a passage must not land on another
+    /// mode's family: on a 3-DOF chain with a stop, a predictor past a 2:1 tongue converged on
+    /// the second mode's backbone, 92 % of the energy in its fundamental).
+    fn on_the_traced_mode(&self, p: &BackbonePoint) -> bool {
+        self.cont.tongue(p, &self.omegas).is_none() && p.secondary_share <= p.primary_share
     }
 
     /// A main branch may turn back in q as it enters a tongue, before the energy shares show it:
