@@ -6,6 +6,15 @@ use super::{distance, Advance, Continuation, Entry, Trace};
 use crate::continuation::{BranchKind, InternalResonance, Termination};
 use crate::point::BackbonePoint;
 
+/// Largest detuning |n w - w_k| / w_k (linear w_k) at which a shift of energy alone, with q still
+/// rising, is read as the entry into a tongue. Further from the resonance the energy of another
+/// mode's harmonic n grows because the orbit distorts, not because it resonates, and the branch
+/// goes on (the one-impact mode of the 3-DOF chain of `passage_guard.rs`: mode 3 at harmonic 2
+/// takes more energy than the fundamental from w/w1 = 1.53, 12.6 % below w3, and the exact branch
+/// continues to w/w1 = 1.6). Entered by a fold of q, a tongue may be detuned further from the
+/// linear w_k: the other mode's own frequency moves with its contact (`tongue_locking.rs`).
+const ENERGY_ENTRY_DETUNING: f64 = 0.05;
+
 impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// Whether the main branch enters an internal-resonance tongue at `p`: its energy has moved
     /// into another mode at a harmonic n >= 2 (`ContinuationSettings::tongue`), or q turns back
@@ -19,13 +28,21 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         p: &BackbonePoint,
         xn: &[f64],
     ) -> Option<Entry> {
-        if let Some(res) = self.cont.tongue(p, &self.omegas) {
-            return Some(Entry::Tongue(res));
+        let by_energy = self.cont.tongue(p, &self.omegas);
+        if let Some(res) = &by_energy {
+            if res.detuning.abs() <= ENERGY_ENTRY_DETUNING {
+                return by_energy.map(Entry::Tongue);
+            }
         }
         let xl = self.scaled(self.last_point(trace));
         let turns_back = trace.points.len() > 1 && trace.dq_sign > 0.0 && xn[0] < xl[0];
         if !turns_back || self.cont.skip_folds {
             return None;
+        }
+        if by_energy.is_some() {
+            // q turns back while another mode's harmonic holds the energy: a tongue, however far
+            // from its linear frequency (and even at a jump).
+            return by_energy.map(Entry::Tongue);
         }
         let resonant = p.secondary_harmonic >= 2 && p.secondary_mode != p.mode;
         if p.jump || !resonant {
