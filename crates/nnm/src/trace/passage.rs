@@ -114,9 +114,12 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                         }
                         tracing::debug!(
                             q = p.q,
+                            omega_ratio = p.omega_ratio,
                             ahead,
                             near,
                             step,
+                            secondary_share = p.secondary_share,
+                            primary_share = p.primary_share,
                             "predictor past the tongue rejected (behind, far, or not on the traced mode)"
                         );
                     }
