@@ -349,6 +349,23 @@ pub fn load_model(dir: &Path) -> Result<ReducedModel> {
     ReducedModel::read(dir).with_context(|| format!("reading the reduced model {}", dir.display()))
 }
 
+/// The points an augmented-Lagrangian run kept with Powell's measure above epsilon (stalled,
+/// `AlgorithmParams::stall_factor`): their count and largest measure, None if there are none.
+pub fn stalled_points(
+    measures: impl Iterator<Item = f64>,
+    algorithm: &nlmodes_nnm::AlgorithmParams,
+) -> Option<(usize, f64)> {
+    if algorithm.method != nlmodes_nnm::ContactMethod::AugmentedLagrangian {
+        return None;
+    }
+    measures
+        .filter(|&g| g > algorithm.epsilon)
+        .fold(None, |acc, g| match acc {
+            None => Some((1, g)),
+            Some((n, worst)) => Some((n + 1, f64::max(worst, g))),
+        })
+}
+
 /// A short table of the backbone (about 15 rows) for the terminal; `params` are the solver
 /// settings it was traced with (for the points accepted above epsilon).
 pub fn summary(b: &Backbone, params: &SolverSettings) -> String {
@@ -409,25 +426,15 @@ pub fn summary(b: &Backbone, params: &SolverSettings) -> String {
             passage_phrase(r.passed)
         );
     }
-    let algorithm = &params.algorithm;
-    if algorithm.method == nlmodes_nnm::ContactMethod::AugmentedLagrangian {
-        let above: Vec<f64> = b
-            .points
-            .iter()
-            .map(|p| p.powell_measure)
-            .filter(|&g| g > algorithm.epsilon)
-            .collect();
-        if let Some(worst) = above.iter().copied().reduce(f64::max) {
-            let _ = writeln!(
-                s,
-                "{} points accepted where Algorithm 1 stalled above epsilon = {:e} (G up to {:.2e} \
-                 g0, stall_tolerance {:e}; powell_measure in backbone.csv)",
-                above.len(),
-                algorithm.epsilon,
-                worst,
-                algorithm.stall_tolerance
-            );
-        }
+    if let Some((count, worst)) =
+        stalled_points(b.points.iter().map(|p| p.powell_measure), &params.algorithm)
+    {
+        let _ = writeln!(
+            s,
+            "{count} points accepted where Algorithm 1 stalled above epsilon = {:e} (G up to \
+             {worst:.2e} g0, at most stall_factor x epsilon; powell_measure in backbone.csv)",
+            params.algorithm.epsilon,
+        );
     }
     let _ = writeln!(
         s,

@@ -298,8 +298,9 @@ mod tests {
         assert!(err.to_string().contains("harmonix"), "{err}");
     }
 
-    /// Deleting a key of a present table takes the value `Case::default()` documents, not
-    /// the library default (issue 14: q_max 35 not 10).
+    /// Deleting a key of a present table takes the value `Case::default()` documents (issue 14),
+    /// not zero or an error. The case defaults are now the library's (q_max 35, epsilon 1e-4);
+    /// the test guards the key-by-key merge, which must keep them if they diverge again.
     #[test]
     fn a_deleted_key_takes_the_case_default() {
         let path = Path::new("test.toml");

@@ -267,33 +267,27 @@ pub fn write_report(
 }
 
 /// What Algorithm 1 reached: every point within epsilon, or how many were accepted stalled above
-/// it (docs/DESIGN.md §3.5, `stall_tolerance`).
+/// it (docs/DESIGN.md §3.5, `stall_factor`).
 fn convergence_text(case: &Case, b: &BackboneFile) -> String {
     let a = &case.algorithm.algorithm;
     if a.method != nlmodes_nnm::ContactMethod::AugmentedLagrangian {
         return "Plain penalty law: one Newton solve per point, no multiplier update.\n".into();
     }
-    let above: Vec<f64> = b
-        .points
-        .iter()
-        .map(|p| p.powell_measure)
-        .filter(|&g| g > a.epsilon)
-        .collect();
     let mut text = format!(
         "Algorithm 1 stops when Powell's measure G (penetration and complementarity error, units \
          of g0) is at most epsilon = {:e}.",
         a.epsilon
     );
-    match above.iter().copied().reduce(f64::max) {
+    let measures = b.points.iter().map(|p| p.powell_measure);
+    match crate::backbone::stalled_points(measures, a) {
         None => text += " Every point reached it.\n",
-        Some(worst) => {
+        Some((count, worst)) => {
             text += &format!(
-                " {} of {} points stalled above it and were kept at their last accepted iterate \
-                 (G up to {worst:.2e}, `stall_tolerance` = {:e}; `powell_measure` in \
-                 backbone.csv).\n",
-                above.len(),
+                " {count} of {} points stalled above it and were kept at their last accepted \
+                 iterate (G up to {worst:.2e}, at most `stall_factor` = {} x epsilon; \
+                 `powell_measure` in backbone.csv).\n",
                 b.points.len(),
-                a.stall_tolerance
+                a.stall_factor
             )
         }
     }

@@ -342,10 +342,7 @@ fn default_blade_stability_cost() {
     )
     .expect("system");
     let settings = HarmonicSettings::new(10, 128).expect("settings");
-    let params = AlgorithmParams {
-        epsilon: 1e-3,
-        ..AlgorithmParams::default()
-    };
+    let params = AlgorithmParams::default(); // the case's (epsilon 1e-4)
     let cont = ContinuationSettings {
         q_start: 0.5,
         q_max: 35.0,

@@ -190,7 +190,7 @@ def case_files(c, geo):
         ("epsilon_0", "epsilon = 0.0", r"algorithm: parameter epsilon = 0"),
         ("epsilon_negative", "epsilon = -1e-3", r"algorithm: parameter epsilon = -0\.001"),
         ("max_iterations_0", "max_iterations = 0", r"algorithm: parameter max_iterations"),
-        ("stall_tolerance_negative", "stall_tolerance = -1e-3", r"algorithm: parameter stall_tolerance = -0\.001 is invalid: expected a finite value >= 0"),
+        ("stall_factor_below_1", "stall_factor = 0.5", r"algorithm: parameter stall_factor = 0\.5 is invalid: expected a finite value >= 1"),
     ]:
         bad(name, pat, algorithm=line)
     bad("name_parent", r"name = \"\.\./x\": expected a plain directory name", base_case(c, geo, extra_top='name = "../x"'))

@@ -109,6 +109,10 @@ pub fn powell_measure_of(violations: &[f64], samples: usize, kind: PowellMeasure
     if samples == 0 {
         return 0.0;
     }
+    if violations.iter().any(|v| v.is_nan()) {
+        // f64::max drops NaN: a NaN gap would otherwise measure 0, i.e. "converged".
+        return f64::NAN;
+    }
     match kind {
         PowellMeasure::Entrywise => violations.iter().fold(0.0, |a: f64, v| a.max(v.abs())),
         PowellMeasure::RowMaximum => violations

@@ -48,6 +48,9 @@
 //! * The penalty increase of an accepted iteration also divides theta by beta
 //!   ([`PenaltyUpdate::KeepMultiplier`]); the printed update over-pushes (kept as an option).
 //! * Penalties are capped (`max_penalty`); at the cap the multiplier is updated instead.
+//! * Optionally (`stall_factor` > 1; default off) a point whose measure floors above epsilon is
+//!   kept at its last accepted iterate when that iterate's measure is at most `stall_factor` x
+//!   epsilon (reported with its measure).
 //! * The inner Newton has fallbacks (secant slopes at contact switches, a smoothing path, penalty
 //!   and multiplier homotopies) and a per-point iteration budget; failures are typed errors that
 //!   carry the last Powell measure and the iteration counts.

@@ -505,6 +505,7 @@ impl InnerSolves for InnerSolve<'_> {
     }
 
     fn restore(&mut self) {
+        debug_assert!(self.kept.is_some(), "restore without an accepted iterate");
         if let Some((state, evaluation)) = &self.kept {
             self.state.clone_from(state);
             self.work.current.clone_from(evaluation);

@@ -16,10 +16,11 @@
 //!
 //! Checked, augmented Lagrangian (the rigid stop): every step reaches 3 q_g, with w/w1 there equal
 //! to 1e-5 between the steps (measured 2e-6), and every main-branch point after grazing lies on
-//! the exact one-impact branch within `TOLERANCE_W` in w at equal q. Both laws: no main-branch
-//! point has another mode's mean or fundamental holding more energy than the traced fundamental,
-//! and a run that stops at a tongue records it as not passed (the penalty law with kc = 100 still
-//! stops at the 3:1 tongue with steps 0.1 and 0.5).
+//! the exact one-impact branch within `TOLERANCE_W` in w at equal q (at least 90 % of them
+//! compared). Penalty law (kc = 100, no exact branch): no main-branch point has another mode's
+//! mean or fundamental holding more energy than the traced fundamental, and a run that stops at a
+//! tongue records it as not passed (with steps 0.1 and 0.5 it stops at its second 3:1 tongue;
+//! with 0.02 it lands past it and reaches 3 q_g).
 
 mod oracle;
 
@@ -73,24 +74,32 @@ fn run(method: &ContactMethod, step: f64) -> (Backbone, f64) {
     )
 }
 
-/// No main-branch point of `b` belongs to another mode's family, and a stop is explained.
+/// No main-branch point of `b` belongs to another mode's family (every other mode's mean and
+/// fundamental below the traced fundamental, from the point's own orbit), and a stop is
+/// explained. For the penalty law, which has no exact branch to compare with; on the rigid
+/// stop's exact branch itself, mode 2's fundamental reaches the traced one's share near its end
+/// (22 % each at w/w1 = 1.565, where all modes grow toward the infinite-energy limit).
 fn check_family(b: &Backbone, what: &str) {
+    let sys = three_dof();
     for p in b
         .points
         .iter()
         .filter(|p| b.branches[p.branch].kind == BranchKind::Main)
     {
-        let foreign = p.secondary_harmonic <= 1 && p.secondary_share > p.primary_share;
-        assert!(
-            !foreign,
-            "{what}: main-branch point at w/w1 = {:.4} has {:.0} % of its energy in mode {} \
-             harmonic {} and {:.0} % in the traced fundamental",
-            p.omega_ratio,
-            100.0 * p.secondary_share,
-            p.secondary_mode + 1,
-            p.secondary_harmonic,
-            100.0 * p.primary_share
-        );
+        let shares = sys.modal_shares(&p.coefficients);
+        let primary = shares.share(p.mode, 1);
+        for (k, n) in (0..sys.n_dofs()).flat_map(|k| [(k, 0), (k, 1)]) {
+            let share = shares.share(k, n);
+            assert!(
+                (k, n) == (p.mode, 1) || share <= primary,
+                "{what}: main-branch point at w/w1 = {:.4} has {:.0} % of its energy in mode {} \
+                 harmonic {n} and {:.0} % in the traced fundamental",
+                p.omega_ratio,
+                100.0 * share,
+                k + 1,
+                100.0 * primary
+            );
+        }
     }
     match &b.termination {
         Termination::ReachedMaxAmplitude => {}
@@ -111,7 +120,7 @@ fn the_rigid_stop_branch_continues_past_the_mode_3_interaction_on_the_exact_bran
     for step in [0.02, 0.1, 0.5] {
         let what = format!("AL, step {step}");
         let (b, _) = run(&ContactMethod::AugmentedLagrangian, step);
-        check_family(&b, &what);
+        // The family is checked against the exact branch below.
         assert_eq!(b.termination, Termination::ReachedMaxAmplitude, "{what}");
         let main: Vec<_> = b
             .points
@@ -122,6 +131,8 @@ fn the_rigid_stop_branch_continues_past_the_mode_3_interaction_on_the_exact_bran
         // energy at w/w1 = 1.62), where a small shift in w is a large one in q.
         let sign = exact.q_impact_closed_form(w1 * (1.0 + 1e-9)).0.signum();
         let mut worst: f64 = 0.0;
+        let (mut compared, after_grazing) =
+            (0, main.iter().filter(|p| p.omega_ratio > 1.0).count());
         for p in main.iter().filter(|p| p.omega_ratio > 1.0) {
             let roots = exact.omegas_at_q(sign * p.q, w1 * 1.001, w1 * 1.62, 600);
             let Some(w) = roots.iter().map(|w| w / w1).min_by(|a, b| {
@@ -132,7 +143,14 @@ fn the_rigid_stop_branch_continues_past_the_mode_3_interaction_on_the_exact_bran
                 continue;
             };
             worst = worst.max((p.omega_ratio / w - 1.0).abs());
+            compared += 1;
         }
+        // Points with no admissible exact orbit at their q within [1.001, 1.62] w1: only where the
+        // exact branch is not monotone in w (next to the fold after grazing and the 3:1 tongue).
+        assert!(
+            compared * 10 >= after_grazing * 9,
+            "{what}: only {compared} of {after_grazing} points compared"
+        );
         println!("{what}: w within {worst:.2e} of the exact one-impact branch at equal q");
         assert!(
             worst <= TOLERANCE_W,

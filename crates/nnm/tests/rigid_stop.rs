@@ -10,7 +10,7 @@ fn rigid_error(harmonics: usize, a_over_g: f64) -> (f64, nlmodes_nnm::BackbonePo
     let g = 1.0;
     let sys = common::one_dof(g);
     let settings = HarmonicSettings::with_default_samples(harmonics).expect("settings");
-    // G <= 1e-8 needs penalties above the default cap (1e3 x contact stiffness): the 1-DOF inner
+    // G <= 1e-8 needs penalties above the default cap (1e4 x contact stiffness): the 1-DOF inner
     // problem stays easy for Newton at any penalty, so the cap is lifted.
     let params = AlgorithmParams {
         epsilon: 1e-8,

@@ -170,25 +170,41 @@ fn check(harmonics: usize) {
         );
     }
     // An exact change is required where the branch was sampled finely enough to place it within
-    // 1 %: between consecutive points less than 2 % apart in w. (Past the 3:1 tongue the
-    // continuation leaves a gap, w / w1 = 1.148-1.30, and fills the branch back at steps of
-    // 4-8 % in w, where four changes within 1.30-1.42 cannot be resolved.)
-    let sampled = |t: f64| {
+    // 1 %: between consecutive points less than 2 % apart in w, with no other exact change between
+    // them (two changes between the same two points cancel), and where the exact stability at
+    // both points is clear by more than the 2 % margin used above (at w/w1 = 1.2994-1.3045 rho
+    // grazes -1, by 1.2e-4 at most, far below the rho error 1.5 / N: the point at 1.3033 inside
+    // that window is unstable by that much and cannot be told from stable).
+    let margin = |orbit: &oracle::impact::ImpactOrbit| {
+        exact
+            .floquet_pairs(orbit)
+            .iter()
+            .map(|r| (r.re.abs() - 1.0).abs())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let sampled_alone = |t: f64| {
         points.windows(2).any(|x| {
             let (a, b) = (x[0].0.omega / w1, x[1].0.omega / w1);
-            a.min(b) <= t && t <= a.max(b) && (a - b).abs() <= 0.02
+            let (lo, hi) = (a.min(b), a.max(b));
+            let inside = transitions.iter().filter(|&&u| lo <= u && u <= hi).count();
+            let clear = margin(&x[0].1) > 0.02 && margin(&x[1].1) > 0.02;
+            lo <= t && t <= hi && (a - b).abs() <= 0.02 && inside == 1 && clear
         })
     };
-    // A pair of exact changes closer than that spacing (an unstable window narrower than one
-    // step: at w/w1 = 1.2994-1.3045 rho grazes -1, by 1.2e-4 at most, far below the rho error
-    // 1.5 / N) can fall between two points and show no change at all: only changes with no
-    // other within 2 % are required.
-    let isolated = |t: f64| {
-        transitions
-            .iter()
-            .all(|&u| u == t || (u - t).abs() > 0.02 * t)
-    };
-    for t in transitions.iter().filter(|&&t| sampled(t) && isolated(t)) {
+    let required: Vec<f64> = transitions
+        .iter()
+        .copied()
+        .filter(|&t| sampled_alone(t))
+        .collect();
+    // Measured (steps of 0.02, N = 40): 4 of the 8 exact changes, at 1.121, 1.233, 1.373 and
+    // 1.394; the others have a point within 2 % of |rho| = 1 beside them (1.047 next to grazing,
+    // the pair at 1.2994-1.3045, 1.416).
+    assert!(
+        required.len() >= 4,
+        "only {} exact changes can be required: {required:?}",
+        required.len()
+    );
+    for t in &required {
         assert!(
             changes
                 .iter()

@@ -6,20 +6,13 @@ use super::{distance, Advance, Continuation, Entry, Trace};
 use crate::continuation::{BranchKind, InternalResonance, Termination};
 use crate::point::BackbonePoint;
 
-/// Largest detuning |n w - w_k| / w_k (linear w_k) at which a shift of energy alone, with q still
-/// rising, is read as the entry into a tongue. Further from the resonance the energy of another
-/// mode's harmonic n grows because the orbit distorts, not because it resonates, and the branch
-/// goes on (the one-impact mode of the 3-DOF chain of `passage_guard.rs`: mode 3 at harmonic 2
-/// takes more energy than the fundamental from w/w1 = 1.53, 12.6 % below w3, and the exact branch
-/// continues to w/w1 = 1.6). Entered by a fold of q, a tongue may be detuned further from the
-/// linear w_k: the other mode's own frequency moves with its contact (`tongue_locking.rs`).
-const ENERGY_ENTRY_DETUNING: f64 = 0.05;
-
 impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// Whether the main branch enters an internal-resonance tongue at `p`: its energy has moved
-    /// into another mode at a harmonic n >= 2 (`ContinuationSettings::tongue`), or q turns back
-    /// (a fold from rising to falling q; the main branch of a stiffening contact mode rises in q
-    /// except in the tongues, where the energy flows into another mode while q passes a maximum).
+    /// into another mode at a harmonic n >= 2 (`ContinuationSettings::tongue`) within
+    /// `resonance_tolerance` of that mode's linear frequency, or q turns back (a fold from rising
+    /// to falling q; the main branch of a stiffening contact mode rises in q except in the
+    /// tongues, where the energy flows into another mode while q passes a maximum), then at any
+    /// detuning if the energy has moved.
     /// A turn of q by a step accepted as a jump, or with no other mode's harmonic n >= 2 as the
     /// largest secondary component, is a corner ([`Entry::Corner`]), not a tongue.
     pub(super) fn tongue_entry(
@@ -30,7 +23,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     ) -> Option<Entry> {
         let by_energy = self.cont.tongue(p, &self.omegas);
         if let Some(res) = &by_energy {
-            if res.detuning.abs() <= ENERGY_ENTRY_DETUNING {
+            if res.detuning.abs() <= self.cont.resonance_tolerance {
                 return by_energy.map(Entry::Tongue);
             }
         }
