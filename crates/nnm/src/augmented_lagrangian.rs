@@ -91,7 +91,7 @@ pub struct AlgorithmParams {
     /// nodes in contact the sampled complementarity problem can floor G just above a tight
     /// epsilon (1.2-1.4e-4 on the blade's second mode), and refusing the point makes the
     /// continuation halve its step, down to a jump; 10 keeps such points (blade mode 2: 4.7 s
-    /// instead of 25 s) at the price of less accurate points, which on dense steps can bend the
+    /// instead of 8.9 s) at the price of less accurate points, which on dense steps can bend the
     /// branch into spurious weak tongues (docs/DESIGN.md §3.5). A kept point carries its G
     /// (`powell_measure` > epsilon in backbone.csv). Not in the paper.
     pub stall_factor: f64,
