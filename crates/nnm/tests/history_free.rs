@@ -111,17 +111,7 @@ fn penalty_dense_solve_is_history_free() {
 /// (N = 40, m = 512), where the continuation's hard solves (passages past the 3:1 tongue) happen.
 #[test]
 fn augmented_lagrangian_impact_system_solve_is_history_free() {
-    let m = [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 1.5]];
-    let k = [[3.0, -1.0, 0.0], [-1.0, 2.5, -1.0], [0.0, -1.0, 1.2]];
-    let a = [0.2, 0.0, 1.0];
-    let sys = System::new(
-        faer::Mat::from_fn(3, 3, |i, j| m[i][j]),
-        faer::Mat::from_fn(3, 3, |i, j| k[i][j]),
-        faer::Mat::from_fn(1, 3, |_, j| a[j]),
-        vec![0.5],
-        2,
-    )
-    .expect("3-DOF system");
+    let sys = common::three_dof_stop();
     let qg = sys.grazing_amplitude(0).expect("grazing").expect("touches");
     let settings = HarmonicSettings::new(40, 512).expect("settings");
     let solver = SolverSettings::from(AlgorithmParams {

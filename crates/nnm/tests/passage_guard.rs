@@ -22,12 +22,12 @@
 //! tongue records it as not passed (with steps 0.1 and 0.5 it stops at its second 3:1 tongue;
 //! with 0.02 it lands past it and reaches 3 q_g).
 
+mod common;
 mod oracle;
 
-use faer::Mat;
 use nlmodes_nnm::{
     backbone, AlgorithmParams, Backbone, BranchKind, ContactMethod, ContinuationSettings,
-    HarmonicSettings, System, Termination,
+    HarmonicSettings, Termination,
 };
 use oracle::impact::ImpactChain;
 
@@ -37,23 +37,9 @@ use oracle::impact::ImpactChain;
 /// 1.5) and 0.98-1.54e-2 with N = 40, m = 512 (2026-11-24), about 0.5 / N. Bound: 0.6 / N.
 const TOLERANCE_W: f64 = 0.6 / 20.0;
 
-fn three_dof() -> System {
-    let m = [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 1.5]];
-    let k = [[3.0, -1.0, 0.0], [-1.0, 2.5, -1.0], [0.0, -1.0, 1.2]];
-    let a = [0.2, 0.0, 1.0];
-    System::new(
-        Mat::from_fn(3, 3, |i, j| m[i][j]),
-        Mat::from_fn(3, 3, |i, j| k[i][j]),
-        Mat::from_fn(1, 3, |_, j| a[j]),
-        vec![0.5],
-        2,
-    )
-    .expect("3-DOF system")
-}
-
-/// The backbone of `three_dof()` from 0.5 to 3 q_g, and q_g / g.
+/// The backbone of `common::three_dof_stop()` from 0.5 to 3 q_g, and q_g / g.
 fn run(method: &ContactMethod, step: f64) -> (Backbone, f64) {
-    let sys = three_dof();
+    let sys = common::three_dof_stop();
     let qg = sys.grazing_amplitude(0).expect("grazing").expect("touches") / sys.gap_reference();
     let settings = HarmonicSettings::new(20, 256).expect("settings");
     let params = AlgorithmParams {
@@ -80,7 +66,7 @@ fn run(method: &ContactMethod, step: f64) -> (Backbone, f64) {
 /// stop's exact branch itself, mode 2's fundamental reaches the traced one's share near its end
 /// (22 % each at w/w1 = 1.565, where all modes grow toward the infinite-energy limit).
 fn check_family(b: &Backbone, what: &str) {
-    let sys = three_dof();
+    let sys = common::three_dof_stop();
     for p in b
         .points
         .iter()
@@ -113,7 +99,7 @@ fn check_family(b: &Backbone, what: &str) {
 
 #[test]
 fn the_rigid_stop_branch_continues_past_the_mode_3_interaction_on_the_exact_branch() {
-    let sys = three_dof();
+    let sys = common::three_dof_stop();
     let exact = ImpactChain::from_system(&sys);
     let w1 = exact.grazing_omega();
     let mut ends = Vec::new();

@@ -13,27 +13,13 @@
 //! displacement at the impact), whose error is O(1/N) (the rigid stop makes the orbit's velocity
 //! jump, docs/VERIFICATION.md); observed 0.8 / N at N = 40 and 60.
 
+mod common;
 mod oracle;
 
-use faer::Mat;
 use nlmodes_nnm::{
-    backbone, AlgorithmParams, ContinuationSettings, HarmonicSettings, StabilityMethod, System,
+    backbone, AlgorithmParams, ContinuationSettings, HarmonicSettings, StabilityMethod,
 };
 use oracle::impact::ImpactChain;
-
-fn three_dof() -> System {
-    let m = [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 1.5]];
-    let k = [[3.0, -1.0, 0.0], [-1.0, 2.5, -1.0], [0.0, -1.0, 1.2]];
-    let a = [0.2, 0.0, 1.0];
-    System::new(
-        Mat::from_fn(3, 3, |i, j| m[i][j]),
-        Mat::from_fn(3, 3, |i, j| k[i][j]),
-        Mat::from_fn(1, 3, |_, j| a[j]),
-        vec![0.5],
-        2,
-    )
-    .expect("3-DOF system")
-}
 
 #[test]
 fn three_dof_impact_stability_matches_the_exact_monodromy() {
@@ -43,7 +29,7 @@ fn three_dof_impact_stability_matches_the_exact_monodromy() {
 }
 
 fn check(harmonics: usize) {
-    let sys = three_dof();
+    let sys = common::three_dof_stop();
     let exact = ImpactChain::from_system(&sys);
     let q_graze = sys
         .grazing_amplitude(0)

@@ -248,3 +248,21 @@ pub fn solve_at_free_amplitude(
     }
     panic!("secant on q did not reach A = {target}: last A = {a1}");
 }
+
+/// A 3-DOF system with a rigid stop that is not the 2-DOF chain: non-diagonal M, a contact row
+/// along no coordinate (a = (0.2, 0, 1), gap 0.5), master DOF 3 (w2/w1 = 1.918, w3/w1 = 3.496).
+/// Its exact one-impact branch is `oracle::impact` (`impact_oracle.rs`); used by
+/// `saltation_oracle.rs`, `passage_guard.rs` and `history_free.rs`.
+pub fn three_dof_stop() -> System {
+    let m = [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 1.5]];
+    let k = [[3.0, -1.0, 0.0], [-1.0, 2.5, -1.0], [0.0, -1.0, 1.2]];
+    let a = [0.2, 0.0, 1.0];
+    System::new(
+        Mat::from_fn(3, 3, |i, j| m[i][j]),
+        Mat::from_fn(3, 3, |i, j| k[i][j]),
+        Mat::from_fn(1, 3, |_, j| a[j]),
+        vec![0.5],
+        2,
+    )
+    .expect("3-DOF system")
+}
