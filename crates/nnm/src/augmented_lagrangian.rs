@@ -324,8 +324,10 @@ pub(crate) fn run_algorithm1(
             if g_bar <= params.epsilon {
                 return Ok(rep);
             }
-            inner.keep();
-            kept.clone_from(multipliers);
+            if params.stall_factor > 1.0 {
+                inner.keep();
+                kept.clone_from(multipliers);
+            }
             update_multipliers(multipliers, &v, g0);
             if g_bar >= g_previous / alpha {
                 let update = params.penalty_update;
