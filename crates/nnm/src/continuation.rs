@@ -24,9 +24,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::check::positive;
-use crate::error::NnmError;
 use crate::point::BackbonePoint;
+use crate::NnmError;
+use nlmodes_hb::check::positive;
 
 /// Continuation settings. Amplitudes are in units of the reference gap g_ref (the mean initial
 /// gap, [`crate::System::gap_reference`]); steps are arc lengths in the scaled plane (q / g_ref, w / w_lin).

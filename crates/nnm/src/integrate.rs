@@ -9,11 +9,11 @@
 use faer::{Mat, MatRef, Par};
 use serde::Serialize;
 
-use crate::check::{at_least_one, require};
-use crate::dense::{cholesky_lower, generalized_eigen};
-use crate::error::NnmError;
 use crate::point::BackbonePoint;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::check::{at_least_one, require};
+use nlmodes_hb::dense::{cholesky_lower, generalized_eigen};
+use nlmodes_hb::system::System;
 
 /// Displacement and velocity.
 #[derive(Clone, Debug, PartialEq, Serialize)]

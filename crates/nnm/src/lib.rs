@@ -61,62 +61,46 @@
 //! hops over corners at fixed q when it can; otherwise it stops and returns the points computed so
 //! far with a [`Termination`] that says why.
 //!
-//! Modules: `system` (inputs), `layout` (harmonic layouts), `fourier` (AFT), `contact` (sampled
-//! law, Powell's measure), `linear_model` (the linear part as the Newton solver sees it), `newton`
-//! (inner solve, `NewtonSolve`), `newton_fallback` (smoothing path), `condensation_basis` (the
-//! precomputed condensation basis) and `condensed_newton` (the Newton step in it), `modal_tail`
-//! (series for the high modes), `full` (uncondensed validation model), `augmented_lagrangian`
-//! (Algorithm 1), `solver` (one point, `InnerSolve`), `solver_settings`, `continuation` (backbone),
-//! `sweep` (amplitude levels, tests only), `step_timing` (benchmarks only), `point` (outputs), `integrate` (time-integration cross-check), `dense` (faer helpers),
-//! `error`. Design: docs/DESIGN.md (sections cited as "DESIGN §k").
+//! The harmonic-balance engine these modules drive (system, layouts, AFT, contact law, Powell's
+//! measure, Algorithm 1, the inner Newton solve and its exact condensation) is the crate
+//! `nlmodes-hb`, shared with the forced response; the paths `system::`, `contact::`, `newton::`,
+//! ... in the table above are its modules. Modules of this crate: `solver` (one point of the free
+//! mode, `InnerSolve`), `continuation` and `trace` (backbone), `stability`, `truncation`, `point`
+//! (outputs), `integrate` (time-integration cross-check), `sweep` (amplitude levels, tests only),
+//! `step_timing` (benchmarks only). Design: docs/DESIGN.md (sections cited as "DESIGN §k"), §10
+//! for the split.
 
-mod augmented_lagrangian;
-mod check;
-mod condensation_basis;
-mod condensed_newton;
-mod contact;
 mod continuation;
-mod dense;
-mod error;
-mod fourier;
-mod full;
 mod integrate;
-mod layout;
-mod linear_model;
-mod modal_tail;
-mod newton;
-mod newton_fallback;
 mod point;
 mod solver;
-mod solver_settings;
 mod stability;
 #[cfg(feature = "testing")]
 mod step_timing;
 #[cfg(feature = "testing")]
 mod sweep;
-mod system;
 mod trace;
 mod truncation;
 
-pub use augmented_lagrangian::{AlgorithmParams, ContactMethod, PenaltyUpdate};
-pub use contact::{powell_measure, Multipliers, PowellMeasure};
 pub use continuation::{
     Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Passage, SkippedLevel,
     Termination,
 };
-pub use error::NnmError;
-pub use fourier::{cosine_series, cosine_series_rate, HarmonicSettings};
 pub use integrate::{check_periodicity, integrate_penalty, MotionState, PeriodicityCheck};
-pub use newton::NewtonSettings;
+/// The engine's error type: one type for the engine and the free-mode problem built on it.
+pub use nlmodes_hb::HbError as NnmError;
+pub use nlmodes_hb::{
+    cosine_series, cosine_series_rate, powell_measure, AlgorithmParams, Condensation,
+    ContactMethod, HarmonicSettings, ModalShares, Multipliers, NewtonSettings, PenaltyUpdate,
+    PowellMeasure, SolverSettings, System,
+};
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
-pub use solver_settings::{Condensation, SolverSettings};
 pub use stability::{
     analyze_backbone, classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis,
     FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability, StabilityMethod,
     UnstableCounts,
 };
-pub use system::{ModalShares, System};
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};
 

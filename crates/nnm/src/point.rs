@@ -2,9 +2,9 @@
 
 use serde::Serialize;
 
-use crate::contact::Multipliers;
-use crate::fourier::{cosine_series, cosine_series_rate};
-use crate::system::System;
+use nlmodes_hb::contact::Multipliers;
+use nlmodes_hb::fourier::{cosine_series, cosine_series_rate};
+use nlmodes_hb::system::System;
 
 /// One point of the backbone: a periodic orbit u(t) = sum_n u_n cos(n w t) at master amplitude q.
 ///

@@ -1,20 +1,20 @@
 //! The nonlinear-mode solver at one amplitude: Algorithm 1 around the inner Newton solve, and the
 //! assembly of a [`BackbonePoint`] from the converged state.
 
-use crate::augmented_lagrangian::{
+use crate::point::BackbonePoint;
+use crate::NnmError;
+use nlmodes_hb::augmented_lagrangian::{
     run_algorithm1, AlgorithmParams, ContactMethod, InnerSolves, OuterReport,
 };
-use crate::contact::{powell_measure, Multipliers};
-use crate::error::NnmError;
-use crate::fourier::{Aft, HarmonicSettings};
-use crate::linear_model::{LinearModel, ParameterRow};
-use crate::newton::{
+use nlmodes_hb::contact::{powell_measure, Multipliers};
+use nlmodes_hb::fourier::{Aft, HarmonicSettings};
+use nlmodes_hb::linear_model::{LinearModel, ParameterRow};
+use nlmodes_hb::newton::{
     Evaluation, InnerProblem, NewtonReport, NewtonSettings, NewtonState, NewtonWork,
 };
-use crate::newton_fallback::solve_inner_robust;
-use crate::point::BackbonePoint;
-use crate::solver_settings::SolverSettings;
-use crate::system::System;
+use nlmodes_hb::newton_fallback::solve_inner_robust;
+use nlmodes_hb::solver_settings::SolverSettings;
+use nlmodes_hb::system::System;
 
 /// Where a solve starts from.
 #[derive(Clone, Copy, Debug)]

@@ -9,12 +9,12 @@
 
 use std::time::Instant;
 
-use crate::check::require;
-use crate::error::NnmError;
-use crate::fourier::{Aft, HarmonicSettings};
-use crate::linear_model::{JacobianData, LinearModel};
-use crate::solver_settings::Condensation;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::check::require;
+use nlmodes_hb::fourier::{Aft, HarmonicSettings};
+use nlmodes_hb::linear_model::{JacobianData, LinearModel};
+use nlmodes_hb::solver_settings::Condensation;
+use nlmodes_hb::system::System;
 
 /// Median cost of one Newton linear solve.
 #[derive(Clone, Debug)]

@@ -3,13 +3,13 @@
 //! but it returns exactly the requested levels (the paper's way of plotting w against q).
 
 use crate::continuation::{Backbone, ContinuationSettings, SkippedLevel, Termination};
-use crate::error::NnmError;
-use crate::fourier::HarmonicSettings;
-use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::{Guess, Solver, Start};
-use crate::solver_settings::SolverSettings;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::fourier::HarmonicSettings;
+use nlmodes_hb::linear_model::ParameterRow;
+use nlmodes_hb::solver_settings::SolverSettings;
+use nlmodes_hb::system::System;
 
 /// Natural-parameter sweep: solves at the given master amplitudes `levels` (units of g_ref, increasing),
 /// by a fixed-q continuation with adaptive sub-steps between levels (secant predictor of u and w

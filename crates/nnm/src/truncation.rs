@@ -8,12 +8,12 @@
 
 use serde::Serialize;
 
-use crate::error::NnmError;
-use crate::fourier::HarmonicSettings;
 use crate::point::BackbonePoint;
 use crate::solver::{Solver, Start};
-use crate::solver_settings::SolverSettings;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::fourier::HarmonicSettings;
+use nlmodes_hb::solver_settings::SolverSettings;
+use nlmodes_hb::system::System;
 
 /// Largest change of the primary modal share for the 2N solve to count as the same orbit.
 const SAME_ORBIT_SHARE: f64 = 0.05;

@@ -10,10 +10,10 @@ use super::saltation::{reduced_multipliers, unresolved_impacts, ModalFlow};
 use super::{
     sort_multipliers, FloquetSettings, JacobianInTime, Stability, StabilityMethod, UnstableCounts,
 };
-use crate::dense::generalized_eigen;
-use crate::error::NnmError;
 use crate::point::BackbonePoint;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::dense::generalized_eigen;
+use nlmodes_hb::system::System;
 
 /// Precomputed modal data of a system for Hill's method; reuse it for every point of a backbone.
 pub struct FloquetAnalysis<'s> {

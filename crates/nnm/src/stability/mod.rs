@@ -90,11 +90,11 @@ pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, Monodro
 
 use serde::{Deserialize, Serialize};
 
-use crate::check::{at_least_one, require};
 use crate::continuation::Backbone;
-use crate::error::NnmError;
 use crate::point::BackbonePoint;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::check::{at_least_one, require};
+use nlmodes_hb::system::System;
 
 /// Settings of the Hill stability analysis. Every field has a default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -22,10 +22,10 @@ use faer::{Mat, MatRef, Side};
 use serde::{Deserialize, Serialize};
 
 use super::sort_multipliers;
-use crate::error::NnmError;
 use crate::integrate::check_rk4_step;
 use crate::point::BackbonePoint;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::system::System;
 
 /// Bisection steps locating a contact switch (interval / 2^60: below round-off).
 const BISECTION_STEPS: usize = 60;
@@ -234,7 +234,7 @@ pub(crate) fn constant_pieces(
         .collect();
     let g0 = system.gaps();
     let shifted_gap = |j: usize, k: usize, t: f64| {
-        crate::fourier::cosine_series(&gap_coefficients[j], point.omega * t) - g0[j]
+        nlmodes_hb::fourier::cosine_series(&gap_coefficients[j], point.omega * t) - g0[j]
             + mult.theta[j * m + k]
     };
     // Interval of sample k: [(k - 1/2) dt, (k + 1/2) dt), split at 0 for k = 0.

@@ -35,8 +35,8 @@
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef};
 
-use crate::error::NnmError;
 use crate::point::BackbonePoint;
+use crate::NnmError;
 
 /// One unresolved impact of the orbit.
 #[derive(Clone, Debug)]

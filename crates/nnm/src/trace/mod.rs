@@ -10,12 +10,12 @@ mod tongue;
 use crate::continuation::{
     Backbone, Branch, BranchKind, ContinuationSettings, InternalResonance, Termination,
 };
-use crate::error::NnmError;
-use crate::fourier::HarmonicSettings;
 use crate::point::BackbonePoint;
 use crate::solver::{Solver, Start};
-use crate::solver_settings::SolverSettings;
-use crate::system::System;
+use crate::NnmError;
+use nlmodes_hb::fourier::HarmonicSettings;
+use nlmodes_hb::solver_settings::SolverSettings;
+use nlmodes_hb::system::System;
 
 /// Traces the backbone family of mode `cont.mode` from q_start to q_max (docs/DESIGN.md §8),
 /// calling `progress` after every computed point. Invalid settings are errors; solver failures

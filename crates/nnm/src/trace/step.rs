@@ -3,9 +3,9 @@
 //! coordinates and the initial guesses extrapolated from the last points.
 
 use super::{distance, normalize, Advance, Continuation, Trace};
-use crate::linear_model::ParameterRow;
 use crate::point::BackbonePoint;
 use crate::solver::Guess;
+use nlmodes_hb::linear_model::ParameterRow;
 
 impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// Predictor along the tangent, corrector on the arc-length row (a fixed-q row for the step

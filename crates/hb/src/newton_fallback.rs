@@ -1,6 +1,6 @@
 //! Fallback of the inner Newton solve when the semi-smooth Newton stalls: a smoothing path.
 
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::fourier::Aft;
 use crate::linear_model::LinearModel;
 use crate::newton::{
@@ -16,7 +16,7 @@ const SMOOTHING_STARTS: [f64; 3] = [1e-6, 1e-4, 1e-2];
 /// (1e-6 g_ref first, larger if that fails) and mu is then driven to 0 through stages, each solved
 /// by Newton from the previous one, the last one with the exact law (a smoothing-Newton path).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_inner_robust(
+pub fn solve_inner_robust(
     model: &mut dyn LinearModel,
     aft: &mut Aft,
     p: &InnerProblem<'_>,
@@ -25,7 +25,7 @@ pub(crate) fn solve_inner_robust(
     state: &mut NewtonState,
     work: &mut NewtonWork,
     allow_smoothing: bool,
-) -> Result<NewtonReport, NnmError> {
+) -> Result<NewtonReport, HbError> {
     let start = state.clone();
     let first = match solve_inner(model, aft, p, settings, state, work) {
         Ok(rep) => return Ok(rep),

@@ -28,14 +28,14 @@ use faer::prelude::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::dense::generalized_eigen;
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::system::System;
 
 /// Relative singular-value threshold below which contact rows are treated as dependent.
 const RANK_TOLERANCE: f64 = 1e-10;
 
 /// The precomputed condensation basis of a [`System`].
-pub(crate) struct CondensedBasis {
+pub struct CondensedBasis {
     /// Contact rows c.
     pub c: usize,
     /// Kept coordinates r.
@@ -63,7 +63,7 @@ pub(crate) struct CondensedBasis {
 }
 
 impl CondensedBasis {
-    pub fn new(system: &System) -> Result<Self, NnmError> {
+    pub fn new(system: &System) -> Result<Self, HbError> {
         let n = system.n_dofs();
         let c = system.n_contacts();
         let a = system.contact_rows();
@@ -72,9 +72,9 @@ impl CondensedBasis {
         let mut master_in_span = false;
         if c > 0 {
             if c > n {
-                return Err(NnmError::DependentContactRows { rank: n, rows: c });
+                return Err(HbError::DependentContactRows { rank: n, rows: c });
             }
-            let svd = a.thin_svd().map_err(|e| NnmError::Decomposition {
+            let svd = a.thin_svd().map_err(|e| HbError::Decomposition {
                 what: "SVD of the contact rows",
                 detail: format!("{e:?}"),
             })?;
@@ -82,7 +82,7 @@ impl CondensedBasis {
             let smax = s[0];
             let rank = (0..c).filter(|&i| s[i] > RANK_TOLERANCE * smax).count();
             if rank < c {
-                return Err(NnmError::DependentContactRows { rank, rows: c });
+                return Err(HbError::DependentContactRows { rank, rows: c });
             }
             // residual of projecting e_master on range(A^T) = range(V)
             let v = svd.V();
@@ -112,13 +112,13 @@ impl CondensedBasis {
                 0.0
             }
         });
-        let svd = b.svd().map_err(|e| NnmError::Decomposition {
+        let svd = b.svd().map_err(|e| HbError::Decomposition {
             what: "SVD of the kept-coordinate rows [A; e_master]",
             detail: format!("{e:?}"),
         })?;
         let (u, s, v) = (svd.U(), svd.S().column_vector(), svd.V());
         if s[r - 1] <= RANK_TOLERANCE * s[0] {
-            return Err(NnmError::DependentContactRows {
+            return Err(HbError::DependentContactRows {
                 rank: r - 1,
                 rows: r,
             });
@@ -135,7 +135,7 @@ impl CondensedBasis {
         let m_oo = sym(q.transpose() * m * &q);
         let eig = generalized_eigen(k_oo.as_ref(), m_oo.as_ref(), "M restricted to the others")?;
         if eig.values.iter().any(|&l| l <= 0.0) {
-            return Err(NnmError::NotPositiveDefinite {
+            return Err(HbError::NotPositiveDefinite {
                 name: "K restricted to the others",
                 detail: "an eigenvalue of the condensed-out system is not positive".to_string(),
             });

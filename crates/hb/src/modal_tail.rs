@@ -33,7 +33,7 @@ const CUT_STRIDE: usize = 8;
 const SERIES_TOLERANCE: f64 = 1e-17;
 
 /// Precomputed series coefficients of the high-mode part of T(s).
-pub(crate) struct ModalTail {
+pub struct ModalTail {
     /// Convergence ratio bound: the tail is used only where s <= rho Lambda_cut.
     rho: f64,
     /// Kept coordinates r (each coefficient is r x r).

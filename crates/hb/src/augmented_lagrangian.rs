@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::check::{at_least_one, greater_than_one, positive, require};
 use crate::contact::{powell_measure_of, violations, Multipliers, PowellMeasure};
-use crate::error::NnmError;
+use crate::error::HbError;
 
 /// How the contact constraint is enforced.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
@@ -68,7 +68,7 @@ pub enum PenaltyUpdate {
     AsPrinted,
 }
 
-/// Parameters of Algorithm 1 (the inner solver's settings are [`crate::SolverSettings`], which
+/// Parameters of Algorithm 1 (the inner solver's settings are [`crate::solver_settings::SolverSettings`], which
 /// holds these). Every field has a default (`#[serde(default)]`), so a settings file only lists
 /// what it changes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -145,7 +145,7 @@ impl Default for AlgorithmParams {
 
 impl AlgorithmParams {
     /// Checks every parameter range; the error names the parameter.
-    pub fn validate(&self) -> Result<(), NnmError> {
+    pub fn validate(&self) -> Result<(), HbError> {
         let (gt1, pos) = (greater_than_one, positive);
         gt1("alpha", self.alpha)?;
         gt1("beta", self.beta)?;
@@ -161,7 +161,7 @@ impl AlgorithmParams {
         pos("max_penalty", self.max_penalty)?;
         pos("truncation_warning", self.truncation_warning)?;
         if self.max_penalty < self.initial_penalty {
-            return Err(NnmError::InvalidParameter {
+            return Err(HbError::InvalidParameter {
                 name: "max_penalty",
                 value: self.max_penalty,
                 expected: ">= initial_penalty",
@@ -179,7 +179,7 @@ impl AlgorithmParams {
 
 /// Counters and final measure of one run of Algorithm 1.
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct OuterReport {
+pub struct OuterReport {
     /// Final Powell measure G (units of g0).
     pub measure: f64,
     /// Accepted iterations i.
@@ -195,10 +195,10 @@ pub(crate) struct OuterReport {
 
 /// The inner solves Algorithm 1 drives (Eq. 20 at given multipliers), and the orbit of its last
 /// accepted iterate.
-pub(crate) trait InnerSolves {
+pub trait InnerSolves {
     /// Solves Eq. (20) at `multipliers`, writes the gap samples (c x m) into `gaps` and returns
     /// the Newton iterations spent.
-    fn solve(&mut self, multipliers: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, NnmError>;
+    fn solve(&mut self, multipliers: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, HbError>;
     /// Remembers the orbit just solved (an accepted iterate).
     fn keep(&mut self);
     /// Returns to the orbit last kept.
@@ -271,7 +271,7 @@ fn raise_penalties(
 }
 
 /// Failure of Algorithm 1 with what was reached.
-pub(crate) struct OuterFailure {
+pub struct OuterFailure {
     pub report: OuterReport,
     pub reason: String,
 }
@@ -279,7 +279,7 @@ pub(crate) struct OuterFailure {
 /// Runs Algorithm 1 with `inner` solving Eq. (20); `kappa_cap[j]` bounds kappa on row j. On
 /// return `multipliers` are those of the orbit `inner` holds (the converged one, or the last
 /// accepted iterate of a point accepted by [`AlgorithmParams::stall_factor`]).
-pub(crate) fn run_algorithm1(
+pub fn run_algorithm1(
     params: &AlgorithmParams,
     g0: &[f64],
     kappa_cap: &[f64],
@@ -365,13 +365,13 @@ mod tests {
     }
 
     impl InnerSolves for Scripted {
-        fn solve(&mut self, mu: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, NnmError> {
+        fn solve(&mut self, mu: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, HbError> {
             let g = self.script[self.solves.min(self.script.len() - 1)];
             self.solves += 1;
             self.orbit = self.solves;
             self.seen.push(mu.clone());
             if g.is_nan() {
-                return Err(NnmError::NonFiniteResult {
+                return Err(HbError::NonFiniteResult {
                     what: "a scripted solve",
                 });
             }

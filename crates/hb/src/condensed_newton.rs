@@ -21,7 +21,7 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::condensation_basis::CondensedBasis;
 use crate::dense::DenseLu;
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::layout::HarmonicLayout;
 use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::modal_tail::ModalTail;
@@ -194,7 +194,7 @@ impl HarmonicBlock {
     }
 }
 
-pub(crate) struct CondensedModel {
+pub struct CondensedModel {
     layout: HarmonicLayout,
     basis: CondensedBasis,
     tail: ModalTail,
@@ -217,7 +217,7 @@ pub(crate) struct CondensedModel {
 impl CondensedModel {
     /// The condensed model of `system` for harmonics 0..=`harmonics`, with the resonance window
     /// of [`crate::NewtonSettings::resonance_window`].
-    pub fn new(system: &System, window: f64, harmonics: usize) -> Result<Self, NnmError> {
+    pub fn new(system: &System, window: f64, harmonics: usize) -> Result<Self, HbError> {
         let basis = CondensedBasis::new(system)?;
         let mut weights = Vec::with_capacity(basis.r + basis.n_o);
         for i in 0..basis.r {
@@ -610,7 +610,7 @@ impl LinearModel for CondensedModel {
         &self.weights
     }
 
-    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError> {
+    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), HbError> {
         let (r, n_o) = (self.basis.r, self.basis.n_o);
         let l = self.layout;
         let nh = l.count();
@@ -620,7 +620,7 @@ impl LinearModel for CondensedModel {
         if !fast_ok {
             self.fallbacks += 1;
             if !self.solve_reduced(jac, rhs, true) {
-                return Err(NnmError::Decomposition {
+                return Err(HbError::Decomposition {
                     what: "LU of the condensed Newton matrix",
                     detail: "the matrix is singular".to_string(),
                 });

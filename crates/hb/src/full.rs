@@ -6,12 +6,12 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 
 use crate::dense::DenseLu;
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::layout::HarmonicLayout;
 use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::system::System;
 
-pub(crate) struct FullModel {
+pub struct FullModel {
     layout: HarmonicLayout,
     k: Mat<f64>,
     m: Mat<f64>,
@@ -115,7 +115,7 @@ impl LinearModel for FullModel {
         &self.weights
     }
 
-    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError> {
+    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), HbError> {
         let l = self.layout;
         let (n, nh, np) = (l.dim(), l.count(), l.moments());
         let size = l.newton_len();
@@ -176,7 +176,7 @@ impl LinearModel for FullModel {
             }
         }
         if !self.lu.factor() {
-            return Err(NnmError::Decomposition {
+            return Err(HbError::Decomposition {
                 what: "LU of the uncondensed Newton matrix",
                 detail: "the matrix is singular".to_string(),
             });

@@ -46,7 +46,7 @@ impl Multipliers {
 /// phi_mu(s) = (s + sqrt(s^2 + 4 mu^2)) / 2 (Chen-Harker-Kanzow-Smale), used only on the way to a
 /// solution when the semi-smooth Newton stalls; mu = 0 is the exact law. Slopes below 1e-12 kappa
 /// are set to 0 so that far-open samples stay out of the Jacobian.
-pub(crate) fn apply_contact_law(
+pub fn apply_contact_law(
     gaps: &[f64],
     multipliers: &Multipliers,
     smoothing: f64,
@@ -73,7 +73,7 @@ pub(crate) fn apply_contact_law(
 
 /// Normalized constraint violations v_{j,k} = max(g_{j,k}, -theta_{j,k}) / g0_j (the quantity of
 /// Eq. 21 and of the multiplier update Eq. 16, in units of the initial gap).
-pub(crate) fn violations(gaps: &[f64], theta: &[f64], g0: &[f64], samples: usize, out: &mut [f64]) {
+pub fn violations(gaps: &[f64], theta: &[f64], g0: &[f64], samples: usize, out: &mut [f64]) {
     for (j, &g0j) in g0.iter().enumerate() {
         for k in 0..samples {
             let i = j * samples + k;

@@ -27,7 +27,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::contact::{apply_contact_law, Multipliers};
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::fourier::Aft;
 use crate::linear_model::{JacobianData, LinearModel, ParameterRow};
 
@@ -61,23 +61,23 @@ impl Default for NewtonSettings {
 }
 
 impl NewtonSettings {
-    pub(crate) fn validate(&self) -> Result<(), NnmError> {
+    pub fn validate(&self) -> Result<(), HbError> {
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
-            return Err(NnmError::InvalidParameter {
+            return Err(HbError::InvalidParameter {
                 name: "newton.tolerance",
                 value: self.tolerance,
                 expected: "0 < tolerance < 1",
             });
         }
         if self.max_iterations == 0 {
-            return Err(NnmError::InvalidParameter {
+            return Err(HbError::InvalidParameter {
                 name: "newton.max_iterations",
                 value: 0.0,
                 expected: ">= 1",
             });
         }
         if !(self.resonance_window > 0.0 && self.resonance_window < 1.0) {
-            return Err(NnmError::InvalidParameter {
+            return Err(HbError::InvalidParameter {
                 name: "newton.resonance_window",
                 value: self.resonance_window,
                 expected: "0 < window < 1",
@@ -89,7 +89,7 @@ impl NewtonSettings {
 
 /// Newton unknowns: coefficients (model coordinates, harmonic-major: x[n * d + i]), w, q.
 #[derive(Clone, Debug)]
-pub(crate) struct NewtonState {
+pub struct NewtonState {
     pub x: Vec<f64>,
     pub omega: f64,
     pub q: f64,
@@ -97,7 +97,7 @@ pub(crate) struct NewtonState {
 
 /// Residual and contact samples at one Newton iterate.
 #[derive(Clone, Default)]
-pub(crate) struct Evaluation {
+pub struct Evaluation {
     /// Contact coefficients A_j u_n, signal-major c x (N+1).
     pub coef: Vec<f64>,
     /// Gap samples g_{j,k} = A_j u(t_k) - g0_j, c x m.
@@ -116,7 +116,7 @@ pub(crate) struct Evaluation {
 
 /// Buffers of the Newton loop, reused between solves.
 #[derive(Default)]
-pub(crate) struct NewtonWork {
+pub struct NewtonWork {
     /// Newton iterations performed since creation, successful solves or not.
     pub spent: usize,
     pub current: Evaluation,
@@ -133,7 +133,7 @@ pub(crate) struct NewtonWork {
 
 /// Buffers of the direction computations.
 #[derive(Default)]
-pub(crate) struct DirectionWork {
+pub struct DirectionWork {
     active: Vec<usize>,
     slopes_active: Vec<f64>,
     moments: Vec<f64>,
@@ -143,7 +143,7 @@ pub(crate) struct DirectionWork {
 }
 
 /// Fixed data of an inner problem.
-pub(crate) struct InnerProblem<'a> {
+pub struct InnerProblem<'a> {
     /// Time samples per period m.
     pub samples: usize,
     pub g0: &'a [f64],
@@ -159,7 +159,7 @@ pub(crate) struct InnerProblem<'a> {
 
 /// Outcome of a converged inner solve.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct NewtonReport {
+pub struct NewtonReport {
     pub iterations: usize,
 }
 
@@ -248,7 +248,7 @@ enum StepKind {
 
 /// One inner solve in progress: the model, the transforms, the problem and the buffers that
 /// every step of the semi-smooth Newton iteration uses.
-pub(crate) struct NewtonSolve<'a, 'p> {
+pub struct NewtonSolve<'a, 'p> {
     pub model: &'a mut dyn LinearModel,
     pub aft: &'a mut Aft,
     pub problem: &'a InnerProblem<'p>,
@@ -272,7 +272,7 @@ impl NewtonSolve<'_, '_> {
 
     /// Newton direction J step = -R at `state` for the per-sample slopes `work.slopes`
     /// (d lambda / d g, c x m), written to `work.step`.
-    fn direction(&mut self, state: &NewtonState) -> Result<(), NnmError> {
+    fn direction(&mut self, state: &NewtonState) -> Result<(), HbError> {
         let p = self.problem;
         let layout = self.model.layout();
         let (m, np, c) = (p.samples, layout.moments(), p.g0.len());
@@ -307,7 +307,7 @@ impl NewtonSolve<'_, '_> {
         };
         self.model.solve_step(&jac, step)?;
         if step.iter().any(|v| !v.is_finite()) {
-            return Err(NnmError::Decomposition {
+            return Err(HbError::Decomposition {
                 what: "Newton step",
                 detail: "non-finite step (singular Newton matrix)".to_string(),
             });
@@ -398,7 +398,7 @@ impl NewtonSolve<'_, '_> {
 
     /// After the full semi-smooth step was rejected: recompute the step with secant slopes (a few
     /// passes, each tried as a full step). Returns whether a step was accepted.
-    fn secant_refinement(&mut self, state: &mut NewtonState) -> Result<bool, NnmError> {
+    fn secant_refinement(&mut self, state: &mut NewtonState) -> Result<bool, HbError> {
         self.work.first_step.clone_from(&self.work.step);
         for pass in 0..SECANT_PASSES {
             if self.secant_slopes() == 0 && pass > 0 {
@@ -415,7 +415,7 @@ impl NewtonSolve<'_, '_> {
     /// One Newton iteration from `state`: the semi-smooth step, then (exact law) secant steps,
     /// then backtracking along the last step and along the plain one. Returns whether a step
     /// decreased the merit.
-    fn iterate(&mut self, state: &mut NewtonState) -> Result<bool, NnmError> {
+    fn iterate(&mut self, state: &mut NewtonState) -> Result<bool, HbError> {
         self.work.slopes.clone_from(&self.work.current.slope);
         self.direction(state)?;
         if self.line_search(state, StepKind::Latest, false) {
@@ -438,7 +438,7 @@ impl NewtonSolve<'_, '_> {
     /// residual (typically a sample changing contact state within the step, where the one-sided
     /// generalized Jacobian mispredicts and can even fail to give a descent direction at a kink),
     /// the step is recomputed with secant slopes, a few passes, before backtracking.
-    pub fn run(&mut self, state: &mut NewtonState) -> Result<NewtonReport, NnmError> {
+    pub fn run(&mut self, state: &mut NewtonState) -> Result<NewtonReport, HbError> {
         self.evaluate_current(state);
         let mut iterations = 0;
         let mut history: Vec<f64> = Vec::new();
@@ -446,7 +446,7 @@ impl NewtonSolve<'_, '_> {
             let reference = self.problem.norm_scale * state.q.abs().max(f64::MIN_POSITIVE);
             let rel = self.work.current.merit / reference;
             let tolerance = self.settings.tolerance;
-            let fail = |reason: String, iterations: usize| NnmError::NewtonFailed {
+            let fail = |reason: String, iterations: usize| HbError::NewtonFailed {
                 iterations,
                 residual: rel,
                 tolerance,
@@ -492,14 +492,14 @@ impl NewtonSolve<'_, '_> {
 }
 
 /// Solves the inner problem from `state` (see [`NewtonSolve::run`]).
-pub(crate) fn solve_inner(
+pub fn solve_inner(
     model: &mut dyn LinearModel,
     aft: &mut Aft,
     problem: &InnerProblem<'_>,
     settings: &NewtonSettings,
     state: &mut NewtonState,
     work: &mut NewtonWork,
-) -> Result<NewtonReport, NnmError> {
+) -> Result<NewtonReport, HbError> {
     NewtonSolve {
         model,
         aft,

@@ -1,11 +1,12 @@
-//! Typed errors of the nonlinear-mode solver.
+//! Typed errors of the harmonic-balance engine and the problems built on it (free modes in
+//! `nlmodes-nnm`, forced response).
 //!
 //! Every message names the offending input (matrix, row, parameter) and what was expected, so that
 //! the command-line program can show it as is.
 
-/// Errors returned by `nlmodes-nnm`.
+/// Errors returned by `nlmodes-hb` and the crates built on it (`nlmodes-nnm` calls it `NnmError`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum NnmError {
+pub enum HbError {
     /// A matrix that must be square (or of a given size) is not.
     #[error("matrix {name} is {rows}x{cols}, expected {expected}x{expected}")]
     Shape {
@@ -252,7 +253,7 @@ mod tests {
     #[test]
     fn parameter_values_are_printed_readably() {
         let msg = |value: f64| {
-            NnmError::InvalidParameter {
+            HbError::InvalidParameter {
                 name: "step",
                 value,
                 expected: "x",

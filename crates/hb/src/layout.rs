@@ -15,7 +15,7 @@ use faer::{MatMut, MatRef};
 
 /// Harmonic-major coefficients of `dim` coordinates over harmonics 0..=N (see module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct HarmonicLayout {
+pub struct HarmonicLayout {
     highest: usize,
     dim: usize,
 }
@@ -44,6 +44,11 @@ impl HarmonicLayout {
     /// Length of the coefficient block, dim (N + 1).
     pub fn len(self) -> usize {
         self.dim * self.count()
+    }
+
+    /// Whether the block holds no coefficient (dim = 0).
+    pub fn is_empty(self) -> bool {
+        self.len() == 0
     }
 
     /// Length of a Newton vector: the coefficient block, then w, then q.
@@ -98,7 +103,7 @@ impl HarmonicLayout {
 
 /// Signal-major cosine coefficients of `rows` scalar signals (see module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct SignalLayout {
+pub struct SignalLayout {
     count: usize,
     rows: usize,
 }
@@ -107,6 +112,11 @@ impl SignalLayout {
     /// Total length rows (N + 1).
     pub fn len(self) -> usize {
         self.rows * self.count
+    }
+
+    /// Whether there is no signal (rows = 0).
+    pub fn is_empty(self) -> bool {
+        self.len() == 0
     }
 
     /// Flat index of harmonic `n` of signal `j`.

@@ -1,4 +1,4 @@
-//! Everything a [`crate::Solver`] is configured with beyond the harmonics: the parameters of
+//! Everything a `nlmodes_nnm::Solver` is configured with beyond the harmonics: the parameters of
 //! Algorithm 1 ([`AlgorithmParams`]), the inner Newton solver's ([`NewtonSettings`]) and the
 //! linear algebra of its steps ([`Condensation`]).
 
@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::augmented_lagrangian::AlgorithmParams;
 use crate::condensed_newton::CondensedModel;
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::full::FullModel;
 use crate::linear_model::LinearModel;
 use crate::newton::NewtonSettings;
@@ -45,12 +45,12 @@ pub struct SolverSettings {
 impl Condensation {
     /// The linear model of `system` for harmonics 0..=`harmonics` that this choice solves Newton
     /// steps with (`resonance_window`: [`NewtonSettings::resonance_window`]).
-    pub(crate) fn linear_model<'s>(
+    pub fn linear_model<'s>(
         self,
         system: &'s System,
         resonance_window: f64,
         harmonics: usize,
-    ) -> Result<Box<dyn LinearModel + 's>, NnmError> {
+    ) -> Result<Box<dyn LinearModel + 's>, HbError> {
         Ok(match self {
             Condensation::Exact => {
                 Box::new(CondensedModel::new(system, resonance_window, harmonics)?)
@@ -62,7 +62,7 @@ impl Condensation {
 
 impl SolverSettings {
     /// Checks every parameter range; the error names the parameter.
-    pub fn validate(&self) -> Result<(), NnmError> {
+    pub fn validate(&self) -> Result<(), HbError> {
         self.algorithm.validate()?;
         self.newton.validate()
     }

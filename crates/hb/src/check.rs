@@ -1,10 +1,10 @@
 //! Range checks of parameters, one implementation for every settings type of the crate: the
 //! error names the parameter, its value and what was expected.
 
-use crate::error::NnmError;
+use crate::error::HbError;
 
 /// `value` must be finite and > 0.
-pub(crate) fn positive(name: &'static str, value: f64) -> Result<(), NnmError> {
+pub fn positive(name: &'static str, value: f64) -> Result<(), HbError> {
     require(
         name,
         value,
@@ -14,7 +14,7 @@ pub(crate) fn positive(name: &'static str, value: f64) -> Result<(), NnmError> {
 }
 
 /// `value` must be finite and > 1.
-pub(crate) fn greater_than_one(name: &'static str, value: f64) -> Result<(), NnmError> {
+pub fn greater_than_one(name: &'static str, value: f64) -> Result<(), HbError> {
     require(
         name,
         value,
@@ -24,21 +24,21 @@ pub(crate) fn greater_than_one(name: &'static str, value: f64) -> Result<(), Nnm
 }
 
 /// A count that must be at least 1.
-pub(crate) fn at_least_one(name: &'static str, value: usize) -> Result<(), NnmError> {
+pub fn at_least_one(name: &'static str, value: usize) -> Result<(), HbError> {
     require(name, value as f64, value >= 1, ">= 1")
 }
 
-/// Fails with [`NnmError::InvalidParameter`] unless `ok`.
-pub(crate) fn require(
+/// Fails with [`HbError::InvalidParameter`] unless `ok`.
+pub fn require(
     name: &'static str,
     value: f64,
     ok: bool,
     expected: &'static str,
-) -> Result<(), NnmError> {
+) -> Result<(), HbError> {
     if ok {
         Ok(())
     } else {
-        Err(NnmError::InvalidParameter {
+        Err(HbError::InvalidParameter {
             name,
             value,
             expected,

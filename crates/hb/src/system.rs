@@ -11,7 +11,7 @@
 use faer::{Mat, MatRef};
 
 use crate::dense::{checked_symmetric, cholesky_lower, generalized_eigen};
-use crate::error::NnmError;
+use crate::error::HbError;
 
 /// Energy shares of an orbit by linear mode and harmonic (see [`System::modal_shares`]).
 #[derive(Clone, Debug)]
@@ -86,15 +86,15 @@ impl System {
         contact_rows: Mat<f64>,
         gaps: Vec<f64>,
         master: usize,
-    ) -> Result<Self, NnmError> {
+    ) -> Result<Self, HbError> {
         let n = m.nrows();
         if n == 0 {
-            return Err(NnmError::Empty);
+            return Err(HbError::Empty);
         }
         let m = checked_symmetric("M", &m, n)?;
         let k = checked_symmetric("K", &k, n)?;
         if contact_rows.ncols() != n {
-            return Err(NnmError::ContactRowsWidth {
+            return Err(HbError::ContactRowsWidth {
                 cols: contact_rows.ncols(),
                 expected: n,
             });
@@ -105,7 +105,7 @@ impl System {
             for i in 0..n {
                 let v = contact_rows[(j, i)];
                 if !v.is_finite() {
-                    return Err(NnmError::InvalidContactRow {
+                    return Err(HbError::InvalidContactRow {
                         row: j,
                         detail: format!("non-finite entry {v} in column {i}"),
                     });
@@ -113,32 +113,32 @@ impl System {
                 norm += v * v;
             }
             if norm == 0.0 {
-                return Err(NnmError::InvalidContactRow {
+                return Err(HbError::InvalidContactRow {
                     row: j,
                     detail: "the row is zero".to_string(),
                 });
             }
         }
         if gaps.len() != c {
-            return Err(NnmError::GapCount {
+            return Err(HbError::GapCount {
                 gaps: gaps.len(),
                 rows: c,
             });
         }
         for (index, &value) in gaps.iter().enumerate() {
             if !(value.is_finite() && value > 0.0) {
-                return Err(NnmError::NonPositiveGap { index, value });
+                return Err(HbError::NonPositiveGap { index, value });
             }
         }
         if master >= n {
-            return Err(NnmError::MasterOutOfRange { master, dofs: n });
+            return Err(HbError::MasterOutOfRange { master, dofs: n });
         }
         // SPD checks with named errors (the eigen-solver would only report M).
         cholesky_lower("M", m.as_ref())?;
         let lk = cholesky_lower("K", k.as_ref())?;
         let eig = generalized_eigen(k.as_ref(), m.as_ref(), "M")?;
         if eig.values.iter().any(|&v| v <= 0.0) {
-            return Err(NnmError::NotPositiveDefinite {
+            return Err(HbError::NotPositiveDefinite {
                 name: "K",
                 detail: "a generalized eigenvalue of (K, M) is not positive".to_string(),
             });
@@ -218,16 +218,16 @@ impl System {
     }
 
     /// Linear mode `mode` (0-based), mass-normalized, with a positive master component.
-    pub fn linear_mode(&self, mode: usize) -> Result<Vec<f64>, NnmError> {
+    pub fn linear_mode(&self, mode: usize) -> Result<Vec<f64>, HbError> {
         let n = self.n_dofs();
         if mode >= n {
-            return Err(NnmError::ModeOutOfRange { mode, count: n });
+            return Err(HbError::ModeOutOfRange { mode, count: n });
         }
         let mut phi: Vec<f64> = (0..n).map(|i| self.modes[(i, mode)]).collect();
         let max = phi.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
         let pm = phi[self.master];
         if pm.abs() <= 1e-8 * max {
-            return Err(NnmError::MasterNotInMode {
+            return Err(HbError::MasterNotInMode {
                 master: self.master,
                 mode,
                 value: pm.abs() / max,
@@ -241,7 +241,7 @@ impl System {
 
     /// Master amplitude q at which linear mode `mode` first touches the obstacle:
     /// min_j g0_j phi_master / |A_j phi|; `None` if no contact row moves in that mode.
-    pub fn grazing_amplitude(&self, mode: usize) -> Result<Option<f64>, NnmError> {
+    pub fn grazing_amplitude(&self, mode: usize) -> Result<Option<f64>, HbError> {
         let phi = self.linear_mode(mode)?;
         let pm = phi[self.master];
         let mut best: Option<f64> = None;
@@ -287,7 +287,7 @@ impl System {
     }
 
     /// Contact displacement A_j . u.
-    pub(crate) fn contact_displacement(&self, j: usize, u: &[f64]) -> f64 {
+    pub fn contact_displacement(&self, j: usize, u: &[f64]) -> f64 {
         let n = self.n_dofs();
         (0..n).map(|i| self.contact_rows[(j, i)] * u[i]).sum()
     }

@@ -14,7 +14,7 @@ use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-use crate::error::NnmError;
+use crate::error::HbError;
 
 /// Truncation order and time sampling of the harmonic balance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -28,7 +28,7 @@ pub struct HarmonicSettings {
 
 impl HarmonicSettings {
     /// Checked constructor.
-    pub fn new(harmonics: usize, samples: usize) -> Result<Self, NnmError> {
+    pub fn new(harmonics: usize, samples: usize) -> Result<Self, HbError> {
         let s = Self { harmonics, samples };
         s.validate()?;
         Ok(s)
@@ -40,7 +40,7 @@ impl HarmonicSettings {
     }
 
     /// N harmonics with the default sampling [`HarmonicSettings::default_samples`].
-    pub fn with_default_samples(harmonics: usize) -> Result<Self, NnmError> {
+    pub fn with_default_samples(harmonics: usize) -> Result<Self, HbError> {
         Self::new(harmonics, Self::default_samples(harmonics))
     }
 
@@ -51,15 +51,15 @@ impl HarmonicSettings {
     }
 
     /// Checks N >= 1 and m >= 2N + 1 (below that, cosines of different orders alias).
-    pub fn validate(&self) -> Result<(), NnmError> {
+    pub fn validate(&self) -> Result<(), HbError> {
         if self.harmonics == 0 {
-            return Err(NnmError::HarmonicSettings {
+            return Err(HbError::HarmonicSettings {
                 detail: "harmonics N = 0; at least the fundamental (N >= 1) is needed".to_string(),
             });
         }
         let min = 2 * self.harmonics + 1;
         if self.samples < min {
-            return Err(NnmError::HarmonicSettings {
+            return Err(HbError::HarmonicSettings {
                 detail: format!(
                     "{} time samples for N = {} harmonics; need m >= 2N + 1 = {min}",
                     self.samples, self.harmonics
@@ -71,7 +71,7 @@ impl HarmonicSettings {
 }
 
 /// FFT plans and buffers for batches of cosine series.
-pub(crate) struct Aft {
+pub struct Aft {
     settings: HarmonicSettings,
     samples: usize,
     forward: Arc<dyn Fft<f64>>,

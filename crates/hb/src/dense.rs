@@ -7,20 +7,16 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::{factor, solve};
 use faer::perm::PermRef;
 use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
-pub(crate) use nlmodes_dense::GeneralizedEigen;
+pub use nlmodes_dense::GeneralizedEigen;
 use nlmodes_dense::{DenseError, SYMMETRY_TOLERANCE};
 
-use crate::error::NnmError;
+use crate::error::HbError;
 
 /// Checks that `a` is square of size `n`, finite and symmetric to `nlmodes_dense::SYMMETRY_TOLERANCE`
 /// (1e-10 max|a|, the modal crate's bound too); returns the symmetrized copy.
-pub(crate) fn checked_symmetric(
-    name: &'static str,
-    a: &Mat<f64>,
-    n: usize,
-) -> Result<Mat<f64>, NnmError> {
+pub fn checked_symmetric(name: &'static str, a: &Mat<f64>, n: usize) -> Result<Mat<f64>, HbError> {
     if a.nrows() != n || a.ncols() != n {
-        return Err(NnmError::Shape {
+        return Err(HbError::Shape {
             name,
             rows: a.nrows(),
             cols: a.ncols(),
@@ -32,7 +28,7 @@ pub(crate) fn checked_symmetric(
         for i in 0..n {
             let v = a[(i, j)];
             if !v.is_finite() {
-                return Err(NnmError::NonFinite {
+                return Err(HbError::NonFinite {
                     name,
                     row: i,
                     col: j,
@@ -52,7 +48,7 @@ pub(crate) fn checked_symmetric(
         }
     }
     if worst.0 > SYMMETRY_TOLERANCE * scale {
-        return Err(NnmError::NotSymmetric {
+        return Err(HbError::NotSymmetric {
             name,
             row: worst.1,
             col: worst.2,
@@ -65,10 +61,10 @@ pub(crate) fn checked_symmetric(
 }
 
 /// Lower Cholesky factor of a symmetric positive definite matrix.
-pub(crate) fn cholesky_lower(name: &'static str, a: MatRef<'_, f64>) -> Result<Mat<f64>, NnmError> {
+pub fn cholesky_lower(name: &'static str, a: MatRef<'_, f64>) -> Result<Mat<f64>, HbError> {
     match a.llt(Side::Lower) {
         Ok(llt) => Ok(llt.L().to_owned()),
-        Err(e) => Err(NnmError::NotPositiveDefinite {
+        Err(e) => Err(HbError::NotPositiveDefinite {
             name,
             detail: format!("Cholesky factorization failed ({e})"),
         }),
@@ -78,21 +74,21 @@ pub(crate) fn cholesky_lower(name: &'static str, a: MatRef<'_, f64>) -> Result<M
 /// Solves `K phi = lambda M phi` (K symmetric, M SPD of the same order, checked by the caller):
 /// eigenvalues ascending, eigenvectors mass-normalized (`Phi^T M Phi = I`). `m_name` names M in
 /// the error when it is not positive definite.
-pub(crate) fn generalized_eigen(
+pub fn generalized_eigen(
     k: MatRef<'_, f64>,
     m: MatRef<'_, f64>,
     m_name: &'static str,
-) -> Result<GeneralizedEigen, NnmError> {
+) -> Result<GeneralizedEigen, HbError> {
     nlmodes_dense::generalized_eigen(k, m).map_err(|e| match e {
-        DenseError::NotPositiveDefinite(_) => NnmError::NotPositiveDefinite {
+        DenseError::NotPositiveDefinite(_) => HbError::NotPositiveDefinite {
             name: m_name,
             detail: e.to_string(),
         },
-        DenseError::Eigen(detail) => NnmError::Decomposition {
+        DenseError::Eigen(detail) => HbError::Decomposition {
             what: "symmetric eigen-decomposition",
             detail: format!("{detail:?}"),
         },
-        DenseError::NonFinite => NnmError::NonFiniteResult {
+        DenseError::NonFinite => HbError::NonFiniteResult {
             what: "generalized eigenvalues",
         },
     })
@@ -100,7 +96,7 @@ pub(crate) fn generalized_eigen(
 
 /// LU factorization with partial pivoting, in place in a reusable buffer.
 #[derive(Default)]
-pub(crate) struct DenseLu {
+pub struct DenseLu {
     data: Vec<f64>,
     perm: Vec<usize>,
     perm_inv: Vec<usize>,

@@ -9,7 +9,7 @@
 //! D_p = (1/m) sum_k kappa_k active_k cos(2 pi p k / m), p = 0..=2N,
 //! J_{0,n'} = D_{n'} and J_{n,n'} = D_{n+n'} + D_{|n-n'|} for n >= 1 ([`contact_jacobian`]).
 
-use crate::error::NnmError;
+use crate::error::HbError;
 use crate::layout::HarmonicLayout;
 
 /// The parameter row a_q (q - q_p)/q_s + a_w (w - w_p)/w_s + a_y . (y - y_p)/y_s = 0.
@@ -19,7 +19,7 @@ use crate::layout::HarmonicLayout;
 /// a_q = 1, everything else 0 (a_y empty). Pseudo-arc-length: (a_q, a_w, a_y) is the unit tangent
 /// of the branch in the scaled space (q / g_ref, w / w_lin, y / (g_ref sqrt(c + 1))).
 #[derive(Clone, Debug)]
-pub(crate) struct ParameterRow {
+pub struct ParameterRow {
     pub a_q: f64,
     pub a_w: f64,
     pub a_y: Vec<f64>,
@@ -48,7 +48,7 @@ impl ParameterRow {
 }
 
 /// What a Jacobian solve needs besides the model's own data.
-pub(crate) struct JacobianData<'a> {
+pub struct JacobianData<'a> {
     pub omega: f64,
     pub x: &'a [f64],
     /// Contact rows with at least one active sample.
@@ -67,7 +67,7 @@ pub(crate) struct JacobianData<'a> {
 
 /// Contact Jacobian entry J_{n,n'} of one contact row from its cosine moments (see module docs).
 #[inline]
-pub(crate) fn contact_jacobian(moments: &[f64], n: usize, np: usize) -> f64 {
+pub fn contact_jacobian(moments: &[f64], n: usize, np: usize) -> f64 {
     if n == 0 {
         moments[np]
     } else {
@@ -76,7 +76,7 @@ pub(crate) fn contact_jacobian(moments: &[f64], n: usize, np: usize) -> f64 {
 }
 
 /// The linear part of Eq. (20) in some coordinates (physical, or the exact condensation).
-pub(crate) trait LinearModel {
+pub trait LinearModel {
     /// Layout of the coefficient block of the Newton unknowns: d coordinates per harmonic,
     /// harmonics 0..=N (fixed when the model is built).
     fn layout(&self) -> HarmonicLayout;
@@ -93,7 +93,7 @@ pub(crate) trait LinearModel {
     /// Merit weights of the harmonic rows (1 / sqrt(diagonal stiffness)), length d.
     fn row_weights(&self) -> &[f64];
     /// Solves J step = rhs in place (`rhs` has d (N+1) + 2 entries: harmonic rows, norm, arc).
-    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), NnmError>;
+    fn solve_step(&mut self, jac: &JacobianData<'_>, rhs: &mut [f64]) -> Result<(), HbError>;
     /// Physical coefficient vectors of `count` harmonics (n x count, column-major) from model
     /// coordinates (d x count).
     fn model_to_physical(&self, x: &[f64], count: usize, u: &mut [f64]);
