@@ -206,6 +206,12 @@ pub enum HbError {
         /// Newton iterations performed in total.
         newton_iterations: usize,
     },
+    /// An inner solve of a problem built on the engine failed (its own words).
+    #[error("{detail}")]
+    InnerSolve {
+        /// What the problem reported.
+        detail: String,
+    },
     /// A time integration step that is too large for explicit RK4 stability.
     #[error(
         "time step {step:e} s is too large for RK4: the highest frequency {omega_max:e} rad/s needs at \

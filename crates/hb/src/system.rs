@@ -217,6 +217,17 @@ impl System {
         self.eigenvalues.iter().map(|v| v.sqrt()).collect()
     }
 
+    /// Eigenvalues w_k^2 of (K, M), ascending (rad^2/s^2).
+    pub fn eigenvalues(&self) -> &[f64] {
+        &self.eigenvalues
+    }
+
+    /// All linear modes of (K, M) as columns, mass-normalized (Phi^T M Phi = I), in the order of
+    /// [`System::eigenvalues`] (signs as the eigensolver returns them).
+    pub fn modes(&self) -> MatRef<'_, f64> {
+        self.modes.as_ref()
+    }
+
     /// Linear mode `mode` (0-based), mass-normalized, with a positive master component.
     pub fn linear_mode(&self, mode: usize) -> Result<Vec<f64>, HbError> {
         let n = self.n_dofs();

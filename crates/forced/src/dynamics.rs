@@ -1,0 +1,339 @@
+//! The linear part of the forced harmonic balance in modal coordinates, and its exact
+//! condensation onto the contact coordinates (DESIGN §10.4).
+//!
+//! With the mass-normalized modes Phi of (K, M) (every mode of the reduced model: no
+//! truncation), z = Phi^T M u, and the full basis u = u_0 + sum_n (a_n cos nWt + b_n sin nWt),
+//! harmonic n >= 1 of M u'' + C u' + K u = f - A^T lambda reads
+//!
+//!   Z_n [z^c; z^s] = [r^c; r^s],  Z_n = [[D_n, E_n], [-E_n, D_n]],
+//!   D_n = diag(w_k^2) - (n W)^2 I,  E_n = n W Phi^T C Phi,  r = Phi^T (f_n - A^T Lambda_n),
+//!
+//! and D_0 z_0 = r_0 for the mean. The contact coordinates y = A u = Psi z (Psi = A Phi) of the
+//! linear response to the load and the contact forces are y = y_F(W) - G(W) Lambda with the
+//! contact compliance G = Psi Z^-1 Psi^T, block-diagonal over harmonics: the exact condensation.
+//! Rayleigh and modal damping make Phi^T C Phi diagonal and Z_n^-1 a 2 x 2 block per mode; a
+//! general C is solved per harmonic with a dense LU of Z_n.
+
+use faer::Mat;
+use nlmodes_hb::dense::DenseLu;
+use nlmodes_hb::{FullBasis, HbError, System};
+
+use crate::error::ForcedError;
+use crate::load::Load;
+
+/// Phi^T C Phi, diagonal when it is (to 1e-12 of its largest entry).
+#[derive(Clone, Debug)]
+enum ModalDamping {
+    Diagonal(Vec<f64>),
+    Full(Mat<f64>),
+}
+
+/// The linear structure in modal coordinates, with its load.
+#[derive(Clone, Debug)]
+pub struct ModalDynamics {
+    eigenvalues: Vec<f64>,
+    phi: Mat<f64>,
+    psi: Mat<f64>,
+    damping: ModalDamping,
+    /// Modal load Phi^T f per coefficient index of the full basis (n x (2N + 1)).
+    load: Mat<f64>,
+}
+
+/// The condensed linear response at one excitation frequency W (see module docs), in the
+/// signal-major layout y[j (2N + 1) + p] of the contact coordinates.
+#[derive(Clone, Debug)]
+pub struct ContactCompliance {
+    /// W (rad/s).
+    pub omega: f64,
+    /// G (L x L, L = c (2N + 1)): y = y_F - G Lambda.
+    pub g: Mat<f64>,
+    /// y_F, the contact response to the load alone (L).
+    pub y_load: Vec<f64>,
+}
+
+impl ModalDynamics {
+    /// Modal data of `system` with damping matrix `c` and `load` on harmonics 1..=`harmonics`.
+    pub fn new(
+        system: &System,
+        c: &Mat<f64>,
+        load: &Load,
+        harmonics: usize,
+    ) -> Result<Self, ForcedError> {
+        let n = system.n_dofs();
+        load.validate(n, harmonics)?;
+        let phi = system.modes().to_owned();
+        if let Some(k) = system.eigenvalues().iter().position(|&l| l <= 0.0) {
+            return Err(HbError::NotPositiveDefinite {
+                name: "K",
+                detail: format!(
+                    "mode {k} has w^2 = {:e}: the mean term needs K > 0",
+                    system.eigenvalues()[k]
+                ),
+            }
+            .into());
+        }
+        let psi = system.contact_rows() * &phi;
+        let cm = phi.transpose() * c * &phi;
+        let largest = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .fold(0.0_f64, |a, (i, j)| a.max(cm[(i, j)].abs()));
+        let off = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .filter(|(i, j)| i != j)
+            .fold(0.0_f64, |a, (i, j)| a.max(cm[(i, j)].abs()));
+        let damping = if off <= 1e-12 * largest {
+            ModalDamping::Diagonal((0..n).map(|k| cm[(k, k)]).collect())
+        } else {
+            ModalDamping::Full(cm)
+        };
+        let terms = 2 * harmonics + 1;
+        let mut modal_load = Mat::zeros(n, terms);
+        for h in 1..=harmonics {
+            let (fc, fs) = load.at(h, n);
+            for (p, f) in [(FullBasis::cos_index(h), fc), (FullBasis::sin_index(h), fs)] {
+                for k in 0..n {
+                    modal_load[(k, p)] = (0..n).map(|i| phi[(i, k)] * f[i]).sum();
+                }
+            }
+        }
+        Ok(Self {
+            eigenvalues: system.eigenvalues().to_vec(),
+            phi,
+            psi,
+            damping,
+            load: modal_load,
+        })
+    }
+
+    /// Number of coordinates n.
+    pub fn dofs(&self) -> usize {
+        self.eigenvalues.len()
+    }
+
+    /// Number of contact rows c.
+    pub fn contacts(&self) -> usize {
+        self.psi.nrows()
+    }
+
+    /// Coefficients per signal 2N + 1.
+    pub fn terms(&self) -> usize {
+        self.load.ncols()
+    }
+
+    /// Mass-normalized modes (columns).
+    pub fn modes(&self) -> &Mat<f64> {
+        &self.phi
+    }
+
+    /// A Phi (c x n).
+    pub fn contact_modes(&self) -> &Mat<f64> {
+        &self.psi
+    }
+
+    /// Solves Z_n z = r for harmonic n at W: `r` is (n x 1) for n = 0, else (n x 2) [cos, sin]
+    /// per column pair; several right-hand sides side by side (columns 2i, 2i + 1 for n >= 1).
+    pub fn solve_harmonic(
+        &self,
+        n: usize,
+        omega: f64,
+        r: &mut Mat<f64>,
+    ) -> Result<(), ForcedError> {
+        let nd = self.dofs();
+        if n == 0 {
+            for col in 0..r.ncols() {
+                for k in 0..nd {
+                    r[(k, col)] /= self.eigenvalues[k];
+                }
+            }
+            return Ok(());
+        }
+        let nw = n as f64 * omega;
+        match &self.damping {
+            ModalDamping::Diagonal(cd) => {
+                for pair in 0..r.ncols() / 2 {
+                    for k in 0..nd {
+                        let (d, e) = (self.eigenvalues[k] - nw * nw, nw * cd[k]);
+                        let det = d * d + e * e;
+                        let (rc, rs) = (r[(k, 2 * pair)], r[(k, 2 * pair + 1)]);
+                        r[(k, 2 * pair)] = (d * rc - e * rs) / det;
+                        r[(k, 2 * pair + 1)] = (e * rc + d * rs) / det;
+                    }
+                }
+                Ok(())
+            }
+            ModalDamping::Full(cm) => self.solve_full(nw, cm, r),
+        }
+    }
+
+    /// The general-damping path of [`Self::solve_harmonic`]: a dense LU of the 2n x 2n Z_n.
+    fn solve_full(&self, nw: f64, cm: &Mat<f64>, r: &mut Mat<f64>) -> Result<(), ForcedError> {
+        let nd = self.dofs();
+        let mut lu = DenseLu::default();
+        {
+            let mut z = lu.matrix(2 * nd);
+            for i in 0..nd {
+                z[(i, i)] = self.eigenvalues[i] - nw * nw;
+                z[(nd + i, nd + i)] = self.eigenvalues[i] - nw * nw;
+                for j in 0..nd {
+                    z[(i, nd + j)] = nw * cm[(i, j)];
+                    z[(nd + i, j)] = -nw * cm[(i, j)];
+                }
+            }
+        }
+        if !lu.factor() {
+            return Err(HbError::Decomposition {
+                what: "dynamic stiffness Z_n",
+                detail: format!("singular at n W = {nw:e} rad/s"),
+            }
+            .into());
+        }
+        let pairs = r.ncols() / 2;
+        let mut rhs = Mat::from_fn(2 * nd, pairs, |i, q| {
+            if i < nd {
+                r[(i, 2 * q)]
+            } else {
+                r[(i - nd, 2 * q + 1)]
+            }
+        });
+        lu.solve_in_place(rhs.as_mut());
+        for q in 0..pairs {
+            for i in 0..nd {
+                r[(i, 2 * q)] = rhs[(i, q)];
+                r[(i, 2 * q + 1)] = rhs[(nd + i, q)];
+            }
+        }
+        Ok(())
+    }
+
+    /// The contact compliance and the load's contact response at W (see [`ContactCompliance`]).
+    pub fn compliance(&self, omega: f64) -> Result<ContactCompliance, ForcedError> {
+        let (c, terms) = (self.contacts(), self.terms());
+        let l = c * terms;
+        let mut g = Mat::zeros(l, l);
+        let mut y_load = vec![0.0; l];
+        for n in 0..=terms / 2 {
+            let parts: Vec<usize> = if n == 0 {
+                vec![0]
+            } else {
+                vec![FullBasis::cos_index(n), FullBasis::sin_index(n)]
+            };
+            let z = self.unit_responses(n, omega, &parts)?;
+            let w = parts.len();
+            // Column block q = w jr + part: the response to a unit Lambda of row jr in that part;
+            // block q = w c: the response to the load.
+            for q in 0..=w * c {
+                for (out_part, &p) in parts.iter().enumerate() {
+                    for j in 0..c {
+                        let y: f64 = (0..self.dofs())
+                            .map(|k| self.psi[(j, k)] * z[(k, w * q + out_part)])
+                            .sum();
+                        if q < w * c {
+                            let (jr, part) = (q / w, q % w);
+                            g[(j * terms + p, jr * terms + parts[part])] = y;
+                        } else {
+                            y_load[j * terms + p] = y;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(ContactCompliance { omega, g, y_load })
+    }
+
+    /// Z_n^-1 applied to Psi^T e_j in each part of harmonic n (contact row j, part), then to the
+    /// load: n x w (w c + 1) with w = 1 (mean) or 2 (cos, sin) columns per right-hand side.
+    fn unit_responses(
+        &self,
+        n: usize,
+        omega: f64,
+        parts: &[usize],
+    ) -> Result<Mat<f64>, ForcedError> {
+        let (nd, c, w) = (self.dofs(), self.contacts(), parts.len());
+        let mut r = Mat::zeros(nd, w * (w * c + 1));
+        for jr in 0..c {
+            for part in 0..w {
+                let col = w * (w * jr + part) + part;
+                for k in 0..nd {
+                    r[(k, col)] = self.psi[(jr, k)];
+                }
+            }
+        }
+        for (part, &p) in parts.iter().enumerate() {
+            for k in 0..nd {
+                r[(k, w * w * c + part)] = self.load[(k, p)];
+            }
+        }
+        self.solve_harmonic(n, omega, &mut r)?;
+        Ok(r)
+    }
+
+    /// Modal coefficients z (n x (2N + 1)) of the linear response to the load minus the contact
+    /// forces `lambda` (signal-major c (2N + 1)) at W.
+    pub fn response(&self, omega: f64, lambda: &[f64]) -> Result<Mat<f64>, ForcedError> {
+        let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
+        let mut z = Mat::zeros(nd, terms);
+        for n in 0..=terms / 2 {
+            let parts: Vec<usize> = if n == 0 {
+                vec![0]
+            } else {
+                vec![FullBasis::cos_index(n), FullBasis::sin_index(n)]
+            };
+            let mut r = Mat::zeros(nd, parts.len());
+            for (col, &p) in parts.iter().enumerate() {
+                for k in 0..nd {
+                    let contact: f64 = (0..c)
+                        .map(|j| self.psi[(j, k)] * lambda[j * terms + p])
+                        .sum();
+                    r[(k, col)] = self.load[(k, p)] - contact;
+                }
+            }
+            self.solve_harmonic(n, omega, &mut r)?;
+            for (col, &p) in parts.iter().enumerate() {
+                for k in 0..nd {
+                    z[(k, p)] = r[(k, col)];
+                }
+            }
+        }
+        Ok(z)
+    }
+
+    /// d y / d W at fixed Lambda for the modal response `z` at W: -Psi Z^-1 (dZ/dW) z (L values),
+    /// with dZ_n/dW = [[-2 n^2 W I, n C_m], [-n C_m, -2 n^2 W I]].
+    pub fn response_rate(&self, omega: f64, z: &Mat<f64>) -> Result<Vec<f64>, ForcedError> {
+        let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
+        let mut rate = vec![0.0; c * terms];
+        for n in 1..=terms / 2 {
+            let (pc, ps) = (FullBasis::cos_index(n), FullBasis::sin_index(n));
+            let nf = n as f64;
+            let mut r = Mat::zeros(nd, 2);
+            for k in 0..nd {
+                let (cz_c, cz_s) = self.damping_times(k, z, pc, ps);
+                r[(k, 0)] = -2.0 * nf * nf * omega * z[(k, pc)] + nf * cz_s;
+                r[(k, 1)] = -nf * cz_c - 2.0 * nf * nf * omega * z[(k, ps)];
+            }
+            self.solve_harmonic(n, omega, &mut r)?;
+            for j in 0..c {
+                for (col, p) in [(0, pc), (1, ps)] {
+                    rate[j * terms + p] =
+                        -(0..nd).map(|k| self.psi[(j, k)] * r[(k, col)]).sum::<f64>();
+                }
+            }
+        }
+        Ok(rate)
+    }
+
+    /// Row k of (Phi^T C Phi) times the columns `pc` and `ps` of z.
+    fn damping_times(&self, k: usize, z: &Mat<f64>, pc: usize, ps: usize) -> (f64, f64) {
+        match &self.damping {
+            ModalDamping::Diagonal(d) => (d[k] * z[(k, pc)], d[k] * z[(k, ps)]),
+            ModalDamping::Full(cm) => (0..self.dofs()).fold((0.0, 0.0), |(a, b), i| {
+                (a + cm[(k, i)] * z[(i, pc)], b + cm[(k, i)] * z[(i, ps)])
+            }),
+        }
+    }
+
+    /// Physical coefficients u = Phi z (n x (2N + 1)).
+    pub fn physical(&self, z: &Mat<f64>) -> Mat<f64> {
+        &self.phi * z
+    }
+}

@@ -1,0 +1,28 @@
+//! Forced response of damped structures with frictionless unilateral contact, by harmonic
+//! balance on the full Fourier basis with the exact contact of Algorithm 1 (Laxalde, Legrand &
+//! Pierre 2009) or a penalty law, on the engine `nlmodes-hb` (DESIGN §10).
+//!
+//! The equation of motion M u'' + C u' + K u + A^T lambda = f(t), with f(t) harmonic in the
+//! excitation frequency W ([`Load`]) and C from [`Damping`], is balanced on
+//! u(t) = u_0 + sum_n (a_n cos nWt + b_n sin nWt) (`nlmodes_hb::FullBasis`). The structure is
+//! condensed exactly onto the contact coordinates ([`ModalDynamics`], modal coordinates of the
+//! whole reduced model), the contact law is sampled on m points per period (AFT), and the
+//! augmented-Lagrangian multipliers are driven by the engine's Algorithm 1 through
+//! `InnerSolves`: one implementation of the law, the measure and the updates for free and forced
+//! motion. Units: SI for SI matrices (W in rad/s, forces in N, damping in N s/m).
+//!
+//! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row).
+
+mod damping;
+mod dynamics;
+mod error;
+mod load;
+mod newton;
+mod solver;
+
+pub use damping::{modal_ratios, Damping};
+pub use dynamics::{ContactCompliance, ModalDynamics};
+pub use error::ForcedError;
+pub use load::{HarmonicLoad, Load};
+pub use newton::{ArcRow, OrbitState};
+pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};

@@ -1,0 +1,302 @@
+//! The inner solve of the forced harmonic balance at fixed augmented-Lagrangian multipliers
+//! (Eq. 14 on the full basis; DESIGN §10.4): a semi-smooth Newton method on the contact
+//! coordinates y alone, the structure being condensed exactly (`dynamics`):
+//!
+//!   R(y, W) = y - y_F(W) + G(W) Lambda(y) = 0,   Lambda = P kappa (E y - g0 + theta)_+,
+//!
+//! with Jacobian I + G J_Lambda, J_Lambda block-diagonal over the contact rows (one (2N+1)^2
+//! block P diag(slope) E per row, `FullBasis::project_slopes`). Rows with no active sample have a
+//! zero block, so the system is solved on the active rows and the others follow. For the
+//! frequency continuation W is an unknown too, bordered by the pseudo-arc-length row
+//! t_y . (y - y_p) / y_s + t_W (W - W_p) / W_s = 0 (the bordered matrix stays regular at folds).
+
+use faer::Mat;
+use nlmodes_hb::contact::{apply_contact_law, Multipliers};
+use nlmodes_hb::dense::DenseLu;
+use nlmodes_hb::FullBasis;
+
+use crate::dynamics::{ContactCompliance, ModalDynamics};
+use crate::error::ForcedError;
+
+/// An orbit as the Newton solve sees it: contact coordinates y (signal-major, length unit) and W.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OrbitState {
+    /// y[j (2N + 1) + p].
+    pub y: Vec<f64>,
+    /// Excitation frequency W (rad/s).
+    pub omega: f64,
+}
+
+/// The pseudo-arc-length row (see module docs); tangent in the scaled space.
+#[derive(Clone, Debug)]
+pub struct ArcRow {
+    /// t_y.
+    pub tangent_y: Vec<f64>,
+    /// t_W.
+    pub tangent_w: f64,
+    /// Predicted point.
+    pub predicted: OrbitState,
+    /// y_s (length).
+    pub y_scale: f64,
+    /// W_s (rad/s).
+    pub w_scale: f64,
+}
+
+impl ArcRow {
+    fn residual(&self, s: &OrbitState) -> f64 {
+        let dy: f64 = self
+            .tangent_y
+            .iter()
+            .zip(s.y.iter().zip(&self.predicted.y))
+            .map(|(t, (a, b))| t * (a - b))
+            .sum();
+        dy / self.y_scale + self.tangent_w * (s.omega - self.predicted.omega) / self.w_scale
+    }
+}
+
+/// The contact law evaluated on an orbit: gaps, forces and slopes at the samples (c x m), and the
+/// force coefficients Lambda (c x (2N + 1)).
+pub struct ContactSamples {
+    /// g = A u - g0 at the samples.
+    pub gaps: Vec<f64>,
+    /// lambda at the samples.
+    pub force: Vec<f64>,
+    /// d lambda / d g at the samples.
+    pub slope: Vec<f64>,
+    /// Lambda, signal-major.
+    pub coefficients: Vec<f64>,
+}
+
+/// Evaluates the sampled contact law of `multipliers` on the contact coordinates `y`.
+pub fn contact_samples(
+    basis: &FullBasis,
+    g0: &[f64],
+    y: &[f64],
+    mu: &Multipliers,
+) -> ContactSamples {
+    let (c, m, t) = (g0.len(), basis.samples(), basis.terms());
+    let mut gaps = vec![0.0; c * m];
+    for j in 0..c {
+        basis.synthesize(&y[j * t..(j + 1) * t], &mut gaps[j * m..(j + 1) * m]);
+        gaps[j * m..(j + 1) * m]
+            .iter_mut()
+            .for_each(|g| *g -= g0[j]);
+    }
+    let mut force = vec![0.0; c * m];
+    let mut slope = vec![0.0; c * m];
+    apply_contact_law(&gaps, mu, 0.0, &mut force, &mut slope);
+    let mut coefficients = vec![0.0; c * t];
+    for j in 0..c {
+        basis.analyze(
+            &force[j * m..(j + 1) * m],
+            &mut coefficients[j * t..(j + 1) * t],
+        );
+    }
+    ContactSamples {
+        gaps,
+        force,
+        slope,
+        coefficients,
+    }
+}
+
+/// Newton settings of the inner solve.
+#[derive(Clone, Copy, Debug)]
+pub struct InnerTolerance {
+    /// Converged when max |R| <= tolerance x y_scale and |R_arc| <= tolerance.
+    pub tolerance: f64,
+    /// Iterations allowed per inner solve.
+    pub max_iterations: usize,
+}
+
+/// One inner solve: the problem's data and the multipliers it runs at.
+pub struct InnerNewton<'p> {
+    /// The condensed structure.
+    pub dynamics: &'p ModalDynamics,
+    /// The basis and its samples.
+    pub basis: &'p FullBasis,
+    /// Initial gaps g0 (c).
+    pub g0: &'p [f64],
+    /// Scale of y (the mean gap).
+    pub y_scale: f64,
+    /// Tolerances.
+    pub settings: InnerTolerance,
+    /// The compliance at the last W used (recomputed when W changes).
+    pub cache: Option<ContactCompliance>,
+}
+
+impl InnerNewton<'_> {
+    fn compliance(&mut self, omega: f64) -> Result<&ContactCompliance, ForcedError> {
+        if self.cache.as_ref().is_none_or(|c| c.omega != omega) {
+            self.cache = Some(self.dynamics.compliance(omega)?);
+        }
+        Ok(self.cache.as_ref().expect("just set"))
+    }
+
+    /// R(y, W) and the contact samples it used.
+    fn residual(
+        &mut self,
+        s: &OrbitState,
+        mu: &Multipliers,
+    ) -> Result<(Vec<f64>, ContactSamples), ForcedError> {
+        let cs = contact_samples(self.basis, self.g0, &s.y, mu);
+        let comp = self.compliance(s.omega)?;
+        let l = s.y.len();
+        let mut r: Vec<f64> = (0..l).map(|i| s.y[i] - comp.y_load[i]).collect();
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri += (0..l)
+                .map(|q| comp.g[(i, q)] * cs.coefficients[q])
+                .sum::<f64>();
+        }
+        Ok((r, cs))
+    }
+
+    fn merit(&self, r: &[f64], arc: Option<(&ArcRow, &OrbitState)>) -> f64 {
+        let ry = r.iter().fold(0.0_f64, |a, v| a.max(v.abs())) / self.y_scale;
+        ry.max(arc.map_or(0.0, |(a, s)| a.residual(s).abs()))
+    }
+
+    /// Runs Newton from `state` at `mu` (W fixed unless `arc` is given). Returns the iterations.
+    pub fn run(
+        &mut self,
+        state: &mut OrbitState,
+        mu: &Multipliers,
+        arc: Option<&ArcRow>,
+    ) -> Result<usize, ForcedError> {
+        let (mut r, mut cs) = self.residual(state, mu)?;
+        let mut merit = self.merit(&r, arc.map(|a| (a, &*state)));
+        for it in 0..self.settings.max_iterations {
+            tracing::trace!(
+                iteration = it,
+                merit,
+                omega = state.omega,
+                "forced inner Newton"
+            );
+            if merit <= self.settings.tolerance {
+                return Ok(it);
+            }
+            let (dy, dw) = self.direction(state, &r, &cs, arc)?;
+            let mut step = 1.0;
+            loop {
+                let trial = OrbitState {
+                    y: state.y.iter().zip(&dy).map(|(a, d)| a + step * d).collect(),
+                    omega: state.omega + step * dw,
+                };
+                let (rt, ct) = self.residual(&trial, mu)?;
+                let mt = self.merit(&rt, arc.map(|a| (a, &trial)));
+                if mt.is_finite() && (mt < merit || step < 1.0 / 64.0) {
+                    (*state, r, cs, merit) = (trial, rt, ct, mt);
+                    break;
+                }
+                step *= 0.5;
+            }
+        }
+        if merit <= self.settings.tolerance {
+            return Ok(self.settings.max_iterations);
+        }
+        Err(ForcedError::NotConverged {
+            omega: state.omega,
+            reason: format!(
+                "inner Newton: residual {merit:.3e} (units of g0) after {} iterations",
+                self.settings.max_iterations
+            ),
+        })
+    }
+}
+
+impl InnerNewton<'_> {
+    /// The Newton direction (dy, dW) from the reduced (bordered) system on the active rows.
+    fn direction(
+        &mut self,
+        s: &OrbitState,
+        r: &[f64],
+        cs: &ContactSamples,
+        arc: Option<&ArcRow>,
+    ) -> Result<(Vec<f64>, f64), ForcedError> {
+        let (t, m, l) = (self.basis.terms(), self.basis.samples(), s.y.len());
+        let active: Vec<usize> = (0..self.g0.len())
+            .filter(|&j| cs.slope[j * m..(j + 1) * m].iter().any(|&v| v != 0.0))
+            .collect();
+        let gj = self.compliance_times_slopes(s.omega, &active, &cs.slope)?;
+        let rate = match arc {
+            Some(_) => {
+                let z = self.dynamics.response(s.omega, &cs.coefficients)?;
+                let rate = self.dynamics.response_rate(s.omega, &z)?;
+                rate.into_iter().map(|v| -v).collect()
+            }
+            None => vec![0.0; l],
+        };
+        let is_active = |i: usize| active.binary_search(&(i / t)).is_ok();
+        let global = |col: usize| active[col / t] * t + col % t;
+        let la = active.len() * t;
+        let dim = la + usize::from(arc.is_some());
+        let mut lu = DenseLu::default();
+        let mut rhs = vec![0.0; dim];
+        {
+            let mut a = lu.matrix(dim);
+            for row in 0..la {
+                let gi = global(row);
+                for col in 0..la {
+                    a[(row, col)] = gj[(gi, col)] + if row == col { 1.0 } else { 0.0 };
+                }
+                if arc.is_some() {
+                    a[(row, la)] = rate[gi];
+                }
+                rhs[row] = -r[gi];
+            }
+            if let Some(arc) = arc {
+                let tv = |i: usize| arc.tangent_y[i] / arc.y_scale;
+                let inactive = || (0..l).filter(|&i| !is_active(i));
+                for col in 0..la {
+                    a[(la, col)] =
+                        tv(global(col)) - inactive().map(|i| tv(i) * gj[(i, col)]).sum::<f64>();
+                }
+                a[(la, la)] =
+                    arc.tangent_w / arc.w_scale - inactive().map(|i| tv(i) * rate[i]).sum::<f64>();
+                rhs[la] = -arc.residual(s) + inactive().map(|i| tv(i) * r[i]).sum::<f64>();
+            }
+        }
+        if dim > 0 {
+            if !lu.factor() {
+                return Err(ForcedError::NotConverged {
+                    omega: s.omega,
+                    reason: format!(
+                        "singular Newton matrix ({} active contact rows)",
+                        active.len()
+                    ),
+                });
+            }
+            lu.solve_slice(&mut rhs);
+        }
+        let dw = if arc.is_some() { rhs[la] } else { 0.0 };
+        let mut dy = vec![0.0; l];
+        for i in 0..l {
+            dy[i] = if is_active(i) {
+                rhs[active.binary_search(&(i / t)).expect("active") * t + i % t]
+            } else {
+                -r[i] - (0..la).map(|col| gj[(i, col)] * rhs[col]).sum::<f64>() - rate[i] * dw
+            };
+        }
+        Ok((dy, dw))
+    }
+
+    /// G[:, active rows] times the block-diagonal J_Lambda of the active rows (L x La).
+    fn compliance_times_slopes(
+        &mut self,
+        omega: f64,
+        active: &[usize],
+        slope: &[f64],
+    ) -> Result<Mat<f64>, ForcedError> {
+        let (t, m) = (self.basis.terms(), self.basis.samples());
+        let mut block = Mat::zeros(t, t);
+        let basis = self.basis;
+        let g = &self.compliance(omega)?.g;
+        let mut gj = Mat::zeros(g.nrows(), active.len() * t);
+        for (ai, &j) in active.iter().enumerate() {
+            basis.project_slopes(&slope[j * m..(j + 1) * m], block.as_mut());
+            let prod = g.subcols(j * t, t) * &block;
+            gj.subcols_mut(ai * t, t).copy_from(&prod);
+        }
+        Ok(gj)
+    }
+}

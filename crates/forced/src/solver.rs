@@ -1,0 +1,303 @@
+//! One forced orbit: Algorithm 1 (augmented Lagrangian, exact contact) or the plain penalty law
+//! around the condensed inner Newton solve (`newton`), on the full Fourier basis (DESIGN §10).
+
+use faer::Mat;
+use nlmodes_hb::augmented_lagrangian::{run_algorithm1, InnerSolves};
+use nlmodes_hb::{
+    AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, HbError, Multipliers, System,
+};
+
+use crate::dynamics::ModalDynamics;
+use crate::error::ForcedError;
+use crate::load::Load;
+use crate::newton::{contact_samples, ArcRow, InnerNewton, InnerTolerance, OrbitState};
+
+/// What a forced solve is configured with.
+#[derive(Clone, Debug)]
+pub struct ForcedSettings {
+    /// N and m (m >= 2N + 1).
+    pub harmonics: HarmonicSettings,
+    /// Algorithm 1's parameters and the contact method (augmented Lagrangian or penalty).
+    pub algorithm: AlgorithmParams,
+    /// Inner Newton tolerance on max |R| in units of the mean gap (default 1e-10).
+    pub newton_tolerance: f64,
+    /// Inner Newton iterations per solve (default 60).
+    pub newton_iterations: usize,
+}
+
+impl ForcedSettings {
+    /// Defaults for N harmonics: m = `HarmonicSettings::default_samples`, Algorithm 1 defaults.
+    pub fn new(harmonics: usize) -> Result<Self, ForcedError> {
+        Ok(Self {
+            harmonics: HarmonicSettings::with_default_samples(harmonics)?,
+            algorithm: AlgorithmParams::default(),
+            newton_tolerance: 1e-10,
+            newton_iterations: 60,
+        })
+    }
+}
+
+/// A converged forced orbit.
+#[derive(Clone, Debug)]
+pub struct ForcedPoint {
+    /// Excitation frequency W (rad/s).
+    pub omega: f64,
+    /// Physical coefficients, n x (2N + 1): column p is u_0, a_1, b_1, ... (see `FullBasis`).
+    pub coefficients: Mat<f64>,
+    /// Contact coordinates y = A u, signal-major c (2N + 1).
+    pub contact: Vec<f64>,
+    /// Contact force samples (c x m, force units) of the converged law.
+    pub contact_force: Vec<f64>,
+    /// Gap samples g = A u - g0 (c x m).
+    pub gaps: Vec<f64>,
+    /// The augmented-Lagrangian variables at convergence.
+    pub multipliers: Multipliers,
+    /// Powell's measure G (units of g0; 0 for the penalty law).
+    pub powell_measure: f64,
+    /// Inner solves and Newton iterations spent.
+    pub inner_solves: usize,
+    /// Newton iterations summed over the inner solves.
+    pub newton_iterations: usize,
+}
+
+/// The forced problem for one system, damping and load.
+pub struct ForcedSolver<'s> {
+    system: &'s System,
+    dynamics: ModalDynamics,
+    basis: FullBasis,
+    settings: ForcedSettings,
+    kappa_initial: Vec<f64>,
+    kappa_cap: Vec<f64>,
+}
+
+/// The state Algorithm 1 drives: the orbit and the one it last accepted.
+struct ForcedInner<'a, 'p> {
+    newton: &'a mut InnerNewton<'p>,
+    state: OrbitState,
+    kept: OrbitState,
+    arc: Option<&'a ArcRow>,
+}
+
+impl InnerSolves for ForcedInner<'_, '_> {
+    fn solve(&mut self, mu: &Multipliers, gaps: &mut Vec<f64>) -> Result<usize, HbError> {
+        let it = self
+            .newton
+            .run(&mut self.state, mu, self.arc)
+            .map_err(|e| HbError::InnerSolve {
+                detail: e.to_string(),
+            })?;
+        let cs = contact_samples(self.newton.basis, self.newton.g0, &self.state.y, mu);
+        *gaps = cs.gaps;
+        Ok(it)
+    }
+
+    fn keep(&mut self) {
+        self.kept.clone_from(&self.state);
+    }
+
+    fn restore(&mut self) {
+        self.state.clone_from(&self.kept);
+    }
+}
+
+/// Where a forced solve starts: an orbit and its multipliers (a previous point), or the linear
+/// response at W with theta = 0 and kappa = kappa^(1).
+#[derive(Clone, Debug)]
+pub struct ForcedStart {
+    /// The initial orbit.
+    pub state: OrbitState,
+    /// The initial multipliers.
+    pub multipliers: Multipliers,
+}
+
+impl<'s> ForcedSolver<'s> {
+    /// Validates the inputs and precomputes the modal data. `damping` is C (n x n).
+    pub fn new(
+        system: &'s System,
+        damping: &Mat<f64>,
+        load: &Load,
+        settings: ForcedSettings,
+    ) -> Result<Self, ForcedError> {
+        settings.algorithm.validate()?;
+        let positive = |name, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ForcedError::Parameter {
+                    name,
+                    value: v,
+                    expected: "a finite value > 0",
+                })
+            }
+        };
+        positive("newton_tolerance", settings.newton_tolerance)?;
+        positive("newton_iterations", settings.newton_iterations as f64)?;
+        let dynamics = ModalDynamics::new(system, damping, load, settings.harmonics.harmonics)?;
+        let basis = FullBasis::new(settings.harmonics)?;
+        let ks = system.contact_stiffness();
+        let (kappa_initial, kappa_cap) = match settings.algorithm.method {
+            ContactMethod::AugmentedLagrangian => (
+                ks.iter()
+                    .map(|k| k * settings.algorithm.initial_penalty)
+                    .collect(),
+                ks.iter()
+                    .map(|k| k * settings.algorithm.max_penalty)
+                    .collect(),
+            ),
+            ContactMethod::Penalty { stiffness } => {
+                (vec![stiffness; ks.len()], vec![stiffness; ks.len()])
+            }
+        };
+        Ok(Self {
+            system,
+            dynamics,
+            basis,
+            settings,
+            kappa_initial,
+            kappa_cap,
+        })
+    }
+
+    /// The system.
+    pub fn system(&self) -> &'s System {
+        self.system
+    }
+
+    /// The modal data.
+    pub fn dynamics(&self) -> &ModalDynamics {
+        &self.dynamics
+    }
+
+    /// The basis.
+    pub fn basis(&self) -> &FullBasis {
+        &self.basis
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &ForcedSettings {
+        &self.settings
+    }
+
+    /// The linear response at W (no contact force), theta = 0, kappa = kappa^(1).
+    pub fn linear_start(&self, omega: f64) -> Result<ForcedStart, ForcedError> {
+        let y = self.dynamics.compliance(omega)?.y_load;
+        let multipliers = Multipliers::uniform(&self.kappa_initial, self.basis.samples());
+        Ok(ForcedStart {
+            state: OrbitState { y, omega },
+            multipliers,
+        })
+    }
+
+    /// The start of a point from a converged one (its orbit and multipliers).
+    pub fn start_from(point: &ForcedPoint) -> ForcedStart {
+        ForcedStart {
+            state: OrbitState {
+                y: point.contact.clone(),
+                omega: point.omega,
+            },
+            multipliers: point.multipliers.clone(),
+        }
+    }
+
+    /// Solves at the start's W (fixed) or on the arc row `arc` (W free).
+    pub fn solve(
+        &self,
+        start: ForcedStart,
+        arc: Option<&ArcRow>,
+    ) -> Result<ForcedPoint, ForcedError> {
+        let g0 = self.system.gaps();
+        let mut newton = InnerNewton {
+            dynamics: &self.dynamics,
+            basis: &self.basis,
+            g0,
+            y_scale: self.system.gap_reference(),
+            settings: InnerTolerance {
+                tolerance: self.settings.newton_tolerance,
+                max_iterations: self.settings.newton_iterations,
+            },
+            cache: None,
+        };
+        let ForcedStart {
+            state,
+            mut multipliers,
+        } = start;
+        let omega0 = state.omega;
+        let mut inner = ForcedInner {
+            newton: &mut newton,
+            kept: state.clone(),
+            state,
+            arc,
+        };
+        let (measure, solves, iterations) = match self.settings.algorithm.method {
+            ContactMethod::Penalty { .. } => {
+                multipliers.theta.iter_mut().for_each(|t| *t = 0.0);
+                let mut gaps = Vec::new();
+                let it = inner.solve(&multipliers, &mut gaps).map_err(|e| {
+                    ForcedError::NotConverged {
+                        omega: omega0,
+                        reason: e.to_string(),
+                    }
+                })?;
+                (0.0, 1, it)
+            }
+            ContactMethod::AugmentedLagrangian => {
+                let rep = run_algorithm1(
+                    &self.settings.algorithm,
+                    g0,
+                    &self.kappa_cap,
+                    &mut multipliers,
+                    &mut inner,
+                )
+                .map_err(|f| ForcedError::NotConverged {
+                    omega: inner_omega(arc, omega0),
+                    reason: format!(
+                        "Algorithm 1: {} (last G = {:.3e})",
+                        f.reason, f.report.measure
+                    ),
+                })?;
+                (rep.measure, rep.solves, rep.newton_iterations)
+            }
+        };
+        let state = inner.state;
+        self.point(state, multipliers, measure, solves, iterations)
+    }
+
+    fn point(
+        &self,
+        state: OrbitState,
+        multipliers: Multipliers,
+        measure: f64,
+        solves: usize,
+        iterations: usize,
+    ) -> Result<ForcedPoint, ForcedError> {
+        let cs = contact_samples(&self.basis, self.system.gaps(), &state.y, &multipliers);
+        let z = self.dynamics.response(state.omega, &cs.coefficients)?;
+        let coefficients = self.dynamics.physical(&z);
+        if coefficients
+            .col_iter()
+            .any(|c| c.iter().any(|v| !v.is_finite()))
+            || !state.omega.is_finite()
+        {
+            return Err(HbError::NonFiniteResult {
+                what: "forced orbit coefficients",
+            }
+            .into());
+        }
+        Ok(ForcedPoint {
+            omega: state.omega,
+            coefficients,
+            contact: state.y,
+            contact_force: cs.force,
+            gaps: cs.gaps,
+            multipliers,
+            powell_measure: measure,
+            inner_solves: solves,
+            newton_iterations: iterations,
+        })
+    }
+}
+
+/// The W to name in an error: the predicted one on an arc, else the fixed one.
+fn inner_omega(arc: Option<&ArcRow>, omega: f64) -> f64 {
+    arc.map_or(omega, |a| a.predicted.omega)
+}

@@ -1,0 +1,72 @@
+//! Small systems and independent references shared by the forced-response tests.
+#![allow(dead_code)]
+
+use faer::Mat;
+use nlmodes_hb::System;
+
+/// The 3-DOF system with a non-diagonal mass matrix of the nnm tests (`three_dof_stop`): one
+/// contact row 0.2 x0 + x2 with gap `gap`, master x2.
+pub fn three_dof(gap: f64) -> System {
+    let m = [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 1.5]];
+    let k = [[3.0, -1.0, 0.0], [-1.0, 2.5, -1.0], [0.0, -1.0, 1.2]];
+    let a = [0.2, 0.0, 1.0];
+    System::new(
+        Mat::from_fn(3, 3, |i, j| m[i][j]),
+        Mat::from_fn(3, 3, |i, j| k[i][j]),
+        Mat::from_fn(1, 3, |_, j| a[j]),
+        vec![gap],
+        2,
+    )
+    .expect("3-DOF system")
+}
+
+/// Complex amplitude U = a - i b of the linear response to f = f_c cos + f_s sin at the
+/// frequency `nw` (rad/s): (K - nw^2 M + i nw C) U = f_c - i f_s, solved as a real 2n x 2n system
+/// by Gaussian elimination with partial pivoting (independent of the crate's modal path).
+/// Returns (a, b).
+pub fn linear_harmonic(
+    system: &System,
+    c: &Mat<f64>,
+    nw: f64,
+    fc: &[f64],
+    fs: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let n = system.n_dofs();
+    let (m, k) = (system.mass(), system.stiffness());
+    let mut a = vec![vec![0.0; 2 * n + 1]; 2 * n];
+    for i in 0..n {
+        for j in 0..n {
+            let d = k[(i, j)] - nw * nw * m[(i, j)];
+            let e = nw * c[(i, j)];
+            a[i][j] = d;
+            a[i][n + j] = -e;
+            a[n + i][j] = e;
+            a[n + i][n + j] = d;
+        }
+        a[i][2 * n] = fc[i];
+        a[n + i][2 * n] = -fs[i];
+    }
+    let x = gauss(a);
+    (x[..n].to_vec(), x[n..].iter().map(|v| -v).collect())
+}
+
+fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
+    let n = a.len();
+    for col in 0..n {
+        let p = (col..n)
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .unwrap();
+        a.swap(col, p);
+        let pivot = a[col].clone();
+        for row in a.iter_mut().skip(col + 1) {
+            let f = row[col] / pivot[col];
+            row.iter_mut().zip(&pivot).skip(col).for_each(|(v, p)| *v -= f * p);
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let s: f64 = (r + 1..n).map(|cc| a[r][cc] * x[cc]).sum();
+        x[r] = (a[r][n] - s) / a[r][r];
+    }
+    x
+}
