@@ -11,11 +11,13 @@
 //! `InnerSolves`: one implementation of the law, the measure and the updates for free and forced
 //! motion. Units: SI for SI matrices (W in rad/s, forces in N, damping in N s/m).
 //!
-//! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row).
+//! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row),
+//! [`frequency_response`] (the curve over a frequency range, through its folds).
 
 mod damping;
 mod dynamics;
 mod error;
+mod frf;
 mod load;
 mod newton;
 mod solver;
@@ -23,6 +25,7 @@ mod solver;
 pub use damping::{modal_ratios, Damping};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
+pub use frf::{frequency_response, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination};
 pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};

@@ -67,12 +67,25 @@ pub struct ContactSamples {
     pub coefficients: Vec<f64>,
 }
 
-/// Evaluates the sampled contact law of `multipliers` on the contact coordinates `y`.
+/// Evaluates the sampled contact law of `multipliers` on the contact coordinates `y` (the exact
+/// law; [`contact_samples_smoothed`] for the smoothing path).
 pub fn contact_samples(
     basis: &FullBasis,
     g0: &[f64],
     y: &[f64],
     mu: &Multipliers,
+) -> ContactSamples {
+    contact_samples_smoothed(basis, g0, y, mu, 0.0)
+}
+
+/// [`contact_samples`] with the positive part smoothed by `smoothing` (length units; 0: exact),
+/// see `nlmodes_hb::contact::apply_contact_law`.
+pub fn contact_samples_smoothed(
+    basis: &FullBasis,
+    g0: &[f64],
+    y: &[f64],
+    mu: &Multipliers,
+    smoothing: f64,
 ) -> ContactSamples {
     let (c, m, t) = (g0.len(), basis.samples(), basis.terms());
     let mut gaps = vec![0.0; c * m];
@@ -84,7 +97,7 @@ pub fn contact_samples(
     }
     let mut force = vec![0.0; c * m];
     let mut slope = vec![0.0; c * m];
-    apply_contact_law(&gaps, mu, 0.0, &mut force, &mut slope);
+    apply_contact_law(&gaps, mu, smoothing, &mut force, &mut slope);
     let mut coefficients = vec![0.0; c * t];
     for j in 0..c {
         basis.analyze(
@@ -123,6 +136,8 @@ pub struct InnerNewton<'p> {
     pub settings: InnerTolerance,
     /// The compliance at the last W used (recomputed when W changes).
     pub cache: Option<ContactCompliance>,
+    /// Smoothing of the law in the current solve (length units; 0 = exact).
+    pub smoothing: f64,
 }
 
 impl InnerNewton<'_> {
@@ -139,7 +154,7 @@ impl InnerNewton<'_> {
         s: &OrbitState,
         mu: &Multipliers,
     ) -> Result<(Vec<f64>, ContactSamples), ForcedError> {
-        let cs = contact_samples(self.basis, self.g0, &s.y, mu);
+        let cs = contact_samples_smoothed(self.basis, self.g0, &s.y, mu, self.smoothing);
         let comp = self.compliance(s.omega)?;
         let l = s.y.len();
         let mut r: Vec<f64> = (0..l).map(|i| s.y[i] - comp.y_load[i]).collect();
@@ -156,8 +171,39 @@ impl InnerNewton<'_> {
         ry.max(arc.map_or(0.0, |(a, s)| a.residual(s).abs()))
     }
 
-    /// Runs Newton from `state` at `mu` (W fixed unless `arc` is given). Returns the iterations.
+    /// Runs Newton from `state` at `mu` (W fixed unless `arc` is given) on the exact law; when it
+    /// stagnates (the semi-smooth Newton cycling between active sets), restarts from `state` along
+    /// a smoothing path mu = 1e-2 .. 1e-8 y_scale, each solve starting from the previous one,
+    /// and ends on the exact law. Returns the iterations of every attempt.
     pub fn run(
+        &mut self,
+        state: &mut OrbitState,
+        mu: &Multipliers,
+        arc: Option<&ArcRow>,
+    ) -> Result<usize, ForcedError> {
+        let start = state.clone();
+        self.smoothing = 0.0;
+        let mut spent = self.settings.max_iterations;
+        let first = match self.run_once(state, mu, arc) {
+            Ok(it) => return Ok(it),
+            Err(e) => e,
+        };
+        *state = start;
+        for k in 2..=8 {
+            self.smoothing = 10f64.powi(-k) * self.y_scale;
+            spent += self
+                .run_once(state, mu, arc)
+                .unwrap_or(self.settings.max_iterations);
+        }
+        self.smoothing = 0.0;
+        match self.run_once(state, mu, arc) {
+            Ok(it) => Ok(spent + it),
+            Err(_) => Err(first),
+        }
+    }
+
+    /// One Newton run at the current smoothing (see [`Self::run`]).
+    fn run_once(
         &mut self,
         state: &mut OrbitState,
         mu: &Multipliers,

@@ -216,6 +216,7 @@ impl<'s> ForcedSolver<'s> {
                 max_iterations: self.settings.newton_iterations,
             },
             cache: None,
+            smoothing: 0.0,
         };
         let ForcedStart {
             state,

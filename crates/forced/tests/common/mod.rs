@@ -60,7 +60,10 @@ fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
         let pivot = a[col].clone();
         for row in a.iter_mut().skip(col + 1) {
             let f = row[col] / pivot[col];
-            row.iter_mut().zip(&pivot).skip(col).for_each(|(v, p)| *v -= f * p);
+            row.iter_mut()
+                .zip(&pivot)
+                .skip(col)
+                .for_each(|(v, p)| *v -= f * p);
         }
     }
     let mut x = vec![0.0; n];

@@ -1,0 +1,385 @@
+//! Frequency continuation of the forced response (DESIGN §10.5): pseudo-arc-length in (orbit, W)
+//! from the linear response at the start frequency, through folds, to the end frequency.
+//!
+//! Scaled space: y / (g_ref sqrt(c)) and W / w_ref (w_ref the first linear frequency). The first
+//! two points are solved at fixed W; then each step predicts along the secant of the last two
+//! points, x_p = x_k + h t, and solves the forced problem with the row t . (x - x_p) = 0
+//! (`ArcRow`). A step that fails is halved; one that converges in few Newton iterations lets the
+//! next grow. A fold is where W turns: `FoldKind::TurnsBack` (W rising, then falling: on a
+//! sweep up the response jumps down there) and `FoldKind::TurnsForward` (on a sweep down it
+//! jumps up there). Its W is refined by the parabola through the three points around it.
+
+use crate::error::ForcedError;
+use crate::newton::{ArcRow, OrbitState};
+use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
+
+/// Scaled step below which a failing arc-length step gives way to a hop at fixed W.
+const CORNER_STEP: f64 = 1e-3;
+
+/// How far (in scaled distance, as a multiple of the hop's dW) a hop may land from the last
+/// orbit: a corner turns the curve, it does not displace it.
+const HOP_REACH: f64 = 20.0;
+
+/// Settings of one frequency continuation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfSettings {
+    /// Start frequency (rad/s), where the response is taken from its linear solution.
+    pub omega_start: f64,
+    /// End frequency (rad/s), > start.
+    pub omega_end: f64,
+    /// First step in the scaled space (default 0.005: half a percent of w_ref).
+    pub step: f64,
+    /// Smallest step before giving up (default 1e-6).
+    pub min_step: f64,
+    /// Largest step (default 0.02).
+    pub max_step: f64,
+    /// Most points (default 2000).
+    pub max_points: usize,
+}
+
+impl FrfSettings {
+    /// Defaults over [start, end] (rad/s).
+    pub fn new(omega_start: f64, omega_end: f64) -> Self {
+        Self {
+            omega_start,
+            omega_end,
+            step: 0.005,
+            min_step: 1e-6,
+            max_step: 0.02,
+            max_points: 2000,
+        }
+    }
+
+    /// Checks the range and the steps; errors name the setting.
+    pub fn validate(&self) -> Result<(), ForcedError> {
+        let bad = |name, value, expected| {
+            Err(ForcedError::Parameter {
+                name,
+                value,
+                expected,
+            })
+        };
+        if !(self.omega_start.is_finite() && self.omega_start > 0.0) {
+            return bad("omega_start", self.omega_start, "a finite frequency > 0");
+        }
+        if !(self.omega_end.is_finite() && self.omega_end > self.omega_start) {
+            return bad(
+                "omega_end",
+                self.omega_end,
+                "a finite frequency > omega_start",
+            );
+        }
+        for (name, v) in [
+            ("step", self.step),
+            ("min_step", self.min_step),
+            ("max_step", self.max_step),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(name, v, "a finite value > 0");
+            }
+        }
+        if self.min_step > self.step || self.step > self.max_step {
+            return bad("step", self.step, "min_step <= step <= max_step");
+        }
+        if self.max_points < 3 {
+            return bad("max_points", self.max_points as f64, ">= 3");
+        }
+        Ok(())
+    }
+}
+
+/// Which way W turns at a fold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FoldKind {
+    /// W rose and now falls: a sweep up jumps down here.
+    TurnsBack,
+    /// W fell and now rises: a sweep down jumps up here.
+    TurnsForward,
+}
+
+/// A fold of the curve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fold {
+    /// Index of the point nearest the fold.
+    pub point: usize,
+    /// Refined fold frequency (rad/s).
+    pub omega: f64,
+    /// Which way W turns.
+    pub kind: FoldKind,
+}
+
+/// Why the continuation stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrfTermination {
+    /// W passed the end frequency.
+    Complete,
+    /// The step fell below `min_step` (the reason of the last failure).
+    StepTooSmall {
+        /// W of the last point (rad/s).
+        omega: f64,
+        /// The last solver error.
+        reason: String,
+    },
+    /// `max_points` reached.
+    PointLimit,
+}
+
+/// A frequency-response curve.
+#[derive(Clone, Debug)]
+pub struct FrequencyResponse {
+    /// The points in continuation order.
+    pub points: Vec<ForcedPoint>,
+    /// The folds met.
+    pub folds: Vec<Fold>,
+    /// Indices of the points reached by a hop at fixed W past a corner.
+    pub hops: Vec<usize>,
+    /// Why it stopped.
+    pub termination: FrfTermination,
+}
+
+/// The continuation in progress (see module docs).
+struct FrfTrace<'a, 's> {
+    solver: &'a ForcedSolver<'s>,
+    settings: &'a FrfSettings,
+    y_scale: f64,
+    w_scale: f64,
+    step: f64,
+    curve: FrequencyResponse,
+}
+
+impl<'a, 's> FrfTrace<'a, 's> {
+    fn scaled(&self, p: &ForcedPoint) -> Vec<f64> {
+        let mut v: Vec<f64> = p.contact.iter().map(|y| y / self.y_scale).collect();
+        v.push(p.omega / self.w_scale);
+        v
+    }
+
+    /// The unit secant of the last two points in the scaled space.
+    fn secant(&self) -> Vec<f64> {
+        let n = self.curve.points.len();
+        let (a, b) = (
+            self.scaled(&self.curve.points[n - 2]),
+            self.scaled(&self.curve.points[n - 1]),
+        );
+        let d: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
+        let norm = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+        d.iter().map(|v| v / norm).collect()
+    }
+
+    /// The arc row of a step `h` along `tangent` from the last point.
+    fn arc(&self, tangent: &[f64], h: f64) -> ArcRow {
+        let last = self.curve.points.last().expect("two points");
+        let l = last.contact.len();
+        ArcRow {
+            tangent_y: tangent[..l].to_vec(),
+            tangent_w: tangent[l],
+            predicted: OrbitState {
+                y: last
+                    .contact
+                    .iter()
+                    .zip(tangent)
+                    .map(|(y, t)| y + h * t * self.y_scale)
+                    .collect(),
+                omega: last.omega + h * tangent[l] * self.w_scale,
+            },
+            y_scale: self.y_scale,
+            w_scale: self.w_scale,
+        }
+    }
+
+    /// One accepted step, or the error of the smallest step tried. Below `CORNER_STEP` the
+    /// arc-length step gives way to a hop at fixed W (see [`Self::hop`]).
+    fn advance(&mut self) -> Result<(), String> {
+        let tangent = self.secant();
+        loop {
+            if self.step < CORNER_STEP {
+                if self.hop(tangent[tangent.len() - 1].signum()) {
+                    self.step = CORNER_STEP;
+                    return Ok(());
+                }
+                if self.step < self.settings.min_step {
+                    return Err("no arc-length step nor hop at fixed W converged".into());
+                }
+            }
+            let arc = self.arc(&tangent, self.step);
+            let last = self.curve.points.last().expect("two points");
+            let start = ForcedStart {
+                state: arc.predicted.clone(),
+                multipliers: last.multipliers.clone(),
+            };
+            match self.solver.solve(start, Some(&arc)) {
+                Ok(p) if self.corrector_distance(&arc, &p) > self.step => {
+                    // Converged far from the prediction: another piece of the curve, or a jump
+                    // across a fold; retry shorter.
+                    self.step *= 0.5;
+                    if self.step < self.settings.min_step {
+                        return Err(format!(
+                            "the corrector lands farther than the step from the prediction at W = {:.6e} rad/s",
+                            p.omega
+                        ));
+                    }
+                }
+                Ok(p) => {
+                    let easy = p.newton_iterations <= 6 * p.inner_solves.max(1);
+                    self.curve.points.push(p);
+                    self.note_fold();
+                    if easy {
+                        self.step = (self.step * 1.5).min(self.settings.max_step);
+                    }
+                    return Ok(());
+                }
+                Err(e) => {
+                    self.step *= 0.5;
+                    if self.step < self.settings.min_step {
+                        return Err(e.to_string());
+                    }
+                }
+            }
+        }
+    }
+
+    /// A corner of the sampled problem (contact setting in on a coordinate with mass, where the
+    /// curve turns by a finite angle): solves at fixed W = W_k + `direction` dW from the last
+    /// orbit for growing dW (1e-4, 1e-3, 5e-3 w_ref) and keeps the first that converges, flagged
+    /// as a hop (`FrequencyResponse::hops`). Returns whether one did.
+    fn hop(&mut self, direction: f64) -> bool {
+        let last = self.curve.points.last().expect("two points").clone();
+        for dw in [1e-4, 1e-3, 5e-3] {
+            let mut start = ForcedSolver::start_from(&last);
+            start.state.omega += direction * dw * self.w_scale;
+            let landed = self.solver.solve(start, None).ok().filter(|p| {
+                // A hop stays on the curve: within a few dW of the last orbit, never on another
+                // branch (the small orbit out of contact, say).
+                let (a, b) = (self.scaled(p), self.scaled(&last));
+                let d = a
+                    .iter()
+                    .zip(&b)
+                    .map(|(x, y)| (x - y).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                d <= HOP_REACH * dw
+            });
+            if let Some(p) = landed {
+                tracing::debug!(
+                    omega = p.omega,
+                    "forced response: hop at fixed W past a corner"
+                );
+                self.curve.points.push(p);
+                self.curve.hops.push(self.curve.points.len() - 1);
+                self.note_fold();
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Distance in the scaled space from the prediction of `arc` to the solution `p`.
+    fn corrector_distance(&self, arc: &ArcRow, p: &ForcedPoint) -> f64 {
+        let dy: f64 = p
+            .contact
+            .iter()
+            .zip(&arc.predicted.y)
+            .map(|(a, b)| ((a - b) / self.y_scale).powi(2))
+            .sum();
+        (dy + ((p.omega - arc.predicted.omega) / self.w_scale).powi(2)).sqrt()
+    }
+
+    /// Marks a fold when W turned between the last three points.
+    fn note_fold(&mut self) {
+        let n = self.curve.points.len();
+        if n < 3 {
+            return;
+        }
+        let w = |i: usize| self.curve.points[i].omega;
+        let (d1, d2) = (w(n - 2) - w(n - 3), w(n - 1) - w(n - 2));
+        if d1 * d2 >= 0.0 {
+            return;
+        }
+        let kind = if d1 > 0.0 {
+            FoldKind::TurnsBack
+        } else {
+            FoldKind::TurnsForward
+        };
+        self.curve.folds.push(Fold {
+            point: n - 2,
+            omega: self.fold_frequency(n - 2),
+            kind,
+        });
+    }
+
+    /// The extremum of the parabola through (s, W) of points i - 1, i, i + 1 (s the scaled arc
+    /// length along the polyline).
+    fn fold_frequency(&self, i: usize) -> f64 {
+        let p = |k: usize| self.scaled(&self.curve.points[k]);
+        let dist = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let (a, b, c) = (p(i - 1), p(i), p(i + 1));
+        let (s0, s1, s2) = (0.0, dist(&a, &b), dist(&a, &b) + dist(&b, &c));
+        let w = |k: usize| self.curve.points[k].omega;
+        let (w0, w1, w2) = (w(i - 1), w(i), w(i + 1));
+        // Divided differences of the interpolating parabola, then its vertex.
+        let f01 = (w1 - w0) / (s1 - s0);
+        let f12 = (w2 - w1) / (s2 - s1);
+        let f012 = (f12 - f01) / (s2 - s0);
+        if f012 == 0.0 {
+            return w1;
+        }
+        let s_star = 0.5 * (s0 + s1) - f01 / (2.0 * f012);
+        w0 + f01 * (s_star - s0) + f012 * (s_star - s0) * (s_star - s1)
+    }
+}
+
+/// Traces the frequency response of `solver` over the settings' range (see module docs);
+/// `progress` sees every accepted point.
+pub fn frequency_response(
+    solver: &ForcedSolver<'_>,
+    settings: &FrfSettings,
+    mut progress: impl FnMut(&ForcedPoint),
+) -> Result<FrequencyResponse, ForcedError> {
+    settings.validate()?;
+    let system = solver.system();
+    let w_ref = system.linear_frequencies()[0];
+    let first = solver.solve(solver.linear_start(settings.omega_start)?, None)?;
+    progress(&first);
+    let mut start = ForcedSolver::start_from(&first);
+    start.state.omega += settings.step * w_ref;
+    let second = solver.solve(start, None)?;
+    progress(&second);
+    let mut trace = FrfTrace {
+        solver,
+        settings,
+        y_scale: system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt(),
+        w_scale: w_ref,
+        step: settings.step,
+        curve: FrequencyResponse {
+            points: vec![first, second],
+            folds: Vec::new(),
+            hops: Vec::new(),
+            termination: FrfTermination::Complete,
+        },
+    };
+    loop {
+        let last = trace.curve.points.last().expect("points").omega;
+        if last >= settings.omega_end {
+            break;
+        }
+        if trace.curve.points.len() >= settings.max_points {
+            trace.curve.termination = FrfTermination::PointLimit;
+            break;
+        }
+        if let Err(reason) = trace.advance() {
+            trace.curve.termination = FrfTermination::StepTooSmall {
+                omega: last,
+                reason,
+            };
+            break;
+        }
+        progress(trace.curve.points.last().expect("just pushed"));
+    }
+    Ok(trace.curve)
+}
