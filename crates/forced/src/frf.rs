@@ -7,11 +7,13 @@
 //! (`ArcRow`). A step that fails is halved; one that converges in few Newton iterations lets the
 //! next grow. A fold is where W turns: `FoldKind::TurnsBack` (W rising, then falling: on a
 //! sweep up the response jumps down there) and `FoldKind::TurnsForward` (on a sweep down it
-//! jumps up there). Its W is refined by the parabola through the three points around it.
+//! jumps up there), reported once W has retreated from its extremum by `fold_tolerance`; its W
+//! is refined by the parabola through the three points around the extremum.
 
 use crate::error::ForcedError;
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
+use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 
 /// Scaled step below which a failing arc-length step gives way to a hop at fixed W.
 const CORNER_STEP: f64 = 1e-3;
@@ -35,6 +37,14 @@ pub struct FrfSettings {
     pub max_step: f64,
     /// Most points (default 2000).
     pub max_points: usize,
+    /// Floquet stability of every point (default true).
+    pub stability: bool,
+    /// A fold is reported when W retreats from its extremum by more than this fraction of
+    /// w_ref (default 1e-3): hysteresis against the kinks of the sampled problem.
+    pub fold_tolerance: f64,
+    /// Margin around |mu| = 1 inside which the verdict is undetermined (default 1e-3; the
+    /// Liouville error of the point is added to it).
+    pub stability_margin: f64,
 }
 
 impl FrfSettings {
@@ -47,6 +57,9 @@ impl FrfSettings {
             min_step: 1e-6,
             max_step: 0.02,
             max_points: 2000,
+            stability: true,
+            fold_tolerance: 1e-3,
+            stability_margin: 1e-3,
         }
     }
 
@@ -80,6 +93,16 @@ impl FrfSettings {
         }
         if self.min_step > self.step || self.step > self.max_step {
             return bad("step", self.step, "min_step <= step <= max_step");
+        }
+        if !(self.fold_tolerance.is_finite() && self.fold_tolerance > 0.0) {
+            return bad("fold_tolerance", self.fold_tolerance, "a finite value > 0");
+        }
+        if !(self.stability_margin.is_finite() && self.stability_margin >= 0.0) {
+            return bad(
+                "stability_margin",
+                self.stability_margin,
+                "a finite value >= 0",
+            );
         }
         if self.max_points < 3 {
             return bad("max_points", self.max_points as f64, ">= 3");
@@ -124,6 +147,70 @@ pub enum FrfTermination {
     PointLimit,
 }
 
+/// What a change of stability between two points is, from the multiplier that crossed the unit
+/// circle (its argument within 0.05 rad of 0 or pi, else a complex pair).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ForcedBifurcation {
+    /// Through +1 (at a fold of the curve, or a branch point).
+    Fold,
+    /// Through -1.
+    PeriodDoubling,
+    /// A complex pair (quasi-periodic motion sets in).
+    NeimarkSacker,
+}
+
+/// The Floquet stability of one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointStability {
+    /// Stable, unstable or undetermined (within the margin).
+    pub verdict: Verdict,
+    /// Largest multiplier modulus.
+    pub largest_multiplier: f64,
+    /// Argument of that multiplier (rad).
+    pub argument: f64,
+    /// Liouville error of the monodromy (see `nlmodes_hb::floquet`).
+    pub liouville_error: f64,
+    /// The change of stability since the previous point, if any.
+    pub bifurcation: Option<ForcedBifurcation>,
+}
+
+impl PointStability {
+    fn of(mono: &SampledMonodromy, margin: f64) -> Self {
+        let first = mono.multipliers.first().copied().unwrap_or([0.0, 0.0]);
+        Self {
+            verdict: mono.verdict(margin),
+            largest_multiplier: mono.largest(),
+            argument: first[1].atan2(first[0]),
+            liouville_error: mono.liouville_error,
+            bifurcation: None,
+        }
+    }
+
+    /// The bifurcation between `previous` (the last determined point before this one) and this
+    /// point, when this one is determined and differs.
+    fn classify(&mut self, previous: &PointStability) {
+        let determined = |v: Verdict| v != Verdict::Undetermined;
+        if !(determined(self.verdict) && determined(previous.verdict))
+            || self.verdict == previous.verdict
+        {
+            return;
+        }
+        let unstable = if self.verdict == Verdict::Unstable {
+            *self
+        } else {
+            *previous
+        };
+        let arg = unstable.argument.abs();
+        self.bifurcation = Some(if arg < 0.05 {
+            ForcedBifurcation::Fold
+        } else if arg > std::f64::consts::PI - 0.05 {
+            ForcedBifurcation::PeriodDoubling
+        } else {
+            ForcedBifurcation::NeimarkSacker
+        });
+    }
+}
+
 /// A frequency-response curve.
 #[derive(Clone, Debug)]
 pub struct FrequencyResponse {
@@ -133,6 +220,8 @@ pub struct FrequencyResponse {
     pub folds: Vec<Fold>,
     /// Indices of the points reached by a hop at fixed W past a corner.
     pub hops: Vec<usize>,
+    /// Stability of each point (empty when not asked for).
+    pub stability: Vec<PointStability>,
     /// Why it stopped.
     pub termination: FrfTermination,
 }
@@ -144,6 +233,8 @@ struct FrfTrace<'a, 's> {
     y_scale: f64,
     w_scale: f64,
     step: f64,
+    /// Direction of travel in W (+1 or -1) and the index of the running extremum of W.
+    travel: (f64, usize),
     curve: FrequencyResponse,
 }
 
@@ -273,6 +364,29 @@ impl<'a, 's> FrfTrace<'a, 's> {
         false
     }
 
+    /// Floquet stability of the points not assessed yet (when asked for).
+    fn assess_stability(&mut self) -> Result<(), ForcedError> {
+        if !self.settings.stability {
+            return Ok(());
+        }
+        while self.curve.stability.len() < self.curve.points.len() {
+            let i = self.curve.stability.len();
+            let mono = self.solver.monodromy(&self.curve.points[i])?;
+            let mut st = PointStability::of(&mono, self.settings.stability_margin);
+            let determined = self
+                .curve
+                .stability
+                .iter()
+                .rev()
+                .find(|p| p.verdict != Verdict::Undetermined);
+            if let Some(prev) = determined {
+                st.classify(prev);
+            }
+            self.curve.stability.push(st);
+        }
+        Ok(())
+    }
+
     /// Distance in the scaled space from the prediction of `arc` to the solution `p`.
     fn corrector_distance(&self, arc: &ArcRow, p: &ForcedPoint) -> f64 {
         let dy: f64 = p
@@ -284,27 +398,35 @@ impl<'a, 's> FrfTrace<'a, 's> {
         (dy + ((p.omega - arc.predicted.omega) / self.w_scale).powi(2)).sqrt()
     }
 
-    /// Marks a fold when W turned between the last three points.
+    /// Marks a fold when W has retreated from its running extremum by more than
+    /// `fold_tolerance` w_ref: a turn of the curve, not a kink of the sampled problem (where W
+    /// wobbles by 1e-5 w_ref near a peak: the active samples switch one by one).
     fn note_fold(&mut self) {
         let n = self.curve.points.len();
-        if n < 3 {
-            return;
-        }
         let w = |i: usize| self.curve.points[i].omega;
-        let (d1, d2) = (w(n - 2) - w(n - 3), w(n - 1) - w(n - 2));
-        if d1 * d2 >= 0.0 {
-            return;
+        let last = n - 1;
+        let travel = self.travel.0;
+        let extremum = self.travel.1;
+        if (w(last) - w(extremum)) * travel > 0.0 {
+            self.travel.1 = last;
+        } else if (w(extremum) - w(last)) * travel > self.settings.fold_tolerance * self.w_scale {
+            let kind = if travel > 0.0 {
+                FoldKind::TurnsBack
+            } else {
+                FoldKind::TurnsForward
+            };
+            let omega = if extremum > 0 && extremum + 1 < n {
+                self.fold_frequency(extremum)
+            } else {
+                w(extremum)
+            };
+            self.curve.folds.push(Fold {
+                point: extremum,
+                omega,
+                kind,
+            });
+            self.travel = (-travel, last);
         }
-        let kind = if d1 > 0.0 {
-            FoldKind::TurnsBack
-        } else {
-            FoldKind::TurnsForward
-        };
-        self.curve.folds.push(Fold {
-            point: n - 2,
-            omega: self.fold_frequency(n - 2),
-            kind,
-        });
     }
 
     /// The extremum of the parabola through (s, W) of points i - 1, i, i + 1 (s the scaled arc
@@ -356,13 +478,16 @@ pub fn frequency_response(
         y_scale: system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt(),
         w_scale: w_ref,
         step: settings.step,
+        travel: (1.0, 1),
         curve: FrequencyResponse {
             points: vec![first, second],
             folds: Vec::new(),
             hops: Vec::new(),
+            stability: Vec::new(),
             termination: FrfTermination::Complete,
         },
     };
+    trace.assess_stability()?;
     loop {
         let last = trace.curve.points.last().expect("points").omega;
         if last >= settings.omega_end {
@@ -379,6 +504,7 @@ pub fn frequency_response(
             };
             break;
         }
+        trace.assess_stability()?;
         progress(trace.curve.points.last().expect("just pushed"));
     }
     Ok(trace.curve)

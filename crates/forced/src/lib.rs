@@ -25,7 +25,11 @@ mod solver;
 pub use damping::{modal_ratios, Damping};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
-pub use frf::{frequency_response, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination};
+pub use frf::{
+    frequency_response, Fold, FoldKind, ForcedBifurcation, FrequencyResponse, FrfSettings,
+    FrfTermination, PointStability,
+};
 pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState};
+pub use nlmodes_hb::floquet::Verdict;
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};

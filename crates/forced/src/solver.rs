@@ -3,6 +3,7 @@
 
 use faer::Mat;
 use nlmodes_hb::augmented_lagrangian::{run_algorithm1, InnerSolves};
+use nlmodes_hb::floquet::{switched_monodromy, ContactOrbit, SampledMonodromy};
 use nlmodes_hb::{
     AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, HbError, Multipliers, System,
 };
@@ -63,6 +64,7 @@ pub struct ForcedPoint {
 /// The forced problem for one system, damping and load.
 pub struct ForcedSolver<'s> {
     system: &'s System,
+    damping: Mat<f64>,
     dynamics: ModalDynamics,
     basis: FullBasis,
     settings: ForcedSettings,
@@ -150,6 +152,7 @@ impl<'s> ForcedSolver<'s> {
         };
         Ok(Self {
             system,
+            damping: damping.clone(),
             dynamics,
             basis,
             settings,
@@ -176,6 +179,27 @@ impl<'s> ForcedSolver<'s> {
     /// The settings.
     pub fn settings(&self) -> &ForcedSettings {
         &self.settings
+    }
+
+    /// Floquet multipliers of a converged point (`nlmodes_hb::floquet::switched_monodromy`: the
+    /// exact monodromy of the variational equation along the orbit, contact switches located on
+    /// the reconstructed gaps).
+    pub fn monodromy(&self, point: &ForcedPoint) -> Result<SampledMonodromy, ForcedError> {
+        let orbit = ContactOrbit {
+            basis: &self.basis,
+            contact: &point.contact,
+            gaps: self.system.gaps(),
+            multipliers: &point.multipliers,
+        };
+        let period = 2.0 * std::f64::consts::PI / point.omega;
+        Ok(switched_monodromy(
+            self.system.mass(),
+            self.damping.as_ref(),
+            self.system.stiffness(),
+            self.system.contact_rows(),
+            &orbit,
+            period,
+        )?)
     }
 
     /// The linear response at W (no contact force), theta = 0, kappa = kappa^(1).

@@ -2,13 +2,15 @@
 //! law kc = 10 x the static contact stiffness, a continuous piecewise-linear flow), the peak of the frequency response under a force on the master lies on the free
 //! backbone of the same model (`nlmodes-nnm`), and the more so the lighter the damping
 //! (phase resonance at the peak in the limit of light damping). The curve folds (hardening
-//! contact): a `TurnsBack` fold at the peak and a `TurnsForward` fold below it.
+//! contact): a `TurnsBack` fold at the peak and a `TurnsForward` fold below it, and the Floquet
+//! multipliers (`switched_monodromy`) mark the middle branch between them unstable, with a
+//! multiplier through +1 at each fold.
 
 mod common;
 
 use nlmodes_forced::{
-    frequency_response, Damping, FoldKind, ForcedSettings, ForcedSolver, FrfSettings,
-    FrfTermination, Load,
+    frequency_response, Damping, FoldKind, ForcedBifurcation, ForcedSettings, ForcedSolver,
+    FrfSettings, FrfTermination, Load, Verdict,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings};
 use nlmodes_nnm::{backbone, ContinuationSettings};
@@ -41,6 +43,7 @@ fn peak_and_backbone(zeta: f64, f: f64) -> (f64, f64, f64, usize) {
     let w1 = system.linear_frequencies()[0];
     let curve = frequency_response(&solver, &FrfSettings::new(0.8 * w1, 1.6 * w1), |_| {}).unwrap();
     assert_eq!(curve.termination, FrfTermination::Complete);
+    check_middle_branch(&curve, zeta);
     assert!(
         curve.folds.iter().any(|f| f.kind == FoldKind::TurnsBack),
         "no fold at the peak"
@@ -70,6 +73,46 @@ fn peak_and_backbone(zeta: f64, f: f64) -> (f64, f64, f64, usize) {
         .map(|w| w[0].1 + (w[1].1 - w[0].1) * (q_peak - w[0].0) / (w[1].0 - w[0].0))
         .expect("q_peak within the backbone");
     (peak.omega, q_peak, w_b, curve.points.len())
+}
+
+/// Between the two folds the curve is the unstable middle branch: a real multiplier through +1
+/// at each fold (stability changes flagged `Fold` within a few points of the fold), and every
+/// point in between unstable or undetermined. Checked at 2 % damping, where the upper branch has
+/// no Neimark-Sacker window near the peak (at 0.5 % it has one, arguments about 2 rad).
+fn check_middle_branch(curve: &nlmodes_forced::FrequencyResponse, zeta: f64) {
+    if zeta < 0.01 {
+        return;
+    }
+    let back = curve
+        .folds
+        .iter()
+        .find(|f| f.kind == FoldKind::TurnsBack)
+        .unwrap()
+        .point;
+    let forward = curve
+        .folds
+        .iter()
+        .find(|f| f.kind == FoldKind::TurnsForward)
+        .unwrap()
+        .point;
+    let changes: Vec<usize> = (0..curve.stability.len())
+        .filter(|&i| curve.stability[i].bifurcation == Some(ForcedBifurcation::Fold))
+        .collect();
+    assert!(
+        changes.iter().any(|&i| i.abs_diff(back) <= 5),
+        "no fold bifurcation at {back}: {changes:?}"
+    );
+    assert!(
+        changes.iter().any(|&i| i.abs_diff(forward) <= 5),
+        "no fold bifurcation at {forward}: {changes:?}"
+    );
+    for i in back + 5..forward.saturating_sub(5) {
+        assert_ne!(
+            curve.stability[i].verdict,
+            Verdict::Stable,
+            "point {i} on the middle branch"
+        );
+    }
 }
 
 #[test]

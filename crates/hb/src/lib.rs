@@ -28,7 +28,7 @@
 //! law, Powell's measure), `linear_model` (the linear part as the Newton solver sees it), `newton`
 //! (inner solve), `newton_fallback` (smoothing path), `condensation_basis` and `condensed_newton`
 //! (the exact condensation), `modal_tail` (series for the high modes), `full` (uncondensed
-//! validation model), `augmented_lagrangian` (Algorithm 1), `solver_settings`, `dense` (faer
+//! validation model), `floquet` (multipliers from the sampled slopes), `augmented_lagrangian` (Algorithm 1), `solver_settings`, `dense` (faer
 //! helpers), `check` (parameter checks), `error`.
 
 pub mod augmented_lagrangian;
@@ -38,6 +38,7 @@ pub mod condensed_newton;
 pub mod contact;
 pub mod dense;
 pub mod error;
+pub mod floquet;
 pub mod fourier;
 pub mod full;
 pub mod full_basis;
