@@ -12,7 +12,8 @@
 //! motion. Units: SI for SI matrices (W in rad/s, forces in N, damping in N s/m).
 //!
 //! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row),
-//! [`frequency_response`] (the curve over a frequency range, through its folds).
+//! [`frequency_response`] (the curve over a frequency range, through its folds), [`synthesize`]
+//! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod damping;
 mod dynamics;
@@ -21,6 +22,7 @@ mod frf;
 mod load;
 mod newton;
 mod solver;
+mod synthesis;
 
 pub use damping::{modal_ratios, Damping};
 pub use dynamics::{ContactCompliance, ModalDynamics};
@@ -33,3 +35,6 @@ pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState};
 pub use nlmodes_hb::floquet::Verdict;
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+pub use synthesis::{
+    nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit, SynthesizedPoint,
+};
