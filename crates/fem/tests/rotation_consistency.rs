@@ -429,7 +429,8 @@ fn global_residual_tangent_matches_finite_differences() {
 #[test]
 fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
     let mesh = clamped_curved_beam();
-    // No constraint: the tangent is singular (rigid-body modes), Cholesky fails at step 1.
+    // No constraint: the tangent is singular (rigid-body modes), Cholesky fails at step 1 with
+    // every cutback: the last attempt is at Omega^2 = 1000^2 / 4 / 2^10, Omega = 15.625 rad/s.
     let free = RotatingModel::new(
         &mesh,
         steel(),
@@ -447,22 +448,26 @@ fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
     match &err {
         RotationError::StaticSolve {
             step: 1,
-            n_steps: 4,
             omega,
+            target_omega,
+            cutbacks: 10,
             reason: StopReason::SingularTangent(_),
             history,
         } => {
-            assert!((omega - 500.0).abs() < 1e-9, "{omega}");
+            assert!((omega - 15.625).abs() < 1e-12, "{omega}");
+            assert_eq!(*target_omega, 1000.0);
             assert_eq!(history.len(), 1);
         }
         other => panic!("unexpected {other:?}"),
     }
     let msg = err.to_string();
     assert!(
-        msg.contains("load step 1 of 4") && msg.contains("5.000000e2") && msg.contains("singular"),
+        msg.contains("load step 1 (Omega = 1.562500e1 rad/s, target 1.000000e3 rad/s)")
+            && msg.contains("after 10 cutbacks")
+            && msg.contains("singular"),
         "{msg}"
     );
-    // One Newton iteration allowed at a high speed: the iteration limit, with the history.
+    // One Newton iteration allowed, no cutback: the iteration limit, with the history.
     let dofs = DofMap::new(
         mesh.n_nodes(),
         &fixed_dofs(&mesh, &["xmin"]).expect("fixed"),
@@ -472,6 +477,7 @@ fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
     let options = NewtonOptions {
         load_steps: 2,
         max_iterations: 1,
+        max_cutbacks: 0,
         ..NewtonOptions::default()
     };
     let err = model
@@ -480,7 +486,7 @@ fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
     match &err {
         RotationError::StaticSolve {
             step: 1,
-            n_steps: 2,
+            cutbacks: 0,
             reason: StopReason::MaxIterations { iterations: 1, .. },
             history,
             ..

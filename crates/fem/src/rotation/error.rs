@@ -74,21 +74,24 @@ pub enum RotationError {
         expected: &'static str,
     },
 
-    /// The static centrifugal solve stopped.
+    /// The static centrifugal solve stopped: a load step failed even after the allowed
+    /// cutbacks of its increment.
     #[error(
-        "centrifugal static solve stopped at load step {step} of {n_steps} \
-         (Omega = {omega:.6e} rad/s): {reason}"
+        "centrifugal static solve stopped at load step {step} (Omega = {omega:.6e} rad/s, \
+         target {target_omega:.6e} rad/s) after {cutbacks} cutbacks of the increment: {reason}"
     )]
     StaticSolve {
-        /// 1-based load step.
+        /// 1-based number of the load step that failed (accepted steps + 1).
         step: usize,
-        /// Number of load steps.
-        n_steps: usize,
-        /// Speed of that step (rad/s).
+        /// Speed of the last attempt of that step (rad/s).
         omega: f64,
-        /// Why it stopped.
+        /// Speed the solve was asked for (rad/s).
+        target_omega: f64,
+        /// Cutbacks of the increment tried for that step.
+        cutbacks: usize,
+        /// Why the last attempt stopped.
         reason: StopReason,
-        /// The Newton iterations of the failed step.
+        /// The Newton iterations of the last attempt.
         history: Vec<NewtonIteration>,
     },
 }

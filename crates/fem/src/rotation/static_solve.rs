@@ -2,10 +2,15 @@
 //! step with CENTRIF): f_int(u) = f_c(u, Omega).
 //!
 //! - Geometrically nonlinear ([`RotatingModel::solve_nonlinear`]): total Lagrangian, St
-//!   Venant-Kirchhoff, the load following the deformed position; load steps uniform in
-//!   Omega^2 (Omega_k^2 = Omega^2 k / n), full Newton in each step from the previous converged
-//!   state with the consistent tangent K_T(u) - Omega^2 M_spin (the load's derivative
-//!   included, so convergence is quadratic).
+//!   Venant-Kirchhoff, the load following the deformed position; load steps in Omega^2
+//!   (nominally uniform, Omega_k^2 = Omega^2 k / n), full Newton in each step from the previous
+//!   converged state with the consistent tangent K_T(u) - Omega^2 M_spin (the load's
+//!   derivative included, so convergence is quadratic). A failed step is retried with half the
+//!   increment ([`NewtonOptions::max_cutbacks`]). Why this matters: the first iteration of the
+//!   first step uses K_e - Omega_1^2 M_spin, without stress stiffening, which is indefinite as
+//!   soon as Omega_1 exceeds the lowest in-plane frequency of the unstressed structure (a
+//!   slender blade or bar at high speed; the radial-bar test hits it), while every later step
+//!   starts from a prestressed tangent; the cutbacks bring the first step below that speed.
 //! - Linearized ([`RotatingModel::solve_linearized`]): K_e u = f_c(X), optionally
 //!   (K_e - Omega^2 M_spin) u = f_c(X) (the load following the small displacement).
 //!
@@ -41,8 +46,14 @@ pub enum Kinematics {
 /// Options of the nonlinear static solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NewtonOptions {
-    /// Number of load steps, uniform in Omega^2 (>= 1). Default 4.
+    /// Number of load steps, uniform in Omega^2 (>= 1), when no step needs a cutback.
+    /// Default 4.
     pub load_steps: usize,
+    /// Cutbacks allowed per step: a step that fails (Newton diverges, reaches the iteration
+    /// limit or meets a singular or indefinite tangent) is retried from the last converged
+    /// state with half the Omega^2 increment, up to this many times; after a converged step
+    /// the increment doubles again, up to the nominal Omega^2 / load_steps. Default 10.
+    pub max_cutbacks: usize,
     /// Newton iterations allowed per step (>= 1). Default 25.
     pub max_iterations: usize,
     /// Convergence when ||r|| <= relative_tolerance ||f_c|| (module docs). Default 1e-10.
@@ -56,6 +67,7 @@ impl Default for NewtonOptions {
     fn default() -> Self {
         NewtonOptions {
             load_steps: 4,
+            max_cutbacks: 10,
             max_iterations: 25,
             relative_tolerance: 1e-10,
             divergence_factor: 1e4,
@@ -97,6 +109,8 @@ pub struct LoadStep {
     pub step: usize,
     /// Speed of the step (rad/s).
     pub omega: f64,
+    /// Failed attempts (with half the increment each time) before this step converged.
+    pub cutbacks: usize,
     /// Iterations, starting with iteration 0 (the state the step starts from).
     pub iterations: Vec<NewtonIteration>,
 }
@@ -126,7 +140,8 @@ fn norm(v: &[f64]) -> f64 {
 impl RotatingModel<'_> {
     /// Geometrically nonlinear static equilibrium at speed `omega` (rad/s) (module docs), the
     /// linear systems solved by `solver`. Errors name the load step, its speed and the reason
-    /// (diverged, iteration limit, singular tangent, non-finite residual).
+    /// (diverged, iteration limit, singular tangent, non-finite residual) once the cutbacks
+    /// are exhausted.
     pub fn solve_nonlinear(
         &self,
         omega: f64,
@@ -135,25 +150,46 @@ impl RotatingModel<'_> {
     ) -> Result<StaticSolution, RotationError> {
         options.validate()?;
         check_speed(omega)?;
-        let n_steps = options.load_steps;
+        let target = omega * omega;
+        let nominal = target / options.load_steps as f64;
+        let (mut level, mut increment, mut cutbacks) = (0.0, nominal, 0);
         let mut u = vec![0.0; self.dofs().n_free()];
-        let mut steps = Vec::with_capacity(n_steps);
-        for step in 1..=n_steps {
-            let omega_k = omega * (step as f64 / n_steps as f64).sqrt();
-            let iterations = self.newton_step(omega_k, &mut u, options, solver).map_err(
-                |(reason, history)| RotationError::StaticSolve {
-                    step,
-                    n_steps,
-                    omega: omega_k,
-                    reason,
-                    history,
-                },
-            )?;
-            steps.push(LoadStep {
-                step,
-                omega: omega_k,
-                iterations,
-            });
+        let mut steps = Vec::with_capacity(options.load_steps);
+        while steps.is_empty() || level < target {
+            // The last step lands exactly on the target (no sliver step from round-off).
+            let next = if level + increment >= target * (1.0 - 1e-12) {
+                target
+            } else {
+                level + increment
+            };
+            let omega_k = next.sqrt();
+            let mut trial = u.clone();
+            match self.newton_step(omega_k, &mut trial, options, solver) {
+                Ok(iterations) => {
+                    steps.push(LoadStep {
+                        step: steps.len() + 1,
+                        omega: omega_k,
+                        cutbacks,
+                        iterations,
+                    });
+                    (u, level, cutbacks) = (trial, next, 0);
+                    increment = (2.0 * increment).min(nominal);
+                }
+                Err((reason, history)) if cutbacks >= options.max_cutbacks => {
+                    return Err(RotationError::StaticSolve {
+                        step: steps.len() + 1,
+                        omega: omega_k,
+                        target_omega: omega,
+                        cutbacks,
+                        reason,
+                        history,
+                    });
+                }
+                Err(_) => {
+                    increment *= 0.5;
+                    cutbacks += 1;
+                }
+            }
         }
         Ok(StaticSolution {
             omega,
@@ -247,8 +283,9 @@ impl RotatingModel<'_> {
             .try_restrict_vector(&self.centrifugal_load(omega, &zero)?)?;
         let stop = |reason, history| RotationError::StaticSolve {
             step: 1,
-            n_steps: 1,
             omega,
+            target_omega: omega,
+            cutbacks: 0,
             reason,
             history,
         };
@@ -278,6 +315,7 @@ impl RotatingModel<'_> {
             steps: vec![LoadStep {
                 step: 1,
                 omega,
+                cutbacks: 0,
                 iterations: history,
             }],
         })
