@@ -10,7 +10,7 @@ use crate::rotation::global::gather;
 use crate::rotation::model::RotatingModel;
 use crate::rotation::static_solve::{Kinematics, StaticSolution};
 use crate::rotation::total_lagrangian::{
-    cauchy_stress, deformation_gradient, green_lagrange, svk_stress,
+    cauchy_stress, deformation_gradient, displacement_gradient, green_lagrange, svk_stress,
 };
 use crate::shape;
 
@@ -60,17 +60,16 @@ impl RotatingModel<'_> {
         let mut u_e = [0.0; 30];
         gather(self.mesh(), e, &solution.displacement, &mut u_e[..3 * npe]);
         let g = gradients_at(&element, xi)?;
-        let f = deformation_gradient(&u_e[..3 * npe], &g[..npe]);
+        let h = displacement_gradient(&u_e[..3 * npe], &g[..npe]);
         let lame = self.material().lame();
         Ok(match solution.kinematics {
-            Kinematics::GreenLagrange => cauchy_stress(&f, &svk_stress(&green_lagrange(&f), lame)),
+            Kinematics::GreenLagrange => cauchy_stress(
+                &deformation_gradient(&h),
+                &svk_stress(&green_lagrange(&h), lame),
+            ),
             Kinematics::Linear => {
-                let eps: Mat3 = std::array::from_fn(|i| {
-                    std::array::from_fn(|j| {
-                        let (dij, dji) = (f[i][j] - id(i, j), f[j][i] - id(j, i));
-                        0.5 * (dij + dji)
-                    })
-                });
+                let eps: Mat3 =
+                    std::array::from_fn(|i| std::array::from_fn(|j| 0.5 * (h[i][j] + h[j][i])));
                 svk_stress(&eps, lame)
             }
         })
@@ -152,14 +151,6 @@ impl RotatingModel<'_> {
                 Ok(if len > 0.0 { dot(&u, &r) / len } else { 0.0 })
             })
             .collect()
-    }
-}
-
-fn id(i: usize, j: usize) -> f64 {
-    if i == j {
-        1.0
-    } else {
-        0.0
     }
 }
 

@@ -2,7 +2,7 @@
 //! the geometrically nonlinear static step, CalculiX's NLGEOM).
 //!
 //! With reference gradients G_a = dN_a/dX, displacement u = sum_a N_a u_a:
-//! F = I + sum_a u_a G_a^T, Green-Lagrange E = (F^T F - I) / 2, second Piola-Kirchhoff
+//! F = I + H, H = sum_a u_a G_a^T, Green-Lagrange E = (F^T F - I) / 2 = (H + H^T + H^T H) / 2, second Piola-Kirchhoff
 //! S = lambda tr(E) I + 2 mu E (the isotropic material of [`crate::material`]);
 //! internal force f_a = int F S G_a dV (N, reference volume);
 //! tangent df_a/du_b = int [lambda (F G_a)(F G_b)^T + mu (F G_b)(F G_a)^T
@@ -22,27 +22,39 @@ use crate::rotation::element_ref::{mirror_upper, ElementRef};
 use crate::rotation::points::{for_each_point, nonlinear_rule, PointGeometry};
 use crate::rotation::stress_stiffness::add_geometric_blocks;
 
-/// Deformation gradient F = I + sum_a u_a G_a^T at a point (`u_e` in element DOF order, m).
-pub fn deformation_gradient(u_e: &[f64], gradients: &[[f64; 3]]) -> Mat3 {
-    let mut f = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+/// Displacement gradient H = du/dX = sum_a u_a G_a^T at a point (`u_e` in element DOF order,
+/// m; `gradients` dN_a/dX, 1/m).
+pub fn displacement_gradient(u_e: &[f64], gradients: &[[f64; 3]]) -> Mat3 {
+    let mut h = [[0.0; 3]; 3];
     for (a, g) in gradients.iter().enumerate() {
         for i in 0..3 {
             for j in 0..3 {
-                f[i][j] += u_e[3 * a + i] * g[j];
+                h[i][j] += u_e[3 * a + i] * g[j];
             }
         }
+    }
+    h
+}
+
+/// Deformation gradient F = I + H.
+pub fn deformation_gradient(h: &Mat3) -> Mat3 {
+    let mut f = *h;
+    for (i, row) in f.iter_mut().enumerate() {
+        row[i] += 1.0;
     }
     f
 }
 
-/// Green-Lagrange strain E = (F^T F - I) / 2 (dimensionless), exactly symmetric.
-pub fn green_lagrange(f: &Mat3) -> Mat3 {
+/// Green-Lagrange strain E = (H + H^T + H^T H) / 2 = (F^T F - I) / 2 (dimensionless), exactly
+/// symmetric, from the displacement gradient H: this form has no cancellation, whereas
+/// F^T F - I loses the digits of small strains (a strain of 1e-9 would keep only 7; the static
+/// solve at low speed then stalls at a residual of 1e-5 of the load).
+pub fn green_lagrange(h: &Mat3) -> Mat3 {
     let mut e = [[0.0; 3]; 3];
     for i in 0..3 {
         for j in i..3 {
-            let c = f[0][i] * f[0][j] + f[1][i] * f[1][j] + f[2][i] * f[2][j];
-            let delta = if i == j { 1.0 } else { 0.0 };
-            e[i][j] = 0.5 * (c - delta);
+            let hth = h[0][i] * h[0][j] + h[1][i] * h[1][j] + h[2][i] * h[2][j];
+            e[i][j] = 0.5 * ((h[i][j] + h[j][i]) + hth);
             e[j][i] = e[i][j];
         }
     }
@@ -99,8 +111,9 @@ pub fn internal_force_and_tangent_element(
     force.fill(0.0);
     let tab = nonlinear_rule(element.kind, element.coords);
     for_each_point(element.coords, tab, element.tag, |pt| {
-        let f = deformation_gradient(u_e, &pt.gradients[..npe]);
-        let s = svk_stress(&green_lagrange(&f), lame);
+        let h = displacement_gradient(u_e, &pt.gradients[..npe]);
+        let f = deformation_gradient(&h);
+        let s = svk_stress(&green_lagrange(&h), lame);
         for a in 0..npe {
             let fsg = mat_vec(&f, &mat_vec(&s, &pt.gradients[a]));
             for i in 0..3 {
