@@ -3,6 +3,9 @@
 //! form, every term at Omega = 0 against today's model (`assemble`), symmetry of K(Omega) and
 //! skew-symmetry of G, and the typed errors of a failed static solve.
 
+// Index loops mirror the index notation of the formulas (u[3 a + d], k[i * n + j]).
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::{curve_mid_edge_nodes, straight_tet10, Lcg};

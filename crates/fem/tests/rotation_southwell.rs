@@ -17,6 +17,9 @@
 //! it (1.1926 at lambda = 1 from the tabulated w / w_ref = 3.6817 and 3.5160). Chordwise
 //! without Coriolis: w_c^2 = w_f^2 - Omega^2 (spin softening of the in-plane motion).
 
+// Index loops mirror the index notation of the formulas (u[3 a + d], k[i * n + j]).
+#![allow(clippy::needless_range_loop)]
+
 mod common;
 
 use common::Lcg;

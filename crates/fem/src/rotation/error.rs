@@ -11,6 +11,9 @@ pub struct NewtonIteration {
     /// Euclidean norm of the residual f_int(u) - f_c(u) on the free DOFs (N), after the
     /// iteration's correction.
     pub residual_norm: f64,
+    /// Euclidean norm of the centrifugal load f_c(u) on the free DOFs at this state (N): the
+    /// convergence test is residual_norm <= relative_tolerance x load_norm.
+    pub load_norm: f64,
     /// Euclidean norm of the correction that led to this state (m); `None` for iteration 0.
     pub correction_norm: Option<f64>,
 }
