@@ -82,9 +82,7 @@ pub fn assemble_global(
     want_matrix: bool,
     routine: &ElementRoutine<'_>,
 ) -> Result<Assembled, FemError> {
-    let kind = mesh.kind;
-    let npe = kind.nodes_per_element();
-    let n = 3 * npe;
+    let n = 3 * mesh.kind.nodes_per_element();
     let ne = mesh.n_elements();
     let mut vector = vec![0.0; pattern.n_dofs()];
     let mut values = vec![
@@ -105,57 +103,63 @@ pub fn assemble_global(
         } else {
             (0..count).map(|_| &mut [][..]).collect()
         };
-        let failure = v_buf[..count * n]
-            .par_chunks_mut(n)
-            .zip(m_chunks)
-            .enumerate()
-            .filter_map(|(i, (ve, me))| {
-                let e = first + i;
-                let mut coords = [[0.0; 3]; 10];
-                mesh.element_coords_into(e, &mut coords);
-                ve.fill(0.0);
-                me.fill(0.0);
-                let element = ElementRef {
-                    kind,
-                    coords: &coords[..npe],
-                    tag: mesh.element_tag(e),
-                };
-                routine(e, &element, ve, me).err().map(|err| (e, err))
-            })
-            .min_by_key(|(e, _)| *e);
-        if let Some((_, err)) = failure {
-            return Err(err);
-        }
+        compute_chunk(mesh, first, &mut v_buf[..count * n], m_chunks, routine)?;
         for i in 0..count {
             let nodes = mesh.element(first + i);
             if want_vector {
                 scatter_vector(nodes, &v_buf[i * n..(i + 1) * n], &mut vector);
             }
             if want_matrix {
-                scatter_matrix(
-                    pattern,
-                    nodes,
-                    &m_buf[i * n * n..(i + 1) * n * n],
-                    &mut values,
-                );
+                let me = &m_buf[i * n * n..(i + 1) * n * n];
+                scatter_matrix(pattern, nodes, me, &mut values);
             }
         }
         first += count;
     }
     let matrix = if want_matrix {
         let nd = pattern.n_dofs();
-        let m = CsMat::try_new_csc(
-            (nd, nd),
-            pattern.indptr.clone(),
-            pattern.indices.clone(),
-            values,
-        )
-        .map_err(|(_, _, _, e)| FemError::InvalidMesh(format!("rotation pattern: {e}")))?;
+        let (indptr, indices) = (pattern.indptr.clone(), pattern.indices.clone());
+        let m = CsMat::try_new_csc((nd, nd), indptr, indices, values)
+            .map_err(|(_, _, _, e)| FemError::InvalidMesh(format!("rotation pattern: {e}")))?;
         Some(m)
     } else {
         None
     };
     Ok((want_vector.then_some(vector), matrix))
+}
+
+/// Runs `routine` on the elements `first..` (one per chunk of `v_buf` and entry of `m_chunks`)
+/// in parallel, buffers zeroed first; the first failing element in mesh order is the error.
+fn compute_chunk(
+    mesh: &Mesh,
+    first: usize,
+    v_buf: &mut [f64],
+    m_chunks: Vec<&mut [f64]>,
+    routine: &ElementRoutine<'_>,
+) -> Result<(), FemError> {
+    let (kind, npe) = (mesh.kind, mesh.kind.nodes_per_element());
+    let failure = v_buf
+        .par_chunks_mut(3 * npe)
+        .zip(m_chunks)
+        .enumerate()
+        .filter_map(|(i, (ve, me))| {
+            let e = first + i;
+            let mut coords = [[0.0; 3]; 10];
+            mesh.element_coords_into(e, &mut coords);
+            ve.fill(0.0);
+            me.fill(0.0);
+            let element = ElementRef {
+                kind,
+                coords: &coords[..npe],
+                tag: mesh.element_tag(e),
+            };
+            routine(e, &element, ve, me).err().map(|err| (e, err))
+        })
+        .min_by_key(|(e, _)| *e);
+    match failure {
+        Some((_, err)) => Err(err),
+        None => Ok(()),
+    }
 }
 
 fn scatter_vector(nodes: &[usize], ve: &[f64], out: &mut [f64]) {
