@@ -5,8 +5,9 @@
 //!   density, so rho dV is the conserved mass element);
 //! - spin softening: M_spin^ab = int rho N_a N_b dV P (kg); the stiffness at speed gets
 //!   -Omega^2 M_spin, the derivative of the load: for isoparametric elements
-//!   x = sum_b N_b x_b, so f = Omega^2 M_spin (x_nodes - p) exactly (CalculiX `e_c3d.f`
-//!   computes the same two terms);
+//!   x = sum_b N_b x_b, so f = Omega^2 M_spin (x_nodes - p) exactly (DESIGN §9: CalculiX's
+//!   `e_c3d.f` codes these terms; FEBio's centrifugal body force is the same following load
+//!   with the derivative -Omega^2 P);
 //! - Coriolis: G^ab = 2 Omega int rho N_a N_b dV [a]x (kg/s), skew-symmetric, from the
 //!   rotating-frame inertia rho (u'' + 2 Omega a x u' + ...).
 //!

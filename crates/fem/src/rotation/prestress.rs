@@ -112,6 +112,17 @@ impl RotatingModel<'_> {
         Ok(self.nodal_stress(solution)?.iter().map(von_mises).collect())
     }
 
+    /// The largest nodal von Mises stress (Pa) over the nodes of the physical group `group`
+    /// (e.g. the blade root), with the node holding it; `None` for a group without nodes.
+    pub fn max_von_mises_in_group(
+        &self,
+        solution: &StaticSolution,
+        group: &str,
+    ) -> Result<Option<(usize, f64)>, FemError> {
+        let nodes = &self.mesh().group(group)?.nodes;
+        max_over_nodes(&self.nodal_von_mises(solution)?, nodes)
+    }
+
     /// Radial displacement (m) of each node of `nodes`: the component of its displacement u
     /// along the unit vector of P (x - p), x = X + u its deformed position (0 for a node whose
     /// deformed position is on the axis). `displacement`: global, length 3n.

@@ -109,7 +109,7 @@ impl NewtonOptions {
 pub struct LoadStep {
     /// 1-based step number.
     pub step: usize,
-    /// Speed of the step (rad/s).
+    /// Speed of the step (rad/s, >= 0: the static problem depends on Omega^2 only).
     pub omega: f64,
     /// Failed attempts (with half the increment each time) before this step converged.
     pub cutbacks: usize,
