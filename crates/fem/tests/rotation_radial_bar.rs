@@ -146,13 +146,20 @@ fn linearized_bar_without_spin_softening_matches_the_closed_form() {
         let et = (tip - u_l).abs() / u_l;
         // Von Mises over the root face: the uniaxial root stress (the lateral stress
         // rho Omega^2 (b^2 / 4 - y^2) / 2 is 1e-6 of it), largest at the root, within 0.5 %.
+        // The root face is box_mesh's group "xmin"; the helper and the explicit node list agree.
+        let (node, vm_root) = model
+            .max_von_mises_in_group(&sol, "xmin")
+            .expect("group")
+            .expect("non-empty");
+        assert!(is_zero(mesh.nodes[node][0] - hub));
         let vm = model.nodal_von_mises(&sol).expect("von Mises");
         let root: Vec<usize> = (0..mesh.n_nodes())
             .filter(|&v| is_zero(mesh.nodes[v][0] - hub))
             .collect();
-        let (_, vm_root) = max_over_nodes(&vm, &root)
-            .expect("nodes")
-            .expect("non-empty");
+        assert_eq!(
+            max_over_nodes(&vm, &root).expect("nodes"),
+            Some((node, vm_root))
+        );
         let sigma_root = closed_form_plain(hub, omega, 0.0).1;
         let evm = (vm_root - sigma_root).abs() / sigma_root;
         let vm_elements = model.element_von_mises(&sol).expect("elements");
