@@ -302,7 +302,7 @@ fn southwell_of_mesh(cells: [usize; 2], kinematics: Kinematics) -> (f64, f64, f6
         }
     }
     let (slope, intercept) = fit(&flap);
-    println!("  {cells:?} {kinematics:?}: {} DOFs, w0 = {:.4} rad/s (EB 3.5160 x ... = {:.4}), fitted S = {slope:.5} (intercept / w0^2 - 1 = {:.1e})",
+    println!("  {cells:?} {kinematics:?}: {} DOFs, w0 = {:.4} rad/s (Euler-Bernoulli {:.4}), fitted S = {slope:.5} (intercept / w0^2 - 1 = {:.1e})",
         beam.dofs.n_free(), flap[0].1.sqrt(), 3.516_015_2 * omega_of_lambda(1.0), intercept / flap[0].1 - 1.0);
     (slope, worst_split, flap[0].1)
 }
