@@ -9,6 +9,9 @@
 //! - [`DofMap`], [`fixed_dofs`], [`parse_fix_spec`]: Dirichlet conditions on named groups by
 //!   DOF elimination (`root`, `bottom:z`, `root:xy`).
 //!
+//! - [`rotation`]: centrifugal load, spin softening, stress stiffness, Coriolis, the static
+//!   centrifugal equilibrium (geometrically nonlinear or linearized) and the stiffness at speed.
+//!
 //! Units: SI throughout (m, Pa, kg/m^3; K in N/m, M in kg).
 
 // Index loops mirror the index notation of the element formulas (J[d][k], B[i][j], ...).
@@ -27,6 +30,7 @@ pub mod mesh;
 pub mod msh;
 mod msh_sections;
 pub mod quadrature;
+pub mod rotation;
 pub mod rule_choice;
 pub mod shape;
 mod tabulated_rule;

@@ -1,0 +1,100 @@
+//! Errors of the rotation physics: the static centrifugal solve names the load step, the speed
+//! and why Newton stopped.
+
+use crate::error::FemError;
+
+/// One Newton iteration of a load step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NewtonIteration {
+    /// 0 for the state the step starts from, then 1, 2, ...
+    pub iteration: usize,
+    /// Euclidean norm of the residual f_int(u) - f_c(u) on the free DOFs (N), after the
+    /// iteration's correction.
+    pub residual_norm: f64,
+    /// Euclidean norm of the centrifugal load f_c(u) on the free DOFs at this state (N): the
+    /// convergence test is residual_norm <= relative_tolerance x load_norm.
+    pub load_norm: f64,
+    /// Euclidean norm of the correction that led to this state (m); `None` for iteration 0.
+    pub correction_norm: Option<f64>,
+}
+
+/// Why a load step stopped without converging.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StopReason {
+    /// The residual grew beyond `factor` times its value at the start of the step.
+    #[error(
+        "Newton diverged: residual {residual:e} N exceeds {factor:e} x the step's initial \
+         residual {initial:e} N"
+    )]
+    Diverged {
+        /// Residual norm reached (N).
+        residual: f64,
+        /// Residual norm at the start of the step (N).
+        initial: f64,
+        /// The divergence factor of the options.
+        factor: f64,
+    },
+    /// The iteration limit was reached.
+    #[error(
+        "no convergence in {iterations} Newton iterations: residual {residual:e} N above the \
+         tolerance {tolerance:e} N"
+    )]
+    MaxIterations {
+        /// Iterations done.
+        iterations: usize,
+        /// Last residual norm (N).
+        residual: f64,
+        /// Absolute tolerance of the step (relative tolerance x load norm, N).
+        tolerance: f64,
+    },
+    /// The tangent could not be factorized (singular, or indefinite for a Cholesky solver).
+    #[error("singular tangent: {0}")]
+    SingularTangent(String),
+    /// The residual became NaN or infinite.
+    #[error("the residual is not finite (NaN or infinite)")]
+    NonFinite,
+}
+
+/// Errors of the rotation module.
+#[derive(Debug, thiserror::Error)]
+pub enum RotationError {
+    /// An error of the finite-element front end (mesh, material, inverted element, sizes).
+    #[error(transparent)]
+    Fem(#[from] FemError),
+
+    /// The rotor axis is invalid.
+    #[error("invalid rotor axis: {0}")]
+    InvalidAxis(String),
+
+    /// A solver option is out of range.
+    #[error("invalid option {name} = {value}; expected {expected}")]
+    InvalidOption {
+        /// The option.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// The admissible range.
+        expected: &'static str,
+    },
+
+    /// The static centrifugal solve stopped: a load step failed even after the allowed
+    /// cutbacks of its increment.
+    #[error(
+        "centrifugal static solve stopped at load step {step} (Omega = {omega:.6e} rad/s, \
+         target {target_omega:.6e} rad/s) after {cutbacks} cutbacks of the increment: {reason}"
+    )]
+    StaticSolve {
+        /// 1-based number of the load step that failed (accepted steps + 1).
+        step: usize,
+        /// Speed of the last attempt of that step (rad/s).
+        omega: f64,
+        /// Speed the solve was asked for (rad/s).
+        target_omega: f64,
+        /// Cutbacks of the increment tried for that step.
+        cutbacks: usize,
+        /// Why the last attempt stopped.
+        reason: StopReason,
+        /// The Newton iterations of the last attempt.
+        history: Vec<NewtonIteration>,
+    },
+}
