@@ -14,12 +14,22 @@
 //! Rayleigh and modal damping make Phi^T C Phi diagonal and Z_n^-1 a 2 x 2 block per mode; a
 //! general C is solved per harmonic with a dense LU of Z_n.
 
-use faer::Mat;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef, Par};
 use nlmodes_hb::dense::DenseLu;
 use nlmodes_hb::{FullBasis, HbError, System};
 
 use crate::error::ForcedError;
 use crate::load::Load;
+
+/// A B on the calling thread: the products of a forced solve are small (tens to hundreds of
+/// rows) and many, and the levels of a study run in parallel instead (threads spinning on
+/// 100 x 100 products cost more than the products).
+pub(crate) fn product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    let mut out = Mat::zeros(a.nrows(), b.ncols());
+    matmul(out.as_mut(), Accum::Replace, a, b, 1.0, Par::Seq);
+    out
+}
 
 /// Phi^T C Phi, diagonal when it is (to 1e-12 of its largest entry).
 #[derive(Clone, Debug)]
@@ -219,14 +229,14 @@ impl ModalDynamics {
             };
             let z = self.unit_responses(n, omega, &parts)?;
             let w = parts.len();
+            // Contact coordinates of every response at once (c x columns of z).
+            let yz = product(self.psi.as_ref(), z.as_ref());
             // Column block q = w jr + part: the response to a unit Lambda of row jr in that part;
             // block q = w c: the response to the load.
             for q in 0..=w * c {
                 for (out_part, &p) in parts.iter().enumerate() {
                     for j in 0..c {
-                        let y: f64 = (0..self.dofs())
-                            .map(|k| self.psi[(j, k)] * z[(k, w * q + out_part)])
-                            .sum();
+                        let y = yz[(j, w * q + out_part)];
                         if q < w * c {
                             let (jr, part) = (q / w, q % w);
                             g[(j * terms + p, jr * terms + parts[part])] = y;
@@ -278,15 +288,11 @@ impl ModalDynamics {
             } else {
                 vec![FullBasis::cos_index(n), FullBasis::sin_index(n)]
             };
-            let mut r = Mat::zeros(nd, parts.len());
-            for (col, &p) in parts.iter().enumerate() {
-                for k in 0..nd {
-                    let contact: f64 = (0..c)
-                        .map(|j| self.psi[(j, k)] * lambda[j * terms + p])
-                        .sum();
-                    r[(k, col)] = self.load[(k, p)] - contact;
-                }
-            }
+            let lam = Mat::from_fn(c, parts.len(), |j, col| lambda[j * terms + parts[col]]);
+            let contact = product(self.psi.transpose(), lam.as_ref());
+            let mut r = Mat::from_fn(nd, parts.len(), |k, col| {
+                self.load[(k, parts[col])] - contact[(k, col)]
+            });
             self.solve_harmonic(n, omega, &mut r)?;
             for (col, &p) in parts.iter().enumerate() {
                 for k in 0..nd {
@@ -312,10 +318,10 @@ impl ModalDynamics {
                 r[(k, 1)] = -nf * cz_c - 2.0 * nf * nf * omega * z[(k, ps)];
             }
             self.solve_harmonic(n, omega, &mut r)?;
+            let yr = product(self.psi.as_ref(), r.as_ref());
             for j in 0..c {
                 for (col, p) in [(0, pc), (1, ps)] {
-                    rate[j * terms + p] =
-                        -(0..nd).map(|k| self.psi[(j, k)] * r[(k, col)]).sum::<f64>();
+                    rate[j * terms + p] = -yr[(j, col)];
                 }
             }
         }

@@ -15,7 +15,7 @@ use nlmodes_hb::contact::{apply_contact_law, Multipliers};
 use nlmodes_hb::dense::DenseLu;
 use nlmodes_hb::FullBasis;
 
-use crate::dynamics::{ContactCompliance, ModalDynamics};
+use crate::dynamics::{product, ContactCompliance, ModalDynamics};
 use crate::error::ForcedError;
 
 /// An orbit as the Newton solve sees it: contact coordinates y (signal-major, length unit) and W.
@@ -156,13 +156,11 @@ impl InnerNewton<'_> {
     ) -> Result<(Vec<f64>, ContactSamples), ForcedError> {
         let cs = contact_samples_smoothed(self.basis, self.g0, &s.y, mu, self.smoothing);
         let comp = self.compliance(s.omega)?;
-        let l = s.y.len();
-        let mut r: Vec<f64> = (0..l).map(|i| s.y[i] - comp.y_load[i]).collect();
-        for (i, ri) in r.iter_mut().enumerate() {
-            *ri += (0..l)
-                .map(|q| comp.g[(i, q)] * cs.coefficients[q])
-                .sum::<f64>();
-        }
+        let lambda = faer::MatRef::from_column_major_slice(&cs.coefficients, s.y.len(), 1);
+        let g_lambda = product(comp.g.as_ref(), lambda);
+        let r = (0..s.y.len())
+            .map(|i| s.y[i] - comp.y_load[i] + g_lambda[(i, 0)])
+            .collect();
         Ok((r, cs))
     }
 
@@ -340,7 +338,7 @@ impl InnerNewton<'_> {
         let mut gj = Mat::zeros(g.nrows(), active.len() * t);
         for (ai, &j) in active.iter().enumerate() {
             basis.project_slopes(&slope[j * m..(j + 1) * m], block.as_mut());
-            let prod = g.subcols(j * t, t) * &block;
+            let prod = product(g.subcols(j * t, t), block.as_ref());
             gj.subcols_mut(ai * t, t).copy_from(&prod);
         }
         Ok(gj)

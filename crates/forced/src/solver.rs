@@ -13,6 +13,11 @@ use crate::error::ForcedError;
 use crate::load::Load;
 use crate::newton::{contact_samples, ArcRow, InnerNewton, InnerTolerance, OrbitState};
 
+/// Newton iterations one forced point may spend over all of Algorithm 1's inner solves. A
+/// continuation step that needs more is cheaper retried shorter: on the blade a converged point
+/// takes 3-50 iterations, a failing attempt used to burn the free-mode budget of 400 (30 s).
+pub const FORCED_NEWTON_BUDGET: usize = 150;
+
 /// What a forced solve is configured with.
 #[derive(Clone, Debug)]
 pub struct ForcedSettings {
@@ -27,13 +32,17 @@ pub struct ForcedSettings {
 }
 
 impl ForcedSettings {
-    /// Defaults for N harmonics: m = `HarmonicSettings::default_samples`, Algorithm 1 defaults.
+    /// Defaults for N harmonics: m = `HarmonicSettings::default_samples`, Algorithm 1 defaults
+    /// with a Newton budget of [`FORCED_NEWTON_BUDGET`] per point, 30 inner iterations.
     pub fn new(harmonics: usize) -> Result<Self, ForcedError> {
         Ok(Self {
             harmonics: HarmonicSettings::with_default_samples(harmonics)?,
-            algorithm: AlgorithmParams::default(),
+            algorithm: AlgorithmParams {
+                newton_budget: FORCED_NEWTON_BUDGET,
+                ..AlgorithmParams::default()
+            },
             newton_tolerance: 1e-10,
-            newton_iterations: 60,
+            newton_iterations: 30,
         })
     }
 }
