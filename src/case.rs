@@ -31,6 +31,8 @@ pub struct Case {
     pub algorithm: SolverSettings,
     /// Floquet stability of every backbone point (Hill's method, docs/STABILITY.md).
     pub stability: StabilitySection,
+    /// The forced-response study (issue 22): `crate::forced_settings::ForcedSection`.
+    pub forced: crate::forced_settings::ForcedSection,
 }
 
 /// `[stability]`: Floquet multipliers of every backbone point by Hill's method.
@@ -140,6 +142,7 @@ impl Default for Case {
             continuation: ContinuationSettings::default(),
             algorithm: SolverSettings::default(),
             stability: StabilitySection::default(),
+            forced: crate::forced_settings::ForcedSection::default(),
         }
     }
 }

@@ -7,6 +7,10 @@ mod child;
 mod exit;
 mod fe_model;
 mod figures;
+mod forced;
+mod forced_output;
+mod forced_settings;
+mod forced_stage;
 mod gmsh;
 mod layout;
 mod output;
@@ -80,6 +84,9 @@ enum Command {
     Reduce(ReduceArgs),
     /// Backbone of the first nonlinear mode of a reduced model: writes backbone.csv, backbone.json.
     Backbone(BackboneArgs),
+    /// Forced response of the damped reduced model around a mode, one curve per force level:
+    /// writes frf.csv, frf.json, frf.svg/.png, frf_max.svg/.png.
+    Forced(ForcedArgs),
     /// Run a study case (default cases/blade.toml): mesh, modes, reduce, backbone, post.
     /// Each stage reruns only when its inputs changed.
     Run {
@@ -163,6 +170,25 @@ struct BackboneArgs {
     /// it does not set takes the default of a case file (epsilon = 1e-4 g0, q_max = 35).
     #[arg(long)]
     settings: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, short)]
+    out: PathBuf,
+}
+
+/// The arguments of `nlmodes forced`.
+#[derive(Args)]
+struct ForcedArgs {
+    /// The reduced-model directory (K.mtx, M.mtx, model.json).
+    model: PathBuf,
+    /// A TOML file with a `[forced]` table (a case file will do; other tables are ignored):
+    /// damping, load, levels, range, harmonics, contact law (keys: README, cases/blade.toml).
+    /// Without it, the defaults of `[forced]`.
+    #[arg(long)]
+    settings: Option<PathBuf>,
+    /// backbone.json of the same model (from `nlmodes backbone`): drawn over the curves, and
+    /// the single-nonlinear-mode synthesis computed from it.
+    #[arg(long)]
+    backbone: Option<PathBuf>,
     /// Output directory.
     #[arg(long, short)]
     out: PathBuf,
@@ -286,6 +312,7 @@ fn run(command: Command) -> Result<()> {
         }
         Command::Reduce(args) => reduce_command(args),
         Command::Backbone(args) => backbone_command(args),
+        Command::Forced(args) => forced_command(args),
         Command::Run { case, only, force } => run::run(&case, only, force),
     }
 }
@@ -397,6 +424,37 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     backbone::write(&b, &a.out)?;
     ui::say(&backbone::summary(&b, &params));
     backbone::stopped_early(&b, &a.out)
+}
+
+/// `nlmodes forced`: settings, backbone and output path checked before the model is read, the
+/// mode indices against the model before anything is computed.
+fn forced_command(a: ForcedArgs) -> Result<()> {
+    let (section, source) = match &a.settings {
+        Some(p) => (forced_settings::load(p)?, p.display().to_string()),
+        None => (
+            forced_settings::ForcedSection::default(),
+            "defaults".to_string(),
+        ),
+    };
+    let label = source.clone();
+    let mut problems = validate::Problems::new(move |key| format!("{label}: {key}"));
+    section.check(&mut problems);
+    problems.finish()?;
+    let backbone = match &a.backbone {
+        Some(p) => Some(
+            results::read_json::<results::BackboneFile>(p)
+                .map_err(|e| e.context(exit::BadInput(format!("--backbone {}", p.display()))))?,
+        ),
+        None => None,
+    };
+    validate::check_output_dir(&a.out, "--out")?;
+    let reduced = load_model(&a.model)?;
+    let system = backbone::system_of(&reduced, None)?;
+    forced::check_against(&system, &section, &source)?;
+    let study = forced::run(&system, &section, backbone.as_ref())?;
+    forced_output::write(&study, backbone.as_ref(), &a.out)?;
+    ui::say(&forced_output::summary(&study));
+    forced::stopped_early(&study, &a.out)
 }
 
 /// Reads a reduced model; any failure is bad input naming the directory.

@@ -258,6 +258,10 @@ pub fn write_report(
             root.display()
         );
     }
+    if let Ok(forced) = std::fs::read_to_string(layout.shared.join("forced").join("section.md")) {
+        // Written by the forced stage (it runs before post): links are relative to the case root.
+        s.push_str(&forced);
+    }
     let _ = writeln!(s, "## Convergence\n\n{}", convergence_text(case, b));
     let _ = writeln!(
         s,

@@ -49,6 +49,7 @@ pub enum Only {
     Modes,
     Reduce,
     Backbone,
+    Forced,
     Post,
 }
 
@@ -178,6 +179,8 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     let modes = case.continuation.modes_to_trace();
     let several = modes.len() > 1;
     let mut stopped = None;
+    // The modes whose backbone is there to post-process (not stopped early in this run).
+    let mut traced = Vec::new();
     for &mode in &modes {
         let (lay, stage) = if several {
             (layout.for_mode(mode), format!("backbone_mode{}", mode + 1))
@@ -217,8 +220,22 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         } else if needs_bb {
             tracing::info!("stage {stage}: up to date");
         }
+        traced.push((mode, lay));
+    }
+    // forced (issue 22): after the backbone it is crowned by, before the report that shows it
+    if case.forced.enabled && (wants(Only::Forced) || wants(Only::Post)) {
+        let stage = crate::forced_stage::ForcedStage::new(&case, &layout, &reduce_hash);
+        match stage.run_if_needed(forced(Only::Forced)) {
+            Err(e) if e.is::<crate::exit::StoppedEarly>() => {
+                tracing::warn!("{e}");
+                stopped.get_or_insert(e);
+            }
+            other => other?,
+        }
+    }
+    for (_, lay) in &traced {
         if wants(Only::Post) {
-            post::post(&case, &lay)?;
+            post::post(&case, lay)?;
         }
     }
     if several && wants(Only::Post) {

@@ -125,6 +125,9 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
         case.nnm.frames,
         "at least 2 frames per period",
     );
+    if case.forced.enabled {
+        case.forced.check(&mut p);
+    }
     p.finish()?;
     check_output_dir(&case.out_dir(), &format!("{}: results_dir", path.display()))
 }

@@ -1,0 +1,253 @@
+//! The forced-response study (issue 22; docs/DESIGN.md §10): damping, load and levels from
+//! `[forced]`, one frequency continuation per level (in parallel), the backbone's synthesis of
+//! each curve. Writing is `forced_output`.
+
+use anyhow::{Context, Result};
+use faer::Mat;
+use indicatif::ProgressBar;
+use nlmodes_forced::{
+    frequency_response, modal_ratios, synthesize, ForcedSettings, ForcedSolver, FreeOrbit,
+    FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, SynthesizedPoint,
+};
+use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
+use rayon::prelude::*;
+
+use crate::exit::bad_input;
+use crate::forced_settings::{ForcedContact, ForcedLoadKind, ForcedSection, LevelUnit};
+use crate::results::BackboneFile;
+
+/// One curve: its level and the response.
+pub struct ForcedCurve {
+    /// The level as given (`level_unit`).
+    pub level: f64,
+    /// Largest entry of the force pattern (N).
+    pub force: f64,
+    /// The traced curve.
+    pub response: FrequencyResponse,
+    /// The backbone's single-mode synthesis under this load (empty without a backbone).
+    pub synthesis: Vec<SynthesizedPoint>,
+}
+
+/// The study's result.
+pub struct ForcedStudy {
+    /// w of the swept mode (rad/s).
+    pub omega_mode: f64,
+    /// g0 (m).
+    pub gap_reference: f64,
+    /// Master coordinate and the coordinate of the largest load entry.
+    pub master: usize,
+    pub excitation: usize,
+    /// Number of contact rows.
+    pub contacts: usize,
+    /// Damping ratio each linear mode gets (from C).
+    pub modal_damping: Vec<f64>,
+    /// Linear frequencies (rad/s).
+    pub linear_frequencies: Vec<f64>,
+    /// The penalty stiffness used (N/m), if the penalty law.
+    pub penalty_stiffness: Option<f64>,
+    pub curves: Vec<ForcedCurve>,
+    /// The settings it ran with.
+    pub settings: ForcedSection,
+}
+
+/// Checks the mode indices against the model (bad input naming the key).
+pub fn check_against(system: &System, s: &ForcedSection, source: &str) -> Result<()> {
+    let n = system.n_dofs();
+    for (key, v) in [("forced.mode", s.mode), ("forced.load_mode", s.load_mode)] {
+        if v >= n {
+            return Err(bad_input(format!(
+                "{source}: {key} = {v}: expected a linear mode index (0-based) below {n}, the \
+                 order of the reduced model"
+            )));
+        }
+    }
+    if system.grazing_amplitude(s.mode)?.is_none() {
+        return Err(bad_input(format!(
+            "{source}: forced.mode = {}: no contact row moves in this mode, the forced \
+             response never touches",
+            s.mode
+        )));
+    }
+    Ok(())
+}
+
+/// The unit force pattern (largest entry 1 N) and the coordinate of its largest entry.
+fn pattern(system: &System, s: &ForcedSection) -> Result<(Vec<f64>, usize)> {
+    let n = system.n_dofs();
+    let mut shape = vec![0.0; n];
+    match s.load {
+        ForcedLoadKind::Master => shape[system.master()] = 1.0,
+        ForcedLoadKind::Mode => {
+            let phi = system.linear_mode(s.load_mode)?;
+            let m = system.mass();
+            for (i, v) in shape.iter_mut().enumerate() {
+                *v = (0..n).map(|j| m[(i, j)] * phi[j]).sum();
+            }
+        }
+    }
+    let (at, big) = shape
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .map(|(i, v)| (i, v.abs()))
+        .context("empty model")?;
+    shape.iter_mut().for_each(|v| *v /= big);
+    Ok((shape, at))
+}
+
+/// Force (N, largest entry) of a level: as given, or the multiple of the force whose linear
+/// resonant master response |phi_m| |phi . f| / (2 zeta w^2) reaches the grazing amplitude.
+fn force_of(
+    system: &System,
+    s: &ForcedSection,
+    shape: &[f64],
+    zeta: f64,
+    level: f64,
+) -> Result<f64> {
+    if s.level_unit == LevelUnit::Newton {
+        return Ok(level);
+    }
+    let phi = system.linear_mode(s.mode)?;
+    let w = system.linear_frequencies()[s.mode];
+    let q = system
+        .grazing_amplitude(s.mode)?
+        .context("mode never touches")?;
+    let drive: f64 = phi.iter().zip(shape).map(|(a, b)| a * b).sum();
+    let unit_peak = phi[system.master()].abs() * drive.abs() / (2.0 * zeta * w * w);
+    anyhow::ensure!(
+        unit_peak > 0.0 && zeta > 0.0,
+        "forced.level_unit = \"grazing\" needs a load that drives mode {} and damping on it \
+         (zeta = {zeta}, |phi . f| = {:e})",
+        s.mode,
+        drive.abs()
+    );
+    Ok(level * q.abs() / unit_peak)
+}
+
+/// Runs every level of the study (in parallel), with the backbone's synthesis when given.
+pub fn run(
+    system: &System,
+    s: &ForcedSection,
+    backbone: Option<&BackboneFile>,
+) -> Result<ForcedStudy> {
+    let c = s.damping().matrix(system)?;
+    let ratios = modal_ratios(system, &c);
+    let (shape, excitation) = pattern(system, s)?;
+    let mut settings = ForcedSettings::new(s.harmonics)?;
+    if s.samples > 0 {
+        settings.harmonics = HarmonicSettings::new(s.harmonics, s.samples)?;
+    }
+    let penalty_stiffness = (s.contact == ForcedContact::Penalty).then(|| {
+        let mut ks = system.contact_stiffness().to_vec();
+        ks.sort_by(f64::total_cmp);
+        s.penalty_factor * ks[ks.len() / 2]
+    });
+    if let Some(stiffness) = penalty_stiffness {
+        settings.algorithm.method = ContactMethod::Penalty { stiffness };
+    }
+    let w = system.linear_frequencies()[s.mode];
+    let frf = FrfSettings {
+        stability: s.stability,
+        ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
+    };
+    let bar = crate::ui::bar(s.levels.len() as u64, "forced");
+    let curves = s
+        .levels
+        .par_iter()
+        .map(|&level| {
+            let force = force_of(system, s, &shape, ratios[s.mode], level)?;
+            let load = Load {
+                harmonics: vec![HarmonicLoad {
+                    harmonic: s.harmonic,
+                    cos: shape.iter().map(|v| v * force).collect(),
+                    sin: vec![0.0; shape.len()],
+                }],
+            };
+            let curve = trace_level(system, &c, &load, settings.clone(), &frf, &bar, level)?;
+            let synthesis = backbone.map_or_else(Vec::new, |b| synthesis_of(system, &c, &load, b));
+            bar.inc(1);
+            Ok(ForcedCurve {
+                level,
+                force,
+                response: curve,
+                synthesis,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    bar.finish_and_clear();
+    Ok(ForcedStudy {
+        omega_mode: w,
+        gap_reference: system.gap_reference(),
+        master: system.master(),
+        excitation,
+        contacts: system.n_contacts(),
+        modal_damping: ratios,
+        linear_frequencies: system.linear_frequencies(),
+        penalty_stiffness,
+        curves,
+        settings: s.clone(),
+    })
+}
+
+/// One level's frequency continuation, its progress on the shared bar.
+fn trace_level(
+    system: &System,
+    c: &Mat<f64>,
+    load: &Load,
+    settings: ForcedSettings,
+    frf: &FrfSettings,
+    bar: &ProgressBar,
+    level: f64,
+) -> Result<FrequencyResponse> {
+    let solver = ForcedSolver::new(system, c, load, settings)?;
+    let curve = frequency_response(&solver, frf, |p| {
+        bar.set_message(format!("level {level}: W = {:.1} rad/s", p.omega));
+    })?;
+    tracing::info!(
+        "forced level {level}: {} points, {} folds, {:?}",
+        curve.points.len(),
+        curve.folds.len(),
+        curve.termination
+    );
+    Ok(curve)
+}
+
+/// The single-nonlinear-mode synthesis of the backbone's main-branch points under `load`.
+fn synthesis_of(
+    system: &System,
+    c: &Mat<f64>,
+    load: &Load,
+    b: &BackboneFile,
+) -> Vec<SynthesizedPoint> {
+    let orbits: Vec<FreeOrbit<'_>> = b
+        .points
+        .iter()
+        .filter(|p| !b.on_tongue(p))
+        .map(|p| FreeOrbit {
+            q: p.q,
+            omega: p.omega,
+            coefficients: &p.coefficients,
+        })
+        .collect();
+    synthesize(system.mass(), c.as_ref(), load, &orbits)
+}
+
+/// Ok when every curve reached the end of its range; otherwise a
+/// [`crate::exit::StoppedEarly`] error (exit code 3) naming the levels that stopped and where
+/// the partial results are.
+pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
+    let stopped: Vec<String> = st
+        .curves
+        .iter()
+        .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
+        .map(|c| format!("level {}: {:?}", c.level, c.response.termination))
+        .collect();
+    if stopped.is_empty() {
+        return Ok(());
+    }
+    Err(anyhow::Error::new(crate::exit::StoppedEarly(format!(
+        "forced response stopped before the end of its range ({}); the points computed are in {}",
+        stopped.join("; "),
+        dir.display()
+    ))))
+}

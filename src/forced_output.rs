@@ -1,0 +1,425 @@
+//! What the forced study writes: `frf.csv` (one row per point of every level), `frf.json`
+//! (every orbit, the folds, the termination, the damping each mode gets), `frf.svg/.png` (the
+//! curves crowned by the backbone, with the synthesis) and `frf_max.svg/.png` (max |u| of the
+//! master). Units: W in rad/s and Hz, amplitudes in m and in gaps g0, forces in N.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use nlmodes_forced::{ForcedPoint, FrfTermination, PointStability, Verdict};
+use nlmodes_hb::FullBasis;
+use nlmodes_output::plot::{Color, LinePlot, LineStyle, Series, PALETTE};
+use nlmodes_output::{CsvTable, CsvValue};
+use serde::Serialize;
+
+use crate::forced::{ForcedCurve, ForcedStudy};
+use crate::results::BackboneFile;
+
+/// Amplitude and phase (rad) of harmonic h of coordinate i: a cos + b sin = r cos(h W t - phi).
+fn harmonic(p: &ForcedPoint, i: usize, h: usize) -> (f64, f64) {
+    let (a, b) = (p.coefficients[(i, 2 * h - 1)], p.coefficients[(i, 2 * h)]);
+    (a.hypot(b), b.atan2(a))
+}
+
+/// max over the period of |u_i(t)| on 512 points.
+fn max_abs(p: &ForcedPoint, i: usize) -> f64 {
+    let t = p.coefficients.ncols();
+    let c: Vec<f64> = (0..t).map(|k| p.coefficients[(i, k)]).collect();
+    (0..512)
+        .map(|s| FullBasis::value_at(&c, 2.0 * std::f64::consts::PI * s as f64 / 512.0).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Contact share of samples x rows, rows touching at some sample, largest force (N).
+fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
+    let m = p.contact_force.len() / rows.max(1);
+    let touching = (0..rows)
+        .filter(|&j| p.contact_force[j * m..(j + 1) * m].iter().any(|&f| f > 0.0))
+        .count();
+    let active = p.contact_force.iter().filter(|&&f| f > 0.0).count();
+    let largest = p.contact_force.iter().copied().fold(0.0, f64::max);
+    (
+        active as f64 / p.contact_force.len().max(1) as f64,
+        touching,
+        largest,
+    )
+}
+
+fn verdict_word(s: Option<&PointStability>) -> String {
+    match s.map(|s| s.verdict) {
+        Some(Verdict::Stable) => "stable",
+        Some(Verdict::Unstable) => "unstable",
+        Some(Verdict::Undetermined) => "undetermined",
+        None => "",
+    }
+    .to_string()
+}
+
+fn header(n: usize) -> Vec<String> {
+    let mut h: Vec<String> = [
+        "level",
+        "force_N",
+        "point",
+        "omega_rad_s",
+        "frequency_hz",
+        "omega_ratio",
+        "q1_over_g0",
+        "master_max_abs_m",
+        "master_max_over_g0",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for who in ["master", "excitation"] {
+        for k in 1..=n {
+            h.push(format!("{who}_amp_h{k}_m"));
+            h.push(format!("{who}_phase_h{k}_rad"));
+        }
+    }
+    for s in [
+        "contact_fraction",
+        "nodes_in_contact",
+        "max_contact_force_N",
+        "stability",
+        "largest_multiplier",
+        "bifurcation",
+        "fold",
+        "hop",
+    ] {
+        h.push(s.to_string());
+    }
+    h
+}
+
+fn push_curve(table: &mut CsvTable, st: &ForcedStudy, curve: &ForcedCurve) -> Result<()> {
+    let (g, w, n) = (st.gap_reference, st.omega_mode, st.settings.harmonics);
+    let r = &curve.response;
+    for (i, p) in r.points.iter().enumerate() {
+        let (q1, _) = harmonic(p, st.master, 1);
+        let mmax = max_abs(p, st.master);
+        let mut row: Vec<CsvValue> = vec![
+            curve.level.into(),
+            curve.force.into(),
+            CsvValue::Int(i as i64),
+            p.omega.into(),
+            (p.omega / (2.0 * std::f64::consts::PI)).into(),
+            (p.omega / w).into(),
+            (q1 / g).into(),
+            mmax.into(),
+            (mmax / g).into(),
+        ];
+        for who in [st.master, st.excitation] {
+            for h in 1..=n {
+                let (a, ph) = harmonic(p, who, h);
+                row.push(a.into());
+                row.push(ph.into());
+            }
+        }
+        let (share, touching, largest) = contact_summary(p, st.contacts);
+        let stab = r.stability.get(i);
+        let bif = stab
+            .and_then(|s| s.bifurcation)
+            .map_or(String::new(), |b| format!("{b:?}"));
+        let fold = r.folds.iter().find(|f| f.point == i);
+        row.extend([
+            share.into(),
+            CsvValue::Int(touching as i64),
+            largest.into(),
+            CsvValue::Text(verdict_word(stab)),
+            stab.map_or(CsvValue::Text(String::new()), |s| {
+                s.largest_multiplier.into()
+            }),
+            CsvValue::Text(bif),
+            CsvValue::Text(fold.map_or(String::new(), |f| format!("{:?}", f.kind))),
+            CsvValue::Int(i64::from(r.hops.contains(&i))),
+        ]);
+        table.push_row(row)?;
+    }
+    Ok(())
+}
+
+/// `frf.csv`.
+pub fn frf_csv(st: &ForcedStudy) -> Result<CsvTable> {
+    let mut table = CsvTable::new(&header(st.settings.harmonics));
+    for curve in &st.curves {
+        push_curve(&mut table, st, curve)?;
+    }
+    Ok(table)
+}
+
+/// One orbit in `frf.json`.
+#[derive(Serialize)]
+struct OrbitRecord<'a> {
+    omega: f64,
+    /// Reduced coefficients per coordinate: [u0, a1, b1, ..., aN, bN] (m).
+    coefficients: Vec<Vec<f64>>,
+    stability: String,
+    largest_multiplier: Option<f64>,
+    liouville_error: Option<f64>,
+    bifurcation: Option<String>,
+    powell_measure: f64,
+    newton_iterations: usize,
+    #[serde(skip)]
+    _point: std::marker::PhantomData<&'a ()>,
+}
+
+#[derive(Serialize)]
+struct CurveRecord<'a> {
+    level: f64,
+    force_n: f64,
+    termination: String,
+    folds: Vec<(usize, f64, String)>,
+    hops: &'a [usize],
+    jump_frequencies_rad_s: Vec<f64>,
+    synthesis: Vec<[f64; 4]>,
+    orbits: Vec<OrbitRecord<'a>>,
+}
+
+#[derive(Serialize)]
+struct StudyRecord<'a> {
+    omega_mode_rad_s: f64,
+    gap_reference_m: f64,
+    master: usize,
+    excitation: usize,
+    linear_frequencies_rad_s: &'a [f64],
+    modal_damping_ratios: &'a [f64],
+    penalty_stiffness_n_per_m: Option<f64>,
+    settings: &'a crate::forced_settings::ForcedSection,
+    curves: Vec<CurveRecord<'a>>,
+}
+
+fn termination_text(t: &FrfTermination) -> String {
+    match t {
+        FrfTermination::Complete => "complete".into(),
+        other => format!("{other:?}"),
+    }
+}
+
+fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
+    let r = &c.response;
+    let orbits = r
+        .points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let s = r.stability.get(i);
+            OrbitRecord {
+                omega: p.omega,
+                coefficients: (0..p.coefficients.nrows())
+                    .map(|d| {
+                        (0..p.coefficients.ncols())
+                            .map(|k| p.coefficients[(d, k)])
+                            .collect()
+                    })
+                    .collect(),
+                stability: verdict_word(s),
+                largest_multiplier: s.map(|s| s.largest_multiplier),
+                liouville_error: s.and_then(|s| s.liouville_error),
+                bifurcation: s.and_then(|s| s.bifurcation).map(|b| format!("{b:?}")),
+                powell_measure: p.powell_measure,
+                newton_iterations: p.newton_iterations,
+                _point: std::marker::PhantomData,
+            }
+        })
+        .collect();
+    CurveRecord {
+        level: c.level,
+        force_n: c.force,
+        termination: termination_text(&r.termination),
+        folds: r
+            .folds
+            .iter()
+            .map(|f| (f.point, f.omega, format!("{:?}", f.kind)))
+            .collect(),
+        hops: &r.hops,
+        jump_frequencies_rad_s: r.folds.iter().map(|f| f.omega).collect(),
+        synthesis: c
+            .synthesis
+            .iter()
+            .map(|s| {
+                let (lo, hi) = s.flanks.unwrap_or((f64::NAN, f64::NAN));
+                [
+                    s.q,
+                    s.omega,
+                    s.damping_ratio,
+                    if lo.is_finite() { hi - lo } else { -1.0 },
+                ]
+            })
+            .collect(),
+        orbits,
+    }
+}
+
+/// Writes frf.csv, frf.json and the figures into `dir`.
+pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    frf_csv(st)?.write(&dir.join("frf.csv"))?;
+    let record = StudyRecord {
+        omega_mode_rad_s: st.omega_mode,
+        gap_reference_m: st.gap_reference,
+        master: st.master,
+        excitation: st.excitation,
+        linear_frequencies_rad_s: &st.linear_frequencies,
+        modal_damping_ratios: &st.modal_damping,
+        penalty_stiffness_n_per_m: st.penalty_stiffness,
+        settings: &st.settings,
+        curves: st.curves.iter().map(curve_record).collect(),
+    };
+    nlmodes_output::write_json_compact(&dir.join("frf.json"), &record)?;
+    frf_figure(st, backbone, dir, false)?;
+    frf_figure(st, backbone, dir, true)?;
+    Ok(())
+}
+
+/// Runs of consecutive points with the same verdict, as (verdict, indices).
+fn verdict_runs(c: &ForcedCurve) -> Vec<(Option<Verdict>, Vec<usize>)> {
+    let mut runs: Vec<(Option<Verdict>, Vec<usize>)> = Vec::new();
+    for i in 0..c.response.points.len() {
+        let v = c.response.stability.get(i).map(|s| s.verdict);
+        match runs.last_mut() {
+            Some((last, idx)) if *last == v => idx.push(i),
+            _ => {
+                // Overlap one point so the pieces join.
+                let mut idx = runs
+                    .last()
+                    .map_or_else(Vec::new, |(_, r)| vec![*r.last().expect("run")]);
+                idx.push(i);
+                runs.push((v, idx));
+            }
+        }
+    }
+    runs
+}
+
+/// The FRF figure: per level, amplitude / g0 (first harmonic of the master, or its max over
+/// the period when `max_abs`) against W / w_mode; stable solid, unstable dashed, undetermined
+/// dotted; the backbone and the synthesis over them.
+fn frf_figure(
+    st: &ForcedStudy,
+    backbone: Option<&BackboneFile>,
+    dir: &Path,
+    max_abs: bool,
+) -> Result<()> {
+    let (g, w) = (st.gap_reference, st.omega_mode);
+    let title = if max_abs {
+        "Forced response: max |u| of the master"
+    } else {
+        "Forced response crowned by the backbone"
+    };
+    let ylabel = if max_abs {
+        "max |u_master| / g0"
+    } else {
+        "first harmonic of the master / g0"
+    };
+    let mut plot = LinePlot::new(title, "excitation frequency W / w_mode", ylabel);
+    let amp = |p: &ForcedPoint| {
+        if max_abs {
+            max_abs_of(p, st.master) / g
+        } else {
+            harmonic(p, st.master, 1).0 / g
+        }
+    };
+    for (k, c) in st.curves.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        let mut labelled = false;
+        for (v, idx) in verdict_runs(c) {
+            let (style, word) = match v {
+                Some(Verdict::Unstable) => (LineStyle::Dashed, "unstable"),
+                Some(Verdict::Undetermined) => (LineStyle::Dotted, "undetermined"),
+                _ => (LineStyle::Solid, "stable"),
+            };
+            let x: Vec<f64> = idx
+                .iter()
+                .map(|&i| c.response.points[i].omega / w)
+                .collect();
+            let y: Vec<f64> = idx.iter().map(|&i| amp(&c.response.points[i])).collect();
+            let label = if labelled {
+                String::new()
+            } else {
+                format!("level {} ({:.3e} N)", c.level, c.force)
+            };
+            labelled = true;
+            let _ = word;
+            plot = plot.with_series(Series::new(label, x, y).color(color).style(style));
+        }
+        if !max_abs {
+            let pts: Vec<((f64, f64), f64)> = c
+                .synthesis
+                .iter()
+                .filter_map(|s| s.flanks.map(|f| (f, s.q / g)))
+                .collect();
+            if !pts.is_empty() {
+                let mut xs: Vec<f64> = pts.iter().map(|((lo, _), _)| lo / w).collect();
+                let mut ys: Vec<f64> = pts.iter().map(|(_, q)| *q).collect();
+                xs.extend(pts.iter().rev().map(|((_, hi), _)| hi / w));
+                ys.extend(pts.iter().rev().map(|(_, q)| *q));
+                let label = if k == 0 { "single-mode synthesis" } else { "" };
+                plot = plot.with_series(
+                    Series::new(label, xs, ys)
+                        .color(color)
+                        .width(0.8)
+                        .style(LineStyle::Dotted),
+                );
+            }
+        }
+    }
+    if let (Some(b), false) = (backbone, max_abs) {
+        let main: Vec<&crate::results::Orbit> =
+            b.points.iter().filter(|p| !b.on_tongue(p)).collect();
+        let x: Vec<f64> = main.iter().map(|p| p.omega / w).collect();
+        let y: Vec<f64> = main.iter().map(|p| p.q / g).collect();
+        plot = plot.with_series(
+            Series::new("backbone (free, undamped)", x, y)
+                .color(Color(0, 0, 0))
+                .width(1.5),
+        );
+    }
+    let name = if max_abs { "frf_max" } else { "frf" };
+    plot.write_svg_and_png(&dir.join(name))?;
+    Ok(())
+}
+
+fn max_abs_of(p: &ForcedPoint, i: usize) -> f64 {
+    max_abs(p, i)
+}
+
+/// The lines printed after a forced run.
+pub fn summary(st: &ForcedStudy) -> String {
+    let (g, w) = (st.gap_reference, st.omega_mode);
+    let mut out = format!(
+        "forced response around mode {} (w = {:.2} rad/s, {:.3} Hz), damping ratio {:.3e}{}\n",
+        st.settings.mode,
+        w,
+        w / (2.0 * std::f64::consts::PI),
+        st.modal_damping[st.settings.mode],
+        st.penalty_stiffness.map_or_else(
+            || ", exact contact (Algorithm 1)".to_string(),
+            |k| format!(", penalty kc = {k:.3e} N/m")
+        ),
+    );
+    for c in &st.curves {
+        let r = &c.response;
+        let peak = r.points.iter().max_by(|a, b| {
+            harmonic(a, st.master, 1)
+                .0
+                .total_cmp(&harmonic(b, st.master, 1).0)
+        });
+        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        if let Some(p) = peak {
+            out += &format!(
+                "  level {:>8}: force {:.4e} N, peak q/g0 = {:.4} at W/w = {:.5}, {} points, {} folds, {} stable / {} unstable / {} undetermined, {}\n",
+                c.level,
+                c.force,
+                harmonic(p, st.master, 1).0 / g,
+                p.omega / w,
+                r.points.len(),
+                r.folds.len(),
+                count(Verdict::Stable),
+                count(Verdict::Unstable),
+                count(Verdict::Undetermined),
+                termination_text(&r.termination)
+            );
+        }
+    }
+    out
+}

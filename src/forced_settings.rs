@@ -1,0 +1,212 @@
+//! `[forced]`: the forced-response study of a case or of `nlmodes forced --settings FILE`
+//! (issue 22; docs/DESIGN.md §10). Every key has a default ([`ForcedSection::default`]), units
+//! are SI, frequencies are ratios to the linear frequency w_r of the chosen mode.
+
+use serde::{Deserialize, Serialize};
+
+use crate::validate::Problems;
+
+/// The contact law of the forced study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForcedContact {
+    /// Algorithm 1 (augmented Lagrangian, exact contact). On the default blade its frequency
+    /// continuation stalls near W / w1 = 1.05 (corners where the curve is not unique; see the
+    /// README's known limits): use it on models whose contact coordinates carry little mass.
+    Exact,
+    /// The penalty law kc (g)_+ with kc = `penalty_factor` times each row's static contact
+    /// stiffness (well posed; converges to exact contact as the factor grows, see BENCHMARKS).
+    Penalty,
+}
+
+/// What the force acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForcedLoadKind {
+    /// A point force on the master coordinate (the tip contact DOF the backbone follows).
+    Master,
+    /// The inertia pattern M phi_r of linear mode `load_mode` of the reduced model, scaled so
+    /// that its largest entry is the level: it drives mode r alone in the linear regime.
+    Mode,
+}
+
+/// How `levels` are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LevelUnit {
+    /// Force amplitudes in newtons.
+    #[serde(rename = "N")]
+    Newton,
+    /// Multiples of the force whose linear resonant response of the master reaches the
+    /// grazing amplitude of the mode (1 grazes, 3 drives three times past contact).
+    #[serde(rename = "grazing")]
+    Grazing,
+}
+
+/// `[forced]` (see the module docs; keys documented in cases/blade.toml and the README).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ForcedSection {
+    /// Run the forced study in `nlmodes run` (default false: no `[forced]` table, no stage).
+    pub enabled: bool,
+    /// Linear mode swept around (0-based).
+    pub mode: usize,
+    /// Frequency range [start, end] as W / w_mode; the curve starts from the linear response.
+    pub range: [f64; 2],
+    /// Highest harmonic N of the response.
+    pub harmonics: usize,
+    /// Time samples per period m (0: the default 4 (2N + 1) rounded up to a power of two).
+    pub samples: usize,
+    /// Harmonic h >= 1 of the response at which the force acts (1: at W).
+    pub harmonic: usize,
+    /// Modal damping ratio of every linear mode (dimensionless), unless `damping_ratios` or
+    /// `rayleigh` is given.
+    pub damping_ratio: f64,
+    /// One ratio per linear mode, ascending frequency (the last applies to the rest).
+    pub damping_ratios: Vec<f64>,
+    /// Rayleigh damping [alpha (1/s), beta (s)]: C = alpha M + beta K.
+    pub rayleigh: Option<[f64; 2]>,
+    /// The load pattern.
+    pub load: ForcedLoadKind,
+    /// The mode of `load = "mode"` (0-based).
+    pub load_mode: usize,
+    /// Force levels, one curve each.
+    pub levels: Vec<f64>,
+    /// Unit of `levels`.
+    pub level_unit: LevelUnit,
+    /// Contact law.
+    pub contact: ForcedContact,
+    /// kc / (static contact stiffness of the row) for `contact = "penalty"`.
+    pub penalty_factor: f64,
+    /// Floquet stability of every point.
+    pub stability: bool,
+}
+
+impl Default for ForcedSection {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            mode: 0,
+            range: [0.9, 1.3],
+            harmonics: 10,
+            samples: 0,
+            harmonic: 1,
+            damping_ratio: 0.003,
+            damping_ratios: Vec::new(),
+            rayleigh: None,
+            load: ForcedLoadKind::Master,
+            load_mode: 0,
+            levels: vec![0.5, 2.0, 5.0],
+            level_unit: LevelUnit::Grazing,
+            contact: ForcedContact::Penalty,
+            penalty_factor: 1e3,
+            stability: true,
+        }
+    }
+}
+
+impl ForcedSection {
+    /// Every value checked (order-independent ones; the mode indices against the model later).
+    pub fn check(&self, p: &mut Problems) {
+        let finite_pos = |v: f64| v.is_finite() && v > 0.0;
+        let [a, b] = self.range;
+        p.check(
+            finite_pos(a),
+            "forced.range",
+            self.range,
+            "start > 0 (W / w_mode)",
+        );
+        p.check(
+            b.is_finite() && b > a,
+            "forced.range",
+            self.range,
+            "a non-empty range [start, end] with end > start",
+        );
+        p.check(
+            self.harmonics >= 1,
+            "forced.harmonics",
+            self.harmonics,
+            ">= 1",
+        );
+        p.check(
+            self.samples == 0 || self.samples > 2 * self.harmonics,
+            "forced.samples",
+            self.samples,
+            "0 (default) or m >= 2 N + 1",
+        );
+        p.check(
+            (1..=self.harmonics).contains(&self.harmonic),
+            "forced.harmonic",
+            self.harmonic,
+            "1 <= h <= harmonics",
+        );
+        let ratio_ok = |z: f64| z.is_finite() && (0.0..1.0).contains(&z);
+        p.check(
+            ratio_ok(self.damping_ratio),
+            "forced.damping_ratio",
+            self.damping_ratio,
+            "a ratio 0 <= zeta < 1",
+        );
+        for z in &self.damping_ratios {
+            p.check(
+                ratio_ok(*z),
+                "forced.damping_ratios",
+                z,
+                "ratios 0 <= zeta < 1",
+            );
+        }
+        if let Some(r) = self.rayleigh {
+            let ok = r.iter().all(|v| v.is_finite() && *v >= 0.0);
+            p.check(
+                ok,
+                "forced.rayleigh",
+                r,
+                "[alpha >= 0 (1/s), beta >= 0 (s)]",
+            );
+        }
+        p.check(
+            !self.levels.is_empty(),
+            "forced.levels",
+            &self.levels,
+            "at least one level",
+        );
+        for l in &self.levels {
+            p.check(
+                finite_pos(*l),
+                "forced.levels",
+                l,
+                "finite force levels > 0",
+            );
+        }
+        p.check(
+            finite_pos(self.penalty_factor),
+            "forced.penalty_factor",
+            self.penalty_factor,
+            "a finite factor > 0",
+        );
+    }
+
+    /// The damping definition.
+    pub fn damping(&self) -> nlmodes_forced::Damping {
+        match (self.rayleigh, self.damping_ratios.is_empty()) {
+            (Some([alpha, beta]), _) => nlmodes_forced::Damping::Rayleigh { alpha, beta },
+            (None, false) => nlmodes_forced::Damping::ModalRatios(self.damping_ratios.clone()),
+            (None, true) => nlmodes_forced::Damping::ModalRatios(vec![self.damping_ratio]),
+        }
+    }
+}
+
+/// The `[forced]` table of a TOML file (other tables ignored; a missing table gives the
+/// defaults); unknown keys and unreadable files are bad input naming the file.
+pub fn load(path: &std::path::Path) -> anyhow::Result<ForcedSection> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| crate::exit::bad_input(format!("cannot read {}: {e}", path.display())))?;
+    let value: toml::Value = toml::from_str(&text)
+        .map_err(|e| crate::exit::bad_input(format!("{}: invalid TOML: {e}", path.display())))?;
+    match value.get("forced") {
+        None => Ok(ForcedSection::default()),
+        Some(t) => t
+            .clone()
+            .try_into()
+            .map_err(|e| crate::exit::bad_input(format!("{}: [forced]: {e}", path.display()))),
+    }
+}

@@ -1,0 +1,161 @@
+//! The `forced` stage of `nlmodes run` (issue 22): the forced study of `[forced]` on the
+//! reduced model, crowned by the backbone of the same mode when the case traced it. Reruns when
+//! the reduced model, `[forced]` or that backbone change. Writes `results/<case>/forced/`
+//! (frf.csv, frf.json, figures) and `forced/section.md`, the report's section.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::Result;
+use nlmodes_forced::Verdict;
+
+use crate::case::Case;
+use crate::forced::ForcedStudy;
+use crate::layout::Layout;
+use crate::results::BackboneFile;
+use crate::run::fnv1a;
+
+/// The stage: its inputs and where it writes.
+pub struct ForcedStage<'a> {
+    case: &'a Case,
+    out: PathBuf,
+    backbone: Option<PathBuf>,
+    hash: String,
+    stamp: PathBuf,
+}
+
+impl<'a> ForcedStage<'a> {
+    /// The stage of `case` on the model of hash `reduce_hash`.
+    pub fn new(case: &'a Case, layout: &Layout, reduce_hash: &str) -> Self {
+        let mode = case.forced.mode;
+        let modes = case.continuation.modes_to_trace();
+        let backbone = if modes.len() > 1 {
+            modes
+                .contains(&mode)
+                .then(|| layout.for_mode(mode).backbone().join("backbone.json"))
+        } else {
+            (modes == [mode]).then(|| layout.backbone().join("backbone.json"))
+        }
+        .filter(|p| p.exists());
+        let bb_bytes = backbone
+            .as_ref()
+            .and_then(|p| std::fs::read(p).ok())
+            .unwrap_or_default();
+        let settings = serde_json::to_vec(&case.forced).unwrap_or_default();
+        let hash = fnv1a(&[reduce_hash.as_bytes(), &settings, &bb_bytes]);
+        Self {
+            case,
+            out: layout.shared.join("forced"),
+            backbone,
+            hash,
+            stamp: layout.stamp("forced"),
+        }
+    }
+
+    /// Runs the study unless its stamp holds the inputs' hash and its outputs exist (or
+    /// `force`). The stamp is written only when every curve reached the end of its range.
+    pub fn run_if_needed(&self, force: bool) -> Result<()> {
+        let outputs = ["frf.csv", "frf.json", "section.md"].map(|f| self.out.join(f));
+        let stored = std::fs::read_to_string(&self.stamp).unwrap_or_default();
+        if !force && stored.trim() == self.hash && outputs.iter().all(|p| p.exists()) {
+            tracing::info!("stage forced: up to date");
+            return Ok(());
+        }
+        let st = crate::ui::Stage::start("forced");
+        let model = crate::backbone::load_model(&self.case.out_dir().join("model"))?;
+        let system = crate::backbone::system_of(&model, None)?;
+        crate::forced::check_against(&system, &self.case.forced, "[forced]")?;
+        let backbone: Option<BackboneFile> = match &self.backbone {
+            Some(p) => Some(crate::results::read_json(p)?),
+            None => None,
+        };
+        let study = crate::forced::run(&system, &self.case.forced, backbone.as_ref())?;
+        crate::forced_output::write(&study, backbone.as_ref(), &self.out)?;
+        crate::output::write_atomic(&self.out.join("section.md"), section(&study).as_bytes())?;
+        crate::ui::say(&crate::forced_output::summary(&study));
+        st.done(&format!("wrote {}", self.out.display()));
+        crate::forced::stopped_early(&study, &self.out)?;
+        std::fs::create_dir_all(self.stamp.parent().unwrap_or(&self.out))?;
+        crate::output::write_atomic(&self.stamp, self.hash.as_bytes())
+    }
+}
+
+/// The report's section: damping per mode, the curves' peaks, folds and stability, figures.
+fn section(st: &ForcedStudy) -> String {
+    let mut s = String::from("## Forced response\n\n");
+    let law = st.penalty_stiffness.map_or_else(
+        || "exact contact (Algorithm 1)".to_string(),
+        |k| format!("the penalty law, kc = {k:.4e} N/m per contact row"),
+    );
+    let _ = writeln!(
+        s,
+        "Harmonic force at harmonic {} of the response, swept over W / w = {} .. {} around \
+         linear mode {} (w = {:.3} Hz), N = {} harmonics, {law}. Data: `forced/frf.csv`, every \
+         orbit in `forced/frf.json`.\n",
+        st.settings.harmonic,
+        st.settings.range[0],
+        st.settings.range[1],
+        st.settings.mode,
+        st.omega_mode / (2.0 * std::f64::consts::PI),
+        st.settings.harmonics
+    );
+    let _ = writeln!(s, "Damping each linear mode of the reduced model gets:\n");
+    let _ = writeln!(s, "| mode | f (Hz) | damping ratio |\n|---|---|---|");
+    for (k, (w, z)) in st
+        .linear_frequencies
+        .iter()
+        .zip(&st.modal_damping)
+        .enumerate()
+        .take(10)
+    {
+        let _ = writeln!(
+            s,
+            "| {} | {:.3} | {:.4e} |",
+            k,
+            w / (2.0 * std::f64::consts::PI),
+            z
+        );
+    }
+    let _ = writeln!(s, "\n| level | force (N) | peak q/g0 | at W/w | folds (W/w) | stable / unstable / undetermined | end |\n|---|---|---|---|---|---|---|");
+    for c in &st.curves {
+        let r = &c.response;
+        let amp = |i: usize| {
+            let p = &r.points[i];
+            p.coefficients[(st.master, 1)].hypot(p.coefficients[(st.master, 2)])
+        };
+        let Some(peak) = (0..r.points.len()).max_by(|&a, &b| amp(a).total_cmp(&amp(b))) else {
+            continue;
+        };
+        let folds: Vec<String> = r
+            .folds
+            .iter()
+            .map(|f| format!("{:.4}", f.omega / st.omega_mode))
+            .collect();
+        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        let _ = writeln!(
+            s,
+            "| {} | {:.4e} | {:.4} | {:.5} | {} | {} / {} / {} | {:?} |",
+            c.level,
+            c.force,
+            amp(peak) / st.gap_reference,
+            r.points[peak].omega / st.omega_mode,
+            if folds.is_empty() {
+                "none".to_string()
+            } else {
+                folds.join(", ")
+            },
+            count(Verdict::Stable),
+            count(Verdict::Unstable),
+            count(Verdict::Undetermined),
+            r.termination
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n![forced response](forced/frf.png)\n![max amplitude](forced/frf_max.png)\n\nSolid: \
+         stable, dashed: unstable, dotted: undetermined (Floquet multipliers of the \
+         variational equation along each orbit, switches located in time). Black: the \
+         backbone of the same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
+    );
+    s
+}
