@@ -34,6 +34,8 @@ pub struct ForcedStudy {
     pub omega_mode: f64,
     /// g0 (m).
     pub gap_reference: f64,
+    /// Master amplitude of first contact of the swept mode (m).
+    pub grazing_amplitude: f64,
     /// Master coordinate and the coordinate of the largest load entry.
     pub master: usize,
     pub excitation: usize,
@@ -178,6 +180,7 @@ pub fn run(
     Ok(ForcedStudy {
         omega_mode: w,
         gap_reference: system.gap_reference(),
+        grazing_amplitude: system.grazing_amplitude(s.mode)?.map_or(f64::NAN, f64::abs),
         master: system.master(),
         excitation,
         contacts: system.n_contacts(),

@@ -179,6 +179,8 @@ struct CurveRecord<'a> {
 struct StudyRecord<'a> {
     omega_mode_rad_s: f64,
     gap_reference_m: f64,
+    /// Master amplitude at which the swept linear mode first touches (m).
+    grazing_amplitude_m: f64,
     master: usize,
     excitation: usize,
     linear_frequencies_rad_s: &'a [f64],
@@ -257,6 +259,7 @@ pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> R
     let record = StudyRecord {
         omega_mode_rad_s: st.omega_mode,
         gap_reference_m: st.gap_reference,
+        grazing_amplitude_m: st.grazing_amplitude,
         master: st.master,
         excitation: st.excitation,
         linear_frequencies_rad_s: &st.linear_frequencies,

@@ -290,6 +290,36 @@ def settings_files(c, model):
           r"cannot read the settings file .*none\.toml")
 
 
+def forced_settings(c, model):
+    """`nlmodes forced --settings FILE`: every bad [forced] value named with file, key, value."""
+    out = c.path("forced_out")
+
+    def bad(name, text, pat, extra=()):
+        p = c.write(f"forced/{name}.toml", "[forced]\n" + text)
+        c.add("forced settings", f"forced_{name}", ["forced", model, "--settings", p, "-o", out, *extra], pat,
+              absent=[os.path.join(out, "frf.csv")])
+
+    bad("damping_negative", "damping_ratio = -0.01\n", r"\.toml: forced\.damping_ratio = -0\.01: expected a ratio 0 <= zeta < 1")
+    bad("damping_ratios_nan", "damping_ratios = [0.01, nan]\n", r"forced\.damping_ratios = NaN")
+    bad("rayleigh_negative", "rayleigh = [-1.0, 0.0]\n", r"forced\.rayleigh = \[-1\.0, 0\.0\]: expected \[alpha >= 0")
+    bad("level_zero", "levels = [0.0]\n", r"forced\.levels = 0\.0: expected finite force levels > 0")
+    bad("level_inf", "levels = [inf]\n", r"forced\.levels = inf: expected finite force levels > 0")
+    bad("levels_empty", "levels = []\n", r"forced\.levels = \[\]: expected at least one level")
+    bad("range_inverted", "range = [1.2, 0.9]\n", r"forced\.range = \[1\.2, 0\.9\]: expected a non-empty range")
+    bad("range_empty", "range = [1.0, 1.0]\n", r"forced\.range = \[1\.0, 1\.0\]: expected a non-empty range")
+    bad("range_negative", "range = [-0.5, 1.0]\n", r"forced\.range = \[-0\.5, 1\.0\]: expected start > 0")
+    bad("harmonic_zero", "harmonic = 0\n", r"forced\.harmonic = 0: expected 1 <= h <= harmonics")
+    bad("harmonics_zero", "harmonics = 0\n", r"forced\.harmonics = 0: expected >= 1")
+    bad("samples_small", "harmonics = 5\nsamples = 8\n", r"forced\.samples = 8: expected 0 \(default\) or m >= 2 N \+ 1")
+    bad("penalty_zero", "penalty_factor = 0.0\n", r"forced\.penalty_factor = 0\.0: expected a finite factor > 0")
+    bad("unknown_key", "dampnig_ratio = 0.01\n", r"\.toml: \[forced\]: unknown field `dampnig_ratio`")
+    bad("contact_word", "contact = \"soft\"\n", r"unknown variant `soft`, expected `exact` or `penalty`")
+    bad("mode_beyond_model", "mode = 5000\n", r"forced\.mode = 5000: expected a linear mode index \(0-based\) below \d+")
+    bad("load_mode_beyond_model", "load = \"mode\"\nload_mode = 777\n", r"forced\.load_mode = 777: expected a linear mode index")
+    c.add("forced settings", "forced_backbone_missing",
+          ["forced", model, "--backbone", c.path("forced/none.json"), "-o", out], r"--backbone .*none\.json", absent=[os.path.join(out, "frf.csv")])
+
+
 # ---------------------------------------------------------------- meshes
 
 def meshes(c, mesh):
@@ -495,6 +525,7 @@ def main():
     geo, mesh, model = (os.path.abspath(p) for p in (a.geo, a.mesh, a.model))
     case_files(c, geo)
     settings_files(c, model)
+    forced_settings(c, model)
     cli_arguments(c, geo, mesh, model)
     output_paths(c, geo, mesh, model)
     meshes(c, mesh)
