@@ -113,7 +113,7 @@ fn main() {
             if std::env::var("VERDICTS").is_ok_and(|v| v == "1") {
                 for (p, st) in curve.points.iter().zip(&curve.stability) {
                     println!(
-                        "W/w1 {:.5} q/g0 {:.3} {:?} |mu| {:.4} {:?}",
+                        "W/w1 {:.5} q/g0 {:.3} {:?} |mu| {:?} {:?}",
                         p.omega / w1,
                         amp(p) / system.gap_reference(),
                         st.verdict,

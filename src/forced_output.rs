@@ -45,6 +45,11 @@ fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
     )
 }
 
+/// A number, or an empty cell (never a NaN).
+fn opt(v: Option<f64>) -> CsvValue {
+    v.map_or(CsvValue::Text(String::new()), CsvValue::from)
+}
+
 fn verdict_word(s: Option<&PointStability>) -> String {
     match s.map(|s| s.verdict) {
         Some(Verdict::Stable) => "stable",
@@ -82,6 +87,7 @@ fn header(n: usize) -> Vec<String> {
         "max_contact_force_N",
         "stability",
         "largest_multiplier",
+        "period_residual",
         "bifurcation",
         "fold",
         "hop",
@@ -126,9 +132,8 @@ fn push_curve(table: &mut CsvTable, st: &ForcedStudy, curve: &ForcedCurve) -> Re
             CsvValue::Int(touching as i64),
             largest.into(),
             CsvValue::Text(verdict_word(stab)),
-            stab.map_or(CsvValue::Text(String::new()), |s| {
-                s.largest_multiplier.into()
-            }),
+            opt(stab.and_then(|s| s.largest_multiplier)),
+            opt(stab.and_then(|s| s.period_residual)),
             CsvValue::Text(bif),
             CsvValue::Text(fold.map_or(String::new(), |f| format!("{:?}", f.kind))),
             CsvValue::Int(i64::from(r.hops.contains(&i))),
@@ -156,6 +161,7 @@ struct OrbitRecord<'a> {
     stability: String,
     largest_multiplier: Option<f64>,
     liouville_error: Option<f64>,
+    period_residual: Option<f64>,
     bifurcation: Option<String>,
     powell_measure: f64,
     newton_iterations: usize,
@@ -215,8 +221,9 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
                     })
                     .collect(),
                 stability: verdict_word(s),
-                largest_multiplier: s.map(|s| s.largest_multiplier),
+                largest_multiplier: s.and_then(|s| s.largest_multiplier),
                 liouville_error: s.and_then(|s| s.liouville_error),
+                period_residual: s.and_then(|s| s.period_residual),
                 bifurcation: s.and_then(|s| s.bifurcation).map(|b| format!("{b:?}")),
                 powell_measure: p.powell_measure,
                 newton_iterations: p.newton_iterations,

@@ -153,9 +153,13 @@ fn section(st: &ForcedStudy) -> String {
     let _ = writeln!(
         s,
         "\n![forced response](forced/frf.png)\n![max amplitude](forced/frf_max.png)\n\nSolid: \
-         stable, dashed: unstable, dotted: undetermined (Floquet multipliers of the \
-         variational equation along each orbit, switches located in time). Black: the \
-         backbone of the same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
+         stable, dashed: unstable, dotted: undetermined. Stability: Floquet multipliers of the \
+         variational equation along each orbit (switches located in time); a verdict is given \
+         only where one period of independent time integration of the penalty equation returns \
+         the orbit to its start within 1e-3 (`period_residual` in frf.csv): where it does not, \
+         the harmonic-balance orbit is not a periodic solution of the equation (contact \
+         dynamics beyond N harmonics) and the point is undetermined. Black: the backbone of the \
+         same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
     );
     s
 }

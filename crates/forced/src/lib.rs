@@ -21,6 +21,7 @@ mod error;
 mod frf;
 mod load;
 mod newton;
+mod period_check;
 mod solver;
 mod synthesis;
 

@@ -12,6 +12,7 @@ use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
 use crate::load::Load;
 use crate::newton::{contact_samples, ArcRow, InnerNewton, InnerTolerance, OrbitState};
+use crate::period_check::PeriodCheck;
 
 /// Newton iterations one forced point may spend over all of Algorithm 1's inner solves. A
 /// continuation step that needs more is cheaper retried shorter: on the blade a converged point
@@ -74,6 +75,7 @@ pub struct ForcedPoint {
 pub struct ForcedSolver<'s> {
     system: &'s System,
     damping: Mat<f64>,
+    load: Load,
     dynamics: ModalDynamics,
     basis: FullBasis,
     settings: ForcedSettings,
@@ -162,6 +164,7 @@ impl<'s> ForcedSolver<'s> {
         Ok(Self {
             system,
             damping: damping.clone(),
+            load: load.clone(),
             dynamics,
             basis,
             settings,
@@ -209,6 +212,22 @@ impl<'s> ForcedSolver<'s> {
             &orbit,
             period,
         )?)
+    }
+
+    /// One period of time integration of the penalty equation from the point's start, its
+    /// relative distance to the start (`period_check`); `None` for exact contact.
+    pub fn period_residual(&self, point: &ForcedPoint) -> Option<f64> {
+        let ContactMethod::Penalty { stiffness } = self.settings.algorithm.method else {
+            return None;
+        };
+        let mut check = PeriodCheck::new(
+            self.system,
+            &self.damping,
+            &self.load,
+            stiffness,
+            point.omega,
+        );
+        Some(check.residual(&point.coefficients))
     }
 
     /// The linear response at W (no contact force), theta = 0, kappa = kappa^(1).
