@@ -357,6 +357,9 @@ fn frf_figure(
                 .synthesis
                 .iter()
                 .filter_map(|s| s.flanks.map(|f| (f, s.q / g)))
+                .filter(|((lo, hi), _)| {
+                    lo / w >= st.settings.range[0] && hi / w <= st.settings.range[1]
+                })
                 .collect();
             if !pts.is_empty() {
                 let mut xs: Vec<f64> = pts.iter().map(|((lo, _), _)| lo / w).collect();
@@ -374,8 +377,13 @@ fn frf_figure(
         }
     }
     if let (Some(b), false) = (backbone, max_abs) {
-        let main: Vec<&crate::results::Orbit> =
-            b.points.iter().filter(|p| !b.on_tongue(p)).collect();
+        // The main branch over the swept range only.
+        let top = st.settings.range[1];
+        let main: Vec<&crate::results::Orbit> = b
+            .points
+            .iter()
+            .filter(|p| !b.on_tongue(p) && p.omega / w <= top)
+            .collect();
         let x: Vec<f64> = main.iter().map(|p| p.omega / w).collect();
         let y: Vec<f64> = main.iter().map(|p| p.q / g).collect();
         plot = plot.with_series(
@@ -385,6 +393,7 @@ fn frf_figure(
         );
     }
     let name = if max_abs { "frf_max" } else { "frf" };
+    let plot = plot.with_x_range(st.settings.range[0], st.settings.range[1]);
     plot.write_svg_and_png(&dir.join(name))?;
     Ok(())
 }
