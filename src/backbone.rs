@@ -114,7 +114,10 @@ pub fn truncation(
         .collect();
     let estimate = |p: &nlmodes_nnm::BackbonePoint| {
         nlmodes_nnm::truncation_estimate(system, harmonics, params, p)
-            .map_err(|e| tracing::warn!(q = p.q, error = %e, "truncation estimate failed"))
+            .map_err(|e| {
+                let q_over_g0 = p.q / system.gap_reference();
+                tracing::warn!(q_over_g0, error = %e, "truncation estimate failed")
+            })
             .ok()
     };
     for &i in &chosen {

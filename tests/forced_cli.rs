@@ -141,3 +141,27 @@ fn forced_command_writes_a_curve_that_is_linear_below_grazing_and_clipped_above(
     }
     assert_eq!(json["curves"][1]["termination"], "complete");
 }
+
+/// Issue 24: progress and log lines written to a pipe or a file carry no ANSI colour codes.
+#[test]
+fn logs_redirected_to_a_file_carry_no_colour_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/beam.geo");
+    let out = Command::new(env!("CARGO_BIN_EXE_nlmodes"))
+        .args(["mesh", geo.to_str().unwrap(), "-o"])
+        .arg(dir.path().join("beam.msh"))
+        .env_remove("NO_COLOR")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(log.contains("stage mesh"), "no log line: {log}");
+    assert!(
+        !log.contains('\u{1b}'),
+        "colour codes in a redirected log: {log:?}"
+    );
+}

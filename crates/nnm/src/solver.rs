@@ -324,7 +324,7 @@ impl<'s> Solver<'s> {
         }
         if report.stalled {
             tracing::debug!(
-                q = point.q,
+                q_over_g0 = point.q / self.system.gap_reference(),
                 measure = report.measure,
                 epsilon = self.params.epsilon,
                 "Algorithm 1 stalled above epsilon: point accepted at its last accepted iterate"
@@ -332,7 +332,7 @@ impl<'s> Solver<'s> {
         }
         if truncation_warning {
             tracing::debug!(
-                q = point.q,
+                q_over_g0 = point.q / self.system.gap_reference(),
                 share = truncation_share,
                 limit = self.params.truncation_warning,
                 "highest harmonic holds a large share of the contact motion: N = {} may be too small",

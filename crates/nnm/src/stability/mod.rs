@@ -275,7 +275,11 @@ pub fn analyze_backbone(
             }
             Err(e) => {
                 failed += 1;
-                tracing::warn!(q = backbone.points[i].q, error = %e, "Floquet analysis failed");
+                tracing::warn!(
+                    q_over_g0 = backbone.points[i].q / backbone.gap_reference,
+                    error = %e,
+                    "Floquet analysis failed"
+                );
             }
         }
         progress(i + 1, total);

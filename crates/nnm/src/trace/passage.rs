@@ -113,7 +113,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                             return true;
                         }
                         tracing::debug!(
-                            q = p.q,
+                            q_over_g0 = p.q / self.result.gap_reference,
                             omega_ratio = p.omega_ratio,
                             ahead,
                             near,
@@ -251,8 +251,15 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
                         self.land_past(main, p, &along_q, &xl);
                         return true;
                     }
-                    Ok(p) => tracing::debug!(q = p.q, "hop landed in a tongue or on another mode"),
-                    Err(e) => tracing::debug!(q, error = %e, "hop failed"),
+                    Ok(p) => tracing::debug!(
+                        q_over_g0 = p.q / self.result.gap_reference,
+                        "hop landed in a tongue or on another mode"
+                    ),
+                    Err(e) => tracing::debug!(
+                        q_over_g0 = q / self.result.gap_reference,
+                        error = %e,
+                        "hop failed"
+                    ),
                 }
             }
         }

@@ -96,7 +96,11 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             }
             if p.fold {
                 trace.folds += 1;
-                tracing::info!(q = p.q, omega = p.omega, "turning point of q (fold) passed");
+                tracing::info!(
+                    q_over_g0 = p.q / self.result.gap_reference,
+                    omega_ratio = p.omega_ratio,
+                    "turning point of q (fold) passed"
+                );
             }
             trace.dq_sign = sign;
         }
@@ -104,8 +108,8 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         p.pre_fold = trace.id == 1 && trace.folds == 0 && trace.dq_sign < 0.0 && !p.fold;
         if p.jump {
             tracing::debug!(
-                q = p.q,
-                omega = p.omega,
+                q_over_g0 = p.q / self.result.gap_reference,
+                omega_ratio = p.omega_ratio,
                 "step at its minimum: accepted a jump"
             );
         }

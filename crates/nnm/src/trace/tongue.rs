@@ -167,7 +167,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         let passed = self.step_past(trace).is_some();
         if passed {
             tracing::info!(
-                q = self.last_point(trace).q,
+                q_over_g0 = self.last_point(trace).q / self.result.gap_reference,
                 "continued past a corner of the main branch"
             );
         }
