@@ -46,11 +46,13 @@ pub enum LevelUnit {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ForcedSection {
-    /// Run the forced study in `nlmodes run` (default false: no `[forced]` table, no stage).
+    /// Run the forced study in `nlmodes run` (default true, as in cases/blade.toml: the defaults
+    /// are the default study's; `enabled = false` leaves the stage out).
     pub enabled: bool,
     /// Linear mode swept around (0-based).
     pub mode: usize,
-    /// Frequency range [start, end] as W / w_mode; the curve starts from the linear response.
+    /// Frequency range [start, end] as W / w_mode (default [0.9, 1.2]); the curve starts from
+    /// the linear response.
     pub range: [f64; 2],
     /// Highest harmonic N of the response.
     pub harmonics: usize,
@@ -84,9 +86,9 @@ pub struct ForcedSection {
 impl Default for ForcedSection {
     fn default() -> Self {
         Self {
-            enabled: false,
+            enabled: true,
             mode: 0,
-            range: [0.9, 1.3],
+            range: [0.9, 1.2],
             harmonics: 10,
             samples: 0,
             harmonic: 1,

@@ -50,6 +50,9 @@ frames = 6
 q_start = 0.5
 q_max = 14.0
 {extra}
+[forced]
+# The forced stage has its own end-to-end test (tests/forced_cli.rs).
+enabled = false
 "#,
         results = dir.join("results").display(),
         geo = geo.display(),

@@ -165,3 +165,52 @@ fn logs_redirected_to_a_file_carry_no_colour_codes() {
         "colour codes in a redirected log: {log:?}"
     );
 }
+
+/// The `forced` stage of `nlmodes run`: after the backbone, before the report (which shows it);
+/// up to date on a rerun; a change of `[forced]` reruns it and nothing upstream.
+#[test]
+fn forced_stage_of_a_case_reruns_only_when_its_inputs_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo");
+    let case = |levels: &str| {
+        format!(
+            "name = \"coarse\"\nresults_dir = \"{}\"\n[mesh]\ngeo = \"{}\"\n[mesh.parameters]\n\
+             mesh_size = 0.012\n[model]\nfixed_interface_modes = 20\nlinear_modes = 6\n\
+             full_check = \"off\"\n[nnm]\nkeep = [3.0]\nframes = 4\n[continuation]\nq_max = 8.0\n\
+             [forced]\nenabled = true\nharmonics = 8\nrange = [0.95, 1.15]\nlevels = {levels}\n\
+             penalty_factor = 10\nstability = false\n",
+            dir.path().join("results").display(),
+            geo.display()
+        )
+    };
+    let path = dir.path().join("coarse.toml");
+    std::fs::write(&path, case("[0.5]")).unwrap();
+    let run = || {
+        let out = Command::new(env!("CARGO_BIN_EXE_nlmodes"))
+            .args(["run", path.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let log = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(out.status.success(), "{log}");
+        log
+    };
+    let first = run();
+    assert!(first.contains("stage forced: started"), "{first}");
+    let res = dir.path().join("results/coarse");
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(
+        report.contains("## Forced response") && report.contains("forced/frf.png"),
+        "no forced section"
+    );
+    assert!(res.join("forced/frf.csv").exists() && res.join("forced/frf.png").exists());
+    let again = run();
+    assert!(again.contains("stage forced: up to date"), "{again}");
+    std::fs::write(&path, case("[0.5, 0.8]")).unwrap();
+    let changed = run();
+    assert!(changed.contains("stage forced: started"), "{changed}");
+    assert!(changed.contains("stage backbone: up to date"), "{changed}");
+}
