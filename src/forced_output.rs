@@ -154,7 +154,7 @@ pub fn frf_csv(st: &ForcedStudy) -> Result<CsvTable> {
 
 /// One orbit in `frf.json`.
 #[derive(Serialize)]
-struct OrbitRecord<'a> {
+struct OrbitRecord {
     omega: f64,
     /// Reduced coefficients per coordinate: [u0, a1, b1, ..., aN, bN] (m).
     coefficients: Vec<Vec<f64>>,
@@ -165,8 +165,6 @@ struct OrbitRecord<'a> {
     bifurcation: Option<String>,
     powell_measure: f64,
     newton_iterations: usize,
-    #[serde(skip)]
-    _point: std::marker::PhantomData<&'a ()>,
 }
 
 #[derive(Serialize)]
@@ -178,7 +176,7 @@ struct CurveRecord<'a> {
     hops: &'a [usize],
     jump_frequencies_rad_s: Vec<f64>,
     synthesis: Vec<[f64; 4]>,
-    orbits: Vec<OrbitRecord<'a>>,
+    orbits: Vec<OrbitRecord>,
 }
 
 #[derive(Serialize)]
@@ -227,7 +225,6 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
                 bifurcation: s.and_then(|s| s.bifurcation).map(|b| format!("{b:?}")),
                 powell_measure: p.powell_measure,
                 newton_iterations: p.newton_iterations,
-                _point: std::marker::PhantomData,
             }
         })
         .collect();
@@ -324,7 +321,7 @@ fn frf_figure(
     let mut plot = LinePlot::new(title, "excitation frequency W / w_mode", ylabel);
     let amp = |p: &ForcedPoint| {
         if max_abs {
-            max_abs_of(p, st.master) / g
+            max_abs(p, st.master) / g
         } else {
             harmonic(p, st.master, 1).0 / g
         }
@@ -333,10 +330,10 @@ fn frf_figure(
         let color = PALETTE[k % PALETTE.len()];
         let mut labelled = false;
         for (v, idx) in verdict_runs(c) {
-            let (style, word) = match v {
-                Some(Verdict::Unstable) => (LineStyle::Dashed, "unstable"),
-                Some(Verdict::Undetermined) => (LineStyle::Dotted, "undetermined"),
-                _ => (LineStyle::Solid, "stable"),
+            let style = match v {
+                Some(Verdict::Unstable) => LineStyle::Dashed,
+                Some(Verdict::Undetermined) => LineStyle::Dotted,
+                _ => LineStyle::Solid,
             };
             let x: Vec<f64> = idx
                 .iter()
@@ -349,7 +346,6 @@ fn frf_figure(
                 format!("level {} ({:.3e} N)", c.level, c.force)
             };
             labelled = true;
-            let _ = word;
             plot = plot.with_series(Series::new(label, x, y).color(color).style(style));
         }
         if !max_abs {
@@ -396,10 +392,6 @@ fn frf_figure(
     let plot = plot.with_x_range(st.settings.range[0], st.settings.range[1]);
     plot.write_svg_and_png(&dir.join(name))?;
     Ok(())
-}
-
-fn max_abs_of(p: &ForcedPoint, i: usize) -> f64 {
-    max_abs(p, i)
 }
 
 /// The lines printed after a forced run.
