@@ -22,7 +22,7 @@ fn harmonic(p: &ForcedPoint, i: usize, h: usize) -> (f64, f64) {
 }
 
 /// max over the period of |u_i(t)| on 512 points.
-fn max_abs(p: &ForcedPoint, i: usize) -> f64 {
+fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
     let t = p.coefficients.ncols();
     let c: Vec<f64> = (0..t).map(|k| p.coefficients[(i, k)]).collect();
     (0..512)
@@ -102,7 +102,7 @@ fn push_curve(table: &mut CsvTable, st: &ForcedStudy, curve: &ForcedCurve) -> Re
     let r = &curve.response;
     for (i, p) in r.points.iter().enumerate() {
         let (q1, _) = harmonic(p, st.master, 1);
-        let mmax = max_abs(p, st.master);
+        let mmax = max_abs_over_period(p, st.master);
         let mut row: Vec<CsvValue> = vec![
             curve.level.into(),
             curve.force.into(),
@@ -321,7 +321,7 @@ fn frf_figure(
     let mut plot = LinePlot::new(title, "excitation frequency W / w_mode", ylabel);
     let amp = |p: &ForcedPoint| {
         if max_abs {
-            max_abs(p, st.master) / g
+            max_abs_over_period(p, st.master) / g
         } else {
             harmonic(p, st.master, 1).0 / g
         }
