@@ -130,9 +130,13 @@ fn force_of(
 pub fn run(
     system: &System,
     s: &ForcedSection,
+    damping_matrix: Option<Mat<f64>>,
     backbone: Option<&BackboneFile>,
 ) -> Result<ForcedStudy> {
-    let c = s.damping().matrix(system)?;
+    let c = s
+        .damping(damping_matrix)
+        .matrix(system)
+        .map_err(|e| bad_input(format!("[forced] damping: {e}")))?;
     let ratios = modal_ratios(system, &c);
     let (shape, excitation) = pattern(system, s)?;
     let mut settings = ForcedSettings::new(s.harmonics)?;

@@ -67,6 +67,9 @@ pub struct ForcedSection {
     pub damping_ratios: Vec<f64>,
     /// Rayleigh damping [alpha (1/s), beta (s)]: C = alpha M + beta K.
     pub rayleigh: Option<[f64; 2]>,
+    /// Take C from `C.mtx` of the reduced-model directory (a symmetric Matrix Market file of
+    /// the model's order, N s/m), for a model that brings its own damping.
+    pub damping_matrix: bool,
     /// The load pattern.
     pub load: ForcedLoadKind,
     /// The mode of `load = "mode"` (0-based).
@@ -95,6 +98,7 @@ impl Default for ForcedSection {
             damping_ratio: 0.003,
             damping_ratios: Vec::new(),
             rayleigh: None,
+            damping_matrix: false,
             load: ForcedLoadKind::Master,
             load_mode: 0,
             levels: vec![0.5, 2.0, 5.0],
@@ -187,8 +191,11 @@ impl ForcedSection {
         );
     }
 
-    /// The damping definition.
-    pub fn damping(&self) -> nlmodes_forced::Damping {
+    /// The damping definition; `matrix` is the model's C.mtx when `damping_matrix` is set.
+    pub fn damping(&self, matrix: Option<faer::Mat<f64>>) -> nlmodes_forced::Damping {
+        if let Some(c) = matrix {
+            return nlmodes_forced::Damping::Matrix(c);
+        }
         match (self.rayleigh, self.damping_ratios.is_empty()) {
             (Some([alpha, beta]), _) => nlmodes_forced::Damping::Rayleigh { alpha, beta },
             (None, false) => nlmodes_forced::Damping::ModalRatios(self.damping_ratios.clone()),
@@ -211,4 +218,24 @@ pub fn load(path: &std::path::Path) -> anyhow::Result<ForcedSection> {
             .try_into()
             .map_err(|e| crate::exit::bad_input(format!("{}: [forced]: {e}", path.display()))),
     }
+}
+
+/// The model's `C.mtx` when `[forced] damping_matrix` asks for it; a missing or unreadable file
+/// is bad input naming it.
+pub fn damping_matrix(
+    s: &ForcedSection,
+    model_dir: &std::path::Path,
+) -> anyhow::Result<Option<faer::Mat<f64>>> {
+    if !s.damping_matrix {
+        return Ok(None);
+    }
+    let path = model_dir.join("C.mtx");
+    nlmodes_modal::matrix_market::read_symmetric_dense(&path)
+        .map(Some)
+        .map_err(|e| {
+            crate::exit::bad_input(format!(
+                "forced.damping_matrix = true: cannot read {}: {e}",
+                path.display()
+            ))
+        })
 }

@@ -214,3 +214,72 @@ fn forced_stage_of_a_case_reruns_only_when_its_inputs_change() {
     assert!(changed.contains("stage forced: started"), "{changed}");
     assert!(changed.contains("stage backbone: up to date"), "{changed}");
 }
+
+/// `[forced] damping_matrix = true` reads C.mtx of the reduced-model directory: a C.mtx equal
+/// to alpha M + beta K gives the curve of `rayleigh = [alpha, beta]` (to the printed digits of
+/// the CSV's first harmonic, 1e-9 relative: the same C up to the file's round trip); a C.mtx of
+/// the wrong size is refused naming the file.
+#[test]
+fn a_damping_matrix_file_gives_the_curve_of_the_same_rayleigh_damping() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = coarse_model(dir.path());
+    let reduced = nlmodes_modal::ReducedModel::read(&model).unwrap();
+    let (alpha, beta) = (2.0, 4e-6);
+    let n = reduced.m.nrows();
+    let c = faer::Mat::from_fn(n, n, |i, j| {
+        alpha * reduced.m[(i, j)] + beta * reduced.k[(i, j)]
+    });
+    nlmodes_modal::matrix_market::write_symmetric_dense(&model.join("C.mtx"), c.as_ref(), "C")
+        .unwrap();
+    let common = "harmonics = 4\nrange = [0.97, 1.03]\nlevels = [0.5]\nstability = false\n";
+    let run = |damping: &str, tag: &str| {
+        let settings = dir.path().join(format!("{tag}.toml"));
+        std::fs::write(&settings, format!("[forced]\n{common}{damping}")).unwrap();
+        let out = dir.path().join(tag);
+        ok(&[
+            "forced",
+            model.to_str().unwrap(),
+            "--settings",
+            settings.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        numbers(&column(
+            &std::fs::read_to_string(out.join("frf.csv")).unwrap(),
+            0.5,
+            "q1_over_g0",
+        ))
+    };
+    let from_file = run("damping_matrix = true\n", "file");
+    let rayleigh = run(&format!("rayleigh = [{alpha}, {beta}]\n"), "rayleigh");
+    assert_eq!(from_file.len(), rayleigh.len());
+    for (a, b) in from_file.iter().zip(&rayleigh) {
+        assert!((a - b).abs() <= 1e-9 * b.abs(), "{a} vs {b}");
+    }
+    // A C.mtx of another order.
+    let small = faer::Mat::<f64>::identity(3, 3);
+    nlmodes_modal::matrix_market::write_symmetric_dense(&model.join("C.mtx"), small.as_ref(), "C")
+        .unwrap();
+    let settings = dir.path().join("bad.toml");
+    std::fs::write(
+        &settings,
+        format!("[forced]\n{common}damping_matrix = true\n"),
+    )
+    .unwrap();
+    let out = nlmodes(&[
+        "forced",
+        model.to_str().unwrap(),
+        "--settings",
+        settings.to_str().unwrap(),
+        "-o",
+        dir.path().join("bad").to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("damping") && err.contains('3'), "{err}");
+}
