@@ -179,21 +179,31 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
             b.points.len()
         );
     }
-    let unstable = b
-        .points
-        .iter()
-        .filter(|p| p.stability.as_ref().is_some_and(|s| !s.stable))
-        .count();
+    let count = |word: &str| {
+        b.points
+            .iter()
+            .filter_map(|p| p.stability.as_ref())
+            .filter(|s| {
+                nlmodes_nnm::verdict_word(s.stable, s.max_multiplier_abs, s.trivial_pair_error)
+                    == word
+            })
+            .count()
+    };
     let bifurcations = b.points.iter().filter(|p| p.bifurcation.is_some()).count();
     stage.done(&format!(
-        "{} points analysed, {unstable} unstable, {bifurcations} bifurcations",
-        b.points.len() - failed
+        "{} points analysed: {} stable, {} unstable, {} undetermined (trivial-pair error above \
+         {} or above |mu| - 1), {bifurcations} bifurcations",
+        b.points.len() - failed,
+        count("stable"),
+        count("unstable"),
+        count("undetermined"),
+        nlmodes_nnm::TRIVIAL_PAIR_LIMIT
     ));
     Ok(())
 }
 
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 33] = [
+pub const CSV_COLUMNS: [&str; 34] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -227,6 +237,7 @@ pub const CSV_COLUMNS: [&str; 33] = [
     "truncation_omega_change",
     "truncation_share_change",
     "truncation_same_orbit",
+    "stability",
 ];
 
 /// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
@@ -279,6 +290,11 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
         row.push(text(trunc.map(|t| t.omega_change.to_string())));
         row.push(text(trunc.map(|t| t.contact_share_change.to_string())));
         row.push(text(trunc.map(|t| u8::from(t.same_orbit).to_string())));
+        // stable / unstable / undetermined (the trivial pair's confidence, issue 24).
+        row.push(text(stab.map(|s| {
+            nlmodes_nnm::verdict_word(s.stable, s.max_multiplier_abs, s.trivial_pair_error)
+                .to_string()
+        })));
         table
             .push_row(row)
             .with_context(|| format!("backbone point {i}"))?;

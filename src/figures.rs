@@ -59,11 +59,13 @@ struct Labelled {
     stable: bool,
     tongue: bool,
     unstable: bool,
+    undetermined: bool,
     passage: bool,
 }
 
 /// Adds one connected piece of a branch to `plot`, starting at `start` (its parent's point, or
-/// none): runs of equal stability, stable (or not analysed) solid, unstable dashed.
+/// none): runs of equal stability, stable (or not analysed) solid, unstable dashed,
+/// undetermined dotted.
 fn add_piece(
     mut plot: LinePlot,
     pts: &[&Orbit],
@@ -75,10 +77,11 @@ fn add_piece(
     const TONGUE: Color = Color(0x9e, 0xc5, 0xe8);
     let mut run_start = 0;
     for k in 1..=pts.len() {
-        if k < pts.len() && pts[k].unstable() == pts[run_start].unstable() {
+        if k < pts.len() && pts[k].verdict() == pts[run_start].verdict() {
             continue;
         }
         let unstable = pts[run_start].unstable();
+        let undetermined = pts[run_start].verdict() == Some("undetermined");
         // The first run starts at `start`, the others overlap the previous run by one point, so
         // that the curve stays connected.
         let head = if run_start == 0 {
@@ -90,10 +93,14 @@ fn add_piece(
             .into_iter()
             .chain(pts[run_start..k].iter().copied())
             .collect();
-        let (label, seen) = match (tongue, unstable) {
-            (true, _) => ("internal-resonance tongues", &mut labelled.tongue),
-            (false, false) => ("backbone (stable)", &mut labelled.stable),
-            (false, true) => ("unstable (dashed)", &mut labelled.unstable),
+        let (label, seen) = match (tongue, unstable, undetermined) {
+            (true, _, _) => ("internal-resonance tongues", &mut labelled.tongue),
+            (false, true, _) => ("unstable (dashed)", &mut labelled.unstable),
+            (false, false, true) => (
+                "stability undetermined (dotted)",
+                &mut labelled.undetermined,
+            ),
+            (false, false, false) => ("backbone (stable)", &mut labelled.stable),
         };
         let name = if *seen { "" } else { label };
         *seen = true;
@@ -109,6 +116,8 @@ fn add_piece(
         };
         plot = plot.with_series(if unstable {
             series.style(LineStyle::Dashed)
+        } else if undetermined {
+            series.style(LineStyle::Dotted)
         } else {
             series
         });

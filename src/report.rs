@@ -119,8 +119,10 @@ pub fn write_report(
         s,
         "## Backbone (Fig. 3a) and frequency-energy plot\n\n![backbone](backbone.png)\n\
          ![frequency-energy](frequency_energy.png)\n\n\
-         The linear segment and the main branch are drawn in blue (dashed where unstable), \
-         internal-resonance tongues (branches where harmonic n of the orbit drives another linear \
+         The linear segment and the main branch are drawn in blue (dashed where unstable, \
+         dotted where the stability is undetermined: the trivial Floquet pair is off 1 by more \
+         than 0.05 or by more than the unstable multiplier is off the unit circle; the \
+         `stability` column of the CSV), internal-resonance tongues (branches where harmonic n of the orbit drives another linear \
          mode k, n w near w_k) in light blue; `backbone/backbone.csv` gives every point with its \
          `branch` and `branch_kind`.\n"
     );

@@ -77,9 +77,17 @@ pub struct StabilityRecord {
 }
 
 impl Orbit {
-    /// Whether the point is known to be unstable.
+    /// `stable`, `unstable` or `undetermined` (`nlmodes_nnm::verdict_word`); `None` where the
+    /// stability was not computed.
+    pub fn verdict(&self) -> Option<&'static str> {
+        self.stability.as_ref().map(|s| {
+            nlmodes_nnm::verdict_word(s.stable, s.max_multiplier_abs, s.trivial_pair_error)
+        })
+    }
+
+    /// Whether the point is known to be unstable (a determined verdict).
     pub fn unstable(&self) -> bool {
-        self.stability.as_ref().is_some_and(|s| !s.stable)
+        self.verdict() == Some("unstable")
     }
 
     /// Period T = 2 pi / w (s).

@@ -97,9 +97,9 @@ pub use nlmodes_hb::{
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
 pub use stability::{
-    analyze_backbone, classify, floquet, monodromy_by_integration, Bifurcation, FloquetAnalysis,
-    FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability, StabilityMethod,
-    UnstableCounts,
+    analyze_backbone, classify, floquet, monodromy_by_integration, verdict_word, Bifurcation,
+    FloquetAnalysis, FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability,
+    StabilityMethod, UnstableCounts, TRIVIAL_PAIR_LIMIT,
 };
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};

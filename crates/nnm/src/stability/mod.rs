@@ -206,6 +206,31 @@ pub enum StabilityMethod {
     Saltation,
 }
 
+/// Largest trivial-pair error at which a verdict is given. The trivial pair is exactly 1 for
+/// the exact orbit; computed off by more than this, the moduli of the other multipliers are
+/// uncertain by as much and a verdict would be a guess (issue 24: on the blade 145 of 155
+/// augmented-Lagrangian points had errors above 0.05, median 1.3).
+pub const TRIVIAL_PAIR_LIMIT: f64 = 0.05;
+
+/// The word of a point's stability: `undetermined` when the trivial-pair error passes
+/// [`TRIVIAL_PAIR_LIMIT`], or when the point is flagged unstable by less than that error
+/// (|mu|_max - 1 <= trivial-pair error); else `stable` or `unstable`.
+pub fn verdict_word(
+    stable: bool,
+    max_multiplier_abs: f64,
+    trivial_pair_error: f64,
+) -> &'static str {
+    if trivial_pair_error.is_nan() || trivial_pair_error > TRIVIAL_PAIR_LIMIT {
+        "undetermined"
+    } else if stable {
+        "stable"
+    } else if max_multiplier_abs - 1.0 <= trivial_pair_error {
+        "undetermined"
+    } else {
+        "unstable"
+    }
+}
+
 /// Floquet stability of one orbit (Hill's method or the event-based monodromy).
 #[derive(Clone, Debug, Serialize)]
 pub struct Stability {
@@ -306,4 +331,21 @@ pub(crate) fn sort_multipliers(values: &mut [[f64; 2]]) {
             .total_cmp(&key(a))
             .then(a[1].atan2(a[0]).total_cmp(&b[1].atan2(b[0])))
     });
+}
+
+#[cfg(test)]
+mod verdict_tests {
+    use super::*;
+
+    #[test]
+    fn a_verdict_needs_a_trivial_pair_closer_to_one_than_the_decision() {
+        assert_eq!(verdict_word(true, 1.0, 1e-8), "stable");
+        assert_eq!(verdict_word(false, 1.5, 1e-3), "unstable");
+        // Unstable by less than the trivial pair's own error.
+        assert_eq!(verdict_word(false, 1.01, 0.02), "undetermined");
+        // Past the limit, whatever the flag.
+        assert_eq!(verdict_word(true, 1.0, 0.2), "undetermined");
+        assert_eq!(verdict_word(false, 3.0, 0.2), "undetermined");
+        assert_eq!(verdict_word(true, 1.0, f64::NAN), "undetermined");
+    }
 }
