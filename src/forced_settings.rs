@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::validate::Problems;
+use crate::problems::Problems;
 
 /// The contact law of the forced study.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -13,7 +13,7 @@ use crate::case::Case;
 use crate::forced::ForcedStudy;
 use crate::layout::Layout;
 use crate::results::BackboneFile;
-use crate::run::fnv1a;
+use crate::stage_hash::fnv1a;
 
 /// The stage: its inputs and where it writes.
 pub struct ForcedStage<'a> {

@@ -15,11 +15,13 @@ mod gmsh;
 mod layout;
 mod output;
 mod post;
+mod problems;
 mod reduce;
 mod render;
 mod report;
 mod results;
 mod run;
+mod stage_hash;
 mod ui;
 mod validate;
 

@@ -12,19 +12,8 @@ use std::path::{Path, PathBuf};
 use crate::case::{Case, MasterChoice};
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
+use crate::stage_hash::fnv1a;
 use crate::{backbone, gmsh, post, reduce, ui};
-
-/// FNV-1a, 64 bit: a stable hash of stage inputs (stable across Rust versions, unlike `DefaultHasher`).
-pub fn fnv1a(parts: &[&[u8]]) -> String {
-    let mut h: u64 = 0xcbf29ce484222325;
-    for p in parts {
-        for &b in p.iter().chain(&[0xff]) {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x100000001b3);
-        }
-    }
-    format!("{h:016x}")
-}
 
 /// A stage is up to date when its stamp holds `hash` and every output exists.
 fn up_to_date(layout: &Layout, stage: &str, hash: &str, outputs: &[PathBuf]) -> bool {

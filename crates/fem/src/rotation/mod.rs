@@ -38,8 +38,8 @@ pub use model::{ResidualAndTangent, RotatingModel, StressField};
 pub use points::PointGeometry;
 pub use prestress::{max_over_nodes, von_mises};
 pub use static_solve::{Kinematics, LoadStep, NewtonOptions, StaticSolution};
-pub use stress_stiffness::{linear_stress_at, stress_stiffness_element};
+pub use stress_stiffness::{linear_stress_at, stress_stiffness_element, svk_stress};
 pub use total_lagrangian::{
     cauchy_stress, deformation_gradient, displacement_gradient, green_lagrange,
-    internal_force_and_tangent_element, svk_stress,
+    internal_force_and_tangent_element,
 };

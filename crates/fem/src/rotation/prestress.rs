@@ -9,8 +9,9 @@ use crate::rotation::element_ref::ElementRef;
 use crate::rotation::global::gather;
 use crate::rotation::model::RotatingModel;
 use crate::rotation::static_solve::{Kinematics, StaticSolution};
+use crate::rotation::stress_stiffness::svk_stress;
 use crate::rotation::total_lagrangian::{
-    cauchy_stress, deformation_gradient, displacement_gradient, green_lagrange, svk_stress,
+    cauchy_stress, deformation_gradient, displacement_gradient, green_lagrange,
 };
 use crate::shape;
 

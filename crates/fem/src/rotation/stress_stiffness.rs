@@ -5,6 +5,7 @@
 //! total-Lagrangian tangent ([`crate::rotation::total_lagrangian`]).
 
 use crate::error::FemError;
+use crate::material::Lame;
 use crate::rotation::axis::{dot, mat_vec, Mat3};
 use crate::rotation::element_ref::{mirror_upper, ElementRef};
 use crate::rotation::points::{for_each_point, nonlinear_rule, PointGeometry};
@@ -62,5 +63,16 @@ pub fn linear_stress_at(
             }
         }
     }
-    crate::rotation::total_lagrangian::svk_stress(&eps, lame)
+    svk_stress(&eps, lame)
+}
+
+/// St Venant-Kirchhoff stress S = lambda tr(E) I + 2 mu E (Pa) of a symmetric strain E;
+/// with the small strain in place of E it is Hooke's law of [`crate::material`].
+pub fn svk_stress(e: &Mat3, lame: Lame) -> Mat3 {
+    let tr = e[0][0] + e[1][1] + e[2][2];
+    let mut s = e.map(|row| row.map(|v| 2.0 * lame.mu * v));
+    for (i, row) in s.iter_mut().enumerate() {
+        row[i] += lame.lambda * tr;
+    }
+    s
 }

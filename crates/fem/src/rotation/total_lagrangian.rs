@@ -20,7 +20,7 @@ use crate::material::Lame;
 use crate::rotation::axis::{dot, mat_vec, Mat3};
 use crate::rotation::element_ref::{mirror_upper, ElementRef};
 use crate::rotation::points::{for_each_point, nonlinear_rule, PointGeometry};
-use crate::rotation::stress_stiffness::add_geometric_blocks;
+use crate::rotation::stress_stiffness::{add_geometric_blocks, svk_stress};
 
 /// Displacement gradient H = du/dX = sum_a u_a G_a^T at a point (`u_e` in element DOF order,
 /// m; `gradients` dN_a/dX, 1/m).
@@ -59,17 +59,6 @@ pub fn green_lagrange(h: &Mat3) -> Mat3 {
         }
     }
     e
-}
-
-/// St Venant-Kirchhoff stress S = lambda tr(E) I + 2 mu E (Pa) of a symmetric strain E;
-/// with the small strain in place of E it is Hooke's law of [`crate::material`].
-pub fn svk_stress(e: &Mat3, lame: Lame) -> Mat3 {
-    let tr = e[0][0] + e[1][1] + e[2][2];
-    let mut s = e.map(|row| row.map(|v| 2.0 * lame.mu * v));
-    for (i, row) in s.iter_mut().enumerate() {
-        row[i] += lame.lambda * tr;
-    }
-    s
 }
 
 /// Cauchy stress sigma = F S F^T / det F (Pa) from the second Piola-Kirchhoff stress S.
