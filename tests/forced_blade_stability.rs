@@ -20,8 +20,9 @@
 //!   mass, rings far above the N harmonics), so no determined unstable point is left to check;
 //!   the stable points out of contact have d_0 = 5e-6.
 
-use std::path::{Path, PathBuf};
 use std::process::Command;
+
+mod common;
 
 use faer::Mat;
 use nlmodes_forced::Damping;
@@ -43,31 +44,6 @@ fn ok(args: &[&str]) {
         "nlmodes {args:?}:\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-fn coarse_model(dir: &Path) -> PathBuf {
-    let mesh = dir.join("coarse.msh");
-    let model = dir.join("model");
-    let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo");
-    ok(&[
-        "mesh",
-        geo.to_str().unwrap(),
-        "-o",
-        mesh.to_str().unwrap(),
-        "--set",
-        "mesh_size=0.012",
-    ]);
-    ok(&[
-        "reduce",
-        mesh.to_str().unwrap(),
-        "--modes",
-        "20",
-        "--compare",
-        "0",
-        "-o",
-        model.to_str().unwrap(),
-    ]);
-    model
 }
 
 /// The penalty equation integrated by the trapezoidal rule (Newmark, gamma = 1/2, beta = 1/4:
@@ -256,7 +232,7 @@ fn highest_frequency(system: &System, kc: f64) -> f64 {
 #[test]
 fn stability_verdicts_of_the_blade_agree_with_time_integration() {
     let dir = tempfile::tempdir().unwrap();
-    let model_dir = coarse_model(dir.path());
+    let model_dir = common::coarse_blade_model(dir.path());
     let settings = dir.path().join("forced.toml");
     std::fs::write(
         &settings,

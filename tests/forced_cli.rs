@@ -10,8 +10,10 @@
 //!
 //! Cost: mesh + reduction 2 s, the forced run about 12 s (N = 8, two levels, stability).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
+
+mod common;
 
 fn nlmodes(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_nlmodes"))
@@ -29,31 +31,6 @@ fn ok(args: &[&str]) {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
-}
-
-fn coarse_model(dir: &Path) -> PathBuf {
-    let mesh = dir.join("coarse.msh");
-    let model = dir.join("model");
-    let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo");
-    ok(&[
-        "mesh",
-        geo.to_str().unwrap(),
-        "-o",
-        mesh.to_str().unwrap(),
-        "--set",
-        "mesh_size=0.012",
-    ]);
-    ok(&[
-        "reduce",
-        mesh.to_str().unwrap(),
-        "--modes",
-        "20",
-        "--compare",
-        "0",
-        "-o",
-        model.to_str().unwrap(),
-    ]);
-    model
 }
 
 /// Column `name` of frf.csv for the rows of `level`.
@@ -78,7 +55,7 @@ fn numbers(v: &[String]) -> Vec<f64> {
 #[test]
 fn forced_command_writes_a_curve_that_is_linear_below_grazing_and_clipped_above() {
     let dir = tempfile::tempdir().unwrap();
-    let model = coarse_model(dir.path());
+    let model = common::coarse_blade_model(dir.path());
     let settings = dir.path().join("forced.toml");
     std::fs::write(
         &settings,
@@ -222,7 +199,7 @@ fn forced_stage_of_a_case_reruns_only_when_its_inputs_change() {
 #[test]
 fn a_damping_matrix_file_gives_the_curve_of_the_same_rayleigh_damping() {
     let dir = tempfile::tempdir().unwrap();
-    let model = coarse_model(dir.path());
+    let model = common::coarse_blade_model(dir.path());
     let reduced = nlmodes_modal::ReducedModel::read(&model).unwrap();
     let (alpha, beta) = (2.0, 4e-6);
     let n = reduced.m.nrows();

@@ -217,3 +217,40 @@ pub fn timed<T>(label: &str, f: impl FnOnce() -> T) -> T {
     eprintln!("{label}: {:.2} s", start.elapsed().as_secs_f64());
     out
 }
+
+/// The coarse blade (meshes/blade.geo at mesh_size 0.012, about 8k DOFs) reduced onto its tip
+/// edge with 20 fixed-interface modes, through the command a user runs: `nlmodes mesh` and
+/// `nlmodes reduce` into `dir`; returns the reduced-model directory. About 2 s.
+pub fn coarse_blade_model(dir: &Path) -> PathBuf {
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_nlmodes"))
+            .arg("--quiet")
+            .args(args)
+            .output()
+            .expect("cannot start nlmodes");
+        assert!(
+            out.status.success(),
+            "nlmodes {args:?} failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let (mesh, model) = (dir.join("coarse.msh"), dir.join("model"));
+    let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo");
+    let (geo, mesh_s, model_s) = (
+        geo.to_str().unwrap(),
+        mesh.to_str().unwrap(),
+        model.to_str().unwrap(),
+    );
+    run(&["mesh", geo, "-o", mesh_s, "--set", "mesh_size=0.012"]);
+    run(&[
+        "reduce",
+        mesh_s,
+        "--modes",
+        "20",
+        "--compare",
+        "0",
+        "-o",
+        model_s,
+    ]);
+    model
+}
