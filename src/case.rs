@@ -33,6 +33,10 @@ pub struct Case {
     pub stability: StabilitySection,
     /// The forced-response study (issue 22): `crate::forced_settings::ForcedSection`.
     pub forced: crate::forced_settings::ForcedSection,
+    /// The rotating blade (issue 23): `crate::rotation_settings::RotationSection`; absent, the
+    /// blade is at rest and every stage gives today's results.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<crate::rotation_settings::RotationSection>,
 }
 
 /// `[stability]`: Floquet multipliers of every backbone point by Hill's method.
@@ -143,6 +147,7 @@ impl Default for Case {
             algorithm: SolverSettings::default(),
             stability: StabilitySection::default(),
             forced: crate::forced_settings::ForcedSection::default(),
+            rotation: None,
         }
     }
 }

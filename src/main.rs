@@ -15,12 +15,15 @@ mod gmsh;
 mod layout;
 mod output;
 mod post;
+mod prestress;
 mod problems;
 mod reduce;
 mod render;
 mod report;
 mod results;
+mod rotation_settings;
 mod run;
+mod speed_stage;
 mod stage_hash;
 mod ui;
 mod validate;
@@ -355,6 +358,7 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         modes: a.modes,
         master: a.master,
         check_modes: if check { a.compare.min(dofs) } else { 0 },
+        running: None,
     };
     let (mut model, full) = reduce::reduce(&fe, &settings)?;
     reduce::write_model(&mut model, &a.out, &a.mesh)?;

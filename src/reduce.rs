@@ -25,6 +25,17 @@ pub struct ReduceSettings<'a> {
     pub master: Option<usize>,
     /// Full-model modes computed to check the reduced frequencies (0: no check).
     pub check_modes: usize,
+    /// The blade at speed (issue 23): contact positions and normals of the prestressed state
+    /// and each contact node's running gap; `None` at rest (positions of the mesh, gap `gap`).
+    pub running: Option<RunningContact<'a>>,
+}
+
+/// The contact geometry of a prestressed blade.
+pub struct RunningContact<'a> {
+    /// Global static displacement (3 per mesh node), m.
+    pub displacement: &'a [f64],
+    /// Running gap of each contact node in the order of [`ordered_contact_nodes`], m.
+    pub gaps: &'a [f64],
 }
 
 /// Up to this many DOFs the full-model check runs by default (`auto`): at 93k DOFs (the default
@@ -202,12 +213,20 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
         .iter()
         .enumerate()
         .map(|(j, &n)| {
+            let x = fe.mesh.nodes[n];
+            let (position, gap) = match &s.running {
+                None => (x, s.gap),
+                Some(r) => {
+                    let u = &r.displacement[3 * n..3 * n + 3];
+                    ([x[0] + u[0], x[1] + u[1], x[2] + u[2]], r.gaps[j])
+                }
+            };
             Ok(ContactNode {
                 mesh_node: Some(n as u64 + 1),
                 dofs: [3 * j, 3 * j + 1, 3 * j + 2],
-                position: fe.mesh.nodes[n],
-                radial: s.axis.radial_unit_vector(fe.mesh.nodes[n])?,
-                gap: s.gap,
+                position,
+                radial: s.axis.radial_unit_vector(position)?,
+                gap,
             })
         })
         .collect::<Result<Vec<_>>>()?;

@@ -39,6 +39,8 @@ pub enum Only {
     Reduce,
     Backbone,
     Forced,
+    /// The prestress and the reduced model at the operating speed (`[rotation]`).
+    Speed,
     Post,
 }
 
@@ -163,6 +165,17 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     }
     finish_modes(modes_child.take())?;
 
+    // speed (issue 23): the prestress and the reduced model at the operating speed
+    let speed = case
+        .rotation
+        .as_ref()
+        .map(|r| crate::speed_stage::SpeedStage::new(&case, r, &layout, &fe_hash));
+    if let Some(stage) = &speed {
+        if wants(Only::Speed) || wants(Only::Backbone) || wants(Only::Post) {
+            stage.run_if_needed(&material, forced(Only::Speed))?;
+        }
+    }
+
     // backbone and post, for each mode the case traces
     let needs_bb = wants(Only::Backbone) || wants(Only::Post);
     let modes = case.continuation.modes_to_trace();
@@ -211,6 +224,17 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         }
         traced.push((mode, lay));
     }
+    if let Some(stage) = &speed {
+        if wants(Only::Backbone) || wants(Only::Post) {
+            crate::speed_stage::backbone_at_speed(
+                &case,
+                &layout,
+                stage.hash(),
+                forced(Only::Backbone),
+                wants(Only::Post),
+            )?;
+        }
+    }
     // forced (issue 22): after the backbone it is crowned by, before the report that shows it
     if case.forced.enabled && (wants(Only::Forced) || wants(Only::Post)) {
         let stage = crate::forced_stage::ForcedStage::new(&case, &layout, &reduce_hash);
@@ -258,7 +282,14 @@ fn reduce_stage(
     material: &Isotropic,
 ) -> Result<nlmodes_modal::ReducedModel> {
     let fe = FeModel::build(&layout.mesh(), material, &case.model.clamp)?;
-    let settings = reduce::ReduceSettings {
+    let (mut model, _) = reduce::reduce(&fe, &reduce_settings(case)?)?;
+    reduce::write_model(&mut model, &layout.model(), &layout.mesh())?;
+    Ok(model)
+}
+
+/// The reduction settings of `[model]` (at rest; the speed stage adds the running contact).
+pub fn reduce_settings(case: &Case) -> Result<reduce::ReduceSettings<'_>> {
+    Ok(reduce::ReduceSettings {
         contact_group: &case.model.contact_group,
         axis: nlmodes_modal::RotorAxis::new(
             case.model.rotor_axis_point,
@@ -275,10 +306,8 @@ fn reduce_stage(
         },
         // The full model's modes come from the modes stage, alongside.
         check_modes: 0,
-    };
-    let (mut model, _) = reduce::reduce(&fe, &settings)?;
-    reduce::write_model(&mut model, &layout.model(), &layout.mesh())?;
-    Ok(model)
+        running: None,
+    })
 }
 
 /// The modes stage running as `nlmodes --quiet modes ...` in a child process.
@@ -347,7 +376,7 @@ impl ModesChild {
 }
 
 /// The backbone stage of one mode: trace, stability, kept orbits, truncation estimates, files.
-fn backbone_stage(
+pub fn backbone_stage(
     case: &Case,
     cont: &nlmodes_nnm::ContinuationSettings,
     layout: &Layout,

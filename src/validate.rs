@@ -84,6 +84,9 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
     if case.forced.enabled {
         case.forced.check(&mut p);
     }
+    if let Some(r) = &case.rotation {
+        r.check(&mut p);
+    }
     p.finish()?;
     check_output_dir(&case.out_dir(), &format!("{}: results_dir", path.display()))
 }
