@@ -2,6 +2,8 @@
 //! after Laxalde, Legrand & Pierre (2009). Units: SI throughout (m, kg, s, Pa, Hz).
 
 mod backbone;
+mod campbell;
+mod campbell_stage;
 mod case;
 mod child;
 mod exit;

@@ -86,7 +86,7 @@ pub fn at_speed(
     contact: &[usize],
     cold_gap: f64,
 ) -> Result<Prestress> {
-    let model = RotatingModel::new(&fe.mesh, material.clone(), axis.clone(), fe.dofs.clone())
+    let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
         .context("the rotating model")?;
     let mut solver = MetisCholesky;
     let solution = if nonlinear {
@@ -188,7 +188,12 @@ pub fn newton_history(steps: &[LoadStep]) -> Vec<String> {
             let ratios: Vec<String> = s
                 .iterations
                 .iter()
-                .map(|i| format!("{:.1e}", i.residual_norm / i.load_norm.max(f64::MIN_POSITIVE)))
+                .map(|i| {
+                    format!(
+                        "{:.1e}",
+                        i.residual_norm / i.load_norm.max(f64::MIN_POSITIVE)
+                    )
+                })
                 .collect();
             format!(
                 "step {} at {:.1} rpm ({} cutbacks): ||r|| / ||f_c|| = {}",

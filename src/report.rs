@@ -260,9 +260,16 @@ pub fn write_report(
             root.display()
         );
     }
-    if let Ok(forced) = std::fs::read_to_string(layout.shared.join("forced").join("section.md")) {
-        // Written by the forced stage (it runs before post): links are relative to the case root.
-        s.push_str(&forced);
+    // Sections written by the stages that run before post (forced, speed, campbell): links are
+    // relative to the case root.
+    let rotating = case.rotation.is_some() && layout.root == layout.shared;
+    for stage in ["forced", "speed", "campbell"] {
+        if stage != "forced" && !rotating {
+            continue;
+        }
+        if let Ok(text) = std::fs::read_to_string(layout.shared.join(stage).join("section.md")) {
+            s.push_str(&text);
+        }
     }
     let _ = writeln!(s, "## Convergence\n\n{}", convergence_text(case, b));
     let _ = writeln!(

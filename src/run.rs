@@ -41,6 +41,8 @@ pub enum Only {
     Forced,
     /// The prestress and the reduced model at the operating speed (`[rotation]`).
     Speed,
+    /// The Campbell diagram (`[rotation]`).
+    Campbell,
     Post,
 }
 
@@ -175,6 +177,12 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
             stage.run_if_needed(&material, forced(Only::Speed))?;
         }
     }
+    if let Some(r) = &case.rotation {
+        if wants(Only::Campbell) || wants(Only::Post) {
+            crate::campbell_stage::CampbellStage::new(&case, r, &layout, &fe_hash)
+                .run_if_needed(&material, forced(Only::Campbell))?;
+        }
+    }
 
     // backbone and post, for each mode the case traces
     let needs_bb = wants(Only::Backbone) || wants(Only::Post);
@@ -244,6 +252,11 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
                 stopped.get_or_insert(e);
             }
             other => other?,
+        }
+    }
+    if let Some(r) = &case.rotation {
+        if wants(Only::Campbell) || wants(Only::Post) {
+            crate::campbell_stage::draw(&case, r, &layout)?;
         }
     }
     for (_, lay) in &traced {

@@ -58,12 +58,9 @@ impl<'a> SpeedStage<'a> {
         layout: &Layout,
         fe_hash: &str,
     ) -> Self {
-        let inputs = serde_json::to_vec(&(
-            &case.model,
-            rotation.operating_speed,
-            &rotation.kinematics,
-        ))
-        .unwrap_or_default();
+        let inputs =
+            serde_json::to_vec(&(&case.model, rotation.operating_speed, &rotation.kinematics))
+                .unwrap_or_default();
         Self {
             case,
             rotation,
@@ -164,9 +161,10 @@ fn summarize(p: &Prestress, r: &RotationSection, nodes: &[usize], cold: f64) -> 
 }
 
 fn range(v: &[f64]) -> (f64, f64) {
-    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-        (a.min(x), b.max(x))
-    })
+    v.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        })
 }
 
 /// Two lines for the terminal.
@@ -264,7 +262,11 @@ pub fn backbone_at_speed(
     let stamp = lay.stamp("backbone");
     let stored = std::fs::read_to_string(&stamp).unwrap_or_default();
     if force || stored.trim() != hash || !outputs.iter().all(|p| p.exists()) {
-        tracing::info!("backbone at speed: mode {}, results in {}", mode + 1, lay.root.display());
+        tracing::info!(
+            "backbone at speed: mode {}, results in {}",
+            mode + 1,
+            lay.root.display()
+        );
         crate::run::backbone_stage(case, &cont, &lay)?;
         std::fs::create_dir_all(stamp.parent().unwrap_or(&lay.root))?;
         crate::output::write_atomic(&stamp, hash.as_bytes())?;

@@ -1,0 +1,557 @@
+//! The `campbell` stage of `nlmodes run` (issue 23, items 5-6): the linear modes of the
+//! prestressed blade over `[rotation] campbell_range` ([`crate::campbell`]), tracked across
+//! speeds by their mass-weighted MAC, each curve's Southwell coefficient, the crossings with the
+//! engine-order lines, and the interaction map: the band of frequencies the first nonlinear mode
+//! sweeps from grazing to the largest traced amplitude, at rest (cold gap) and at the operating
+//! speed (running gap), drawn on the diagram. Writes `results/<case>/campbell/`:
+//! `campbell.csv`, `crossings.csv`, `campbell.json`, `campbell.png/svg`, `section.md`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use faer::Mat;
+use nlmodes_fem::Isotropic;
+use serde::{Deserialize, Serialize};
+
+use crate::campbell::{RitzCampbell, SpeedFamily, SpeedModes};
+use crate::case::Case;
+use crate::fe_model::FeModel;
+use crate::layout::Layout;
+use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::stage_hash::fnv1a;
+
+/// Tracked modes below this MAC with their predecessor are flagged (veering or a mode
+/// entering from above: the curve's identity is uncertain there).
+pub const MAC_UNCERTAIN: f64 = 0.8;
+
+/// One tracked curve of the diagram.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Curve {
+    /// 1-based: the order of the mode at the first speed.
+    pub mode: usize,
+    /// Frequency at each speed, Hz.
+    pub frequency_hz: Vec<f64>,
+    /// MAC with the same curve at the previous speed (1 at the first speed).
+    pub mac: Vec<f64>,
+    /// Relative residual of the Ritz pair on the full model at each speed.
+    pub residual: Vec<f64>,
+    /// Southwell fit f^2 = f0^2 + S (rpm / 60)^2: f0 (Hz), S, largest relative misfit in f.
+    pub southwell_f0_hz: f64,
+    pub southwell: f64,
+    pub southwell_misfit: f64,
+}
+
+/// A crossing of a curve with an engine-order line f = EO rpm / 60.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Crossing {
+    pub engine_order: i64,
+    pub mode: usize,
+    pub speed_rpm: f64,
+    pub frequency_hz: f64,
+}
+
+/// `campbell.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CampbellData {
+    pub speeds_rpm: Vec<f64>,
+    pub basis_speeds_rpm: Vec<f64>,
+    pub operating_speed_rpm: f64,
+    pub engine_orders: Vec<i64>,
+    pub curves: Vec<Curve>,
+    pub crossings: Vec<Crossing>,
+}
+
+/// The stage: inputs' hash and outputs.
+pub struct CampbellStage<'a> {
+    case: &'a Case,
+    rotation: &'a RotationSection,
+    out: PathBuf,
+    mesh: PathBuf,
+    hash: String,
+    stamp: PathBuf,
+}
+
+impl<'a> CampbellStage<'a> {
+    pub fn new(
+        case: &'a Case,
+        rotation: &'a RotationSection,
+        layout: &Layout,
+        fe_hash: &str,
+    ) -> Self {
+        let inputs = serde_json::to_vec(&(
+            rotation,
+            case.model.rotor_axis_point,
+            case.model.rotor_axis_direction,
+        ))
+        .unwrap_or_default();
+        Self {
+            case,
+            rotation,
+            out: layout.shared.join("campbell"),
+            mesh: layout.mesh(),
+            hash: fnv1a(&[fe_hash.as_bytes(), &inputs]),
+            stamp: layout.stamp("campbell"),
+        }
+    }
+
+    /// Computes the diagram unless up to date (or `force`).
+    pub fn run_if_needed(&self, material: &Isotropic, force: bool) -> Result<()> {
+        let json = self.out.join("campbell.json");
+        let stored = std::fs::read_to_string(&self.stamp).unwrap_or_default();
+        if !force && stored.trim() == self.hash && json.exists() {
+            tracing::info!("stage campbell: up to date");
+            return Ok(());
+        }
+        let st = crate::ui::Stage::start("campbell");
+        let data = self.compute(material)?;
+        std::fs::create_dir_all(&self.out)?;
+        write_tables(&data, &self.out)?;
+        nlmodes_output::write_json(&json, &data)?;
+        st.done(&format!(
+            "{} modes at {} speeds, {} engine-order crossings",
+            data.curves.len(),
+            data.speeds_rpm.len(),
+            data.crossings.len()
+        ));
+        std::fs::create_dir_all(self.stamp.parent().unwrap_or(&self.out))?;
+        crate::output::write_atomic(&self.stamp, self.hash.as_bytes())
+    }
+
+    fn compute(&self, material: &Isotropic) -> Result<CampbellData> {
+        let r = self.rotation;
+        let fe = FeModel::build(&self.mesh, material, &self.case.model.clamp)?;
+        let m = &self.case.model;
+        let axis = crate::prestress::fem_axis(m.rotor_axis_point, m.rotor_axis_direction)?;
+        let family = SpeedFamily::of(&fe, material, &axis)?;
+        let [a, b] = r.campbell_range;
+        let mut basis_rpm = vec![a, 0.5 * (a + b), b];
+        basis_rpm.dedup();
+        let basis: Vec<f64> = basis_rpm.iter().map(|s| s * RPM_TO_RAD_S).collect();
+        // A few modes beyond those drawn, so that a mode entering from above is in the basis.
+        let ritz = RitzCampbell::new(&family, &basis, r.campbell_modes + 4)?;
+        let speeds = r.campbell_rpm();
+        let bar = crate::ui::bar(speeds.len() as u64, "campbell");
+        let mut modes = Vec::with_capacity(speeds.len());
+        for &rpm in &speeds {
+            modes.push(ritz.solve(rpm * RPM_TO_RAD_S, r.campbell_modes + 2)?);
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        let curves = track(&speeds, &modes, r.campbell_modes);
+        let crossings = crossings(&speeds, &curves, &r.engine_orders);
+        Ok(CampbellData {
+            speeds_rpm: speeds,
+            basis_speeds_rpm: basis_rpm,
+            operating_speed_rpm: r.operating_speed,
+            engine_orders: r.engine_orders.clone(),
+            curves,
+            crossings,
+        })
+    }
+}
+
+fn hz(lambda: f64) -> f64 {
+    lambda.max(0.0).sqrt() / (2.0 * std::f64::consts::PI)
+}
+
+/// MAC of two Ritz coordinate vectors (M-orthonormal basis: the M-inner product is the dot
+/// product).
+fn mac(a: &Mat<f64>, i: usize, b: &Mat<f64>, j: usize) -> f64 {
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for r in 0..a.nrows() {
+        ab += a[(r, i)] * b[(r, j)];
+        aa += a[(r, i)] * a[(r, i)];
+        bb += b[(r, j)] * b[(r, j)];
+    }
+    ab * ab / (aa * bb)
+}
+
+/// Follows the `n` lowest modes of the first speed across the speeds: at each speed, curve k
+/// takes the unused mode of largest MAC with its mode at the previous speed.
+fn track(speeds: &[f64], modes: &[SpeedModes], n: usize) -> Vec<Curve> {
+    let mut at: Vec<usize> = (0..n).collect();
+    let mut curves: Vec<Curve> = (0..n)
+        .map(|k| Curve {
+            mode: k + 1,
+            frequency_hz: vec![hz(modes[0].eigenvalues[k])],
+            mac: vec![1.0],
+            residual: vec![modes[0].residuals[k]],
+            southwell_f0_hz: 0.0,
+            southwell: 0.0,
+            southwell_misfit: 0.0,
+        })
+        .collect();
+    for s in 1..speeds.len() {
+        let (prev, cur) = (&modes[s - 1], &modes[s]);
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        for (k, &i) in at.iter().enumerate() {
+            for j in 0..cur.eigenvalues.len() {
+                pairs.push((mac(&prev.coordinates, i, &cur.coordinates, j), k, j));
+            }
+        }
+        pairs.sort_by(|x, y| y.0.total_cmp(&x.0));
+        let (mut done, mut used) = (vec![false; n], vec![false; cur.eigenvalues.len()]);
+        for (value, k, j) in pairs {
+            if done[k] || used[j] {
+                continue;
+            }
+            (done[k], used[j]) = (true, true);
+            at[k] = j;
+            let c = &mut curves[k];
+            c.frequency_hz.push(hz(cur.eigenvalues[j]));
+            c.mac.push(value);
+            c.residual.push(cur.residuals[j]);
+        }
+    }
+    for c in &mut curves {
+        southwell_fit(speeds, c);
+    }
+    curves
+}
+
+/// Least squares f^2 = f0^2 + S (rpm / 60)^2 over the speeds.
+fn southwell_fit(speeds_rpm: &[f64], c: &mut Curve) {
+    let x: Vec<f64> = speeds_rpm.iter().map(|r| (r / 60.0).powi(2)).collect();
+    let y: Vec<f64> = c.frequency_hz.iter().map(|f| f * f).collect();
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxy: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    let f0_sq = my - slope * mx;
+    c.southwell = slope;
+    c.southwell_f0_hz = f0_sq.max(0.0).sqrt();
+    c.southwell_misfit = x
+        .iter()
+        .zip(&c.frequency_hz)
+        .map(|(a, f)| ((f0_sq + slope * a).max(0.0).sqrt() - f).abs() / f)
+        .fold(0.0, f64::max);
+}
+
+/// Where each curve meets each engine-order line: between two speeds where f - EO rpm/60
+/// changes sign, f^2 interpolated linearly in rpm^2 (exact for a Southwell curve) and the
+/// intersection with the line solved in closed form.
+fn crossings(speeds: &[f64], curves: &[Curve], orders: &[i64]) -> Vec<Crossing> {
+    let mut out = Vec::new();
+    for &eo in orders {
+        let e = eo as f64 / 60.0;
+        for c in curves {
+            for s in 1..speeds.len() {
+                let (r0, r1) = (speeds[s - 1], speeds[s]);
+                let (f0, f1) = (c.frequency_hz[s - 1], c.frequency_hz[s]);
+                let (d0, d1) = (f0 - e * r0, f1 - e * r1);
+                if d0 == 0.0 || d0.signum() == d1.signum() {
+                    continue;
+                }
+                // f^2 = a + b r^2 through both points; (e r)^2 = a + b r^2.
+                let b = (f1 * f1 - f0 * f0) / (r1 * r1 - r0 * r0);
+                let a = f0 * f0 - b * r0 * r0;
+                let denom = e * e - b;
+                let rpm = if denom > 0.0 && a >= 0.0 {
+                    (a / denom).sqrt()
+                } else {
+                    r0 + (r1 - r0) * d0 / (d0 - d1)
+                };
+                out.push(Crossing {
+                    engine_order: eo,
+                    mode: c.mode,
+                    speed_rpm: rpm,
+                    frequency_hz: e * rpm,
+                });
+            }
+        }
+    }
+    out.sort_by(|a, b| a.speed_rpm.total_cmp(&b.speed_rpm));
+    out
+}
+
+/// `campbell.csv` (one row per speed: rpm, then per curve f (Hz), MAC, residual) and
+/// `crossings.csv`.
+fn write_tables(d: &CampbellData, out: &Path) -> Result<()> {
+    let mut s = String::from("speed_rpm");
+    for c in &d.curves {
+        let k = c.mode;
+        let _ = write!(s, ",mode{k}_hz,mode{k}_mac,mode{k}_residual");
+    }
+    s.push('\n');
+    for (i, rpm) in d.speeds_rpm.iter().enumerate() {
+        let _ = write!(s, "{rpm}");
+        for c in &d.curves {
+            let _ = write!(s, ",{},{},{:e}", c.frequency_hz[i], c.mac[i], c.residual[i]);
+        }
+        s.push('\n');
+    }
+    crate::output::write_atomic(&out.join("campbell.csv"), s.as_bytes())?;
+    let mut t = String::from("engine_order,mode,speed_rpm,frequency_hz\n");
+    for c in &d.crossings {
+        let _ = writeln!(
+            t,
+            "{},{},{},{}",
+            c.engine_order, c.mode, c.speed_rpm, c.frequency_hz
+        );
+    }
+    crate::output::write_atomic(&out.join("crossings.csv"), t.as_bytes())
+}
+
+/// The band of the first nonlinear mode at one speed: frequencies (Hz) from grazing to the
+/// largest traced amplitude on the main branch, and at the marked amplitudes q/g0.
+#[derive(Debug, Clone)]
+pub struct Band {
+    pub speed_rpm: f64,
+    pub low_hz: f64,
+    pub high_hz: f64,
+    pub q_max_over_g0: f64,
+    /// (q/g0, f Hz) at the marked amplitudes reached.
+    pub marks: Vec<(f64, f64)>,
+    /// The main branch from grazing on, (q/g0, f Hz) in continuation order.
+    pub branch: Vec<(f64, f64)>,
+}
+
+impl Band {
+    /// The smallest amplitude q/g0 at which the main branch reaches the frequency `f` (Hz).
+    pub fn amplitude_at(&self, f: f64) -> Option<f64> {
+        self.branch.windows(2).find_map(|w| {
+            let ((q0, f0), (q1, f1)) = (w[0], w[1]);
+            ((f0 - f) * (f1 - f) <= 0.0 && f0 != f1).then(|| q0 + (f - f0) / (f1 - f0) * (q1 - q0))
+        })
+    }
+}
+
+/// The band of a backbone (main branch and linear segment, no tongue), `None` without
+/// contact.
+pub fn band(b: &crate::results::BackboneFile, speed_rpm: f64, marks: &[f64]) -> Option<Band> {
+    let g0 = b.gap_reference;
+    let graze = b.grazing_amplitude?;
+    let main: Vec<&crate::results::Orbit> = b.points.iter().filter(|p| !b.on_tongue(p)).collect();
+    let past: Vec<&&crate::results::Orbit> = main.iter().filter(|p| p.q >= graze).collect();
+    let f = |p: &crate::results::Orbit| p.frequency_hz;
+    let low = b.omega_linear / (2.0 * std::f64::consts::PI);
+    let high = past.iter().map(|p| f(p)).fold(low, f64::max);
+    let q_max = past.iter().map(|p| p.q / g0).fold(graze / g0, f64::max);
+    let marks = marks
+        .iter()
+        .filter_map(|&a| {
+            main.windows(2).find_map(|w| {
+                let (q0, q1) = (w[0].q / g0, w[1].q / g0);
+                ((q0 - a) * (q1 - a) <= 0.0 && q0 != q1).then(|| {
+                    let t = (a - q0) / (q1 - q0);
+                    (a, f(w[0]) + t * (f(w[1]) - f(w[0])))
+                })
+            })
+        })
+        .collect();
+    let mut branch = vec![(graze / g0, low)];
+    branch.extend(past.iter().map(|p| (p.q / g0, f(p))));
+    Some(Band {
+        speed_rpm,
+        low_hz: low,
+        high_hz: high,
+        q_max_over_g0: q_max,
+        marks,
+        branch,
+    })
+}
+
+/// The figure and the report section of the diagram, with the bands of the backbones at rest
+/// and at the operating speed when they exist (cheap: rerun on every `run`).
+pub fn draw(case: &Case, rotation: &RotationSection, layout: &Layout) -> Result<()> {
+    let dir = layout.shared.join("campbell");
+    let d: CampbellData = crate::results::read_json(&dir.join("campbell.json"))?;
+    let read = |p: PathBuf| crate::results::read_json::<crate::results::BackboneFile>(&p).ok();
+    let speed = crate::speed_stage::speed_layout(layout);
+    let mut bands = Vec::new();
+    if let Some(b) = read(layout.backbone().join("backbone.json")) {
+        bands.extend(band(&b, 0.0, &rotation.map_amplitudes));
+    }
+    if let Some(b) = read(speed.backbone().join("backbone.json")) {
+        bands.extend(band(&b, rotation.operating_speed, &rotation.map_amplitudes));
+    }
+    figure(&d, &bands, &dir)?;
+    let text = section(case, &d, &bands);
+    crate::output::write_atomic(&dir.join("section.md"), text.as_bytes())
+}
+
+fn figure(d: &CampbellData, bands: &[Band], dir: &Path) -> Result<()> {
+    use nlmodes_output::plot::PALETTE;
+    use nlmodes_output::{LegendPosition, LinePlot, LineStyle, RefLine, Series};
+    let top = d
+        .curves
+        .iter()
+        .flat_map(|c| c.frequency_hz.iter().copied())
+        .chain(bands.iter().map(|b| b.high_hz))
+        .fold(0.0, f64::max)
+        * 1.05;
+    let (lo, hi) = (d.speeds_rpm[0], *d.speeds_rpm.last().unwrap_or(&1.0));
+    let mut plot = LinePlot::new("Campbell diagram", "speed (rpm)", "frequency (Hz)")
+        .with_x_range(lo, hi)
+        .with_y_range(0.0, top)
+        .with_legend(LegendPosition::Hidden)
+        .with_ref_line(RefLine::vertical(d.operating_speed_rpm, "operating speed"));
+    for &eo in &d.engine_orders {
+        let e = eo as f64 / 60.0;
+        // The line up to the top of the plot (or the end of the range).
+        let end = hi.min(top / e);
+        plot = plot.with_series(
+            Series::new(format!("EO {eo}"), vec![lo, end], vec![e * lo, e * end])
+                .color(nlmodes_output::plot::Color(150, 150, 150))
+                .style(LineStyle::Dashed)
+                .width(1.0),
+        );
+    }
+    for (k, c) in d.curves.iter().enumerate() {
+        plot = plot.with_series(
+            Series::new(
+                format!("mode {}", c.mode),
+                d.speeds_rpm.clone(),
+                c.frequency_hz.clone(),
+            )
+            .color(PALETTE[k % PALETTE.len()]),
+        );
+    }
+    if !d.crossings.is_empty() {
+        let (x, y): (Vec<f64>, Vec<f64>) = d
+            .crossings
+            .iter()
+            .map(|c| (c.speed_rpm, c.frequency_hz))
+            .unzip();
+        plot = plot.with_series(
+            Series::new("crossings", x, y)
+                .style(LineStyle::None)
+                .markers(true)
+                .color(nlmodes_output::plot::Color(0, 0, 0)),
+        );
+    }
+    for b in bands {
+        plot = plot.with_series(
+            Series::new(
+                "nonlinear mode 1 band",
+                vec![b.speed_rpm; 2],
+                vec![b.low_hz, b.high_hz],
+            )
+            .color(nlmodes_output::plot::Color(200, 30, 30))
+            .width(6.0),
+        );
+    }
+    plot.write_svg_and_png(&dir.join("campbell"))?;
+    Ok(())
+}
+
+/// The report's section: curves with their Southwell coefficients, the crossings, the accuracy
+/// of the Ritz solution, the interaction map.
+fn section(case: &Case, d: &CampbellData, bands: &[Band]) -> String {
+    let mut s = String::from("## Campbell diagram and interaction map\n\n");
+    let worst = d
+        .curves
+        .iter()
+        .flat_map(|c| c.residual.iter().copied())
+        .fold(0.0, f64::max);
+    let _ = writeln!(
+        s,
+        "Linear modes of the prestressed blade (linear prestress K_e + Omega^2 (K_sigma - \
+         M_spin), no Coriolis) at {} speeds from {} to {} rpm, by Rayleigh-Ritz on the modes at \
+         {:?} rpm; largest relative residual of a drawn mode on the full model {worst:.1e}. \
+         Curves tracked by MAC (a MAC below {MAC_UNCERTAIN} with the previous speed is marked \
+         `?`). Data: `campbell/campbell.csv`, `campbell/crossings.csv`.\n",
+        d.speeds_rpm.len(),
+        d.speeds_rpm[0],
+        d.speeds_rpm.last().unwrap_or(&0.0),
+        d.basis_speeds_rpm
+    );
+    let _ = writeln!(s, "![Campbell diagram](campbell/campbell.png)\n");
+    let _ = writeln!(
+        s,
+        "| mode | f at {} rpm (Hz) | f at {:.0} rpm (Hz) | Southwell S (f^2 = f0^2 + S (rpm/60)^2) | fit misfit | lowest MAC |\n|---|---|---|---|---|---|",
+        d.speeds_rpm[0], d.operating_speed_rpm
+    );
+    let at_op = |c: &Curve| interpolate(&d.speeds_rpm, &c.frequency_hz, d.operating_speed_rpm);
+    for c in &d.curves {
+        let low = c.mac.iter().copied().fold(1.0, f64::min);
+        let _ = writeln!(
+            s,
+            "| {} | {:.2} | {:.2} | {:.3} | {:.1e} | {:.3}{} |",
+            c.mode,
+            c.frequency_hz[0],
+            at_op(c),
+            c.southwell,
+            c.southwell_misfit,
+            low,
+            if low < MAC_UNCERTAIN { " ?" } else { "" }
+        );
+    }
+    let _ = writeln!(s, "\nEngine-order crossings:\n\n| EO | mode | speed (rpm) | frequency (Hz) | from the operating speed |\n|---|---|---|---|---|");
+    for c in &d.crossings {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.0} | {:.2} | {:+.1} % |",
+            c.engine_order,
+            c.mode,
+            c.speed_rpm,
+            c.frequency_hz,
+            100.0 * (c.speed_rpm / d.operating_speed_rpm - 1.0)
+        );
+    }
+    interaction(&mut s, case, d, bands);
+    s
+}
+
+fn interpolate(x: &[f64], y: &[f64], at: f64) -> f64 {
+    for i in 1..x.len() {
+        if at <= x[i] || i + 1 == x.len() {
+            let t = (at - x[i - 1]) / (x[i] - x[i - 1]);
+            return y[i - 1] + t * (y[i] - y[i - 1]);
+        }
+    }
+    y.first().copied().unwrap_or(f64::NAN)
+}
+
+/// Which engine orders enter the band of the first nonlinear mode at the speeds where it is
+/// known.
+fn interaction(s: &mut String, case: &Case, d: &CampbellData, bands: &[Band]) {
+    let _ = writeln!(
+        s,
+        "\n### Interaction map\n\nThe thick red segments: the frequencies the first nonlinear \
+         mode sweeps from grazing to q/g0 = q_max (gap: the cold gap {:.3e} m at rest, the \
+         running gap at the operating speed). An engine-order line that enters a band is an \
+         excitation that can drive the blade into the casing at that speed.\n",
+        case.model.gap
+    );
+    let _ = writeln!(s, "| speed (rpm) | band (Hz) | q/g0 up to | marked amplitudes (q/g0: Hz) | engine orders inside |\n|---|---|---|---|---|");
+    for b in bands {
+        let marks: Vec<String> = b
+            .marks
+            .iter()
+            .map(|(q, f)| format!("{q}: {f:.1}"))
+            .collect();
+        let inside: Vec<String> = d
+            .engine_orders
+            .iter()
+            .filter(|&&eo| {
+                let f = eo as f64 * b.speed_rpm / 60.0;
+                f >= b.low_hz && f <= b.high_hz
+            })
+            .map(|eo| {
+                let f = *eo as f64 * b.speed_rpm / 60.0;
+                match b.amplitude_at(f) {
+                    Some(q) => format!("EO {eo} ({f:.1} Hz, reached at q/g0 = {q:.1})"),
+                    None => format!("EO {eo} ({f:.1} Hz)"),
+                }
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {:.0} | {:.1} .. {:.1} | {:.1} | {} | {} |",
+            b.speed_rpm,
+            b.low_hz,
+            b.high_hz,
+            b.q_max_over_g0,
+            marks.join(", "),
+            if inside.is_empty() {
+                "none".to_string()
+            } else {
+                inside.join(", ")
+            }
+        );
+    }
+    s.push('\n');
+}
