@@ -530,3 +530,47 @@ fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
         "{err}"
     );
 }
+
+/// Marching in speed (`solve_nonlinear_from`, as the Campbell diagram does) reaches the state a
+/// solve from rest reaches: the equilibrium at a speed does not depend on the path (St
+/// Venant-Kirchhoff is hyperelastic and the load conservative for this static problem). Both
+/// converge to ||r|| <= 1e-10 ||f_c||, so the displacements agree to about 1e-10 relative;
+/// tolerance 1e-8. A start above the target speed, or of another length, is refused.
+#[test]
+fn marching_in_speed_reaches_the_state_solved_from_rest() {
+    let mesh = clamped_curved_beam();
+    let dofs = DofMap::new(
+        mesh.n_nodes(),
+        &fixed_dofs(&mesh, &["xmin"]).expect("fixed"),
+    )
+    .expect("dofs");
+    let model = RotatingModel::new(&mesh, steel(), axis(), dofs).expect("model");
+    let options = NewtonOptions {
+        load_steps: 1,
+        ..NewtonOptions::default()
+    };
+    let mut solver = FaerCholesky::default();
+    let direct = model
+        .solve_nonlinear(3000.0, &NewtonOptions::default(), &mut solver)
+        .expect("from rest");
+    let mut state = None;
+    for omega in [1000.0, 2000.0, 3000.0] {
+        let next = model
+            .solve_nonlinear_from(state.as_ref(), omega, &options, &mut solver)
+            .expect("march");
+        state = Some(next);
+    }
+    let marched = state.expect("three speeds");
+    let diff: Vec<f64> = marched
+        .displacement
+        .iter()
+        .zip(&direct.displacement)
+        .map(|(a, b)| a - b)
+        .collect();
+    let rel = max_abs(&diff) / max_abs(&direct.displacement);
+    assert!(rel < 1e-8, "marched state differs by {rel:e}");
+    // Continuing from 3000 rad/s to a lower speed is not a march.
+    assert!(model
+        .solve_nonlinear_from(Some(&marched), 2000.0, &options, &mut solver)
+        .is_err());
+}

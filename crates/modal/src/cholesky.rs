@@ -78,6 +78,9 @@ pub struct SparseCholesky {
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     ordering: FillOrdering,
+    par: Par,
+    /// [`pattern_fingerprint`] of the factorized matrix.
+    pattern: u64,
     /// Workspace of a one-column solve, reused across calls.
     workspace: Mutex<MemBuffer>,
 }
@@ -366,58 +369,116 @@ impl CholeskyAnalysis {
                 found: a.rows(),
             });
         }
-        let start = StepTimer::start();
-        let a = as_csc(a);
-        let col_ptr = a.proper_indptr();
-        let structure = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr[..], None, a.indices());
-        let out_of_memory = |part: &str| ModalError::Factorization {
-            what: what.clone(),
-            message: format!("out of memory for {part}"),
-        };
-        let mut l_values = Vec::new();
-        l_values
-            .try_reserve_exact(symbolic.len_val())
-            .map_err(|_| out_of_memory("the values of L"))?;
-        l_values.resize(symbolic.len_val(), 0.0_f64);
-        let mut factor_mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(self.par, Spec::default()),
-        )
-        .map_err(|_| out_of_memory("the factorization workspace"))?;
-        let result = symbolic.factorize_numeric_llt::<f64>(
-            &mut l_values,
-            SparseColMatRef::new(structure, a.data()),
-            Side::Lower,
-            LltRegularization::default(),
-            self.par,
-            MemStack::new(&mut factor_mem),
-            Spec::default(),
-        );
-        if let Err(LltError::NonPositivePivot { index }) = result {
-            return Err(ModalError::NotPositiveDefinite {
-                what,
-                index: failing_pivot(&symbolic, index, n),
-                hint: String::new(),
-            });
-        }
-        drop(factor_mem);
+        let l_values = numeric_llt(&symbolic, a, &what, self.par, self.ordering)?;
         let workspace = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
-            .map_err(|_| out_of_memory("the solve workspace"))?;
-        tracing::info!(
-            "{what}: numeric Cholesky of order {n}, nnz(A) = {}, nnz(L) = {}, ordering {:?}, \
-             {}",
-            a.nnz(),
-            l_values.len(),
-            self.ordering,
-            start.elapsed()
-        );
+            .map_err(|_| ModalError::Factorization {
+                what: what.clone(),
+                message: "out of memory for the solve workspace".to_string(),
+            })?;
         Ok(SparseCholesky {
             n,
             symbolic,
             l_values,
             ordering: self.ordering,
+            par: self.par,
+            pattern: pattern_fingerprint(a),
             workspace: Mutex::new(workspace),
         })
     }
+}
+
+impl SparseCholesky {
+    /// Factorizes `a`, a matrix of the same order and sparsity pattern as the one factorized
+    /// before, reusing the ordering and the symbolic analysis (about 40 % of a factorization
+    /// at 93k DOFs: the METIS ordering alone is 0.65 s of 1.7 s). For a Newton solve whose
+    /// tangent keeps the mesh's pattern. Errors: a different order or pattern
+    /// ([`ModalError::InvalidArgument`]), not positive definite, out of memory.
+    pub fn refactorize(&mut self, a: &CsMat<f64>, what: &str) -> Result<(), ModalError> {
+        if a.rows() != self.n || a.cols() != self.n || pattern_fingerprint(a) != self.pattern {
+            return Err(ModalError::InvalidArgument(format!(
+                "{what}: refactorization needs the order ({}) and sparsity pattern of the \
+                 matrix analysed, got a {}x{} matrix with another pattern",
+                self.n,
+                a.rows(),
+                a.cols()
+            )));
+        }
+        self.l_values = numeric_llt(&self.symbolic, a, what, self.par, self.ordering)?;
+        Ok(())
+    }
+
+    /// Whether `a` has the order and sparsity pattern of the factorized matrix (then
+    /// [`SparseCholesky::refactorize`] applies).
+    pub fn same_pattern(&self, a: &CsMat<f64>) -> bool {
+        a.rows() == self.n && a.cols() == self.n && pattern_fingerprint(a) == self.pattern
+    }
+}
+
+/// FNV-1a over the CSC column pointers and row indices of `a` (its sparsity pattern).
+fn pattern_fingerprint(a: &CsMat<f64>) -> u64 {
+    let a = as_csc(a);
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |v: usize| {
+        for b in (v as u64).to_le_bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    a.proper_indptr().iter().for_each(|&v| eat(v));
+    a.indices().iter().for_each(|&v| eat(v));
+    h
+}
+
+/// The values of L for `a` on the symbolic analysis `symbolic` (numeric supernodal or
+/// simplicial LLT on `par`).
+fn numeric_llt(
+    symbolic: &SymbolicCholesky<usize>,
+    a: &CsMat<f64>,
+    what: &str,
+    par: Par,
+    ordering: FillOrdering,
+) -> Result<Vec<f64>, ModalError> {
+    let n = a.rows();
+    let start = StepTimer::start();
+    let a = as_csc(a);
+    let col_ptr = a.proper_indptr();
+    let structure = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr[..], None, a.indices());
+    let out_of_memory = |part: &str| ModalError::Factorization {
+        what: what.to_string(),
+        message: format!("out of memory for {part}"),
+    };
+    let mut l_values = Vec::new();
+    l_values
+        .try_reserve_exact(symbolic.len_val())
+        .map_err(|_| out_of_memory("the values of L"))?;
+    l_values.resize(symbolic.len_val(), 0.0_f64);
+    let mut factor_mem =
+        MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Spec::default()))
+            .map_err(|_| out_of_memory("the factorization workspace"))?;
+    let result = symbolic.factorize_numeric_llt::<f64>(
+        &mut l_values,
+        SparseColMatRef::new(structure, a.data()),
+        Side::Lower,
+        LltRegularization::default(),
+        par,
+        MemStack::new(&mut factor_mem),
+        Spec::default(),
+    );
+    if let Err(LltError::NonPositivePivot { index }) = result {
+        return Err(ModalError::NotPositiveDefinite {
+            what: what.to_string(),
+            index: failing_pivot(symbolic, index, n),
+            hint: String::new(),
+        });
+    }
+    tracing::info!(
+        "{what}: numeric Cholesky of order {n}, nnz(A) = {}, nnz(L) = {}, ordering {ordering:?}, \
+         {}",
+        a.nnz(),
+        l_values.len(),
+        start.elapsed()
+    );
+    Ok(l_values)
 }
 
 /// The failing pivot of a non-positive-definite matrix in its original numbering: faer 0.24
