@@ -102,6 +102,39 @@ impl<'m> SpeedFamily<'m> {
     }
 }
 
+/// The first Newton iterate at `omega` from the last two states: the secant extrapolation in
+/// Omega^2 of their displacements, as a start state at the last state's speed (the Newton
+/// iterations of `solve_nonlinear_from` begin at a start's displacement). On the default blade
+/// the plain previous state overshoots (residual 0.2 -> 1.4 of the load after the first
+/// iteration: the lateral bending is stiffened by the very stress the step adds); from the
+/// secant the march saves about one iteration per speed. `None` with fewer than two states.
+fn predictor(
+    states: &[StaticSolution],
+    omega: f64,
+    model: &RotatingModel<'_>,
+) -> Result<Option<StaticSolution>> {
+    let [.., a, b] = states else {
+        return Ok(None);
+    };
+    let (xa, xb, x) = (a.omega * a.omega, b.omega * b.omega, omega * omega);
+    if xb <= xa {
+        return Ok(None);
+    }
+    let t = (x - xb) / (xb - xa);
+    let free: Vec<f64> = b
+        .displacement_free
+        .iter()
+        .zip(&a.displacement_free)
+        .map(|(ub, ua)| ub + t * (ub - ua))
+        .collect();
+    Ok(Some(StaticSolution {
+        displacement: model.dofs().try_expand(&free)?,
+        displacement_free: free,
+        steps: Vec::new(),
+        ..b.clone()
+    }))
+}
+
 /// The nonlinear static states at `speeds` (rad/s, any order; computed ascending, each from the
 /// previous one).
 fn march(model: &RotatingModel<'_>, speeds: &[f64]) -> Result<Vec<StaticSolution>> {
@@ -116,14 +149,19 @@ fn march(model: &RotatingModel<'_>, speeds: &[f64]) -> Result<Vec<StaticSolution
     let mut states: Vec<StaticSolution> = Vec::with_capacity(sorted.len());
     let mut solver = MetisCholesky::default();
     for &omega in &sorted {
+        let start = predictor(&states, omega, model)?;
         let state = model
-            .solve_nonlinear_from(states.last(), omega, &options, &mut solver)
+            .solve_nonlinear_from(
+                start.as_ref().or(states.last()),
+                omega,
+                &options,
+                &mut solver,
+            )
             .with_context(|| format!("the centrifugal static solve at {omega:.3} rad/s"))?;
-        let iterations: usize = state.steps.iter().map(|s| s.iterations.len() - 1).sum();
         tracing::info!(
-            "prestress at {:.1} rpm: {} load steps, {iterations} Newton iterations",
+            "prestress at {:.1} rpm: {}",
             omega * 30.0 / std::f64::consts::PI,
-            state.steps.len()
+            crate::prestress::newton_history(&state.steps).join("; ")
         );
         states.push(state);
         bar.inc(1);

@@ -59,7 +59,6 @@ pub struct Crossing {
 pub struct CampbellData {
     pub speeds_rpm: Vec<f64>,
     pub basis_speeds_rpm: Vec<f64>,
-    pub operating_speed_rpm: f64,
     /// The prestress: "nonlinear" or "linear" (`[rotation] kinematics`).
     pub kinematics: String,
     pub engine_orders: Vec<i64>,
@@ -97,8 +96,11 @@ impl<'a> CampbellStage<'a> {
         layout: &Layout,
         fe_hash: &str,
     ) -> Self {
+        // Not the operating speed nor the map amplitudes: they are drawn by [`draw`].
+        let r = rotation;
         let inputs = serde_json::to_vec(&(
-            rotation,
+            (&r.kinematics, r.campbell_range, r.campbell_speeds),
+            (r.campbell_modes, &r.engine_orders),
             case.model.rotor_axis_point,
             case.model.rotor_axis_direction,
         ))
@@ -164,7 +166,6 @@ impl<'a> CampbellStage<'a> {
         Ok(CampbellData {
             speeds_rpm: speeds,
             basis_speeds_rpm: basis_rpm,
-            operating_speed_rpm: r.operating_speed,
             kinematics: r.kinematics.clone(),
             engine_orders: r.engine_orders.clone(),
             curves,
@@ -426,12 +427,13 @@ pub fn draw(case: &Case, rotation: &RotationSection, layout: &Layout) -> Result<
     if let Some(b) = read(speed.backbone().join("backbone.json")) {
         bands.extend(band(&b, rotation.operating_speed, &rotation.map_amplitudes));
     }
-    figure(&d, &bands, &dir)?;
-    let text = section(case, &d, &bands);
+    let op = rotation.operating_speed;
+    figure(&d, op, &bands, &dir)?;
+    let text = section(case, &d, op, &bands);
     crate::output::write_atomic(&dir.join("section.md"), text.as_bytes())
 }
 
-fn figure(d: &CampbellData, bands: &[Band], dir: &Path) -> Result<()> {
+fn figure(d: &CampbellData, op: f64, bands: &[Band], dir: &Path) -> Result<()> {
     use nlmodes_output::plot::PALETTE;
     use nlmodes_output::{LegendPosition, LinePlot, LineStyle, RefLine, Series};
     let top = d
@@ -446,7 +448,7 @@ fn figure(d: &CampbellData, bands: &[Band], dir: &Path) -> Result<()> {
         .with_x_range(lo, hi)
         .with_y_range(0.0, top)
         .with_legend(LegendPosition::Hidden)
-        .with_ref_line(RefLine::vertical(d.operating_speed_rpm, "operating speed"));
+        .with_ref_line(RefLine::vertical(op, "operating speed"));
     for &eo in &d.engine_orders {
         let e = eo as f64 / 60.0;
         // The line up to the top of the plot (or the end of the range).
@@ -498,7 +500,7 @@ fn figure(d: &CampbellData, bands: &[Band], dir: &Path) -> Result<()> {
 
 /// The report's section: curves with their Southwell coefficients, the crossings, the accuracy
 /// of the Ritz solution, the interaction map.
-fn section(case: &Case, d: &CampbellData, bands: &[Band]) -> String {
+fn section(case: &Case, d: &CampbellData, op: f64, bands: &[Band]) -> String {
     let mut s = String::from("## Campbell diagram and interaction map\n\n");
     let check = d.direct_check.as_ref().map_or_else(
         || "no speed outside the basis to check".to_string(),
@@ -527,9 +529,9 @@ fn section(case: &Case, d: &CampbellData, bands: &[Band]) -> String {
     let _ = writeln!(
         s,
         "| mode | f at {} rpm (Hz) | f at {:.0} rpm (Hz) | Southwell S (f^2 = f0^2 + S (rpm/60)^2) | fit misfit | lowest MAC |\n|---|---|---|---|---|---|",
-        d.speeds_rpm[0], d.operating_speed_rpm
+        d.speeds_rpm[0], op
     );
-    let at_op = |c: &Curve| interpolate(&d.speeds_rpm, &c.frequency_hz, d.operating_speed_rpm);
+    let at_op = |c: &Curve| interpolate(&d.speeds_rpm, &c.frequency_hz, op);
     for c in &d.curves {
         let low = c.mac.iter().copied().fold(1.0, f64::min);
         let _ = writeln!(
@@ -553,7 +555,7 @@ fn section(case: &Case, d: &CampbellData, bands: &[Band]) -> String {
             c.mode,
             c.speed_rpm,
             c.frequency_hz,
-            100.0 * (c.speed_rpm / d.operating_speed_rpm - 1.0)
+            100.0 * (c.speed_rpm / op - 1.0)
         );
     }
     interaction(&mut s, case, d, bands);

@@ -196,6 +196,25 @@ def case_files(c, geo):
     bad("name_parent", r"name = \"\.\./x\": expected a plain directory name", base_case(c, geo, extra_top='name = "../x"'))
     bad("name_empty", r"name = \"\": expected a plain directory name", base_case(c, geo, extra_top='name = ""'))
     c.add("case file", "case_missing_file", ["run", c.path("cases/none.toml")], r"cannot read the case file .*none\.toml")
+    # [rotation] (issue 23): every value named before any stage runs.
+    for name, lines, pat in [
+        ("speed_negative", "operating_speed = -100.0", r"rotation\.operating_speed = -100\.0: expected a finite speed >= 0 \(rpm\)"),
+        ("speed_nan", "operating_speed = nan", r"rotation\.operating_speed = NaN"),
+        ("speed_outside_range", "operating_speed = 12000.0\ncampbell_range = [0.0, 10000.0]", r"rotation\.operating_speed = 12000\.0: expected a speed within rotation\.campbell_range = \[0, 10000\] rpm"),
+        ("range_inverted", "campbell_range = [9000.0, 1000.0]", r"rotation\.campbell_range = \[9000\.0, 1000\.0\]: expected \[from, to\] rpm with 0 <= from < to"),
+        ("range_negative", "campbell_range = [-10.0, 1000.0]", r"rotation\.campbell_range = \[-10\.0, 1000\.0\]"),
+        ("engine_order_zero", "engine_orders = [0, 3]", r"rotation\.engine_orders = 0: expected integers 1 <= EO <= 200"),
+        ("engine_order_negative", "engine_orders = [-2]", r"rotation\.engine_orders = -2: expected integers"),
+        ("engine_orders_empty", "engine_orders = []", r"rotation\.engine_orders = \[\]: expected at least one engine order"),
+        ("speeds_one", "campbell_speeds = 1", r"rotation\.campbell_speeds = 1: expected between 2 and 1000 speeds"),
+        ("modes_zero", "campbell_modes = 0", r"rotation\.campbell_modes = 0: expected between 1 and 30 modes"),
+        ("kinematics_unknown", 'kinematics = "elastic"', r"rotation\.kinematics = \"elastic\": expected \"nonlinear\" or \"linear\""),
+        ("map_amplitude_zero", "map_amplitudes = [0.0]", r"rotation\.map_amplitudes = 0\.0: expected finite amplitudes q/g0 > 0"),
+        ("unknown_key", "operating_sped = 100.0", r"unknown field `operating_sped`"),
+    ]:
+        bad(f"rotation_{name}", pat, text=base_case(c, geo) + "[rotation]\n" + lines + "\n")
+    bad("rotation_zero_axis", r"model\.rotor_axis_direction = \[0\.0, 0\.0, 0\.0\]",
+        text=base_case(c, geo, model="rotor_axis_direction = [0.0, 0.0, 0.0]") + "[rotation]\n")
 
 
 # ---------------------------------------------------------------- output paths and CLI
