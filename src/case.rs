@@ -365,7 +365,8 @@ mod tests {
     }
 
     /// The shipped case file states the defaults: reading it equals `Case::default()` (but
-    /// for its name and the .geo parameters it spells out).
+    /// for its name and the .geo parameters it spells out), and its `[rotation]` table (absent
+    /// from the default case: the blade at rest) states the table's defaults.
     #[test]
     fn shipped_case_file_equals_the_defaults() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/blade.toml");
@@ -373,6 +374,10 @@ mod tests {
         let mut c: Case = with_defaults(&Case::default(), &text, &path).unwrap();
         c.name = None;
         c.mesh.parameters.clear();
+        assert_eq!(
+            c.rotation.take(),
+            Some(crate::rotation_settings::RotationSection::default())
+        );
         let as_json = |c: &Case| serde_json::to_string(c).unwrap();
         assert_eq!(as_json(&c), as_json(&Case::default()));
     }
