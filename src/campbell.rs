@@ -257,6 +257,59 @@ impl RitzCampbell {
     }
 }
 
+/// The frequencies (Hz, ascending) of the `n` lowest modes at `omega` (rad/s) with the Coriolis
+/// matrix G (DESIGN §9) added by projection onto them, as CalculiX does for a rotating
+/// structure: with X the mass-normalized real modes (Ritz pairs of `modes`), the quadratic
+/// eigenproblem (lambda^2 I + lambda X^T G X + diag(w^2)) y = 0, solved as its 2n x 2n
+/// companion matrix; lambda = +-i w_gyro. X^T G X is skew, so the shift is of second order in
+/// G: it matters where two modes are close in frequency and couple through it.
+pub fn coriolis_frequencies(
+    family: &SpeedFamily<'_>,
+    ritz: &RitzCampbell,
+    modes: &SpeedModes,
+    omega: f64,
+    n: usize,
+) -> Result<Vec<f64>> {
+    let g = family
+        .model
+        .dofs()
+        .try_restrict(&family.model.coriolis_matrix(omega)?)?;
+    let n = n.min(modes.eigenvalues.len());
+    let x = &ritz.q * modes.coordinates.subcols(0, n);
+    let g_r = x.transpose() * sparse_times(&g, &x);
+    gyroscopic_frequencies(&modes.eigenvalues[..n], &g_r)
+}
+
+/// The frequencies (Hz, ascending) of (lambda^2 I + lambda g + diag(w2)) y = 0 for squared
+/// circular frequencies `w2` (rad^2/s^2) and a skew gyroscopic matrix `g` (1/s), from the
+/// eigenvalues +-i w of the companion matrix [[0, I], [-diag(w2), -g]].
+fn gyroscopic_frequencies(w2: &[f64], g: &Mat<f64>) -> Result<Vec<f64>> {
+    let n = w2.len();
+    let mut a = Mat::<f64>::zeros(2 * n, 2 * n);
+    for i in 0..n {
+        a[(i, n + i)] = 1.0;
+        a[(n + i, i)] = -w2[i];
+        for j in 0..n {
+            a[(n + i, n + j)] = -g[(i, j)];
+        }
+    }
+    let values = a
+        .eigenvalues()
+        .map_err(|e| anyhow::anyhow!("eigenvalues of the gyroscopic companion matrix: {e:?}"))?;
+    let mut f: Vec<f64> = values
+        .iter()
+        .filter(|z| z.im > 0.0)
+        .map(|z| z.im / (2.0 * std::f64::consts::PI))
+        .collect();
+    f.sort_by(f64::total_cmp);
+    anyhow::ensure!(
+        f.len() == n,
+        "the gyroscopic eigenproblem gave {} oscillating pairs for {n} modes",
+        f.len()
+    );
+    Ok(f)
+}
+
 /// An M-orthonormal basis Q of the span of the columns of `v`, and M Q: modified Gram-Schmidt
 /// in the M-inner product, each vector orthogonalized twice ("twice is enough", Parlett), a
 /// vector dropped when less than 1e-8 of its M-norm is left (a mode repeated between basis
@@ -394,5 +447,30 @@ mod tests {
                 assert!(modes.eigenvalues[j] >= exact * (1.0 - tol));
             }
         }
+    }
+
+    /// Two modes w1, w2 coupled by the skew g = [[0, c], [-c, 0]]: lambda = i w solves
+    /// w^4 - (w1^2 + w2^2 + c^2) w^2 + w1^2 w2^2 = 0 (the determinant of the 2 x 2 quadratic
+    /// pencil), closed form to 1e-12; with c = 0 the frequencies are unchanged.
+    #[test]
+    fn gyroscopic_frequencies_solve_the_two_mode_quartic() {
+        let (w1, w2, c) = (100.0_f64, 130.0_f64, 25.0_f64);
+        let g = Mat::from_fn(2, 2, |i, j| match (i, j) {
+            (0, 1) => c,
+            (1, 0) => -c,
+            _ => 0.0,
+        });
+        let f = gyroscopic_frequencies(&[w1 * w1, w2 * w2], &g).unwrap();
+        let b = w1 * w1 + w2 * w2 + c * c;
+        let disc = (b * b - 4.0 * w1 * w1 * w2 * w2).sqrt();
+        let exact = [((b - disc) / 2.0).sqrt(), ((b + disc) / 2.0).sqrt()];
+        for (fi, wi) in f.iter().zip(exact) {
+            let hz = wi / (2.0 * std::f64::consts::PI);
+            assert!((fi - hz).abs() < 1e-12 * hz, "{fi} vs {hz}");
+        }
+        assert!(exact[0] < w1 && exact[1] > w2, "the coupling splits the pair apart");
+        let zero = Mat::<f64>::zeros(2, 2);
+        let f0 = gyroscopic_frequencies(&[w1 * w1, w2 * w2], &zero).unwrap();
+        assert!((f0[0] - w1 / (2.0 * std::f64::consts::PI)).abs() < 1e-12 * w1);
     }
 }

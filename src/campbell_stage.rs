@@ -64,9 +64,22 @@ pub struct CampbellData {
     pub engine_orders: Vec<i64>,
     pub curves: Vec<Curve>,
     pub crossings: Vec<Crossing>,
+    /// The Coriolis effect at the highest speed of the diagram (where it is largest).
+    pub coriolis: Option<CoriolisShift>,
     /// The Ritz frequencies against a direct shift-invert eigen-solve of the full model at the
     /// Campbell speed with the largest residual (not a basis speed).
     pub direct_check: Option<DirectCheck>,
+}
+
+/// The drawn modes' frequencies at one speed without and with the Coriolis matrix (projected
+/// onto them: `crate::campbell::coriolis_frequencies`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CoriolisShift {
+    pub speed_rpm: f64,
+    pub without_hz: Vec<f64>,
+    pub with_hz: Vec<f64>,
+    /// Largest |f_with - f_without| / f_without.
+    pub max_relative_shift: f64,
 }
 
 /// A direct eigen-solve at one speed of the diagram.
@@ -161,6 +174,7 @@ impl<'a> CampbellStage<'a> {
         }
         bar.finish_and_clear();
         let direct_check = direct_check(&family, &speeds, &basis_rpm, &modes, r.campbell_modes)?;
+        let coriolis = coriolis_shift(&family, &ritz, &speeds, &modes, r.campbell_modes)?;
         let curves = track(&speeds, &modes, r.campbell_modes);
         let crossings = crossings(&speeds, &curves, &r.engine_orders);
         Ok(CampbellData {
@@ -171,8 +185,38 @@ impl<'a> CampbellStage<'a> {
             curves,
             crossings,
             direct_check,
+            coriolis,
         })
     }
+}
+
+/// The Coriolis shift at the last (highest) speed.
+fn coriolis_shift(
+    family: &SpeedFamily<'_>,
+    ritz: &RitzCampbell,
+    speeds: &[f64],
+    modes: &[SpeedModes],
+    n: usize,
+) -> Result<Option<CoriolisShift>> {
+    let (Some(&rpm), Some(m)) = (speeds.last(), modes.last()) else {
+        return Ok(None);
+    };
+    if rpm <= 0.0 {
+        return Ok(None);
+    }
+    let with_hz = crate::campbell::coriolis_frequencies(family, ritz, m, rpm * RPM_TO_RAD_S, n)?;
+    let without_hz: Vec<f64> = m.eigenvalues.iter().take(n).map(|&l| hz(l)).collect();
+    let max_relative_shift = with_hz
+        .iter()
+        .zip(&without_hz)
+        .map(|(a, b)| (a - b).abs() / b)
+        .fold(0.0, f64::max);
+    Ok(Some(CoriolisShift {
+        speed_rpm: rpm,
+        without_hz,
+        with_hz,
+        max_relative_shift,
+    }))
 }
 
 /// The direct check at the non-basis speed whose drawn modes have the largest residual.
@@ -526,6 +570,25 @@ fn section(case: &Case, d: &CampbellData, op: f64, bands: &[Band]) -> String {
         d.basis_speeds_rpm
     );
     let _ = writeln!(s, "![Campbell diagram](campbell/campbell.png)\n");
+    if let Some(c) = &d.coriolis {
+        let _ = writeln!(
+            s,
+            "Coriolis (left out of the diagram): at {:.0} rpm, projected onto the {} drawn \
+             modes (the quadratic eigenproblem with the gyroscopic matrix, as CalculiX \
+             reports it), it moves their frequencies by at most {:.1e} (relative; {}). It \
+             grows with the speed and matters where two modes coupled by it come close in \
+             frequency.\n",
+            c.speed_rpm,
+            c.with_hz.len(),
+            c.max_relative_shift,
+            c.without_hz
+                .iter()
+                .zip(&c.with_hz)
+                .map(|(a, b)| format!("{a:.2} -> {b:.2} Hz"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     let _ = writeln!(
         s,
         "| mode | f at {} rpm (Hz) | f at {:.0} rpm (Hz) | Southwell S (f^2 = f0^2 + S (rpm/60)^2) | fit misfit | lowest MAC |\n|---|---|---|---|---|---|",
