@@ -468,7 +468,10 @@ mod tests {
             let hz = wi / (2.0 * std::f64::consts::PI);
             assert!((fi - hz).abs() < 1e-12 * hz, "{fi} vs {hz}");
         }
-        assert!(exact[0] < w1 && exact[1] > w2, "the coupling splits the pair apart");
+        assert!(
+            exact[0] < w1 && exact[1] > w2,
+            "the coupling splits the pair apart"
+        );
         let zero = Mat::<f64>::zeros(2, 2);
         let f0 = gyroscopic_frequencies(&[w1 * w1, w2 * w2], &zero).unwrap();
         assert!((f0[0] - w1 / (2.0 * std::f64::consts::PI)).abs() < 1e-12 * w1);

@@ -468,8 +468,18 @@ pub fn draw(case: &Case, rotation: &RotationSection, layout: &Layout) -> Result<
     if let Some(b) = read(layout.backbone().join("backbone.json")) {
         bands.extend(band(&b, 0.0, &rotation.map_amplitudes));
     }
-    if let Some(b) = read(speed.backbone().join("backbone.json")) {
-        bands.extend(band(&b, rotation.operating_speed, &rotation.map_amplitudes));
+    let mut at_speed = vec![(rotation.operating_speed, speed)];
+    at_speed.extend(
+        rotation
+            .extra_map_speeds()
+            .into_iter()
+            .map(|s| (s, crate::speed_stage::map_speed_layout(layout, s))),
+    );
+    at_speed.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (rpm, lay) in at_speed {
+        if let Some(b) = read(lay.backbone().join("backbone.json")) {
+            bands.extend(band(&b, rpm, &rotation.map_amplitudes));
+        }
     }
     let op = rotation.operating_speed;
     figure(&d, op, &bands, &dir)?;
@@ -642,7 +652,8 @@ fn interaction(s: &mut String, case: &Case, d: &CampbellData, bands: &[Band]) {
         s,
         "\n### Interaction map\n\nThe thick red segments: the frequencies the first nonlinear \
          mode sweeps from grazing to q/g0 = q_max (gap: the cold gap {:.3e} m at rest, the \
-         running gap at the operating speed). An engine-order line that enters a band is an \
+         running gap at each speed: `speed/` for the operating speed, `speeds/<rpm>rpm/` for \
+         the map speeds). An engine-order line that enters a band is an \
          excitation that can drive the blade into the casing at that speed.\n",
         case.model.gap
     );

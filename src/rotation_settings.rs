@@ -33,6 +33,10 @@ pub struct RotationSection {
     /// Amplitudes q/g0 (running gap) of the first nonlinear mode marked on the interaction map
     /// besides the band from grazing to the largest traced amplitude.
     pub map_amplitudes: Vec<f64>,
+    /// Speeds (rpm) besides rest and the operating speed at which the prestress, the reduced
+    /// model and the backbone are computed too (`results/<case>/speeds/<rpm>rpm/`), each adding
+    /// a band to the interaction map. Within `campbell_range`.
+    pub map_speeds: Vec<f64>,
 }
 
 impl Default for RotationSection {
@@ -48,16 +52,12 @@ impl Default for RotationSection {
             campbell_modes: 6,
             engine_orders: (1..=8).collect(),
             map_amplitudes: vec![5.0, 10.0],
+            map_speeds: vec![4_000.0],
         }
     }
 }
 
 impl RotationSection {
-    /// The operating speed in rad/s.
-    pub fn operating_omega(&self) -> f64 {
-        self.operating_speed * RPM_TO_RAD_S
-    }
-
     /// The speeds of the Campbell diagram, rpm, evenly spaced over the range.
     pub fn campbell_rpm(&self) -> Vec<f64> {
         let [a, b] = self.campbell_range;
@@ -65,6 +65,20 @@ impl RotationSection {
         (0..n)
             .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
             .collect()
+    }
+
+    /// The speeds of the interaction map besides rest and the operating speed, rpm: increasing,
+    /// without duplicates, rest or the operating speed (those are always computed).
+    pub fn extra_map_speeds(&self) -> Vec<f64> {
+        let mut v: Vec<f64> = self
+            .map_speeds
+            .iter()
+            .copied()
+            .filter(|&s| s > 0.0 && s != self.operating_speed)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v
     }
 
     /// Whether the static solve is geometrically nonlinear.
@@ -137,6 +151,15 @@ impl RotationSection {
                 "finite amplitudes q/g0 > 0",
             );
         }
+        for v in &self.map_speeds {
+            let ok = speed_ok(*v) && (!range_ok || (a..=b).contains(v));
+            p.check(
+                ok,
+                "rotation.map_speeds",
+                v,
+                &format!("finite speeds within rotation.campbell_range = [{a}, {b}] rpm"),
+            );
+        }
     }
 }
 
@@ -158,7 +181,12 @@ mod tests {
         assert_eq!(rpm.len(), 11);
         assert_eq!((rpm[0], rpm[10]), (0.0, 10_000.0));
         assert!((rpm[1] - 1000.0).abs() < 1e-9);
-        assert!((s.operating_omega() - 837.7580409572781).abs() < 1e-9);
+        assert!((s.operating_speed * RPM_TO_RAD_S - 837.7580409572781).abs() < 1e-9);
+        let many = RotationSection {
+            map_speeds: vec![6000.0, 0.0, 8000.0, 2000.0, 6000.0],
+            ..s
+        };
+        assert_eq!(many.extra_map_speeds(), vec![2000.0, 6000.0]);
     }
 
     #[test]
@@ -171,6 +199,7 @@ mod tests {
             campbell_modes: 0,
             engine_orders: vec![0, 2],
             map_amplitudes: vec![f64::NAN],
+            map_speeds: vec![-1.0],
         };
         let msg = problems_of(&s);
         for want in [
@@ -181,6 +210,7 @@ mod tests {
             "rotation.campbell_modes = 0",
             "rotation.engine_orders = 0",
             "rotation.map_amplitudes = NaN",
+            "rotation.map_speeds = -1.0",
         ] {
             assert!(msg.contains(want), "missing `{want}` in:\n{msg}");
         }

@@ -167,12 +167,19 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
     }
     finish_modes(modes_child.take())?;
 
-    // speed (issue 23): the prestress and the reduced model at the operating speed
-    let speed = case
+    // speed (issue 23): the prestress and the reduced model at the operating speed, then at
+    // each map speed
+    let speeds: Vec<crate::speed_stage::SpeedStage> = case
         .rotation
         .as_ref()
-        .map(|r| crate::speed_stage::SpeedStage::new(&case, r, &layout, &fe_hash));
-    if let Some(stage) = &speed {
+        .map(|r| {
+            std::iter::once(r.operating_speed)
+                .chain(r.extra_map_speeds())
+                .map(|rpm| crate::speed_stage::SpeedStage::at(&case, r, &layout, &fe_hash, rpm))
+                .collect()
+        })
+        .unwrap_or_default();
+    for stage in &speeds {
         if wants(Only::Speed) || wants(Only::Backbone) || wants(Only::Post) {
             stage.run_if_needed(&material, forced(Only::Speed))?;
         }
@@ -232,12 +239,11 @@ pub fn run(case_path: &Path, only: Option<Only>, force: bool) -> Result<()> {
         }
         traced.push((mode, lay));
     }
-    if let Some(stage) = &speed {
+    for stage in &speeds {
         if wants(Only::Backbone) || wants(Only::Post) {
             crate::speed_stage::backbone_at_speed(
                 &case,
-                &layout,
-                stage.hash(),
+                stage,
                 forced(Only::Backbone),
                 wants(Only::Post),
             )?;

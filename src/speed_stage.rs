@@ -1,6 +1,7 @@
 //! The `speed` stage of `nlmodes run` (issue 23, items 2-4, 6, 8): the centrifugal prestress at
-//! the operating speed of `[rotation]`, the running gaps, and the Craig-Bampton reduction of
-//! K(Omega) onto the prestressed contact nodes. Writes `results/<case>/speed/`:
+//! the operating speed of `[rotation]` (and at each of its `map_speeds`), the running gaps, and
+//! the Craig-Bampton reduction of K(Omega) onto the prestressed contact nodes. Writes
+//! `results/<case>/speed/` (`speeds/<rpm>rpm/` for a map speed):
 //! `prestress.vtu` (displacement, m; von Mises stress, Pa), `prestress.json`, `model/` (the
 //! reduced model at speed, read by the backbone at speed) and `section.md` (the report's
 //! section). Reruns when the FE model, `[model]` or the operating speed and kinematics change.
@@ -45,26 +46,35 @@ pub struct PrestressSummary {
 pub struct SpeedStage<'a> {
     case: &'a Case,
     rotation: &'a RotationSection,
+    /// The speed, rpm.
+    speed_rpm: f64,
     layout: Layout,
     mesh: PathBuf,
     hash: String,
 }
 
 impl<'a> SpeedStage<'a> {
-    /// The stage of `case` (with its `[rotation]`) on the FE model of hash `fe_hash`.
-    pub fn new(
+    /// The stage at `speed_rpm`: the operating speed's results in `speed/`, another speed's in
+    /// `speeds/<rpm>rpm/` (`map_speed_layout`).
+    pub fn at(
         case: &'a Case,
         rotation: &'a RotationSection,
         layout: &Layout,
         fe_hash: &str,
+        speed_rpm: f64,
     ) -> Self {
         let inputs =
-            serde_json::to_vec(&(&case.model, rotation.operating_speed, &rotation.kinematics))
-                .unwrap_or_default();
+            serde_json::to_vec(&(&case.model, speed_rpm, &rotation.kinematics)).unwrap_or_default();
+        let own = if speed_rpm == rotation.operating_speed {
+            speed_layout(layout)
+        } else {
+            map_speed_layout(layout, speed_rpm)
+        };
         Self {
             case,
             rotation,
-            layout: speed_layout(layout),
+            speed_rpm,
+            layout: own,
             mesh: layout.mesh(),
             hash: fnv1a(&[fe_hash.as_bytes(), &inputs]),
         }
@@ -73,6 +83,20 @@ impl<'a> SpeedStage<'a> {
     /// The hash of the reduced model at speed (the backbone at speed depends on it).
     pub fn hash(&self) -> &str {
         &self.hash
+    }
+
+    /// Where the stage's results are, laid out as a case of their own.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The results folder relative to the case's: `speed` or `speeds/<rpm>rpm`.
+    fn dir_name(&self) -> String {
+        if self.speed_rpm == self.rotation.operating_speed {
+            "speed".into()
+        } else {
+            format!("speeds/{}rpm", self.speed_rpm)
+        }
     }
 
     /// Runs unless up to date (or `force`).
@@ -92,7 +116,15 @@ impl<'a> SpeedStage<'a> {
         }
         let st = crate::ui::Stage::start("speed");
         let summary = self.work(material)?;
-        crate::output::write_atomic(&root.join("section.md"), section(&summary).as_bytes())?;
+        crate::output::write_atomic(
+            &root.join("section.md"),
+            section(
+                &summary,
+                self.speed_rpm == self.rotation.operating_speed,
+                &self.dir_name(),
+            )
+            .as_bytes(),
+        )?;
         st.done(&format!(
             "prestress and reduced model at {:.0} rpm in {}",
             summary.speed_rpm,
@@ -107,7 +139,7 @@ impl<'a> SpeedStage<'a> {
         let m = &self.case.model;
         let axis = prestress::fem_axis(m.rotor_axis_point, m.rotor_axis_direction)?;
         let nodes = crate::reduce::ordered_contact_nodes(&fe, &m.contact_group)?;
-        let omega = self.rotation.operating_omega();
+        let omega = self.speed_rpm * RPM_TO_RAD_S;
         let p = prestress::at_speed(
             &fe,
             material,
@@ -141,6 +173,11 @@ impl<'a> SpeedStage<'a> {
 /// their own (model/, backbone/, amplitude folders, report.md).
 pub fn speed_layout(layout: &Layout) -> Layout {
     Layout::new(layout.shared.join("speed"))
+}
+
+/// The results at a map speed (`[rotation] map_speeds`): `results/<case>/speeds/<rpm>rpm/`.
+pub fn map_speed_layout(layout: &Layout, speed_rpm: f64) -> Layout {
+    Layout::new(layout.shared.join("speeds").join(format!("{speed_rpm}rpm")))
 }
 
 fn summarize(p: &Prestress, r: &RotationSection, nodes: &[usize], cold: f64) -> PrestressSummary {
@@ -199,19 +236,24 @@ fn write_field(fe: &FeModel, p: &Prestress, path: &Path) -> Result<()> {
 }
 
 /// The report's section on the prestress.
-fn section(s: &PrestressSummary) -> String {
+fn section(s: &PrestressSummary, operating: bool, dir: &str) -> String {
     let mut out = String::from("## The blade at speed\n\n");
+    let which = if operating {
+        "Operating speed"
+    } else {
+        "Map speed"
+    };
     let (gmin, gmax) = range(&s.running_gap_m);
     let (umin, umax) = range(&s.radial_growth_m);
     let _ = writeln!(
         out,
-        "Operating speed {:.0} rpm ({:.2} rad/s), centrifugal static solve `{}` (the load \
+        "{which} {:.0} rpm ({:.2} rad/s), centrifugal static solve `{}` (the load \
          following the deformation for `nonlinear`). Root von Mises stress (largest nodal value \
          over the clamped groups): {:.1} MPa. Radial growth of the contact nodes {:.3e} .. {:.3e} \
          m; running gap {:.3e} .. {:.3e} m from the cold gap {:.3e} m; the gap would close \
-         statically at about {:.0} rpm. Fields: `speed/prestress.vtu` (displacement, von \
-         Mises); numbers: `speed/prestress.json`; the nonlinear mode at speed: \
-         `speed/report.md`.\n",
+         statically at about {:.0} rpm. Fields: `{dir}/prestress.vtu` (displacement, von \
+         Mises); numbers: `{dir}/prestress.json`; the nonlinear mode at speed: \
+         `{dir}/report.md`.\n",
         s.speed_rpm,
         s.omega_rad_s,
         s.kinematics,
@@ -232,17 +274,17 @@ fn section(s: &PrestressSummary) -> String {
 }
 
 /// The backbone at speed of the first traced mode, on the reduced model at speed, and its
-/// post-processing (`speed/backbone/`, `speed/report.md`, ParaView series): the same stage as
-/// at rest on another model. Stamped like the backbone at rest; the stage reruns when the model
-/// at speed or the backbone settings change.
+/// post-processing (`backbone/`, `report.md`, ParaView series in the speed's layout): the same
+/// stage as at rest on another model. Stamped like the backbone at rest; the stage reruns when
+/// the model at speed or the backbone settings change.
 pub fn backbone_at_speed(
     case: &Case,
-    layout: &Layout,
-    speed_hash: &str,
+    speed: &SpeedStage<'_>,
     force: bool,
     post: bool,
 ) -> Result<()> {
-    let lay = speed_layout(layout);
+    let lay = speed.layout().clone();
+    let speed_hash = speed.hash();
     let mode = case.continuation.modes_to_trace()[0];
     let cont = nlmodes_nnm::ContinuationSettings {
         mode,

@@ -210,6 +210,8 @@ def case_files(c, geo):
         ("modes_zero", "campbell_modes = 0", r"rotation\.campbell_modes = 0: expected between 1 and 30 modes"),
         ("kinematics_unknown", 'kinematics = "elastic"', r"rotation\.kinematics = \"elastic\": expected \"nonlinear\" or \"linear\""),
         ("map_amplitude_zero", "map_amplitudes = [0.0]", r"rotation\.map_amplitudes = 0\.0: expected finite amplitudes q/g0 > 0"),
+        ("map_speed_outside", "map_speeds = [20000.0]", r"rotation\.map_speeds = 20000\.0: expected finite speeds within rotation\.campbell_range = \[0, 10000\] rpm"),
+        ("map_speed_nan", "map_speeds = [nan]", r"rotation\.map_speeds = NaN: expected finite speeds"),
         ("unknown_key", "operating_sped = 100.0", r"unknown field `operating_sped`"),
     ]:
         bad(f"rotation_{name}", pat, text=base_case(c, geo) + "[rotation]\n" + lines + "\n")
