@@ -81,7 +81,14 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
             shapes,
         })
         .collect();
-    crate::report::write_report(case, layout, &model, &b, &written, modes_picture.as_deref())?;
+    crate::report::write_report(&crate::report::ReportInputs {
+        case,
+        layout,
+        model: &model,
+        backbone: &b,
+        kept: &written,
+        linear_modes_picture: modes_picture.as_deref(),
+    })?;
     stage.done(&format!(
         "figures, tables and {} ParaView series in {}",
         written.len(),

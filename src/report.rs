@@ -53,34 +53,63 @@ fn convergence_figure(b: &BackboneFile, out: &Path) -> Result<()> {
     Ok(())
 }
 
-pub fn write_report(
-    case: &Case,
-    layout: &Layout,
-    model: &ReducedModel,
-    b: &BackboneFile,
-    kept: &[KeptOutputs],
-    linear_modes_picture: Option<&Path>,
-) -> Result<()> {
-    let root = &layout.root;
-    convergence_figure(b, root)?;
-    let g0 = b.gap_reference;
+/// What the report is written from.
+pub struct ReportInputs<'a> {
+    pub case: &'a Case,
+    pub layout: &'a Layout,
+    pub model: &'a ReducedModel,
+    pub backbone: &'a BackboneFile,
+    pub kept: &'a [KeptOutputs],
+    pub linear_modes_picture: Option<&'a Path>,
+}
+
+/// One section of `report.md`: its text from the inputs (empty when it has nothing to say).
+type Section = fn(&ReportInputs<'_>) -> String;
+
+/// The report, in order: a list of sections. A stage that runs before post (forced, speed,
+/// campbell) writes its own `section.md`, included by [`stage_sections`].
+const SECTIONS: [Section; 8] = [
+    title,
+    inputs,
+    linear_modes,
+    backbone,
+    manifold,
+    kept_amplitudes,
+    stage_sections,
+    convergence,
+];
+
+/// Writes `report.md` (and the convergence figures it shows) in the layout's root.
+pub fn write_report(r: &ReportInputs<'_>) -> Result<()> {
+    let root = &r.layout.root;
+    convergence_figure(r.backbone, root)?;
+    let s: String = SECTIONS.iter().map(|section| section(r)).collect();
+    crate::output::write_atomic(&root.join("report.md"), s.as_bytes())
+}
+
+fn title(r: &ReportInputs<'_>) -> String {
+    let b = r.backbone;
     let f1 = b.omega_linear / (2.0 * std::f64::consts::PI);
-    let mut s = String::new();
-    let _ = writeln!(s, "# nlmodes report: case `{}`\n", case.name());
-    let _ = writeln!(
-        s,
-        "Nonlinear normal mode of a structure with frictionless unilateral contact (Laxalde, Legrand & \
-         Pierre 2009). Displacements are normalized by the initial gap g0 = {:.4e} m, frequencies by \
-         the first linear frequency f1 = {f1:.4} Hz.\n",
-        g0
-    );
-    let _ = writeln!(
-        s,
-        "## Inputs\n\n```toml\n{}```\n",
-        toml::to_string(case).unwrap_or_default()
-    );
-    let full = crate::fe_model::read_frequencies(&layout.modes().join("frequencies.csv"));
-    let _ = writeln!(s, "## Linear modes and Craig-Bampton accuracy\n");
+    format!(
+        "# nlmodes report: case `{}`\n\nNonlinear normal mode of a structure with frictionless \
+         unilateral contact (Laxalde, Legrand & Pierre 2009). Displacements are normalized by the \
+         initial gap g0 = {:.4e} m, frequencies by the first linear frequency f1 = {f1:.4} Hz.\n\n",
+        r.case.name(),
+        b.gap_reference
+    )
+}
+
+fn inputs(r: &ReportInputs<'_>) -> String {
+    format!(
+        "## Inputs\n\n```toml\n{}```\n\n",
+        toml::to_string(r.case).unwrap_or_default()
+    )
+}
+
+fn linear_modes(r: &ReportInputs<'_>) -> String {
+    let (model, root) = (r.model, &r.layout.root);
+    let full = crate::fe_model::read_frequencies(&r.layout.modes().join("frequencies.csv"));
+    let mut s = String::from("## Linear modes and Craig-Bampton accuracy\n\n");
     let _ = writeln!(
         s,
         "Reduced model: {} coordinates ({} contact nodes x 3 constraint modes + {} fixed-interface \
@@ -95,17 +124,22 @@ pub fn write_report(
         s,
         "| mode | full model [Hz] | reduced [Hz] | relative error |\n|---|---|---|---|"
     );
-    for (i, r) in model.linear_frequencies_hz.iter().take(10).enumerate() {
+    for (i, f_r) in model.linear_frequencies_hz.iter().take(10).enumerate() {
         match full.as_ref().and_then(|f| f.get(i)) {
             Some(f) => {
-                let _ = writeln!(s, "| {} | {f:.4} | {r:.4} | {:.2e} |", i + 1, (r - f) / f);
+                let _ = writeln!(
+                    s,
+                    "| {} | {f:.4} | {f_r:.4} | {:.2e} |",
+                    i + 1,
+                    (f_r - f) / f
+                );
             }
             None => {
-                let _ = writeln!(s, "| {} | | {r:.4} | |", i + 1);
+                let _ = writeln!(s, "| {} | | {f_r:.4} | |", i + 1);
             }
         }
     }
-    if let Some(p) = linear_modes_picture {
+    if let Some(p) = r.linear_modes_picture {
         let _ = writeln!(s, "\n![linear modes]({})\n", rel(root, p));
     }
     let _ = writeln!(
@@ -115,6 +149,13 @@ pub fn write_report(
          `scripts/paraview {}/modes/modes.vtu --mode 2` opens mode 2.\n",
         root.display()
     );
+    s
+}
+
+fn backbone(r: &ReportInputs<'_>) -> String {
+    let b = r.backbone;
+    let g0 = b.gap_reference;
+    let mut s = String::new();
     let _ = writeln!(
         s,
         "## Backbone (Fig. 3a) and frequency-energy plot\n\n![backbone](backbone.png)\n\
@@ -134,40 +175,55 @@ pub fn write_report(
             .unwrap_or_else(|| "none".into()),
         b.termination
     );
-    if !b.internal_resonances.is_empty() {
-        let _ = writeln!(
-            s,
-            "Internal resonances met by the continuation (the main branch turned into a tongue \
-             where harmonic n of the orbit drives linear mode k; the tongue is followed as its own \
-             branch, up to a set number of points, and the main branch is continued past it by a \
-             predictor on its secant beyond the tongue and filled back toward it, or as a last resort by a fixed-q hop flagged as a jump):\n\n\
-             | q/g0 | w/w1 | mode k | harmonic n | detuning (n w - w_k)/w_k | energy share | tongue branch | main branch past it |\n\
-             |---|---|---|---|---|---|---|---|"
-        );
-        for r in &b.internal_resonances {
-            let _ = writeln!(
-                s,
-                "| {:.3} | {:.4} | {} | {} | {:+.2} % | {:.0} % | {} | {} |",
-                r.q / g0,
-                r.omega_ratio,
-                r.mode + 1,
-                r.harmonic,
-                100.0 * r.detuning,
-                100.0 * r.share,
-                r.branch
-                    .map_or("not followed".to_string(), |id| id.to_string()),
-                match r.passed {
-                    Some(nlmodes_nnm::Passage::Predictor) => "yes (predictor)",
-                    Some(nlmodes_nnm::Passage::FixedQHop) => "yes (fixed-q hop, J)",
-                    None => "no",
-                }
-            );
-        }
-        let _ = writeln!(s);
+    internal_resonances(&mut s, b);
+    backbone_table(&mut s, b);
+    let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
+    truncation_table(&mut s, b, r.kept, g0);
+    s
+}
+
+fn internal_resonances(s: &mut String, b: &BackboneFile) {
+    if b.internal_resonances.is_empty() {
+        return;
     }
+    let g0 = b.gap_reference;
     let _ = writeln!(
         s,
-        "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | stable (max abs mu, trivial-pair error) | flags |\n|---|---|---|---|---|---|---|---|---|"
+        "Internal resonances met by the continuation (the main branch turned into a tongue \
+         where harmonic n of the orbit drives linear mode k; the tongue is followed as its own \
+         branch, up to a set number of points, and the main branch is continued past it by a \
+         predictor on its secant beyond the tongue and filled back toward it, or as a last resort by a fixed-q hop flagged as a jump):\n\n\
+         | q/g0 | w/w1 | mode k | harmonic n | detuning (n w - w_k)/w_k | energy share | tongue branch | main branch past it |\n\
+         |---|---|---|---|---|---|---|---|"
+    );
+    for r in &b.internal_resonances {
+        let _ = writeln!(
+            s,
+            "| {:.3} | {:.4} | {} | {} | {:+.2} % | {:.0} % | {} | {} |",
+            r.q / g0,
+            r.omega_ratio,
+            r.mode + 1,
+            r.harmonic,
+            100.0 * r.detuning,
+            100.0 * r.share,
+            r.branch
+                .map_or("not followed".to_string(), |id| id.to_string()),
+            match r.passed {
+                Some(nlmodes_nnm::Passage::Predictor) => "yes (predictor)",
+                Some(nlmodes_nnm::Passage::FixedQHop) => "yes (fixed-q hop, J)",
+                None => "no",
+            }
+        );
+    }
+    let _ = writeln!(s);
+}
+
+/// About 25 rows of the backbone, with every fold, jump and bifurcation.
+fn backbone_table(s: &mut String, b: &BackboneFile) {
+    let g0 = b.gap_reference;
+    let _ = writeln!(
+        s,
+        "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | stability (max abs mu, trivial-pair error) | flags |\n|---|---|---|---|---|---|---|---|---|"
     );
     let stride = (b.points.len() / 25).max(1);
     for (i, p) in b.points.iter().enumerate() {
@@ -186,7 +242,7 @@ pub fn write_report(
             .map_or("not computed".to_string(), |st| {
                 format!(
                     "{} ({:.4}, {:.1e})",
-                    if st.stable { "yes" } else { "no" },
+                    p.verdict().unwrap_or("not computed"),
                     st.max_multiplier_abs,
                     st.trivial_pair_error
                 )
@@ -218,14 +274,18 @@ pub fn write_report(
             flags
         );
     }
-    let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
-    truncation_table(&mut s, b, kept, g0);
-    let _ = writeln!(s, "## Manifold (Fig. 3b)\n\n![manifold displacement](manifold_displacement.png)\n![manifold velocity](manifold_velocity.png)\n\nData: `manifold.csv`.\n");
-    let _ = writeln!(
-        s,
-        "## Mode shapes and contact at the kept amplitudes (Figs. 5 and 4)\n"
-    );
-    for k in kept {
+}
+
+fn manifold(_: &ReportInputs<'_>) -> String {
+    "## Manifold (Fig. 3b)\n\n![manifold displacement](manifold_displacement.png)\n![manifold velocity](manifold_velocity.png)\n\nData: `manifold.csv`.\n\n".into()
+}
+
+fn kept_amplitudes(r: &ReportInputs<'_>) -> String {
+    let root = &r.layout.root;
+    let g0 = r.backbone.gap_reference;
+    let mut s =
+        String::from("## Mode shapes and contact at the kept amplitudes (Figs. 5 and 4)\n\n");
+    for k in r.kept {
         let o = &k.orbit;
         let tag = amplitude_tag(o.q / g0);
         let d = rel(root, &k.dir);
@@ -260,23 +320,28 @@ pub fn write_report(
             root.display()
         );
     }
-    // Sections written by the stages that run before post (forced, speed, campbell): links are
-    // relative to the case root.
-    let rotating = case.rotation.is_some() && layout.root == layout.shared;
-    for stage in ["forced", "speed", "campbell"] {
-        if stage != "forced" && !rotating {
-            continue;
-        }
-        if let Ok(text) = std::fs::read_to_string(layout.shared.join(stage).join("section.md")) {
-            s.push_str(&text);
-        }
-    }
-    let _ = writeln!(s, "## Convergence\n\n{}", convergence_text(case, b));
-    let _ = writeln!(
-        s,
-        "![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n"
-    );
-    crate::output::write_atomic(&root.join("report.md"), s.as_bytes())
+    s
+}
+
+/// The sections written by the stages that run before post (forced; speed and campbell for a
+/// rotating case, in the case-root report only): links are relative to the case root.
+fn stage_sections(r: &ReportInputs<'_>) -> String {
+    let layout = r.layout;
+    let rotating = r.case.rotation.is_some() && layout.root == layout.shared;
+    ["forced", "speed", "campbell"]
+        .iter()
+        .filter(|&&stage| stage == "forced" || rotating)
+        .filter_map(|stage| {
+            std::fs::read_to_string(layout.shared.join(stage).join("section.md")).ok()
+        })
+        .collect()
+}
+
+fn convergence(r: &ReportInputs<'_>) -> String {
+    format!(
+        "## Convergence\n\n{}\n![G](convergence_powell.png)\n![Newton](convergence_newton.png)\n\n",
+        convergence_text(r.case, r.backbone)
+    )
 }
 
 /// What Algorithm 1 reached: every point within epsilon, or how many were accepted stalled above
