@@ -19,6 +19,7 @@ use crate::case::Case;
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
 
 /// Tracked modes below this MAC with their predecessor are flagged (veering or a mode
@@ -96,17 +97,19 @@ pub struct DirectCheck {
 pub struct CampbellStage<'a> {
     case: &'a Case,
     rotation: &'a RotationSection,
+    material: &'a Isotropic,
+    layout: &'a Layout,
     out: PathBuf,
     mesh: PathBuf,
     hash: String,
-    stamp: PathBuf,
 }
 
 impl<'a> CampbellStage<'a> {
     pub fn new(
         case: &'a Case,
         rotation: &'a RotationSection,
-        layout: &Layout,
+        material: &'a Isotropic,
+        layout: &'a Layout,
         fe_hash: &str,
     ) -> Self {
         // Not the operating speed nor the map amplitudes: they are drawn by [`draw`].
@@ -121,23 +124,19 @@ impl<'a> CampbellStage<'a> {
         Self {
             case,
             rotation,
+            material,
+            layout,
             out: layout.shared.join("campbell"),
             mesh: layout.mesh(),
             hash: fnv1a(&[fe_hash.as_bytes(), &inputs]),
-            stamp: layout.stamp("campbell"),
         }
     }
 
-    /// Computes the diagram unless up to date (or `force`).
-    pub fn run_if_needed(&self, material: &Isotropic, force: bool) -> Result<()> {
+    /// Computes the diagram and writes its tables.
+    fn write(&self) -> Result<()> {
         let json = self.out.join("campbell.json");
-        let stored = std::fs::read_to_string(&self.stamp).unwrap_or_default();
-        if !force && stored.trim() == self.hash && json.exists() {
-            tracing::info!("stage campbell: up to date");
-            return Ok(());
-        }
         let st = crate::ui::Stage::start("campbell");
-        let data = self.compute(material)?;
+        let data = self.compute(self.material)?;
         std::fs::create_dir_all(&self.out)?;
         write_tables(&data, &self.out)?;
         nlmodes_output::write_json(&json, &data)?;
@@ -147,8 +146,7 @@ impl<'a> CampbellStage<'a> {
             data.speeds_rpm.len(),
             data.crossings.len()
         ));
-        std::fs::create_dir_all(self.stamp.parent().unwrap_or(&self.out))?;
-        crate::output::write_atomic(&self.stamp, self.hash.as_bytes())
+        Ok(())
     }
 
     fn compute(&self, material: &Isotropic) -> Result<CampbellData> {
@@ -187,6 +185,27 @@ impl<'a> CampbellStage<'a> {
             direct_check,
             coriolis,
         })
+    }
+}
+
+impl Stage for CampbellStage<'_> {
+    fn name(&self) -> String {
+        "campbell".into()
+    }
+    fn only(&self) -> Only {
+        Only::Campbell
+    }
+    fn hash(&self) -> &str {
+        &self.hash
+    }
+    fn layout(&self) -> &Layout {
+        self.layout
+    }
+    fn outputs(&self) -> Vec<PathBuf> {
+        vec![self.out.join("campbell.json")]
+    }
+    fn work(&self) -> Result<()> {
+        self.write()
     }
 }
 

@@ -13,20 +13,21 @@ use crate::case::Case;
 use crate::forced::ForcedStudy;
 use crate::layout::Layout;
 use crate::results::BackboneFile;
+use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
 
 /// The stage: its inputs and where it writes.
 pub struct ForcedStage<'a> {
     case: &'a Case,
+    layout: &'a Layout,
     out: PathBuf,
     backbone: Option<PathBuf>,
     hash: String,
-    stamp: PathBuf,
 }
 
 impl<'a> ForcedStage<'a> {
     /// The stage of `case` on the model of hash `reduce_hash`.
-    pub fn new(case: &'a Case, layout: &Layout, reduce_hash: &str) -> Self {
+    pub fn new(case: &'a Case, layout: &'a Layout, reduce_hash: &str) -> Self {
         let mode = case.forced.mode;
         let modes = case.continuation.modes_to_trace();
         let backbone = if modes.len() > 1 {
@@ -45,22 +46,16 @@ impl<'a> ForcedStage<'a> {
         let hash = fnv1a(&[reduce_hash.as_bytes(), &settings, &bb_bytes]);
         Self {
             case,
+            layout,
             out: layout.shared.join("forced"),
             backbone,
             hash,
-            stamp: layout.stamp("forced"),
         }
     }
 
-    /// Runs the study unless its stamp holds the inputs' hash and its outputs exist (or
-    /// `force`). The stamp is written only when every curve reached the end of its range.
-    pub fn run_if_needed(&self, force: bool) -> Result<()> {
-        let outputs = ["frf.csv", "frf.json", "section.md"].map(|f| self.out.join(f));
-        let stored = std::fs::read_to_string(&self.stamp).unwrap_or_default();
-        if !force && stored.trim() == self.hash && outputs.iter().all(|p| p.exists()) {
-            tracing::info!("stage forced: up to date");
-            return Ok(());
-        }
+    /// Runs the study and writes its files; a curve that stops before the end of its range makes
+    /// it `StoppedEarly` (no stamp).
+    fn study(&self) -> Result<()> {
         let st = crate::ui::Stage::start("forced");
         let model = crate::backbone::load_model(&self.case.out_dir().join("model"))?;
         let system = crate::backbone::system_of(&model, None)?;
@@ -76,9 +71,30 @@ impl<'a> ForcedStage<'a> {
         crate::output::write_atomic(&self.out.join("section.md"), section(&study).as_bytes())?;
         crate::ui::say(&crate::forced_output::summary(&study));
         st.done(&format!("wrote {}", self.out.display()));
-        crate::forced::stopped_early(&study, &self.out)?;
-        std::fs::create_dir_all(self.stamp.parent().unwrap_or(&self.out))?;
-        crate::output::write_atomic(&self.stamp, self.hash.as_bytes())
+        crate::forced::stopped_early(&study, &self.out)
+    }
+}
+
+impl Stage for ForcedStage<'_> {
+    fn name(&self) -> String {
+        "forced".into()
+    }
+    fn only(&self) -> Only {
+        Only::Forced
+    }
+    fn hash(&self) -> &str {
+        &self.hash
+    }
+    fn layout(&self) -> &Layout {
+        self.layout
+    }
+    fn outputs(&self) -> Vec<PathBuf> {
+        ["frf.csv", "frf.json", "section.md"]
+            .map(|f| self.out.join(f))
+            .to_vec()
+    }
+    fn work(&self) -> Result<()> {
+        self.study()
     }
 }
 

@@ -2,6 +2,7 @@
 //! after Laxalde, Legrand & Pierre (2009). Units: SI throughout (m, kg, s, Pa, Hz).
 
 mod backbone;
+mod backbone_stage;
 mod campbell;
 mod campbell_stage;
 mod case;
@@ -15,17 +16,20 @@ mod forced_settings;
 mod forced_stage;
 mod gmsh;
 mod layout;
+mod mesh_stage;
 mod output;
 mod post;
 mod prestress;
 mod problems;
 mod reduce;
+mod reduce_stage;
 mod render;
 mod report;
 mod results;
 mod rotation_settings;
 mod run;
 mod speed_stage;
+mod stage;
 mod stage_hash;
 mod ui;
 mod validate;

@@ -18,6 +18,7 @@ use crate::fe_model::FeModel;
 use crate::layout::Layout;
 use crate::prestress::{self, Prestress};
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
 
 /// What `prestress.json` holds (SI units, speeds also in rpm).
@@ -46,6 +47,7 @@ pub struct PrestressSummary {
 pub struct SpeedStage<'a> {
     case: &'a Case,
     rotation: &'a RotationSection,
+    material: &'a Isotropic,
     /// The speed, rpm.
     speed_rpm: f64,
     layout: Layout,
@@ -59,6 +61,7 @@ impl<'a> SpeedStage<'a> {
     pub fn at(
         case: &'a Case,
         rotation: &'a RotationSection,
+        material: &'a Isotropic,
         layout: &Layout,
         fe_hash: &str,
         speed_rpm: f64,
@@ -73,21 +76,12 @@ impl<'a> SpeedStage<'a> {
         Self {
             case,
             rotation,
+            material,
             speed_rpm,
             layout: own,
             mesh: layout.mesh(),
             hash: fnv1a(&[fe_hash.as_bytes(), &inputs]),
         }
-    }
-
-    /// The hash of the reduced model at speed (the backbone at speed depends on it).
-    pub fn hash(&self) -> &str {
-        &self.hash
-    }
-
-    /// Where the stage's results are, laid out as a case of their own.
-    pub fn layout(&self) -> &Layout {
-        &self.layout
     }
 
     /// The results folder relative to the case's: `speed` or `speeds/<rpm>rpm`.
@@ -99,42 +93,8 @@ impl<'a> SpeedStage<'a> {
         }
     }
 
-    /// Runs unless up to date (or `force`).
-    pub fn run_if_needed(&self, material: &Isotropic, force: bool) -> Result<()> {
-        let root = &self.layout.root;
-        let outputs = [
-            self.layout.model().join("model.json"),
-            root.join("prestress.json"),
-            root.join("prestress.vtu"),
-            root.join("section.md"),
-        ];
-        let stamp = self.layout.stamp("speed");
-        let stored = std::fs::read_to_string(&stamp).unwrap_or_default();
-        if !force && stored.trim() == self.hash && outputs.iter().all(|p| p.exists()) {
-            tracing::info!("stage speed: up to date");
-            return Ok(());
-        }
-        let st = crate::ui::Stage::start("speed");
-        let summary = self.work(material)?;
-        crate::output::write_atomic(
-            &root.join("section.md"),
-            section(
-                &summary,
-                self.speed_rpm == self.rotation.operating_speed,
-                &self.dir_name(),
-            )
-            .as_bytes(),
-        )?;
-        st.done(&format!(
-            "prestress and reduced model at {:.0} rpm in {}",
-            summary.speed_rpm,
-            root.display()
-        ));
-        std::fs::create_dir_all(stamp.parent().unwrap_or(root))?;
-        crate::output::write_atomic(&stamp, self.hash.as_bytes())
-    }
-
-    fn work(&self, material: &Isotropic) -> Result<PrestressSummary> {
+    fn prestress_and_model(&self) -> Result<PrestressSummary> {
+        let material = self.material;
         let mut fe = FeModel::build(&self.mesh, material, &self.case.model.clamp)?;
         let m = &self.case.model;
         let axis = prestress::fem_axis(m.rotor_axis_point, m.rotor_axis_direction)?;
@@ -157,7 +117,7 @@ impl<'a> SpeedStage<'a> {
         std::fs::create_dir_all(&self.layout.root)?;
         write_field(&fe, &p, &self.layout.root.join("prestress.vtu"))?;
         nlmodes_output::write_json(&self.layout.root.join("prestress.json"), &summary)?;
-        let mut settings = crate::run::reduce_settings(self.case)?;
+        let mut settings = crate::reduce_stage::reduce_settings(self.case)?;
         settings.running = Some(crate::reduce::RunningContact {
             displacement: &p.solution.displacement,
             gaps: &p.running_gaps,
@@ -166,6 +126,44 @@ impl<'a> SpeedStage<'a> {
         let (mut model, _) = crate::reduce::reduce(&fe, &settings)?;
         crate::reduce::write_model(&mut model, &self.layout.model(), &self.mesh)?;
         Ok(summary)
+    }
+}
+
+impl Stage for SpeedStage<'_> {
+    fn name(&self) -> String {
+        "speed".into()
+    }
+    fn only(&self) -> Only {
+        Only::Speed
+    }
+    fn hash(&self) -> &str {
+        &self.hash
+    }
+    fn layout(&self) -> &Layout {
+        &self.layout
+    }
+    fn outputs(&self) -> Vec<PathBuf> {
+        let root = &self.layout.root;
+        vec![
+            self.layout.model().join("model.json"),
+            root.join("prestress.json"),
+            root.join("prestress.vtu"),
+            root.join("section.md"),
+        ]
+    }
+    fn work(&self) -> Result<()> {
+        let root = &self.layout.root;
+        let st = crate::ui::Stage::start("speed");
+        let summary = self.prestress_and_model()?;
+        let operating = self.speed_rpm == self.rotation.operating_speed;
+        let text = section(&summary, operating, &self.dir_name());
+        crate::output::write_atomic(&root.join("section.md"), text.as_bytes())?;
+        st.done(&format!(
+            "prestress and reduced model at {:.0} rpm in {}",
+            summary.speed_rpm,
+            root.display()
+        ));
+        Ok(())
     }
 }
 
@@ -271,57 +269,4 @@ fn section(s: &PrestressSummary, operating: bool, dir: &str) -> String {
     }
     out.push('\n');
     out
-}
-
-/// The backbone at speed of the first traced mode, on the reduced model at speed, and its
-/// post-processing (`backbone/`, `report.md`, ParaView series in the speed's layout): the same
-/// stage as at rest on another model. Stamped like the backbone at rest; the stage reruns when
-/// the model at speed or the backbone settings change.
-pub fn backbone_at_speed(
-    case: &Case,
-    speed: &SpeedStage<'_>,
-    force: bool,
-    post: bool,
-) -> Result<()> {
-    let lay = speed.layout().clone();
-    let speed_hash = speed.hash();
-    let mode = case.continuation.modes_to_trace()[0];
-    let cont = nlmodes_nnm::ContinuationSettings {
-        mode,
-        ..case.continuation.clone()
-    };
-    let hash = fnv1a(&[
-        speed_hash.as_bytes(),
-        &json(&case.nnm),
-        &json(&cont),
-        &json(&case.algorithm),
-        &json(&case.stability),
-    ]);
-    let outputs = [
-        lay.backbone().join("backbone.json"),
-        lay.backbone().join("kept.json"),
-    ];
-    let stamp = lay.stamp("backbone");
-    let stored = std::fs::read_to_string(&stamp).unwrap_or_default();
-    if force || stored.trim() != hash || !outputs.iter().all(|p| p.exists()) {
-        tracing::info!(
-            "backbone at speed: mode {}, results in {}",
-            mode + 1,
-            lay.root.display()
-        );
-        crate::run::backbone_stage(case, &cont, &lay)?;
-        std::fs::create_dir_all(stamp.parent().unwrap_or(&lay.root))?;
-        crate::output::write_atomic(&stamp, hash.as_bytes())?;
-    } else {
-        tracing::info!("stage backbone at speed: up to date");
-    }
-    if post {
-        crate::post::post(case, &lay)?;
-    }
-    Ok(())
-}
-
-/// Serialized bytes of a settings table, for the stage hash.
-fn json<T: Serialize>(v: &T) -> Vec<u8> {
-    serde_json::to_vec(v).unwrap_or_default()
 }

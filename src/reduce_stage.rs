@@ -1,0 +1,275 @@
+//! The `modes` and `reduce` stages of `nlmodes run`. `modes`: the full model's clamped modes,
+//! in a child process (`nlmodes modes`) so that its eigensolver runs on the second core while
+//! this process reduces the model (a process, not a thread: ARPACK keeps its state in Fortran
+//! SAVE variables and is not re-entrant). `reduce`: the FE model's Craig-Bampton reduction onto
+//! the contact nodes, written as `model/`. Both rerun when the mesh, `[material]` or the clamp
+//! change; `modes` also with `linear_modes`, `reduce` with any `[model]` key.
+
+use anyhow::{Context, Result};
+use nlmodes_fem::Isotropic;
+use std::path::PathBuf;
+
+use crate::case::{Case, MasterChoice};
+use crate::fe_model::FeModel;
+use crate::layout::Layout;
+use crate::reduce;
+use crate::stage::{json, stamp, up_to_date, Only, Stage};
+use crate::stage_hash::fnv1a;
+use crate::ui;
+
+/// The hash of the FE model (mesh, material, clamp): the input of every stage that assembles it.
+pub fn fe_hash(case: &Case, mesh_hash: &str) -> String {
+    fnv1a(&[
+        mesh_hash.as_bytes(),
+        &json(&case.material),
+        &json(&case.model.clamp),
+    ])
+}
+
+/// The modes stage.
+pub struct ModesStage<'a> {
+    case: &'a Case,
+    layout: &'a Layout,
+    hash: String,
+}
+
+impl<'a> ModesStage<'a> {
+    pub fn new(case: &'a Case, layout: &'a Layout, fe_hash: &str) -> Self {
+        let hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model.linear_modes)]);
+        Self { case, layout, hash }
+    }
+
+    /// Whether `[model] full_check` asks for the full model's modes; `auto` counts the DOFs as
+    /// 3 x the mesh's nodes (read from its header: the model is not assembled yet).
+    pub fn wanted(&self) -> bool {
+        let check = reduce::FullCheck::parse(&self.case.model.full_check)
+            .unwrap_or(reduce::FullCheck::Auto);
+        let dofs = reduce::msh_node_count(&self.layout.mesh()).map_or(0, |n| 3 * n);
+        check.wanted(dofs)
+    }
+
+    /// Starts the stage in a child process.
+    fn spawn(&self) -> Result<ModesChild> {
+        ModesChild::spawn(self.case, self.layout)
+    }
+}
+
+impl Stage for ModesStage<'_> {
+    fn name(&self) -> String {
+        "modes".into()
+    }
+    fn only(&self) -> Only {
+        Only::Modes
+    }
+    fn hash(&self) -> &str {
+        &self.hash
+    }
+    fn layout(&self) -> &Layout {
+        self.layout
+    }
+    fn outputs(&self) -> Vec<PathBuf> {
+        let d = self.layout.modes();
+        vec![d.join("frequencies.csv"), d.join("modes.vtu")]
+    }
+    fn work(&self) -> Result<()> {
+        self.spawn()?.wait()
+    }
+}
+
+/// The reduce stage.
+pub struct ReduceStage<'a> {
+    case: &'a Case,
+    layout: &'a Layout,
+    material: &'a Isotropic,
+    hash: String,
+}
+
+impl<'a> ReduceStage<'a> {
+    pub fn new(case: &'a Case, layout: &'a Layout, material: &'a Isotropic, fe_hash: &str) -> Self {
+        let hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model)]);
+        Self {
+            case,
+            layout,
+            material,
+            hash,
+        }
+    }
+
+    /// Builds the FE model, reduces it and writes `model/`.
+    fn reduce(&self) -> Result<nlmodes_modal::ReducedModel> {
+        let fe = FeModel::build(&self.layout.mesh(), self.material, &self.case.model.clamp)?;
+        let (mut model, _) = reduce::reduce(&fe, &reduce_settings(self.case)?)?;
+        reduce::write_model(&mut model, &self.layout.model(), &self.layout.mesh())?;
+        Ok(model)
+    }
+
+    /// The full model's frequencies (modes stage) against the reduced model's, when both exist.
+    fn compare(&self, reduced: &nlmodes_modal::ReducedModel) {
+        let full = crate::fe_model::read_frequencies(&self.layout.modes().join("frequencies.csv"));
+        if let Some(full) = full {
+            ui::say(&reduce::comparison_table(
+                &full,
+                &reduced.linear_frequencies_hz,
+            ));
+        }
+    }
+}
+
+impl Stage for ReduceStage<'_> {
+    fn name(&self) -> String {
+        "reduce".into()
+    }
+    fn only(&self) -> Only {
+        Only::Reduce
+    }
+    fn hash(&self) -> &str {
+        &self.hash
+    }
+    fn layout(&self) -> &Layout {
+        self.layout
+    }
+    fn outputs(&self) -> Vec<PathBuf> {
+        vec![self.layout.model().join("model.json")]
+    }
+    fn work(&self) -> Result<()> {
+        self.reduce().map(|_| ())
+    }
+}
+
+/// What to run of the two stages and whether to force them.
+pub struct ModelRequest {
+    pub modes: bool,
+    pub force_modes: bool,
+    pub reduce: bool,
+    pub force_reduce: bool,
+}
+
+/// Runs the modes stage (in a child process) alongside the reduce stage. On every path out the
+/// child is waited for, or killed when the reduction fails, never left running.
+pub fn modes_and_reduce(modes: &ModesStage, red: &ReduceStage, want: ModelRequest) -> Result<()> {
+    let mut child = None;
+    if want.modes && !modes.wanted() {
+        tracing::info!(
+            "stage modes: skipped ([model] full_check = \"{}\", about {} DOFs)",
+            modes.case.model.full_check,
+            3 * reduce::msh_node_count(&modes.layout.mesh()).unwrap_or(0)
+        );
+    } else if want.modes && (want.force_modes || !up_to_date(modes)) {
+        child = Some(modes.spawn()?);
+    } else if want.modes {
+        tracing::info!("stage modes: up to date");
+    }
+    let mut reduced = None;
+    if want.reduce && (want.force_reduce || !up_to_date(red)) {
+        match red.reduce() {
+            Ok(model) => reduced = Some(model),
+            Err(e) => {
+                if let Some(c) = child.take() {
+                    c.kill();
+                    // The killed child may have left its temporary files.
+                    let _ = nlmodes_output::remove_stale_temporaries(&modes.layout.modes());
+                }
+                return Err(e);
+            }
+        }
+    } else if want.reduce {
+        tracing::info!("stage reduce: up to date");
+    }
+    if let Some(c) = child {
+        c.wait()?;
+        stamp(modes)?;
+    }
+    if let Some(model) = reduced {
+        red.compare(&model);
+        stamp(red)?;
+    }
+    Ok(())
+}
+
+/// The reduction settings of `[model]` (at rest; the speed stage adds the running contact).
+pub fn reduce_settings(case: &Case) -> Result<reduce::ReduceSettings<'_>> {
+    Ok(reduce::ReduceSettings {
+        contact_group: &case.model.contact_group,
+        axis: nlmodes_modal::RotorAxis::new(
+            case.model.rotor_axis_point,
+            case.model.rotor_axis_direction,
+        )?,
+        gap: case.model.gap,
+        modes: case.model.fixed_interface_modes,
+        master: match &case.model.master {
+            MasterChoice::Index(i) => Some(*i),
+            MasterChoice::Auto(s) if s == "auto" => None,
+            MasterChoice::Auto(s) => {
+                anyhow::bail!("[model] master = \"{s}\": expected \"auto\" or a reduced DOF index")
+            }
+        },
+        // The full model's modes come from the modes stage, alongside.
+        check_modes: 0,
+        running: None,
+    })
+}
+
+/// The modes stage running as `nlmodes --quiet modes ...` in a child process.
+struct ModesChild {
+    child: std::process::Child,
+    stage: ui::Stage,
+}
+
+impl ModesChild {
+    fn spawn(case: &Case, layout: &Layout) -> Result<Self> {
+        let exe = std::env::current_exe().context("cannot locate the nlmodes executable")?;
+        let mut cmd = std::process::Command::new(&exe);
+        cmd.arg("--quiet")
+            .arg("modes")
+            .arg(layout.mesh())
+            .arg("--young")
+            .arg(format!("{:e}", case.material.young))
+            .arg("--poisson")
+            .arg(format!("{:e}", case.material.poisson))
+            .arg("--density")
+            .arg(format!("{:e}", case.material.density))
+            .arg("--modes")
+            .arg(case.model.linear_modes.to_string())
+            .arg("--out")
+            .arg(layout.modes());
+        for f in &case.model.clamp {
+            cmd.arg("--fix").arg(f);
+        }
+        // RUST_LOG would override --quiet and could fill the pipe read only at the end.
+        cmd.env_remove("RUST_LOG")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped());
+        let stage = ui::Stage::start("modes");
+        tracing::info!(
+            "stage modes: {} clamped modes of the full model, in a child process alongside the reduction",
+            case.model.linear_modes
+        );
+        let child = crate::child::die_with_parent(&mut cmd)
+            .spawn()
+            .with_context(|| format!("cannot start {} modes", exe.display()))?;
+        Ok(Self { child, stage })
+    }
+
+    /// Waits for the child; its frequency table goes to stdout, its errors into ours.
+    fn wait(self) -> Result<()> {
+        let out = self
+            .child
+            .wait_with_output()
+            .context("waiting for the modes stage")?;
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if !out.status.success() {
+            anyhow::bail!("stage modes failed ({}): {}", out.status, stderr.trim());
+        }
+        if !stderr.trim().is_empty() {
+            tracing::warn!("stage modes: {}", stderr.trim());
+        }
+        ui::say(String::from_utf8_lossy(&out.stdout).trim_end());
+        self.stage.done("modes.vtu and frequencies.csv written");
+        Ok(())
+    }
+
+    fn kill(mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

@@ -1,0 +1,72 @@
+//! One stage of `nlmodes run` (issue 23, item 7): the hash of its inputs, the files it writes and
+//! its work. Make-like with content hashes instead of time stamps: a stage's inputs (the case
+//! keys it reads and the hash of the stage it depends on, or the .geo file's bytes for the mesh)
+//! are hashed; the hash is stored in `<layout>/.stamps/<name>` after the stage succeeded, and the
+//! stage is skipped when the stored hash equals the new one and its outputs exist. A stage that
+//! stops early (`crate::exit::StoppedEarly`) keeps its partial outputs and writes no stamp, so
+//! it reruns next time.
+
+use anyhow::Result;
+use std::path::{Path, PathBuf};
+
+use crate::layout::Layout;
+
+/// Which stages to run (`nlmodes run --only`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Only {
+    Mesh,
+    Modes,
+    Reduce,
+    Backbone,
+    Forced,
+    /// The prestress and the reduced model at the operating speed (`[rotation]`).
+    Speed,
+    /// The Campbell diagram (`[rotation]`).
+    Campbell,
+    Post,
+}
+
+/// A stage of the pipeline.
+pub trait Stage {
+    /// The stamp's file name and the name in the log (`backbone_mode2`, `speed`, ...).
+    fn name(&self) -> String;
+    /// The `--only` choice that selects it.
+    fn only(&self) -> Only;
+    /// The hash of its inputs.
+    fn hash(&self) -> &str;
+    /// The layout whose `.stamps/` holds its stamp.
+    fn layout(&self) -> &Layout;
+    /// The files that must exist for it to be up to date.
+    fn outputs(&self) -> Vec<PathBuf>;
+    /// Computes and writes the outputs.
+    fn work(&self) -> Result<()>;
+}
+
+/// Whether the stamp holds the stage's hash and every output exists.
+pub fn up_to_date(stage: &dyn Stage) -> bool {
+    let stored = std::fs::read_to_string(stage.layout().stamp(&stage.name())).unwrap_or_default();
+    stored.trim() == stage.hash() && stage.outputs().iter().all(|p| p.exists())
+}
+
+/// Records that the stage's outputs belong to its current inputs.
+pub fn stamp(stage: &dyn Stage) -> Result<()> {
+    let p = stage.layout().stamp(&stage.name());
+    std::fs::create_dir_all(p.parent().unwrap_or(Path::new(".")))?;
+    crate::output::write_atomic(&p, stage.hash().as_bytes())
+}
+
+/// Runs the stage unless it is up to date (`force`: even then), and stamps it.
+pub fn run_if_needed(stage: &dyn Stage, force: bool) -> Result<()> {
+    if !force && up_to_date(stage) {
+        let root = &stage.layout().root;
+        tracing::info!("stage {}: up to date (in {})", stage.name(), root.display());
+        return Ok(());
+    }
+    stage.work()?;
+    stamp(stage)
+}
+
+/// Serialized bytes of a settings table, for a stage hash.
+pub fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
+    serde_json::to_vec(v).unwrap_or_default()
+}
