@@ -183,21 +183,18 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
         b.points
             .iter()
             .filter_map(|p| p.stability.as_ref())
-            .filter(|s| {
-                nlmodes_nnm::verdict_word(s.stable, s.max_multiplier_abs, s.trivial_pair_error)
-                    == word
-            })
+            .filter(|s| nlmodes_nnm::verdict_word(&nlmodes_nnm::VerdictInputs::of(s)) == word)
             .count()
     };
     let bifurcations = b.points.iter().filter(|p| p.bifurcation.is_some()).count();
     stage.done(&format!(
-        "{} points analysed: {} stable, {} unstable, {} undetermined (trivial-pair error above \
-         {} or above |mu| - 1), {bifurcations} bifurcations",
+        "{} points analysed: {} stable, {} unstable, {} undetermined (the method's error, read \
+         from its trivial pair, cannot back a verdict: docs/STABILITY.md), {bifurcations} \
+         bifurcations",
         b.points.len() - failed,
         count("stable"),
         count("unstable"),
         count("undetermined"),
-        nlmodes_nnm::TRIVIAL_PAIR_LIMIT
     ));
     Ok(())
 }
@@ -292,8 +289,7 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
         row.push(text(trunc.map(|t| u8::from(t.same_orbit).to_string())));
         // stable / unstable / undetermined (the trivial pair's confidence, issue 24).
         row.push(text(stab.map(|s| {
-            nlmodes_nnm::verdict_word(s.stable, s.max_multiplier_abs, s.trivial_pair_error)
-                .to_string()
+            nlmodes_nnm::verdict_word(&nlmodes_nnm::VerdictInputs::of(s)).to_string()
         })));
         table
             .push_row(row)

@@ -157,7 +157,7 @@ fn march(model: &RotatingModel<'_>, speeds: &[f64]) -> Result<Vec<StaticSolution
                 &options,
                 &mut solver,
             )
-            .with_context(|| format!("the centrifugal static solve at {omega:.3} rad/s"))?;
+            .map_err(|e| crate::prestress::not_converged("rotation.campbell_range", omega, e))?;
         tracing::info!(
             "prestress at {:.1} rpm: {}",
             omega * 30.0 / std::f64::consts::PI,

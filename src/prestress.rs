@@ -92,15 +92,16 @@ pub fn radial_growth(fe: &FeModel, axis: &RotorAxis, u: &[f64], nodes: &[usize])
         .collect()
 }
 
-/// The static state at `omega` (rad/s) and everything drawn from it; `contact` are the contact
-/// nodes (mesh indices), `cold_gap` the gap at rest (m). A speed at which a contact node's
-/// growth closes the gap is bad input naming the speed, the node and the estimated closure
-/// speed.
+/// The static state at `omega` (rad/s; the case key `key` asked for it) and everything drawn
+/// from it; `contact` are the contact nodes (mesh indices), `cold_gap` the gap at rest (m).
+/// Bad input, naming the key and the speed: a speed at which a contact node's growth closes the
+/// gap (with the node and the estimated closure speed), and one at which the static solve does
+/// not converge (with the load step at which it stopped and why).
 pub fn at_speed(
     fe: &FeModel,
     material: &Isotropic,
     axis: &RotorAxis,
-    omega: f64,
+    (omega, key): (f64, &str),
     nonlinear: bool,
     contact: &[usize],
     cold_gap: f64,
@@ -119,15 +120,10 @@ pub fn at_speed(
     } else {
         model.solve_linearized(omega, false, &mut solver)
     }
-    .with_context(|| {
-        format!(
-            "centrifugal static solve at {:.1} rpm ({omega:.4} rad/s)",
-            omega / RPM_TO_RAD_S
-        )
-    })?;
+    .map_err(|e| not_converged(key, omega, e))?;
     let growth = radial_growth(fe, axis, &solution.displacement, contact);
     let running_gaps: Vec<f64> = growth.iter().map(|g| cold_gap - g).collect();
-    check_open(omega, &growth, &running_gaps, contact, cold_gap)?;
+    check_open((omega, key), &growth, &running_gaps, contact, cold_gap)?;
     let stiffness = model
         .stiffness_at_speed(&solution)
         .context("the stiffness at speed")?;
@@ -144,10 +140,29 @@ pub fn at_speed(
     })
 }
 
+/// A static solve that stopped (`RotationError::StaticSolve`) is bad input naming the case key
+/// and the speed; any other failure is a computation error.
+pub fn not_converged(
+    key: &str,
+    omega: f64,
+    e: nlmodes_fem::rotation::RotationError,
+) -> anyhow::Error {
+    let rpm = omega / RPM_TO_RAD_S;
+    match e {
+        nlmodes_fem::rotation::RotationError::StaticSolve { .. } => bad_input(format!(
+            "{key} = {rpm:.1} rpm: the centrifugal static solve does not converge at this speed: \
+             {e}; choose a lower speed (or check [material] and the clamp)"
+        )),
+        other => anyhow::Error::new(other).context(format!(
+            "centrifugal static solve at {rpm:.1} rpm ({omega:.4} rad/s)"
+        )),
+    }
+}
+
 /// Bad input when a running gap is not positive, with the closure speed estimated from the
 /// Omega^2 growth of the node that grows most.
 fn check_open(
-    omega: f64,
+    (omega, key): (f64, &str),
     growth: &[f64],
     gaps: &[f64],
     contact: &[usize],
@@ -160,7 +175,7 @@ fn check_open(
         return Ok(());
     }
     Err(bad_input(format!(
-        "rotation.operating_speed = {:.1} rpm: the tip clearance closes statically: contact node \
+        "{key} = {:.1} rpm: the tip clearance closes statically: contact node \
          {} (mesh node {}) grows radially by {:.4e} m, more than the cold gap [model] gap = \
          {cold_gap:.4e} m; the gap closes at about {:.0} rpm (growth ~ Omega^2): choose a lower \
          speed or a larger cold gap",

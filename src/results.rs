@@ -74,6 +74,11 @@ pub struct StabilityRecord {
     pub max_multiplier_abs: f64,
     /// max |mu - 1| over the trivial pair (the confidence of the flag).
     pub trivial_pair_error: f64,
+    /// How the multipliers were computed.
+    pub method: nlmodes_nnm::StabilityMethod,
+    /// Every multiplier (re, im), the trivial pair included, and the trivial pair's indices.
+    pub multipliers: Vec<[f64; 2]>,
+    pub trivial: [usize; 2],
 }
 
 impl Orbit {
@@ -81,7 +86,14 @@ impl Orbit {
     /// stability was not computed.
     pub fn verdict(&self) -> Option<&'static str> {
         self.stability.as_ref().map(|s| {
-            nlmodes_nnm::verdict_word(s.stable, s.max_multiplier_abs, s.trivial_pair_error)
+            nlmodes_nnm::verdict_word(&nlmodes_nnm::VerdictInputs {
+                method: s.method,
+                stable: s.stable,
+                max_multiplier_abs: s.max_multiplier_abs,
+                trivial_pair_error: s.trivial_pair_error,
+                multipliers: &s.multipliers,
+                trivial: s.trivial,
+            })
         })
     }
 

@@ -84,6 +84,15 @@ impl<'a> SpeedStage<'a> {
         }
     }
 
+    /// The case key the speed comes from.
+    fn key(&self) -> &'static str {
+        if self.speed_rpm == self.rotation.operating_speed {
+            "rotation.operating_speed"
+        } else {
+            "rotation.map_speeds"
+        }
+    }
+
     /// The results folder relative to the case's: `speed` or `speeds/<rpm>rpm`.
     fn dir_name(&self) -> String {
         if self.speed_rpm == self.rotation.operating_speed {
@@ -104,7 +113,7 @@ impl<'a> SpeedStage<'a> {
             &fe,
             material,
             &axis,
-            omega,
+            (omega, self.key()),
             self.rotation.nonlinear(),
             &nodes,
             m.gap,

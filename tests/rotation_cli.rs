@@ -13,8 +13,10 @@
 //!   4e-5 at speed), where the linear prestress would be 1e-2 off on modes 2 and 3; the first
 //!   frequency lies 45 % above the one at rest, so the check cannot pass at rest;
 //! * every crossing lies on its engine-order line and between its curve's bracketing values;
-//! * a speed beyond static closure is bad input (exit 2) naming the closure speed, and an
-//!   operating speed outside the Campbell range is refused before any stage runs.
+//! * a speed beyond static closure is bad input (exit 2) naming the closure speed, so is one at
+//!   which the static solve fails (a blade 1e4 times softer, whose tangent turns indefinite),
+//!   naming the load step and why, and an operating speed outside the Campbell range is refused
+//!   before any stage runs.
 //!
 //! Cost: about 40 s (two runs of the coarse study, the second only the rotating stages).
 
@@ -326,4 +328,20 @@ fn bad_speeds(dir: &Path, p: &str) {
         err.contains("closes statically") && err.contains("rpm"),
         "{err}"
     );
+    // A blade 1e4 times softer: spin softening makes the tangent indefinite before 9000 rpm
+    // (the blade buckles outward); refused naming the key, the speed, the load step and why.
+    case(
+        dir,
+        "[material]\nyoung = 1e7\n[rotation]\noperating_speed = 9000.0\nmap_speeds = []\n",
+    );
+    let out = nlmodes(&["run", p, "--only", "speed"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    for want in [
+        "rotation.operating_speed = 9000.0 rpm: the centrifugal static solve does not converge",
+        "load step",
+        "not positive definite",
+    ] {
+        assert!(err.contains(want), "`{want}` not in {err}");
+    }
 }

@@ -197,7 +197,7 @@ pub struct UnstableCounts {
 }
 
 /// Which computation gave the multipliers of a [`Stability`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StabilityMethod {
     /// Hill's method on the linear modes (module docs).
@@ -206,28 +206,91 @@ pub enum StabilityMethod {
     Saltation,
 }
 
-/// Largest trivial-pair error at which a verdict is given. The trivial pair is exactly 1 for
-/// the exact orbit; computed off by more than this, the moduli of the other multipliers are
-/// uncertain by as much and a verdict would be a guess (issue 24: on the blade 145 of 155
-/// augmented-Lagrangian points had errors above 0.05, median 1.3).
+/// Largest trivial-pair error at which Hill's method gives a verdict. The trivial pair is
+/// exactly 1 for the exact orbit; computed off by more than this, the moduli of the other
+/// multipliers are uncertain by as much and a verdict would be a guess (issue 24: on the blade
+/// 145 of 155 augmented-Lagrangian points had errors above 0.05, median 1.3).
 pub const TRIVIAL_PAIR_LIMIT: f64 = 0.05;
 
-/// The word of a point's stability: `undetermined` when the trivial-pair error passes
-/// [`TRIVIAL_PAIR_LIMIT`], or when the point is flagged unstable by less than that error
-/// (|mu|_max - 1 <= trivial-pair error); else `stable` or `unstable`.
-pub fn verdict_word(
-    stable: bool,
-    max_multiplier_abs: f64,
-    trivial_pair_error: f64,
-) -> &'static str {
-    if trivial_pair_error.is_nan() || trivial_pair_error > TRIVIAL_PAIR_LIMIT {
-        "undetermined"
-    } else if stable {
-        "stable"
-    } else if max_multiplier_abs - 1.0 <= trivial_pair_error {
-        "undetermined"
-    } else {
-        "unstable"
+/// Largest trivial-pair error at which the event-based monodromy gives a verdict. Its monodromy
+/// is a product of exact free flows and exact saltation matrices evaluated on the
+/// harmonic-balance orbit's data (impact instants, impulses, displacements), whose errors
+/// O(1/N) perturb it by some delta. The trivial pair is a Jordan block at +1 (time shift and
+/// change of period with energy), which a perturbation delta splits by about sqrt(delta), while
+/// a simple multiplier moves by O(delta): the split eps says delta ~ eps^2. Past 0.3 (delta ~
+/// 0.1) that first-order picture is no longer a bound. Measured on the exact impact oracles
+/// (docs/STABILITY.md, "Verdicts"): the 2-DOF chain at N = 40 has eps = 0.03..0.15 with the
+/// largest multiplier within 1.1e-2 of the exact one (eps^2 |mu| = 1.2e-2 there).
+pub const SALTATION_TRIVIAL_LIMIT: f64 = 0.3;
+
+/// What a point's verdict is read from: its [`Stability`], or the record of it in a results file.
+#[derive(Clone, Copy, Debug)]
+pub struct VerdictInputs<'a> {
+    pub method: StabilityMethod,
+    /// Every non-trivial multiplier within the unit circle (to the analysis tolerance).
+    pub stable: bool,
+    /// Largest |mu| over the non-trivial multipliers.
+    pub max_multiplier_abs: f64,
+    /// max |mu - 1| over the trivial pair.
+    pub trivial_pair_error: f64,
+    /// Every multiplier (re, im), the trivial pair included.
+    pub multipliers: &'a [[f64; 2]],
+    /// Indices of the trivial pair in `multipliers`.
+    pub trivial: [usize; 2],
+}
+
+impl<'a> VerdictInputs<'a> {
+    /// The inputs of a computed stability.
+    pub fn of(s: &'a Stability) -> Self {
+        Self {
+            method: s.method,
+            stable: s.stable,
+            max_multiplier_abs: s.max_multiplier_abs,
+            trivial_pair_error: s.trivial_pair_error,
+            multipliers: &s.multipliers,
+            trivial: s.trivial,
+        }
+    }
+}
+
+/// The word of a point's stability: `stable`, `unstable` or `undetermined` when the method's own
+/// error estimate cannot back either (docs/STABILITY.md, "Verdicts").
+///
+/// * Hill's method: undetermined when the trivial-pair error passes [`TRIVIAL_PAIR_LIMIT`], or
+///   when the point is flagged unstable by less than that error (|mu|_max - 1 <= error).
+/// * Event-based monodromy: with eps the trivial-pair error and delta ~ eps^2 the perturbation
+///   of the monodromy it reveals (see [`SALTATION_TRIVIAL_LIMIT`]): undetermined when eps passes
+///   that limit; unstable when |mu|_max - 1 > 2 eps^2 |mu|_max; stable unless a non-trivial
+///   multiplier lies within 2 eps of +1 or -1, where a collision (fold, period doubling) is
+///   within the error; else undetermined.
+pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
+    let eps = v.trivial_pair_error;
+    let limit = match v.method {
+        StabilityMethod::Hill => TRIVIAL_PAIR_LIMIT,
+        StabilityMethod::Saltation => SALTATION_TRIVIAL_LIMIT,
+    };
+    if eps.is_nan() || eps > limit {
+        return "undetermined";
+    }
+    let margin = v.max_multiplier_abs - 1.0;
+    let (decided, near_collision) = match v.method {
+        StabilityMethod::Hill => (margin > eps, false),
+        StabilityMethod::Saltation => (
+            margin > 2.0 * eps * eps * v.max_multiplier_abs,
+            v.multipliers
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| !v.trivial.contains(i))
+                .any(|(_, m)| {
+                    let d = |x: f64| (m[0] - x).hypot(m[1]);
+                    d(1.0).min(d(-1.0)) < 2.0 * eps
+                }),
+        ),
+    };
+    match (v.stable, decided, near_collision) {
+        (true, _, false) => "stable",
+        (false, true, _) => "unstable",
+        _ => "undetermined",
     }
 }
 
@@ -337,15 +400,68 @@ pub(crate) fn sort_multipliers(values: &mut [[f64; 2]]) {
 mod verdict_tests {
     use super::*;
 
+    fn word(
+        method: StabilityMethod,
+        stable: bool,
+        mu: f64,
+        eps: f64,
+        others: &[[f64; 2]],
+    ) -> &'static str {
+        let mut multipliers = vec![[1.0 + eps, 0.0], [1.0 - eps, 0.0]];
+        multipliers.extend_from_slice(others);
+        verdict_word(&VerdictInputs {
+            method,
+            stable,
+            max_multiplier_abs: mu,
+            trivial_pair_error: eps,
+            multipliers: &multipliers,
+            trivial: [0, 1],
+        })
+    }
+
     #[test]
-    fn a_verdict_needs_a_trivial_pair_closer_to_one_than_the_decision() {
-        assert_eq!(verdict_word(true, 1.0, 1e-8), "stable");
-        assert_eq!(verdict_word(false, 1.5, 1e-3), "unstable");
+    fn a_hill_verdict_needs_a_trivial_pair_closer_to_one_than_the_decision() {
+        let hill = |stable, mu, eps| word(StabilityMethod::Hill, stable, mu, eps, &[]);
+        assert_eq!(hill(true, 1.0, 1e-8), "stable");
+        assert_eq!(hill(false, 1.5, 1e-3), "unstable");
         // Unstable by less than the trivial pair's own error.
-        assert_eq!(verdict_word(false, 1.01, 0.02), "undetermined");
+        assert_eq!(hill(false, 1.01, 0.02), "undetermined");
         // Past the limit, whatever the flag.
-        assert_eq!(verdict_word(true, 1.0, 0.2), "undetermined");
-        assert_eq!(verdict_word(false, 3.0, 0.2), "undetermined");
-        assert_eq!(verdict_word(true, 1.0, f64::NAN), "undetermined");
+        assert_eq!(hill(true, 1.0, 0.2), "undetermined");
+        assert_eq!(hill(false, 3.0, 0.2), "undetermined");
+        assert_eq!(hill(true, 1.0, f64::NAN), "undetermined");
+    }
+
+    #[test]
+    fn a_saltation_verdict_weighs_the_multipliers_by_the_square_of_the_trivial_split() {
+        let s = StabilityMethod::Saltation;
+        let on_circle = |deg: f64| {
+            let t = deg.to_radians();
+            [[t.cos(), t.sin()], [t.cos(), -t.sin()]]
+        };
+        // eps = 0.1: delta ~ 1e-2, |mu| = 1.22 is decided (margin 0.22 > 2.4e-2).
+        assert_eq!(
+            word(s, false, 1.22, 0.1, &[[1.22, 0.0], [1.0 / 1.22, 0.0]]),
+            "unstable"
+        );
+        // Unstable by less than 2 eps^2 |mu|.
+        assert_eq!(
+            word(s, false, 1.01, 0.1, &[[1.01, 0.0], [1.0 / 1.01, 0.0]]),
+            "undetermined"
+        );
+        // A pair on the circle far from +-1 is stable; within 2 eps of -1 it is not decided.
+        assert_eq!(word(s, true, 1.0, 0.1, &on_circle(90.0)), "stable");
+        assert_eq!(word(s, true, 1.0, 0.1, &on_circle(175.0)), "undetermined");
+        assert_eq!(word(s, true, 1.0, 0.1, &on_circle(5.0)), "undetermined");
+        // Past the limit of the method.
+        assert_eq!(
+            word(s, false, 3.0, 0.31, &[[3.0, 0.0], [1.0 / 3.0, 0.0]]),
+            "undetermined"
+        );
+        // The same numbers under Hill's rule: past its limit.
+        assert_eq!(
+            word(StabilityMethod::Hill, true, 1.0, 0.1, &on_circle(90.0)),
+            "undetermined"
+        );
     }
 }
