@@ -156,6 +156,7 @@ fn rotating_study_from_the_command() {
     campbell_against_the_models(&res, &campbell);
     map_speed(&res, &campbell, &report);
     crossings_on_their_lines(&campbell);
+    operating_speed_change(&dir, p, &res);
     bad_speeds(&dir, p);
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -303,6 +304,35 @@ fn crossings_on_their_lines(c: &serde_json::Value) {
         let (lo, hi) = (curve[s - 1].min(curve[s]), curve[s - 1].max(curve[s]));
         assert!(f >= lo && f <= hi, "{x} outside [{lo}, {hi}]");
     }
+}
+
+/// Make-like: a new operating speed reruns the speed stage and the backbone at speed, and
+/// nothing at rest, not the Campbell diagram, not the map speed (their files keep their
+/// modification times).
+fn operating_speed_change(dir: &Path, p: &str, res: &Path) {
+    let kept = [
+        "backbone/backbone.json",
+        "model/model.json",
+        "campbell/campbell.json",
+        "speeds/4000rpm/model/model.json",
+        "speeds/4000rpm/backbone/backbone.json",
+    ];
+    let changed = ["speed/model/model.json", "speed/backbone/backbone.json"];
+    let time = |f: &str| std::fs::metadata(res.join(f)).unwrap().modified().unwrap();
+    let before: Vec<_> = kept.iter().chain(&changed).map(|f| time(f)).collect();
+    case(
+        dir,
+        &ROTATION.replace("operating_speed = 8000.0", "operating_speed = 7000.0"),
+    );
+    ok(&["run", p]);
+    for (i, f) in kept.iter().chain(&changed).enumerate() {
+        let same = time(f) == before[i];
+        assert_eq!(same, i < kept.len(), "{f}: rerun {}", !same);
+    }
+    let speed = json(&res.join("speed/prestress.json"))["speed_rpm"]
+        .as_f64()
+        .unwrap();
+    assert!((speed - 7000.0).abs() < 1e-6, "speed {speed}");
 }
 
 fn bad_speeds(dir: &Path, p: &str) {
