@@ -438,7 +438,7 @@ pub fn summary(b: &Backbone, params: &SolverSettings) -> String {
             r.branch.map_or("not followed".to_string(), |id| format!(
                 "followed as branch {id}"
             )),
-            passage_phrase(r.passed)
+            passage_phrase(r, g)
         );
     }
     if let Some((count, worst)) =
@@ -507,13 +507,33 @@ pub fn kept_points(
     Ok(out)
 }
 
-/// How the main branch got past a tongue, in words.
-pub fn passage_phrase(passed: Option<nlmodes_nnm::Passage>) -> &'static str {
-    match passed {
+/// How the main branch got past a tongue, in words, and whether its two pieces meet (`g`: the
+/// gap reference that normalizes q).
+pub fn passage_phrase(r: &nlmodes_nnm::InternalResonance, g: f64) -> String {
+    let how = match r.passed {
         Some(nlmodes_nnm::Passage::Predictor) => {
             "main branch continued past it (predictor beyond it, filled back toward it)"
         }
         Some(nlmodes_nnm::Passage::FixedQHop) => "main branch continued past it by a fixed-q hop",
-        None => "the main branch stopped there",
+        None => return "the main branch stopped there".into(),
+    };
+    let why = r.fill_back_stop.as_deref().unwrap_or("unknown");
+    match r.unjoined {
+        None if r.passed == Some(nlmodes_nnm::Passage::Predictor) => {
+            format!("{how}; the pieces meet")
+        }
+        None => how.into(),
+        Some([a, b]) if b > a => format!(
+            "{how}; the pieces do not meet: the main branch is not traced for q/g0 between {:.3} \
+             and {:.3} (the fill-back from above stopped there: {why})",
+            a / g,
+            b / g
+        ),
+        Some([a, b]) => format!(
+            "{how}; the pieces overlap in q/g0 ({:.3} .. {:.3}) without meeting (the fill-back \
+             stopped: {why})",
+            b / g,
+            a / g
+        ),
     }
 }

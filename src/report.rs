@@ -208,11 +208,7 @@ fn internal_resonances(s: &mut String, b: &BackboneFile) {
             100.0 * r.share,
             r.branch
                 .map_or("not followed".to_string(), |id| id.to_string()),
-            match r.passed {
-                Some(nlmodes_nnm::Passage::Predictor) => "yes (predictor)",
-                Some(nlmodes_nnm::Passage::FixedQHop) => "yes (fixed-q hop, J)",
-                None => "no",
-            }
+            crate::backbone::passage_phrase(r, g0)
         );
     }
     let _ = writeln!(s);

@@ -327,6 +327,16 @@ pub struct InternalResonance {
     pub detuning: f64,
     /// How the main branch was continued past the tongue (None: it was not).
     pub passed: Option<Passage>,
+    /// When the two pieces of the main branch around the tongue do not meet, the q interval
+    /// between them: the last point before the tongue and the lowest point of the piece past it
+    /// (length unit of the system). None when they meet, or when the passage was not by a
+    /// predictor.
+    #[serde(default)]
+    pub unjoined: Option<[f64; 2]>,
+    /// Why the fill-back from the piece past the tongue stopped short of the piece before it
+    /// ("it enters the tongue", "it turns in q", ...), with `unjoined`.
+    #[serde(default)]
+    pub fill_back_stop: Option<String>,
     /// The branch id of the tongue when it was followed ([`Backbone::branches`]).
     pub branch: Option<usize>,
 }
@@ -368,6 +378,8 @@ impl ContinuationSettings {
             share: p.secondary_share,
             detuning: (n as f64 * p.omega - wk) / wk,
             passed: None,
+            unjoined: None,
+            fill_back_stop: None,
             branch: None,
         })
     }

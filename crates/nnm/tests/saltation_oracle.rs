@@ -136,8 +136,15 @@ fn check(harmonics: usize) {
     // (t in [min(a, b) - 1 %, max(a, b) + 1 %]: within 1 % of the midpoint where the points are
     // close; past the 3:1 tongue the fill-back samples the branch at steps up to 8 % in w), and
     // every exact one where the branch is sampled finely is found.
+    // Consecutive points of one branch: the list holds a tongue's points between the main
+    // branch's last point before it and the points filled back past it, which are neighbours on
+    // the curve but not in the list (and the tongue's last point is no neighbour of the next).
+    let same_branch = |x: &&[(&nlmodes_nnm::BackbonePoint, oracle::impact::ImpactOrbit)]| {
+        x[0].0.branch == x[1].0.branch
+    };
     let changes: Vec<(f64, f64)> = points
         .windows(2)
+        .filter(same_branch)
         .filter(|x| {
             let st = |i: usize| x[i].0.stability.as_ref().expect("stability").stable;
             st(0) != st(1)
@@ -169,7 +176,7 @@ fn check(harmonics: usize) {
             .fold(f64::INFINITY, f64::min)
     };
     let sampled_alone = |t: f64| {
-        points.windows(2).any(|x| {
+        points.windows(2).filter(same_branch).any(|x| {
             let (a, b) = (x[0].0.omega / w1, x[1].0.omega / w1);
             let (lo, hi) = (a.min(b), a.max(b));
             let inside = transitions.iter().filter(|&&u| lo <= u && u <= hi).count();

@@ -89,6 +89,8 @@ pub(crate) struct Continuation<'s, 'c, F> {
     omegas: Vec<f64>,
     result: Backbone,
     progress: F,
+    /// The q interval the last passage past a tongue left unjoined and why (`land_past`).
+    unjoined: Option<([f64; 2], String)>,
 }
 
 impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
@@ -115,6 +117,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             w_lin,
             result,
             progress,
+            unjoined: None,
         })
     }
 

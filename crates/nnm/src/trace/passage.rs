@@ -134,10 +134,12 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
 
     /// Lands the main branch on `p` past a tongue, after filling the stretch between the tongue
     /// and `p`: the branch is traced backwards from `p` (against `direction`) until it comes
-    /// within a step of `top` in (q, w) (the scaled last rising point before the tongue), turns
-    /// in q, enters the tongue or stops, so
-    /// that what the main branch is past the tongue does not depend on how far the predictor
-    /// that found it reached. The filled points join the main branch in rising order.
+    /// within a step of `top` in (q, w) (the scaled last rising point before the tongue: the two
+    /// pieces meet), turns in q, enters the tongue or stops, so that what the main branch is past
+    /// the tongue does not depend on how far the predictor that found it reached. When the
+    /// pieces do not meet, the q interval left between them and why are recorded
+    /// (`self.unjoined`, then `InternalResonance::unjoined`). The filled points join the main
+    /// branch in rising order.
     pub(super) fn land_past(
         &mut self,
         main: &mut Trace,
@@ -146,6 +148,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
         top: &[f64],
     ) {
         let start = self.result.points.len();
+        let q_before = self.last_point(main).q;
         self.push(p, main.id);
         let mut back = Trace {
             id: main.id,
@@ -158,20 +161,46 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             folds: 1,
             penetrate: false,
         };
+        let mut stop = "the point limit";
+        let mut met = false;
         for _ in 0..BACKFILL_POINTS {
             let (p, xn, step) = match self.advance(&mut back, false) {
                 Advance::Retry => continue,
-                Advance::Stuck(_) => break,
+                Advance::Stuck(_) => {
+                    stop = "no converged step";
+                    break;
+                }
                 Advance::Converged(p, xn, step) => (p, xn, step),
             };
             let xl = self.scaled(self.last_point(&back));
-            let turns = xn[0] >= xl[0];
-            let bridged = distance(&xn[..2], &top[..2]) <= step.max(PASS_BASE);
-            if turns || bridged || xn[0] <= 0.0 || self.cont.tongue(&p, &self.omegas).is_some() {
+            let why = if xn[0] >= xl[0] {
+                Some("it turns in q")
+            } else if distance(&xn[..2], &top[..2]) <= step.max(PASS_BASE) {
+                met = true;
+                Some("it met the branch before the tongue")
+            } else if xn[0] <= 0.0 {
+                Some("q <= 0")
+            } else if self.cont.tongue(&p, &self.omegas).is_some() {
+                // Going on through orbits the tongue test flags closes the hole on the default
+                // blade but lands on another sheet of the multi-valued stretch in a step-dependent
+                // way (penalty kc = 1e8: 16 % of a coarse run's points 1e-2 off the dense run);
+                // see DESIGN §8.3.
+                Some("it enters the tongue")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                stop = why;
                 break;
             }
             self.accept(&mut back, *p, &xn, step);
         }
+        let q_low = self.last_point(&back).q;
+        tracing::info!(
+            q_over_g0 = q_low / self.g_ref,
+            "fill-back toward the tongue stopped: {stop}"
+        );
+        self.unjoined = (!met).then(|| ([q_before, q_low], stop.to_string()));
         // Reorder [p, b1, ..., bk] into [bk, ..., b1, p] (rising q) at the end of the points.
         let mut filled = self.result.points.split_off(start);
         filled.reverse();

@@ -54,6 +54,8 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             share: p.secondary_share,
             detuning: (p.secondary_harmonic as f64 * p.omega - wk) / wk,
             passed: None,
+            unjoined: None,
+            fill_back_stop: None,
             branch: None,
         }))
     }
@@ -79,8 +81,13 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             let branch = self.follow_tongue(main, p, &res);
             self.result.internal_resonances[record].branch = Some(branch);
         }
+        self.unjoined = None;
         let passed = self.step_past(main);
         self.result.internal_resonances[record].passed = passed;
+        if let Some((gap, why)) = self.unjoined.take() {
+            self.result.internal_resonances[record].unjoined = Some(gap);
+            self.result.internal_resonances[record].fill_back_stop = Some(why);
+        }
         if passed.is_none() {
             let q = self.last_point(main).q;
             self.result.termination = Termination::InternalResonance {
