@@ -73,36 +73,88 @@ pub fn check_against(system: &System, s: &ForcedSection, source: &str) -> Result
     Ok(())
 }
 
-/// The unit force pattern (largest entry 1 N) and the coordinate of its largest entry.
-fn pattern(system: &System, s: &ForcedSection) -> Result<(Vec<f64>, usize)> {
+/// The unit force pattern: for each harmonic of the excitation its cosine and sine parts, the
+/// largest entry over all of them 1 N, and the coordinate of that entry.
+struct Pattern {
+    harmonics: Vec<(usize, Vec<f64>, Vec<f64>)>,
+    excitation: usize,
+}
+
+impl Pattern {
+    /// The load of a level: the pattern times `force` (N).
+    fn scaled(&self, force: f64) -> Load {
+        let times = |v: &[f64]| v.iter().map(|x| x * force).collect();
+        Load {
+            harmonics: self
+                .harmonics
+                .iter()
+                .map(|(h, c, s)| HarmonicLoad {
+                    harmonic: *h,
+                    cos: times(c),
+                    sin: times(s),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The pattern of `[forced] load` (`file`: the columns of F.mtx, `crate::forced_settings::file_load`).
+fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Result<Pattern> {
     let n = system.n_dofs();
-    let mut shape = vec![0.0; n];
-    match s.load {
-        ForcedLoadKind::Master => shape[system.master()] = 1.0,
-        ForcedLoadKind::Mode => {
+    let mut harmonics = Vec::new();
+    match (s.load, file) {
+        (ForcedLoadKind::File, Some(f)) => {
+            let hs = crate::forced_settings::file_load_harmonics(s);
+            let col = |j: usize| (0..n).map(|i| f[(i, j)]).collect::<Vec<f64>>();
+            for (k, &h) in hs.iter().enumerate() {
+                let sin = if f.ncols() == 1 {
+                    vec![0.0; n]
+                } else {
+                    col(2 * k + 1)
+                };
+                harmonics.push((h, col(2 * k), sin));
+            }
+        }
+        (ForcedLoadKind::File, None) => anyhow::bail!("forced.load = \"file\" without F.mtx"),
+        (ForcedLoadKind::Master, _) => {
+            let mut shape = vec![0.0; n];
+            shape[system.master()] = 1.0;
+            harmonics.push((s.harmonic, shape, vec![0.0; n]));
+        }
+        (ForcedLoadKind::Mode, _) => {
             let phi = system.linear_mode(s.load_mode)?;
             let m = system.mass();
-            for (i, v) in shape.iter_mut().enumerate() {
-                *v = (0..n).map(|j| m[(i, j)] * phi[j]).sum();
+            let shape = (0..n)
+                .map(|i| (0..n).map(|j| m[(i, j)] * phi[j]).sum())
+                .collect();
+            harmonics.push((s.harmonic, shape, vec![0.0; n]));
+        }
+    }
+    let (mut big, mut excitation) = (0.0_f64, 0);
+    for (_, c, sn) in &harmonics {
+        for (i, v) in c.iter().chain(sn.iter()).enumerate() {
+            if v.abs() > big {
+                (big, excitation) = (v.abs(), i % n);
             }
         }
     }
-    let (at, big) = shape
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-        .map(|(i, v)| (i, v.abs()))
-        .context("empty model")?;
-    shape.iter_mut().for_each(|v| *v /= big);
-    Ok((shape, at))
+    anyhow::ensure!(big > 0.0, "[forced] the load pattern is zero");
+    for (_, c, sn) in &mut harmonics {
+        c.iter_mut().chain(sn.iter_mut()).for_each(|v| *v /= big);
+    }
+    Ok(Pattern {
+        harmonics,
+        excitation,
+    })
 }
 
 /// Force (N, largest entry) of a level: as given, or the multiple of the force whose linear
-/// resonant master response |phi_m| |phi . f| / (2 zeta w^2) reaches the grazing amplitude.
+/// resonant master response |phi_m| |phi . (f_c + i f_s)| / (2 zeta w^2) of the pattern's lowest
+/// harmonic reaches the grazing amplitude.
 fn force_of(
     system: &System,
     s: &ForcedSection,
-    shape: &[f64],
+    pattern: &Pattern,
     zeta: f64,
     level: f64,
 ) -> Result<f64> {
@@ -114,14 +166,19 @@ fn force_of(
     let q = system
         .grazing_amplitude(s.mode)?
         .context("mode never touches")?;
-    let drive: f64 = phi.iter().zip(shape).map(|(a, b)| a * b).sum();
-    let unit_peak = phi[system.master()].abs() * drive.abs() / (2.0 * zeta * w * w);
+    let (_, c, sn) = pattern
+        .harmonics
+        .iter()
+        .min_by_key(|(h, _, _)| *h)
+        .context("empty load")?;
+    let dot = |v: &[f64]| phi.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+    let drive = dot(c).hypot(dot(sn));
+    let unit_peak = phi[system.master()].abs() * drive / (2.0 * zeta * w * w);
     anyhow::ensure!(
         unit_peak > 0.0 && zeta > 0.0,
         "forced.level_unit = \"grazing\" needs a load that drives mode {} and damping on it \
-         (zeta = {zeta}, |phi . f| = {:e})",
-        s.mode,
-        drive.abs()
+         (zeta = {zeta}, |phi . f| = {drive:e})",
+        s.mode
     );
     Ok(level * q.abs() / unit_peak)
 }
@@ -131,6 +188,7 @@ pub fn run(
     system: &System,
     s: &ForcedSection,
     damping_matrix: Option<Mat<f64>>,
+    file_load: Option<&Mat<f64>>,
     backbone: Option<&BackboneFile>,
 ) -> Result<ForcedStudy> {
     let c = s
@@ -138,7 +196,8 @@ pub fn run(
         .matrix(system)
         .map_err(|e| bad_input(format!("[forced] damping: {e}")))?;
     let ratios = modal_ratios(system, &c);
-    let (shape, excitation) = pattern(system, s)?;
+    let pattern = pattern(system, s, file_load)?;
+    let excitation = pattern.excitation;
     let mut settings = ForcedSettings::new(s.harmonics)?;
     if s.samples > 0 {
         settings.harmonics = HarmonicSettings::new(s.harmonics, s.samples)?;
@@ -161,14 +220,8 @@ pub fn run(
         .levels
         .par_iter()
         .map(|&level| {
-            let force = force_of(system, s, &shape, ratios[s.mode], level)?;
-            let load = Load {
-                harmonics: vec![HarmonicLoad {
-                    harmonic: s.harmonic,
-                    cos: shape.iter().map(|v| v * force).collect(),
-                    sin: vec![0.0; shape.len()],
-                }],
-            };
+            let force = force_of(system, s, &pattern, ratios[s.mode], level)?;
+            let load = pattern.scaled(force);
             let curve = trace_level(system, &c, &load, settings.clone(), &frf, &bar, level)?;
             let synthesis = backbone.map_or_else(Vec::new, |b| synthesis_of(system, &c, &load, b));
             bar.inc(1);

@@ -28,6 +28,12 @@ pub enum ForcedLoadKind {
     /// The inertia pattern M phi_r of linear mode `load_mode` of the reduced model, scaled so
     /// that its largest entry is the level: it drives mode r alone in the linear regime.
     Mode,
+    /// The pattern of `F.mtx` in the reduced-model directory (N per reduced coordinate): n rows,
+    /// one column (the cosine part at `harmonic`) or a (cosine, sine) pair of columns per entry
+    /// of `load_harmonics`; an engine-order pattern with amplitude A_i and phase p_i per
+    /// coordinate is cos = A_i cos(p_i), sin = A_i sin(p_i). Scaled so that its largest entry
+    /// is the level.
+    File,
 }
 
 /// How `levels` are read.
@@ -74,6 +80,9 @@ pub struct ForcedSection {
     pub load: ForcedLoadKind,
     /// The mode of `load = "mode"` (0-based).
     pub load_mode: usize,
+    /// The harmonics of the (cosine, sine) column pairs of `F.mtx` for `load = "file"` (empty:
+    /// one pair or one cosine column at `harmonic`).
+    pub load_harmonics: Vec<usize>,
     /// Force levels, one curve each.
     pub levels: Vec<f64>,
     /// Unit of `levels`.
@@ -101,6 +110,7 @@ impl Default for ForcedSection {
             damping_matrix: false,
             load: ForcedLoadKind::Master,
             load_mode: 0,
+            load_harmonics: Vec::new(),
             levels: vec![0.5, 2.0, 5.0],
             level_unit: LevelUnit::Grazing,
             contact: ForcedContact::Penalty,
@@ -145,6 +155,14 @@ impl ForcedSection {
             self.harmonic,
             "1 <= h <= harmonics",
         );
+        for (i, h) in self.load_harmonics.iter().enumerate() {
+            p.check(
+                (1..=self.harmonics).contains(h) && !self.load_harmonics[..i].contains(h),
+                "forced.load_harmonics",
+                h,
+                "distinct harmonics 1 <= h <= harmonics",
+            );
+        }
         let ratio_ok = |z: f64| z.is_finite() && (0.0..1.0).contains(&z);
         p.check(
             ratio_ok(self.damping_ratio),
@@ -238,4 +256,59 @@ pub fn damping_matrix(
                 path.display()
             ))
         })
+}
+
+/// The harmonics of `load = "file"`'s column pairs: `load_harmonics`, or `harmonic` alone.
+pub fn file_load_harmonics(s: &ForcedSection) -> Vec<usize> {
+    if s.load_harmonics.is_empty() {
+        vec![s.harmonic]
+    } else {
+        s.load_harmonics.clone()
+    }
+}
+
+/// `F.mtx` of the model directory for `load = "file"` (None for the other loads), checked
+/// against the model's order `n` and `load_harmonics`: bad input naming the file otherwise.
+pub fn file_load(
+    s: &ForcedSection,
+    model_dir: &std::path::Path,
+    n: usize,
+) -> anyhow::Result<Option<faer::Mat<f64>>> {
+    if s.load != ForcedLoadKind::File {
+        return Ok(None);
+    }
+    let path = model_dir.join("F.mtx");
+    let bad = |what: String| {
+        crate::exit::bad_input(format!(
+            "forced.load = \"file\": {}: {what}",
+            path.display()
+        ))
+    };
+    let f = nlmodes_modal::matrix_market_general::read_dense_general(&path)
+        .map_err(|e| bad(format!("cannot read it: {e}")))?;
+    if f.nrows() != n {
+        return Err(bad(format!(
+            "{} rows, expected the model's order n = {n} (one row per reduced coordinate)",
+            f.nrows()
+        )));
+    }
+    let pairs = file_load_harmonics(s).len();
+    let single = s.load_harmonics.is_empty() && f.ncols() == 1;
+    if !single && f.ncols() != 2 * pairs {
+        return Err(bad(format!(
+            "{} columns, expected {} (a cosine and a sine column for each of the harmonics {:?}{})",
+            f.ncols(),
+            2 * pairs,
+            file_load_harmonics(s),
+            if s.load_harmonics.is_empty() {
+                ", or one cosine column"
+            } else {
+                ""
+            }
+        )));
+    }
+    if (0..f.ncols()).all(|j| (0..n).all(|i| f[(i, j)] == 0.0)) {
+        return Err(bad("every entry is zero: no load".into()));
+    }
+    Ok(Some(f))
 }

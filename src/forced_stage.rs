@@ -66,7 +66,9 @@ impl<'a> ForcedStage<'a> {
         };
         let model_dir = self.case.out_dir().join("model");
         let c = crate::forced_settings::damping_matrix(&self.case.forced, &model_dir)?;
-        let study = crate::forced::run(&system, &self.case.forced, c, backbone.as_ref())?;
+        let f = crate::forced_settings::file_load(&self.case.forced, &model_dir, system.n_dofs())?;
+        let study =
+            crate::forced::run(&system, &self.case.forced, c, f.as_ref(), backbone.as_ref())?;
         crate::forced_output::write(&study, backbone.as_ref(), &self.out)?;
         crate::output::write_atomic(&self.out.join("section.md"), section(&study).as_bytes())?;
         crate::ui::say(&crate::forced_output::summary(&study));

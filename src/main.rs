@@ -464,7 +464,8 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     let system = backbone::system_of(&reduced, None)?;
     forced::check_against(&system, &section, &source)?;
     let c = forced_settings::damping_matrix(&section, &a.model)?;
-    let study = forced::run(&system, &section, c, backbone.as_ref())?;
+    let f = forced_settings::file_load(&section, &a.model, system.n_dofs())?;
+    let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
     forced_output::write(&study, backbone.as_ref(), &a.out)?;
     ui::say(&forced_output::summary(&study));
     forced::stopped_early(&study, &a.out)

@@ -83,6 +83,20 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
     );
     if case.forced.enabled {
         case.forced.check(&mut p);
+        let f_mtx = case.out_dir().join("model").join("F.mtx");
+        if case.forced.load == crate::forced_settings::ForcedLoadKind::File && !f_mtx.is_file() {
+            p.check(
+                false,
+                "forced.load",
+                "file",
+                &format!(
+                    "\"master\" or \"mode\" in a case: \"file\" reads F.mtx of a reduced-model \
+                     directory ({} does not exist; the reduce stage writes none): bring it with \
+                     `nlmodes forced MODEL`",
+                    f_mtx.display()
+                ),
+            );
+        }
     }
     if let Some(r) = &case.rotation {
         r.check(&mut p);

@@ -260,3 +260,70 @@ fn a_damping_matrix_file_gives_the_curve_of_the_same_rayleigh_damping() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("damping") && err.contains('3'), "{err}");
 }
+
+/// `load = "file"`: F.mtx of the model directory. One column holding the master's unit force is
+/// the `load = "master"` curve exactly; a (cosine, sine) pair (0, e_master) is the same force a
+/// quarter period later, so the amplitudes are equal (to 1e-9) and the response phase at the
+/// first point (linear regime) is shifted by pi / 2; an F.mtx of the wrong order is refused
+/// (exit 2) naming the file and the model's order.
+#[test]
+fn a_load_file_gives_the_master_load_and_its_quarter_period_shift() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = common::coarse_blade_model(dir.path());
+    let reduced = nlmodes_modal::ReducedModel::read(&model).unwrap();
+    let (n, master) = (reduced.m.nrows(), reduced.master.dof);
+    let write_f = |cols: usize, value_at: &dyn Fn(usize, usize) -> f64, rows: usize| {
+        let mut s =
+            format!("%%MatrixMarket matrix array real general\n% test load\n{rows} {cols}\n");
+        for j in 0..cols {
+            for i in 0..rows {
+                s += &format!("{:e}\n", value_at(i, j));
+            }
+        }
+        std::fs::write(model.join("F.mtx"), s).unwrap();
+    };
+    let common = "harmonics = 4\nrange = [0.97, 1.03]\nlevels = [0.5]\nstability = false\n";
+    let run = |load: &str, tag: &str| -> std::process::Output {
+        let settings = dir.path().join(format!("{tag}.toml"));
+        std::fs::write(&settings, format!("[forced]\n{common}{load}")).unwrap();
+        nlmodes(&[
+            "forced",
+            model.to_str().unwrap(),
+            "--settings",
+            settings.to_str().unwrap(),
+            "-o",
+            dir.path().join(tag).to_str().unwrap(),
+        ])
+    };
+    let csv = |tag: &str| std::fs::read_to_string(dir.path().join(tag).join("frf.csv")).unwrap();
+    assert!(run("load = \"master\"\n", "master").status.success());
+    write_f(1, &|i, _| f64::from(u8::from(i == master)), n);
+    assert!(run("load = \"file\"\n", "file").status.success());
+    assert_eq!(
+        csv("file"),
+        csv("master"),
+        "F.mtx with the master's unit force"
+    );
+    write_f(2, &|i, j| f64::from(u8::from(i == master && j == 1)), n);
+    assert!(run("load = \"file\"\n", "sine").status.success());
+    let amp = |tag: &str| numbers(&column(&csv(tag), 0.5, "q1_over_g0"));
+    let (a, b) = (amp("master"), amp("sine"));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() <= 1e-9 * x.abs(), "{x} vs {y}");
+    }
+    let phase = |tag: &str| numbers(&column(&csv(tag), 0.5, "master_phase_h1_rad"))[0];
+    let shift = (phase("sine") - phase("master")).rem_euclid(2.0 * std::f64::consts::PI);
+    assert!(
+        (shift - std::f64::consts::FRAC_PI_2).abs() < 1e-9,
+        "phase shift {shift}"
+    );
+    write_f(1, &|_, _| 1.0, n + 1);
+    let out = run("load = \"file\"\n", "bad");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("F.mtx") && err.contains(&format!("order n = {n}")),
+        "{err}"
+    );
+}

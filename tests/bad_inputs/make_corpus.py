@@ -215,6 +215,8 @@ def case_files(c, geo):
         ("unknown_key", "operating_sped = 100.0", r"unknown field `operating_sped`"),
     ]:
         bad(f"rotation_{name}", pat, text=base_case(c, geo) + "[rotation]\n" + lines + "\n")
+    bad("forced_load_file_in_a_case", r"forced\.load = \"file\": expected \"master\" or \"mode\" in a case: .*F\.mtx does not exist",
+        text=base_case(c, geo) + "[forced]\nload = \"file\"\n")
     bad("rotation_zero_axis", r"model\.rotor_axis_direction = \[0\.0, 0\.0, 0\.0\]",
         text=base_case(c, geo, model="rotor_axis_direction = [0.0, 0.0, 0.0]") + "[rotation]\n")
 
@@ -337,6 +339,9 @@ def forced_settings(c, model):
     bad("contact_word", "contact = \"soft\"\n", r"unknown variant `soft`, expected `exact` or `penalty`")
     bad("mode_beyond_model", "mode = 5000\n", r"forced\.mode = 5000: expected a linear mode index \(0-based\) below \d+")
     bad("load_mode_beyond_model", "load = \"mode\"\nload_mode = 777\n", r"forced\.load_mode = 777: expected a linear mode index")
+    bad("load_file_missing", "load = \"file\"\n", r"forced\.load = \"file\": .*F\.mtx: cannot read it")
+    bad("load_harmonics_zero", "load = \"file\"\nload_harmonics = [0]\n", r"forced\.load_harmonics = 0: expected distinct harmonics 1 <= h <= harmonics")
+    bad("load_harmonics_repeated", "load = \"file\"\nload_harmonics = [2, 2]\n", r"forced\.load_harmonics = 2: expected distinct harmonics")
     c.add("forced settings", "forced_backbone_missing",
           ["forced", model, "--backbone", c.path("forced/none.json"), "-o", out], r"--backbone .*none\.json", absent=[os.path.join(out, "frf.csv")])
 

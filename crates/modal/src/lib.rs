@@ -16,6 +16,7 @@ pub mod dense;
 pub mod eigen_options;
 pub mod error;
 pub mod matrix_market;
+pub mod matrix_market_general;
 pub mod memory;
 pub mod model_checks;
 pub mod modes;
