@@ -93,6 +93,14 @@ pub struct ForcedSection {
     pub penalty_factor: f64,
     /// Floquet stability of every point.
     pub stability: bool,
+    /// Write each level's peak orbit (largest first-harmonic amplitude of the master) as a
+    /// ParaView series (`forced/orbits/`).
+    pub keep_peaks: bool,
+    /// Frequencies W / w_mode at which each level's orbits are written as ParaView series (every
+    /// crossing of the curve).
+    pub keep: Vec<f64>,
+    /// Frames per period of those series.
+    pub frames: usize,
 }
 
 impl Default for ForcedSection {
@@ -116,6 +124,9 @@ impl Default for ForcedSection {
             contact: ForcedContact::Penalty,
             penalty_factor: 1e3,
             stability: true,
+            keep_peaks: true,
+            keep: Vec::new(),
+            frames: 24,
         }
     }
 }
@@ -163,6 +174,20 @@ impl ForcedSection {
                 "distinct harmonics 1 <= h <= harmonics",
             );
         }
+        for k in &self.keep {
+            p.check(
+                finite_pos(*k),
+                "forced.keep",
+                k,
+                "finite frequencies W / w_mode > 0",
+            );
+        }
+        p.check(
+            (2..=1000).contains(&self.frames),
+            "forced.frames",
+            self.frames,
+            "between 2 and 1000 frames per period",
+        );
         let ratio_ok = |z: f64| z.is_finite() && (0.0..1.0).contains(&z);
         p.check(
             ratio_ok(self.damping_ratio),

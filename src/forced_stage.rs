@@ -70,6 +70,8 @@ impl<'a> ForcedStage<'a> {
         let study =
             crate::forced::run(&system, &self.case.forced, c, f.as_ref(), backbone.as_ref())?;
         crate::forced_output::write(&study, backbone.as_ref(), &self.out)?;
+        let orbits = crate::forced_paraview::write_orbits(&study, &model_dir, &self.out)?;
+        tracing::info!("forced: {orbits} orbits written for ParaView in forced/orbits");
         crate::output::write_atomic(&self.out.join("section.md"), section(&study).as_bytes())?;
         crate::ui::say(&crate::forced_output::summary(&study));
         st.done(&format!("wrote {}", self.out.display()));
@@ -111,7 +113,8 @@ fn section(st: &ForcedStudy) -> String {
         s,
         "Harmonic force at harmonic {} of the response, swept over W / w = {} .. {} around \
          linear mode {} (w = {:.3} Hz), N = {} harmonics, {law}. Data: `forced/frf.csv`, every \
-         orbit in `forced/frf.json`.\n",
+         orbit in `forced/frf.json`; each level's peak orbit (and those at `keep`) for ParaView \
+         in `forced/orbits/`.\n",
         st.settings.harmonic,
         st.settings.range[0],
         st.settings.range[1],

@@ -12,6 +12,7 @@ mod fe_model;
 mod figures;
 mod forced;
 mod forced_output;
+mod forced_paraview;
 mod forced_settings;
 mod forced_stage;
 mod gmsh;
@@ -467,6 +468,11 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     let f = forced_settings::file_load(&section, &a.model, system.n_dofs())?;
     let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
     forced_output::write(&study, backbone.as_ref(), &a.out)?;
+    let orbits = forced_paraview::write_orbits(&study, &a.model, &a.out)?;
+    tracing::info!(
+        "{orbits} orbits written for ParaView in {}",
+        a.out.join("orbits").display()
+    );
     ui::say(&forced_output::summary(&study));
     forced::stopped_early(&study, &a.out)
 }

@@ -121,7 +121,7 @@ fn pictures(
 }
 
 /// The full FE mesh of the reduced model and its boundary surface.
-struct FullMesh<'a> {
+pub struct FullMesh<'a> {
     mesh: nlmodes_fem::Mesh,
     recovery: &'a faer::Mat<f64>,
     reference: &'a MeshReference,
@@ -132,7 +132,7 @@ struct FullMesh<'a> {
 
 impl<'a> FullMesh<'a> {
     /// `None` when the model has no recovery basis or mesh reference.
-    fn of(model: &'a ReducedModel) -> Result<Option<Self>> {
+    pub fn of(model: &'a ReducedModel) -> Result<Option<Self>> {
         let (Some(recovery), Some(reference)) = (&model.recovery, &model.mesh) else {
             return Ok(None);
         };
@@ -287,27 +287,78 @@ fn xdmf_series(
     tag: &str,
 ) -> Result<()> {
     let frames = case.nnm.frames.max(2);
+    let states: Vec<Vec<f64>> = (0..frames).map(|f| o.at_frame(f, frames)).collect();
+    let forces: Vec<Vec<f64>> = (0..frames)
+        .map(|f| {
+            let k = o.force_sample_at_frame(f, frames);
+            o.contact_force.iter().map(|row| row[k]).collect()
+        })
+        .collect();
+    let period = o.period();
+    let note = format!(
+        "nlmodes: nonlinear mode at q/g0 = {:.4}, one period T = {:.9e} s (f = {:.6} Hz, \
+         w/w1 = {:.6}) in {frames} frames; time values in seconds, frame f at t = f T / {frames}. \
+         {FIELDS_NOTE} Heavy data in mode_{tag}.h5; frames at t and T - t share their arrays (the \
+         orbit is even in time).",
+        o.q / g0,
+        period,
+        o.frequency_hz,
+        o.omega_ratio
+    );
+    remove_vtu_series(dir)?;
+    let series = OrbitSeries {
+        states: &states,
+        forces: &forces,
+        period,
+        note: &note,
+    };
+    write_orbit_series(model, full, &series, &dir.join(format!("mode_{tag}.xdmf")))
+}
+
+/// What the point fields of an orbit's series are (the XDMF file's note).
+pub const FIELDS_NOTE: &str = "Point fields (Float32): displacement_m (m); radial_gap_m (m, \
+     radial displacement minus gap: 0 = touching, < 0 = open) and contact_force_n (N), defined on \
+     the contact nodes only, NaN elsewhere; contact_node (1 on the contact nodes).";
+
+/// One period of an orbit in reduced coordinates, for ParaView.
+pub struct OrbitSeries<'a> {
+    /// The reduced state at each frame (frame f at t = f T / frames).
+    pub states: &'a [Vec<f64>],
+    /// The contact forces (N, one per contact node) at each frame.
+    pub forces: &'a [Vec<f64>],
+    /// T (s).
+    pub period: f64,
+    /// The file's note.
+    pub note: &'a str,
+}
+
+/// Writes `series` on the full FE mesh as an XDMF time series at `path` (+ `.h5`): the fields of
+/// [`FIELDS_NOTE`], time values in seconds. Frames holding bitwise equal states share datasets.
+pub fn write_orbit_series(
+    model: &ReducedModel,
+    full: &FullMesh,
+    series: &OrbitSeries<'_>,
+    path: &Path,
+) -> Result<()> {
+    let frames = series.states.len();
     let n_nodes = full.mesh.n_nodes();
     let mut is_contact = vec![0.0; n_nodes];
     for &n in &full.contact_nodes {
         is_contact[n] = 1.0;
     }
-    let states: Vec<Vec<f64>> = (0..frames).map(|f| o.at_frame(f, frames)).collect();
-    let recovered = full.recover(&states)?;
+    let recovered = full.recover(series.states)?;
     let mut gaps = vec![vec![f64::NAN; n_nodes]; frames];
     let mut forces = vec![vec![f64::NAN; n_nodes]; frames];
     for f in 0..frames {
-        let radial_disp = radial(model, &states[f]);
-        let k = o.force_sample_at_frame(f, frames);
+        let radial_disp = radial(model, &series.states[f]);
         for (j, &n) in full.contact_nodes.iter().enumerate() {
             gaps[f][n] = radial_disp[j] - model.contact_nodes[j].gap;
-            forces[f][n] = o.contact_force[j][k];
+            forces[f][n] = series.forces[f][j];
         }
     }
-    let period = o.period();
-    let series: Vec<XdmfFrame> = (0..frames)
+    let frames_out: Vec<XdmfFrame> = (0..frames)
         .map(|f| XdmfFrame {
-            time: f as f64 / frames as f64 * period,
+            time: f as f64 / frames as f64 * series.period,
             fields: vec![
                 Field::vector("displacement_m", &recovered[f]).f32(),
                 Field::scalar("radial_gap_m", &gaps[f]).f32().partial(),
@@ -316,25 +367,12 @@ fn xdmf_series(
             ],
         })
         .collect();
-    let note = format!(
-        "nlmodes: nonlinear mode at q/g0 = {:.4}, one period T = {:.9e} s (f = {:.6} Hz, \
-         w/w1 = {:.6}) in {frames} frames; time values in seconds, frame f at t = f T / {frames}. \
-         Point fields (Float32): displacement_m (m); radial_gap_m (m, radial displacement minus \
-         gap: 0 = touching, < 0 = open) and contact_force_n (N), defined on the contact nodes \
-         only, NaN elsewhere; contact_node (1 on the contact nodes). Heavy data in mode_{tag}.h5; \
-         frames at t and T - t share their arrays (the orbit is even in time).",
-        o.q / g0,
-        period,
-        o.frequency_hz,
-        o.omega_ratio
-    );
-    remove_vtu_series(dir)?;
     let written = write_xdmf_series(
-        &dir.join(format!("mode_{tag}.xdmf")),
+        path,
         &crate::output::vtu_mesh(&full.mesh),
         Precision::F32,
-        &series,
-        &note,
+        &frames_out,
+        series.note,
     )?;
     tracing::debug!(
         "{}: {} field arrays in {} datasets",

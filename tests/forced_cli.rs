@@ -117,6 +117,59 @@ fn forced_command_writes_a_curve_that_is_linear_below_grazing_and_clipped_above(
         );
     }
     assert_eq!(json["curves"][1]["termination"], "complete");
+    peak_orbits_for_paraview(&out, &csv, &json);
+}
+
+/// The peak orbit of each level as a ParaView series (`keep_peaks`, default on): read back by
+/// meshio (another reader), 24 frames at t = f T / 24 with T = 2 pi / W of the curve's peak row
+/// of frf.csv; the contact forces on the mesh are those of the orbit: none below grazing, some
+/// at 3 x grazing, never above the curve's largest force.
+fn peak_orbits_for_paraview(out: &std::path::Path, csv: &str, json: &serde_json::Value) {
+    for (level, contact) in [(0.5, false), (3.0, true)] {
+        let xdmf = out.join(format!("orbits/level_{level}_peak.xdmf"));
+        let py = Command::new("/usr/bin/python3")
+            .arg(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/check_vtu.py"))
+            .arg("--series")
+            .arg(&xdmf)
+            .output()
+            .expect("/usr/bin/python3 with meshio and h5py (scripts/deps installs them)");
+        assert!(
+            py.status.success(),
+            "{}",
+            String::from_utf8_lossy(&py.stderr)
+        );
+        let s: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
+        let q1 = numbers(&column(csv, level, "q1_over_g0"));
+        let w = numbers(&column(csv, level, "omega_rad_s"));
+        let peak = (0..q1.len())
+            .max_by(|&a, &b| q1[a].total_cmp(&q1[b]))
+            .unwrap();
+        let period = 2.0 * std::f64::consts::PI / w[peak];
+        let times: Vec<f64> = numbers(
+            &s["times"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>(),
+        );
+        assert_eq!(times.len(), 24);
+        for (f, t) in times.iter().enumerate() {
+            assert!(
+                (t - f as f64 / 24.0 * period).abs() <= 1e-12 * period,
+                "frame {f}: {t}"
+            );
+        }
+        let force_max = s["force_max"].as_f64().unwrap();
+        let curve_max = numbers(&column(csv, level, "max_contact_force_N"))[peak];
+        assert_eq!(force_max > 0.0, contact, "level {level}: {force_max} N");
+        assert!(
+            force_max <= curve_max * (1.0 + 1e-6),
+            "{force_max} vs {curve_max}"
+        );
+        assert!(s["gap_min"].as_f64().unwrap() < 0.0, "{s}");
+    }
+    assert!(json["curves"].as_array().unwrap().len() == 2);
 }
 
 /// Issue 24: progress and log lines written to a pipe or a file carry no ANSI colour codes.
