@@ -25,7 +25,7 @@
 //! duplicated entry, non-finite value, non-square or non-symmetric matrix.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use faer::{Mat, MatRef};
@@ -33,6 +33,7 @@ use sprs::{CsMat, TriMat};
 
 use crate::dense::check_dense_symmetric;
 use crate::error::ModalError;
+use crate::matrix_market_general::DataLines;
 use crate::sparse_ops::{as_csc, check_symmetric_input, SYMMETRY_TOLERANCE};
 
 /// Writes a dense symmetric matrix (lower triangle, every entry).
@@ -169,38 +170,27 @@ struct RawEntry {
 }
 
 fn read_lower_triangle(path: &Path) -> Result<LowerTriangle, ModalError> {
-    let err = |line: usize, message: String| ModalError::MatrixMarket {
-        path: path.to_path_buf(),
-        line,
-        message,
-    };
-    let file = File::open(path).map_err(|source| ModalError::Io {
-        action: "cannot open",
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let mut lines = BufReader::new(file).lines().enumerate();
-    let mut next_line = || -> Result<Option<(usize, String)>, ModalError> {
-        match lines.next() {
-            None => Ok(None),
-            Some((i, Ok(text))) => Ok(Some((i + 1, text))),
-            Some((i, Err(source))) => Err(ModalError::MatrixMarket {
-                path: path.to_path_buf(),
-                line: i + 1,
-                message: format!("cannot read the line: {source}"),
-            }),
-        }
-    };
+    let mut lines = DataLines::open(path)?;
+    let (header_line, symmetric) = coordinate_header(&mut lines)?;
+    let (n, count, size_line) = square_size(&mut lines, header_line, symmetric)?;
+    let mut raw = entries(&mut lines, n, count, size_line)?;
+    check_repeats(&lines, &mut raw)?;
+    let entries = fold_triangles(&lines, raw, symmetric)?;
+    Ok(LowerTriangle { n, entries })
+}
 
-    // Header.
-    let (line_no, header) = next_line()?.ok_or_else(|| err(0, "the file is empty".to_string()))?;
+/// The header of a coordinate file: its line and whether it is `symmetric` (else `general`).
+fn coordinate_header(lines: &mut DataLines<'_>) -> Result<(usize, bool), ModalError> {
+    let (no, header) = lines
+        .raw()?
+        .ok_or_else(|| lines.error(0, "the file is empty".to_string()))?;
     let tokens: Vec<String> = header
         .split_whitespace()
         .map(|t| t.to_ascii_lowercase())
         .collect();
     if tokens.len() != 5 || tokens[0] != "%%matrixmarket" || tokens[1] != "matrix" {
-        return Err(err(
-            line_no,
+        return Err(lines.error(
+            no,
             format!(
                 "malformed header {header:?}: expected \
                  \"%%MatrixMarket matrix coordinate real symmetric\" (or general)"
@@ -208,140 +198,147 @@ fn read_lower_triangle(path: &Path) -> Result<LowerTriangle, ModalError> {
         ));
     }
     if tokens[2] != "coordinate" {
-        return Err(err(
-            line_no,
-            format!(
-                "format {:?} is not supported: expected coordinate",
-                tokens[2]
-            ),
-        ));
+        let message = format!(
+            "format {:?} is not supported: expected coordinate",
+            tokens[2]
+        );
+        return Err(lines.error(no, message));
     }
     if !matches!(tokens[3].as_str(), "real" | "double" | "integer") {
-        return Err(err(
-            line_no,
-            format!("field {:?} is not supported: expected real", tokens[3]),
-        ));
+        let message = format!("field {:?} is not supported: expected real", tokens[3]);
+        return Err(lines.error(no, message));
     }
-    let symmetric = match tokens[4].as_str() {
-        "symmetric" => true,
-        "general" => false,
-        other => {
-            return Err(err(
-                line_no,
-                format!("symmetry {other:?} is not supported: expected symmetric or general"),
-            ))
-        }
-    };
+    match tokens[4].as_str() {
+        "symmetric" => Ok((no, true)),
+        "general" => Ok((no, false)),
+        other => Err(lines.error(
+            no,
+            format!("symmetry {other:?} is not supported: expected symmetric or general"),
+        )),
+    }
+}
 
-    // Size line (after comments and blank lines).
-    let (size_line, sizes) = loop {
-        match next_line()? {
-            None => return Err(err(line_no, "the size line is missing".to_string())),
-            Some((_, text)) if text.trim().is_empty() || text.trim_start().starts_with('%') => {}
-            Some((no, text)) => break (no, text),
-        }
-    };
-    let fields: Vec<&str> = sizes.split_whitespace().collect();
-    let parsed: Vec<Option<usize>> = fields.iter().map(|f| f.parse().ok()).collect();
+/// The size line of a square matrix: (n, entries announced, its line number).
+fn square_size(
+    lines: &mut DataLines<'_>,
+    header_line: usize,
+    symmetric: bool,
+) -> Result<(usize, usize, usize), ModalError> {
+    let (no, sizes) = lines
+        .data()?
+        .ok_or_else(|| lines.error(header_line, "the size line is missing".to_string()))?;
+    let parsed: Vec<Option<usize>> = sizes.split_whitespace().map(|f| f.parse().ok()).collect();
     let (nrows, ncols, count) = match parsed.as_slice() {
         [Some(r), Some(c), Some(k)] => (*r, *c, *k),
         _ => {
-            return Err(err(
-                size_line,
-                format!("malformed size line {sizes:?}: expected \"rows cols entries\""),
-            ))
+            let message = format!("malformed size line {sizes:?}: expected \"rows cols entries\"");
+            return Err(lines.error(no, message));
         }
     };
     if nrows != ncols {
-        return Err(err(
-            size_line,
-            format!("the matrix is {nrows} x {ncols}: a symmetric matrix must be square"),
-        ));
+        let message = format!("the matrix is {nrows} x {ncols}: a symmetric matrix must be square");
+        return Err(lines.error(no, message));
     }
     let n = nrows;
     let max_count = if symmetric { n * (n + 1) / 2 } else { n * n };
     if count > max_count {
-        return Err(err(
-            size_line,
-            format!("{count} entries announced but a {n} x {n} matrix holds at most {max_count}"),
-        ));
+        let message =
+            format!("{count} entries announced but a {n} x {n} matrix holds at most {max_count}");
+        return Err(lines.error(no, message));
     }
+    Ok((n, count, no))
+}
 
-    // Entries.
+/// The `count` entries announced on line `size_line`, 0-based, finite, in range.
+fn entries(
+    lines: &mut DataLines<'_>,
+    n: usize,
+    count: usize,
+    size_line: usize,
+) -> Result<Vec<RawEntry>, ModalError> {
     let mut raw: Vec<RawEntry> = Vec::with_capacity(count);
-    while let Some((no, text)) = next_line()? {
-        let trimmed = text.trim();
-        if trimmed.is_empty() || trimmed.starts_with('%') {
-            continue;
-        }
+    while let Some((no, trimmed)) = lines.data()? {
         if raw.len() == count {
-            return Err(err(
-                no,
-                format!("more entries than the {count} announced on line {size_line}"),
-            ));
+            let message = format!("more entries than the {count} announced on line {size_line}");
+            return Err(lines.error(no, message));
         }
-        let fields: Vec<&str> = trimmed.split_whitespace().collect();
-        if fields.len() != 3 {
-            return Err(err(
-                no,
-                format!("malformed entry {trimmed:?}: expected \"row col value\""),
-            ));
-        }
-        let index = |s: &str, what: &str| -> Result<usize, ModalError> {
-            let v: usize = s
-                .parse()
-                .map_err(|_| err(no, format!("{what} index {s:?} is not a positive integer")))?;
-            if v == 0 || v > n {
-                return Err(err(no, format!("{what} index {v} is out of range 1..={n}")));
-            }
-            Ok(v - 1)
-        };
-        let row = index(fields[0], "row")?;
-        let col = index(fields[1], "column")?;
-        let value: f64 = fields[2]
-            .parse()
-            .map_err(|_| err(no, format!("value {:?} is not a number", fields[2])))?;
-        if !value.is_finite() {
-            return Err(err(no, format!("value {value} is not finite")));
-        }
-        raw.push(RawEntry {
-            row,
-            col,
-            value,
-            line: no,
-        });
+        raw.push(entry(lines, no, &trimmed, n)?);
     }
     if raw.len() != count {
-        return Err(err(
-            0,
-            format!(
-                "the file ends after {} entries but line {size_line} announces {count}",
-                raw.len()
-            ),
-        ));
+        let message = format!(
+            "the file ends after {} entries but line {size_line} announces {count}",
+            raw.len()
+        );
+        return Err(lines.error(0, message));
     }
+    Ok(raw)
+}
 
-    // Exact duplicates (same row and column).
+/// One `row col value` line.
+fn entry(
+    lines: &DataLines<'_>,
+    no: usize,
+    trimmed: &str,
+    n: usize,
+) -> Result<RawEntry, ModalError> {
+    let fields: Vec<&str> = trimmed.split_whitespace().collect();
+    if fields.len() != 3 {
+        let message = format!("malformed entry {trimmed:?}: expected \"row col value\"");
+        return Err(lines.error(no, message));
+    }
+    let index = |s: &str, what: &str| -> Result<usize, ModalError> {
+        let v: usize = s.parse().map_err(|_| {
+            lines.error(no, format!("{what} index {s:?} is not a positive integer"))
+        })?;
+        if v == 0 || v > n {
+            return Err(lines.error(no, format!("{what} index {v} is out of range 1..={n}")));
+        }
+        Ok(v - 1)
+    };
+    let row = index(fields[0], "row")?;
+    let col = index(fields[1], "column")?;
+    let value: f64 = fields[2]
+        .parse()
+        .map_err(|_| lines.error(no, format!("value {:?} is not a number", fields[2])))?;
+    if !value.is_finite() {
+        return Err(lines.error(no, format!("value {value} is not finite")));
+    }
+    Ok(RawEntry {
+        row,
+        col,
+        value,
+        line: no,
+    })
+}
+
+/// Exact repeats (the same row and column twice) are an error.
+fn check_repeats(lines: &DataLines<'_>, raw: &mut [RawEntry]) -> Result<(), ModalError> {
     raw.sort_by_key(|e| (e.col, e.row, e.line));
     for w in raw.windows(2) {
         if w[0].row == w[1].row && w[0].col == w[1].col {
-            return Err(err(
-                w[1].line,
-                format!(
-                    "entry ({}, {}) (1-based) is repeated: already given on line {}",
-                    w[1].row + 1,
-                    w[1].col + 1,
-                    w[0].line
-                ),
-            ));
+            let message = format!(
+                "entry ({}, {}) (1-based) is repeated: already given on line {}",
+                w[1].row + 1,
+                w[1].col + 1,
+                w[0].line
+            );
+            return Err(lines.error(w[1].line, message));
         }
     }
+    Ok(())
+}
 
-    // Group each entry with its mirror: key (max, min).
+/// Each entry with its mirror: once per pair in a symmetric file; in a general one the two
+/// triangles must agree to [`SYMMETRY_TOLERANCE`] and are averaged. (row, col, value), row >= col.
+fn fold_triangles(
+    lines: &DataLines<'_>,
+    mut raw: Vec<RawEntry>,
+    symmetric: bool,
+) -> Result<Vec<(usize, usize, f64)>, ModalError> {
     raw.sort_by_key(|e| (e.row.min(e.col), e.row.max(e.col), e.line));
     let scale = raw.iter().fold(0.0_f64, |m, e| m.max(e.value.abs()));
     let bound = SYMMETRY_TOLERANCE * scale;
-    let mut entries = Vec::with_capacity(raw.len());
+    let mut folded = Vec::with_capacity(raw.len());
     let mut p = 0;
     while p < raw.len() {
         let e = raw[p];
@@ -352,47 +349,50 @@ fn read_lower_triangle(path: &Path) -> Result<LowerTriangle, ModalError> {
             .copied();
         let value = match (symmetric, mirror) {
             (true, Some(f)) => {
-                return Err(err(
-                    f.line,
-                    format!(
-                        "entry ({}, {}) mirrors the entry on line {}: a symmetric file stores \
-                         each off-diagonal pair once",
-                        f.row + 1,
-                        f.col + 1,
-                        e.line
-                    ),
-                ))
+                let message = format!(
+                    "entry ({}, {}) mirrors the entry on line {}: a symmetric file stores \
+                     each off-diagonal pair once",
+                    f.row + 1,
+                    f.col + 1,
+                    e.line
+                );
+                return Err(lines.error(f.line, message));
             }
             (true, None) => e.value,
             (false, _) if lo == hi => e.value,
-            (false, other) => {
-                let mirror_value = other.map_or(0.0, |f| f.value);
-                if (e.value - mirror_value).abs() > bound {
-                    let where_mirror =
-                        other.map_or("absent".to_string(), |f| format!("line {}", f.line));
-                    return Err(err(
-                        e.line,
-                        format!(
-                            "the matrix is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = \
-                             {:e} ({where_mirror}); tolerance {:e} relative to the largest \
-                             entry (indices 1-based)",
-                            e.row + 1,
-                            e.col + 1,
-                            e.value,
-                            e.col + 1,
-                            e.row + 1,
-                            mirror_value,
-                            SYMMETRY_TOLERANCE
-                        ),
-                    ));
-                }
-                0.5 * (e.value + mirror_value)
-            }
+            (false, other) => mirrored_value(lines, e, other, bound)?,
         };
-        entries.push((hi, lo, value));
+        folded.push((hi, lo, value));
         p += if mirror.is_some() { 2 } else { 1 };
     }
-    Ok(LowerTriangle { n, entries })
+    Ok(folded)
+}
+
+/// The average of an off-diagonal entry of a general file and its mirror (0 when absent), or
+/// the error when they differ by more than `bound`.
+fn mirrored_value(
+    lines: &DataLines<'_>,
+    e: RawEntry,
+    mirror: Option<RawEntry>,
+    bound: f64,
+) -> Result<f64, ModalError> {
+    let mirror_value = mirror.map_or(0.0, |f| f.value);
+    if (e.value - mirror_value).abs() <= bound {
+        return Ok(0.5 * (e.value + mirror_value));
+    }
+    let where_mirror = mirror.map_or("absent".to_string(), |f| format!("line {}", f.line));
+    let message = format!(
+        "the matrix is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} \
+         ({where_mirror}); tolerance {:e} relative to the largest entry (indices 1-based)",
+        e.row + 1,
+        e.col + 1,
+        e.value,
+        e.col + 1,
+        e.row + 1,
+        mirror_value,
+        SYMMETRY_TOLERANCE
+    );
+    Err(lines.error(e.line, message))
 }
 
 #[cfg(test)]

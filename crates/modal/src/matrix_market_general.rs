@@ -21,14 +21,15 @@ use faer::Mat;
 
 use crate::error::ModalError;
 
-/// The lines of a file that carry data (comments and blank lines skipped), numbered from 1.
-struct DataLines<'p> {
+/// The lines of a file that carry data (comments and blank lines skipped), numbered from 1;
+/// shared with the symmetric reader (`crate::matrix_market`).
+pub(crate) struct DataLines<'p> {
     path: &'p Path,
     lines: std::iter::Enumerate<std::io::Lines<BufReader<std::fs::File>>>,
 }
 
 impl<'p> DataLines<'p> {
-    fn open(path: &'p Path) -> Result<Self, ModalError> {
+    pub(crate) fn open(path: &'p Path) -> Result<Self, ModalError> {
         let file = std::fs::File::open(path).map_err(|source| ModalError::Io {
             action: "cannot open",
             path: path.to_path_buf(),
@@ -40,7 +41,7 @@ impl<'p> DataLines<'p> {
         })
     }
 
-    fn error(&self, line: usize, message: String) -> ModalError {
+    pub(crate) fn error(&self, line: usize, message: String) -> ModalError {
         ModalError::MatrixMarket {
             path: self.path.to_path_buf(),
             line,
@@ -49,7 +50,7 @@ impl<'p> DataLines<'p> {
     }
 
     /// The next line, comments included (the header is one).
-    fn raw(&mut self) -> Result<Option<(usize, String)>, ModalError> {
+    pub(crate) fn raw(&mut self) -> Result<Option<(usize, String)>, ModalError> {
         match self.lines.next() {
             None => Ok(None),
             Some((i, Ok(text))) => Ok(Some((i + 1, text))),
@@ -58,7 +59,7 @@ impl<'p> DataLines<'p> {
     }
 
     /// The next line with data.
-    fn data(&mut self) -> Result<Option<(usize, String)>, ModalError> {
+    pub(crate) fn data(&mut self) -> Result<Option<(usize, String)>, ModalError> {
         while let Some((no, text)) = self.raw()? {
             let t = text.trim();
             if !t.is_empty() && !t.starts_with('%') {
