@@ -148,7 +148,38 @@ pub fn craig_bampton_with_check(
     check_modes: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<(CraigBampton, Option<Modes>), ModalError> {
+    craig_bampton_with_loads(k, m, boundary, n_modes, check_modes, &[], opts)
+}
+
+/// [`craig_bampton_with_check`] with a static correction vector for each of `loads` (full
+/// vectors of the input order, force units): x = K_ii^-1 f_i, the static interior response to
+/// the load with the boundary held, M_ii-orthogonalized (twice) against the fixed-interface modes
+/// and the corrections before it and M_ii-normalized, appended to Phi after the modes. The basis
+/// then holds K^-1 f exactly (Psi u_b + K_ii^-1 f_i), so the reduced static response to T^T f is
+/// the full one to round-off: what makes a load on interior DOFs exact in the static limit
+/// (issue 22). K_r stays block diagonal (K_ii-orthogonal to the modes); the correction's
+/// diagonal entry x^T K_ii x is appended to `fixed_interface_eigenvalues`. A load whose
+/// interior part adds nothing new (on the boundary only, or in the span already) adds no
+/// vector.
+pub fn craig_bampton_with_loads(
+    k: &CsMat<f64>,
+    m: &CsMat<f64>,
+    boundary: &[usize],
+    n_modes: usize,
+    check_modes: usize,
+    loads: &[Vec<f64>],
+    opts: &EigenOptions<'_>,
+) -> Result<(CraigBampton, Option<Modes>), ModalError> {
     let (n, interior) = checked_partition(k, m, boundary, n_modes)?;
+    if let Some(f) = loads
+        .iter()
+        .find(|f| f.len() != n || f.iter().any(|v| !v.is_finite()))
+    {
+        return Err(ModalError::InvalidReduction(format!(
+            "a static-correction load of {} values (finite ones expected, the model has {n})",
+            f.len()
+        )));
+    }
     let (n_b, n_i) = (boundary.len(), interior.len());
     let start = StepTimer::start();
 
@@ -169,8 +200,15 @@ pub fn craig_bampton_with_check(
     // The eigensolver's basis, its largest allocation, is freed before Psi is allocated; K_ii
     // is dropped during the iteration and rebuilt for the residuals of the modes.
     let rebuild_k_ii = || submatrix_unchecked(k, &interior, &interior);
-    let (phi, fixed_interface_eigenvalues) =
+    let (mut phi, mut fixed_interface_eigenvalues) =
         fixed_interface_modes(k_ii, &rebuild_k_ii, &m_ii, &factor, n_modes, opts)?;
+    for f in loads {
+        let f_i: Vec<f64> = interior.iter().map(|&d| f[d]).collect();
+        if let Some((x, kxx)) = static_correction(&factor, &rebuild_k_ii(), &m_ii, &phi, &f_i)? {
+            phi = append_column(&phi, &x);
+            fixed_interface_eigenvalues.push(kxx);
+        }
+    }
     drop(m_ii);
     let psi = constraint_modes(&factor, &k_ib, n_i, n_b)?;
     let full_modes = if check_modes > 0 {
@@ -382,6 +420,61 @@ fn fixed_interface_modes(
 
 /// Constraint modes Psi = -K_ii^-1 K_ib: all n_b right-hand sides in one block solve (one pass
 /// over the factor).
+/// The static correction of one interior load `f_i` (see [`craig_bampton_with_loads`]): the
+/// vector and its K_ii Rayleigh quotient, or None when nothing is left of it after the
+/// orthogonalization (below 1e-10 of its M_ii-norm).
+fn static_correction(
+    factor: &SparseCholesky,
+    k_ii: &CsMat<f64>,
+    m_ii: &CsMat<f64>,
+    phi: &Mat<f64>,
+    f_i: &[f64],
+) -> Result<Option<(Vec<f64>, f64)>, ModalError> {
+    let n_i = f_i.len();
+    let mut x = Mat::from_fn(n_i, 1, |r, _| f_i[r]);
+    if f_i.iter().all(|&v| v == 0.0) {
+        return Ok(None);
+    }
+    factor.solve_many(x.as_mut())?;
+    let m_norm = |x: &Mat<f64>| -> f64 {
+        let mut mx = Mat::<f64>::zeros(n_i, 1);
+        spmm_symmetric(m_ii, x.as_ref(), mx.as_mut());
+        (0..n_i).map(|r| x[(r, 0)] * mx[(r, 0)]).sum::<f64>().sqrt()
+    };
+    let before = m_norm(&x);
+    for _ in 0..2 {
+        let mut mx = Mat::<f64>::zeros(n_i, 1);
+        spmm_symmetric(m_ii, x.as_ref(), mx.as_mut());
+        for j in 0..phi.ncols() {
+            let c: f64 = (0..n_i).map(|r| phi[(r, j)] * mx[(r, 0)]).sum();
+            for r in 0..n_i {
+                x[(r, 0)] -= c * phi[(r, j)];
+            }
+        }
+    }
+    let after = m_norm(&x);
+    if !(after > 1e-10 * before) {
+        return Ok(None);
+    }
+    let x: Vec<f64> = (0..n_i).map(|r| x[(r, 0)] / after).collect();
+    let xm = Mat::from_fn(n_i, 1, |r, _| x[r]);
+    let mut kx = Mat::<f64>::zeros(n_i, 1);
+    spmm_symmetric(k_ii, xm.as_ref(), kx.as_mut());
+    let kxx = (0..n_i).map(|r| x[r] * kx[(r, 0)]).sum();
+    Ok(Some((x, kxx)))
+}
+
+/// `a` with `col` appended as its last column.
+fn append_column(a: &Mat<f64>, col: &[f64]) -> Mat<f64> {
+    Mat::from_fn(a.nrows(), a.ncols() + 1, |r, j| {
+        if j < a.ncols() {
+            a[(r, j)]
+        } else {
+            col[r]
+        }
+    })
+}
+
 fn constraint_modes(
     factor: &SparseCholesky,
     k_ib: &CsMat<f64>,

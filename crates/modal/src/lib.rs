@@ -30,7 +30,9 @@ pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored};
 pub use bordered::BorderedSolve;
 pub use cholesky::{shifted, CholeskyAnalysis, CholeskyOptions, FactoredSolve, SparseCholesky};
 pub use contact_geometry::{radial_unit_vector, RotorAxis};
-pub use craig_bampton::{craig_bampton, craig_bampton_with_check, reduced_eigen, CraigBampton};
+pub use craig_bampton::{
+    craig_bampton, craig_bampton_with_check, craig_bampton_with_loads, reduced_eigen, CraigBampton,
+};
 pub use dense::{csmat_to_dense, dense_generalized_eigen};
 pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
