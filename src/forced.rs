@@ -103,7 +103,7 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
     let n = system.n_dofs();
     let mut harmonics = Vec::new();
     match (s.load, file) {
-        (ForcedLoadKind::File, Some(f)) => {
+        (ForcedLoadKind::File | ForcedLoadKind::Group, Some(f)) => {
             let hs = crate::forced_settings::file_load_harmonics(s);
             let col = |j: usize| (0..n).map(|i| f[(i, j)]).collect::<Vec<f64>>();
             for (k, &h) in hs.iter().enumerate() {
@@ -115,7 +115,9 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
                 harmonics.push((h, col(2 * k), sin));
             }
         }
-        (ForcedLoadKind::File, None) => anyhow::bail!("forced.load = \"file\" without F.mtx"),
+        (ForcedLoadKind::File | ForcedLoadKind::Group, None) => {
+            anyhow::bail!("forced.load = {:?} without F.mtx", s.load)
+        }
         (ForcedLoadKind::Master, _) => {
             let mut shape = vec![0.0; n];
             shape[system.master()] = 1.0;
@@ -139,8 +141,14 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
         }
     }
     anyhow::ensure!(big > 0.0, "[forced] the load pattern is zero");
+    // A group load is 1 N in total: its levels are the total force, not the largest entry.
+    let unit = if s.load == ForcedLoadKind::Group {
+        1.0
+    } else {
+        big
+    };
     for (_, c, sn) in &mut harmonics {
-        c.iter_mut().chain(sn.iter_mut()).for_each(|v| *v /= big);
+        c.iter_mut().chain(sn.iter_mut()).for_each(|v| *v /= unit);
     }
     Ok(Pattern {
         harmonics,

@@ -34,6 +34,11 @@ pub enum ForcedLoadKind {
     /// coordinate is cos = A_i cos(p_i), sin = A_i sin(p_i). Scaled so that its largest entry
     /// is the level.
     File,
+    /// A total force of 1 N along `load_direction`, shared equally by the nodes of the mesh group
+    /// `load_group`; the levels are the total force (N). The reduce stage adds its static
+    /// correction to the Craig-Bampton basis (so the reduced model carries it exactly in the
+    /// static limit) and writes its reduced form T^T f as `F.mtx` of the model directory.
+    Group,
 }
 
 /// How `levels` are read.
@@ -83,6 +88,10 @@ pub struct ForcedSection {
     /// The harmonics of the (cosine, sine) column pairs of `F.mtx` for `load = "file"` (empty:
     /// one pair or one cosine column at `harmonic`).
     pub load_harmonics: Vec<usize>,
+    /// The mesh group of `load = "group"`.
+    pub load_group: String,
+    /// The direction of `load = "group"` (normalized; any non-zero length).
+    pub load_direction: [f64; 3],
     /// Force levels, one curve each.
     pub levels: Vec<f64>,
     /// Unit of `levels`.
@@ -119,6 +128,8 @@ impl Default for ForcedSection {
             load: ForcedLoadKind::Master,
             load_mode: 0,
             load_harmonics: Vec::new(),
+            load_group: "tip".into(),
+            load_direction: [1.0, 0.0, 0.0],
             levels: vec![0.5, 2.0, 5.0],
             level_unit: LevelUnit::Grazing,
             contact: ForcedContact::Penalty,
@@ -172,6 +183,22 @@ impl ForcedSection {
                 "forced.load_harmonics",
                 h,
                 "distinct harmonics 1 <= h <= harmonics",
+            );
+        }
+        if self.load == ForcedLoadKind::Group {
+            let d = self.load_direction;
+            let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+            p.check(
+                len.is_finite() && len > 0.0,
+                "forced.load_direction",
+                d,
+                "a finite, non-zero direction [x, y, z]",
+            );
+            p.check(
+                !self.load_group.is_empty(),
+                "forced.load_group",
+                &self.load_group,
+                "the name of a mesh group",
             );
         }
         for k in &self.keep {
@@ -299,13 +326,18 @@ pub fn file_load(
     model_dir: &std::path::Path,
     n: usize,
 ) -> anyhow::Result<Option<faer::Mat<f64>>> {
-    if s.load != ForcedLoadKind::File {
+    if !matches!(s.load, ForcedLoadKind::File | ForcedLoadKind::Group) {
         return Ok(None);
     }
     let path = model_dir.join("F.mtx");
+    let word = if s.load == ForcedLoadKind::Group {
+        "group"
+    } else {
+        "file"
+    };
     let bad = |what: String| {
         crate::exit::bad_input(format!(
-            "forced.load = \"file\": {}: {what}",
+            "forced.load = \"{word}\": {}: {what}",
             path.display()
         ))
     };
@@ -318,7 +350,7 @@ pub fn file_load(
         )));
     }
     let pairs = file_load_harmonics(s).len();
-    let single = s.load_harmonics.is_empty() && f.ncols() == 1;
+    let single = (s.load_harmonics.is_empty() || s.load == ForcedLoadKind::Group) && f.ncols() == 1;
     if !single && f.ncols() != 2 * pairs {
         return Err(bad(format!(
             "{} columns, expected {} (a cosine and a sine column for each of the harmonics {:?}{})",
@@ -336,4 +368,38 @@ pub fn file_load(
         return Err(bad("every entry is zero: no load".into()));
     }
     Ok(Some(f))
+}
+
+/// The full load of `load = "group"` on the free DOFs of `fe` (1 N in total along the unit
+/// direction, shared equally by the group's free nodes); bad input naming the group when the
+/// mesh has none of that name or its nodes are all clamped.
+pub fn group_load(s: &ForcedSection, fe: &crate::fe_model::FeModel) -> anyhow::Result<Vec<f64>> {
+    let group = fe.mesh.group(&s.load_group).map_err(|e| {
+        crate::exit::bad_input(format!(
+            "forced.load_group = {:?}: {e} (the groups of the mesh are its physical names)",
+            s.load_group
+        ))
+    })?;
+    let d = s.load_direction;
+    let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let free: Vec<usize> = group
+        .nodes
+        .iter()
+        .copied()
+        .filter(|&n| (0..3).all(|c| fe.dofs.free_index(3 * n + c).is_some()))
+        .collect();
+    if free.is_empty() {
+        return Err(crate::exit::bad_input(format!(
+            "forced.load_group = {:?}: every node of the group is clamped",
+            s.load_group
+        )));
+    }
+    let mut f = vec![0.0; fe.dofs.n_free()];
+    for &n in &free {
+        for (c, dc) in d.iter().enumerate() {
+            let i = fe.dofs.free_index(3 * n + c).expect("free");
+            f[i] = dc / len / free.len() as f64;
+        }
+    }
+    Ok(f)
 }

@@ -366,6 +366,7 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         master: a.master,
         check_modes: if check { a.compare.min(dofs) } else { 0 },
         running: None,
+        loads: Vec::new(),
     };
     let (mut model, full) = reduce::reduce(&fe, &settings)?;
     reduce::write_model(&mut model, &a.out, &a.mesh)?;

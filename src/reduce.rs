@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use faer::Mat;
 use nlmodes_modal::{
-    craig_bampton_with_check, reduced_eigen, ContactNode, MasterCoordinate, MeshReference,
+    craig_bampton_with_loads, reduced_eigen, ContactNode, MasterCoordinate, MeshReference,
     ReducedModel, RotorAxis,
 };
 use std::path::Path;
@@ -28,6 +28,8 @@ pub struct ReduceSettings<'a> {
     /// The blade at speed (issue 23): contact positions and normals of the prestressed state
     /// and each contact node's running gap; `None` at rest (positions of the mesh, gap `gap`).
     pub running: Option<RunningContact<'a>>,
+    /// Loads on the free DOFs whose static corrections join the basis (issue 22).
+    pub loads: Vec<Vec<f64>>,
 }
 
 /// The contact geometry of a prestressed blade.
@@ -188,7 +190,15 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
     }
     let stage = ui::Stage::start("reduce");
     let (cb, full) = ui::with_solve_spinner("reduce", |opts| {
-        craig_bampton_with_check(&fe.k, &fe.m, &boundary, s.modes, s.check_modes, opts)
+        craig_bampton_with_loads(
+            &fe.k,
+            &fe.m,
+            &boundary,
+            s.modes,
+            s.check_modes,
+            &s.loads,
+            opts,
+        )
     })
     .with_context(|| {
         format!(
@@ -249,9 +259,13 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
         }),
     };
     stage.done(&format!(
-        "{} constraint modes + {} fixed-interface modes",
+        "{} constraint modes + {} fixed-interface modes{}",
         boundary.len(),
-        s.modes
+        s.modes,
+        match cb.phi.ncols() - s.modes {
+            0 => String::new(),
+            k => format!(" + {k} static correction(s)"),
+        }
     ));
     Ok((model, full.map(|m| m.frequencies_hz())))
 }

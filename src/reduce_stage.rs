@@ -11,6 +11,7 @@ use std::path::PathBuf;
 
 use crate::case::{Case, MasterChoice};
 use crate::fe_model::FeModel;
+use crate::forced_settings::ForcedLoadKind;
 use crate::layout::Layout;
 use crate::reduce;
 use crate::stage::{json, stamp, up_to_date, Only, Stage};
@@ -86,7 +87,14 @@ pub struct ReduceStage<'a> {
 
 impl<'a> ReduceStage<'a> {
     pub fn new(case: &'a Case, layout: &'a Layout, material: &'a Isotropic, fe_hash: &str) -> Self {
-        let hash = fnv1a(&[fe_hash.as_bytes(), &json(&case.model)]);
+        let f = &case.forced;
+        let group_load = (f.enabled && f.load == ForcedLoadKind::Group)
+            .then_some((&f.load_group, f.load_direction));
+        // Without a group load the inputs are those of every earlier version (same stamps).
+        let hash = match group_load {
+            None => fnv1a(&[fe_hash.as_bytes(), &json(&case.model)]),
+            Some(g) => fnv1a(&[fe_hash.as_bytes(), &json(&case.model), &json(&g)]),
+        };
         Self {
             case,
             layout,
@@ -95,11 +103,39 @@ impl<'a> ReduceStage<'a> {
         }
     }
 
-    /// Builds the FE model, reduces it and writes `model/`.
+    /// Builds the FE model, reduces it and writes `model/` (with `F.mtx`, the reduced load, and
+    /// the load's static correction in the basis when `[forced] load = "group"`).
     fn reduce(&self) -> Result<nlmodes_modal::ReducedModel> {
         let fe = FeModel::build(&self.layout.mesh(), self.material, &self.case.model.clamp)?;
-        let (mut model, _) = reduce::reduce(&fe, &reduce_settings(self.case)?)?;
+        let mut settings = reduce_settings(self.case)?;
+        let f = &self.case.forced;
+        if f.enabled && f.load == ForcedLoadKind::Group {
+            settings.loads = vec![crate::forced_settings::group_load(f, &fe)?];
+        }
+        let (mut model, _) = reduce::reduce(&fe, &settings)?;
+        let reduced_loads = settings
+            .loads
+            .iter()
+            .map(|load| reduced_load(&model, load))
+            .collect::<Result<Vec<_>>>()?;
         reduce::write_model(&mut model, &self.layout.model(), &self.layout.mesh())?;
+        let path = self.layout.model().join("F.mtx");
+        match reduced_loads.first() {
+            Some(fr) => {
+                let col = faer::Mat::from_fn(fr.len(), 1, |i, _| fr[i]);
+                nlmodes_modal::matrix_market_general::write_dense_general(
+                    &path,
+                    col.as_ref(),
+                    &format!(
+                        "T^T f of [forced] load = \"group\": 1 N along {:?} on the group {:?}, N \
+                         per reduced coordinate",
+                        f.load_direction, f.load_group
+                    ),
+                )?;
+            }
+            None if path.exists() => std::fs::remove_file(&path)?,
+            None => {}
+        }
         Ok(model)
     }
 
@@ -134,6 +170,23 @@ impl Stage for ReduceStage<'_> {
     fn work(&self) -> Result<()> {
         self.reduce().map(|_| ())
     }
+}
+
+/// T^T f: the load `f` (free DOFs) on the reduced coordinates, by the model's recovery basis.
+fn reduced_load(model: &nlmodes_modal::ReducedModel, f: &[f64]) -> Result<Vec<f64>> {
+    let r = model
+        .recovery
+        .as_ref()
+        .context("the reduced model has no recovery basis")?;
+    anyhow::ensure!(
+        r.nrows() == f.len(),
+        "load of {} values for {} free DOFs",
+        f.len(),
+        r.nrows()
+    );
+    Ok((0..r.ncols())
+        .map(|j| (0..r.nrows()).map(|i| r[(i, j)] * f[i]).sum())
+        .collect())
 }
 
 /// What to run of the two stages and whether to force them.
@@ -206,6 +259,7 @@ pub fn reduce_settings(case: &Case) -> Result<reduce::ReduceSettings<'_>> {
         // The full model's modes come from the modes stage, alongside.
         check_modes: 0,
         running: None,
+        loads: Vec::new(),
     })
 }
 

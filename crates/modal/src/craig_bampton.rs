@@ -453,7 +453,7 @@ fn static_correction(
         }
     }
     let after = m_norm(&x);
-    if !(after > 1e-10 * before) {
+    if after.is_nan() || after <= 1e-10 * before {
         return Ok(None);
     }
     let x: Vec<f64> = (0..n_i).map(|r| x[(r, 0)] / after).collect();
