@@ -28,3 +28,31 @@ pub fn die_with_parent(cmd: &mut Command) -> &mut Command {
     }
     cmd
 }
+
+/// Runs `cmd`'s child without address-space layout randomization (`personality(ADDR_NO_RANDOMIZE)`
+/// between fork and exec, as `setarch -R` does). gmsh orders some of its work by pointer
+/// addresses: with ASLR two runs on the same .geo differ in the last digit of node coordinates
+/// (measured on the coarse blade: a new mesh at every run, 1e-17 relative), which a nearly
+/// singular continuation can amplify (the forced curve of `tests/forced_cli.rs` stopped early on
+/// one such mesh in CI); without it the mesh is the same bytes at every run.
+pub fn without_aslr(cmd: &mut Command) -> &mut Command {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: the closure runs in the forked child before exec and calls only the
+        // async-signal-safe personality, allocating nothing. Best effort: where a sandbox
+        // refuses the call the child runs as it would have (with ASLR).
+        unsafe {
+            cmd.pre_exec(|| {
+                let current = libc::personality(0xffff_ffff);
+                if current != -1 {
+                    let wanted =
+                        current as libc::c_ulong | libc::ADDR_NO_RANDOMIZE as libc::c_ulong;
+                    libc::personality(wanted);
+                }
+                Ok(())
+            });
+        }
+    }
+    cmd
+}

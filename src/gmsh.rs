@@ -88,6 +88,7 @@ pub fn mesh(geo: &Path, params: &BTreeMap<String, f64>, order: u32, out: &Path) 
     }
     cmd.arg(geo).arg("-o").arg(&tmp);
     tracing::debug!("running {:?}", cmd);
+    crate::child::without_aslr(&mut cmd);
     let output = crate::child::die_with_parent(&mut cmd).output();
     let output = match output {
         Ok(o) => o,
