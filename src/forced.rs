@@ -308,13 +308,25 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
         .curves
         .iter()
         .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
-        .map(|c| format!("level {}: {:?}", c.level, c.response.termination))
+        .map(|c| format!("level {}: {}", c.level, c.response.termination))
         .collect();
     if stopped.is_empty() {
         return Ok(());
     }
+    let hint = if st.settings.contact == ForcedContact::Penalty {
+        format!(
+            ". A light damping under a stiff penalty law (penalty_factor = {}) makes the sampled \
+             curve turn at corners near its folds and at grazing, where the continuation can \
+             lose it: more harmonics, a smaller penalty_factor or contact = \"exact\" may carry \
+             it through (README, known limits)",
+            st.settings.penalty_factor
+        )
+    } else {
+        String::new()
+    };
     Err(anyhow::Error::new(crate::exit::StoppedEarly(format!(
-        "forced response stopped before the end of its range ({}); the points computed are in {}",
+        "forced response stopped before the end of its range ({}); the points computed are in \
+         {}{hint}",
         stopped.join("; "),
         dir.display()
     ))))

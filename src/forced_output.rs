@@ -195,10 +195,7 @@ struct StudyRecord<'a> {
 }
 
 fn termination_text(t: &FrfTermination) -> String {
-    match t {
-        FrfTermination::Complete => "complete".into(),
-        other => format!("{other:?}"),
-    }
+    t.to_string()
 }
 
 fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
@@ -395,6 +392,23 @@ fn frf_figure(
 }
 
 /// The lines printed after a forced run.
+/// The point of largest first-harmonic master amplitude of a curve.
+pub fn peak_point(c: &ForcedCurve, master: usize) -> Option<usize> {
+    let amp = |i: usize| harmonic(&c.response.points[i], master, 1).0;
+    (0..c.response.points.len()).max_by(|&a, &b| amp(a).total_cmp(&amp(b)))
+}
+
+/// A warning when the peak is the last point of a curve: the range ends before the resonance
+/// does, and the "peak" is only the end of the range.
+pub fn peak_note(c: &ForcedCurve, peak: usize) -> &'static str {
+    let complete = matches!(c.response.termination, FrfTermination::Complete);
+    if complete && peak + 1 == c.response.points.len() && c.response.points.len() > 2 {
+        " (the last point: the range ends before the peak, widen forced.range)"
+    } else {
+        ""
+    }
+}
+
 pub fn summary(st: &ForcedStudy) -> String {
     let (g, w) = (st.gap_reference, st.omega_mode);
     let mut out = format!(
@@ -410,19 +424,16 @@ pub fn summary(st: &ForcedStudy) -> String {
     );
     for c in &st.curves {
         let r = &c.response;
-        let peak = r.points.iter().max_by(|a, b| {
-            harmonic(a, st.master, 1)
-                .0
-                .total_cmp(&harmonic(b, st.master, 1).0)
-        });
         let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
-        if let Some(p) = peak {
+        if let Some(i) = peak_point(c, st.master) {
+            let p = &r.points[i];
             out += &format!(
-                "  level {:>8}: force {:.4e} N, peak q/g0 = {:.4} at W/w = {:.5}, {} points, {} folds, {} stable / {} unstable / {} undetermined, {}\n",
+                "  level {:>8}: force {:.4e} N, peak q/g0 = {:.4} at W/w = {:.5}{}, {} points, {} folds, {} stable / {} unstable / {} undetermined, {}\n",
                 c.level,
                 c.force,
                 harmonic(p, st.master, 1).0 / g,
                 p.omega / w,
+                peak_note(c, i),
                 r.points.len(),
                 r.folds.len(),
                 count(Verdict::Stable),

@@ -146,7 +146,7 @@ fn section(st: &ForcedStudy) -> String {
             let p = &r.points[i];
             p.coefficients[(st.master, 1)].hypot(p.coefficients[(st.master, 2)])
         };
-        let Some(peak) = (0..r.points.len()).max_by(|&a, &b| amp(a).total_cmp(&amp(b))) else {
+        let Some(peak) = crate::forced_output::peak_point(c, st.master) else {
             continue;
         };
         let folds: Vec<String> = r
@@ -157,11 +157,12 @@ fn section(st: &ForcedStudy) -> String {
         let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
         let _ = writeln!(
             s,
-            "| {} | {:.4e} | {:.4} | {:.5} | {} | {} / {} / {} | {:?} |",
+            "| {} | {:.4e} | {:.4} | {:.5}{} | {} | {} / {} / {} | {} |",
             c.level,
             c.force,
             amp(peak) / st.gap_reference,
             r.points[peak].omega / st.omega_mode,
+            crate::forced_output::peak_note(c, peak),
             if folds.is_empty() {
                 "none".to_string()
             } else {
@@ -170,7 +171,7 @@ fn section(st: &ForcedStudy) -> String {
             count(Verdict::Stable),
             count(Verdict::Unstable),
             count(Verdict::Undetermined),
-            r.termination
+            r.termination.to_string().replace('|', "/")
         );
     }
     let _ = writeln!(

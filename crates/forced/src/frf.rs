@@ -14,6 +14,7 @@ use crate::error::ForcedError;
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
+use nlmodes_hb::FullBasis;
 
 /// Scaled step below which a failing arc-length step gives way to a hop at fixed W.
 const CORNER_STEP: f64 = 1e-3;
@@ -167,6 +168,23 @@ pub enum FrfTermination {
         /// W of the last point kept (rad/s).
         omega: f64,
     },
+}
+
+impl std::fmt::Display for FrfTermination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Complete => write!(f, "complete"),
+            Self::StepTooSmall { omega, reason } => write!(
+                f,
+                "stopped at W = {omega:.6e} rad/s: no step down to min_step converged ({reason})"
+            ),
+            Self::PointLimit => write!(f, "stopped at the point limit (max_points)"),
+            Self::LeftRange { omega } => write!(
+                f,
+                "the curve turned back below the start frequency after W = {omega:.6e} rad/s"
+            ),
+        }
+    }
 }
 
 /// What a change of stability between two points is, from the multiplier that crossed the unit
@@ -324,7 +342,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
         let tangent = self.secant();
         loop {
             if self.step < CORNER_STEP {
-                if self.hop(tangent[tangent.len() - 1].signum()) {
+                if self.hop(tangent[tangent.len() - 1].signum()) || self.phase_hop() {
                     self.step = CORNER_STEP;
                     return Ok(());
                 }
@@ -405,6 +423,77 @@ impl<'a, 's> FrfTrace<'a, 's> {
                     omega = p.omega,
                     "forced response: hop at fixed W past a corner"
                 );
+                self.curve.points.push(p);
+                self.curve.hops.push(self.curve.points.len() - 1);
+                self.note_fold();
+                return true;
+            }
+        }
+        false
+    }
+
+    /// A fold that is a corner of the sampled problem (the resonance tip of a lightly damped
+    /// curve under a stiff law, where the rising and the returning branches meet at an angle
+    /// near 180 degrees: no arc hyperplane meets the returning branch near the tip, and no
+    /// orbit exists at a larger W): solves with the phase of the first harmonic of the contact
+    /// coordinate that moves most fixed one step further than the last orbit's, W free, for
+    /// growing steps (1e-3, 1e-2, 5e-2 rad) in the direction the phase has been moving. Along a
+    /// resonance the phase lag grows monotonically through both folds (phase-resonance
+    /// parametrization, as in phase-locked-loop testing), so this passes the tip. The point is
+    /// flagged as a hop. Returns whether one converged near the last orbit.
+    fn phase_hop(&mut self) -> bool {
+        let n = self.curve.points.len();
+        let (last, before) = (&self.curve.points[n - 1], &self.curve.points[n - 2]);
+        let t = self.solver.basis().terms();
+        let (ic, is) = (FullBasis::cos_index(1), FullBasis::sin_index(1));
+        let row = (0..last.contact.len() / t)
+            .max_by(|&a, &b| {
+                let amp = |j: usize| last.contact[j * t + ic].hypot(last.contact[j * t + is]);
+                amp(a).total_cmp(&amp(b))
+            })
+            .unwrap_or(0);
+        let phase = |p: &ForcedPoint| p.contact[row * t + is].atan2(p.contact[row * t + ic]);
+        let turn = {
+            let d = phase(last) - phase(before);
+            (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+        };
+        let direction = if turn == 0.0 { 1.0 } else { turn.signum() };
+        let amplitude = last.contact[row * t + ic].hypot(last.contact[row * t + is]);
+        let last = last.clone();
+        for dphi in [1e-3, 1e-2, 5e-2] {
+            let target = phase(&last) + direction * dphi;
+            let mut tangent_y = vec![0.0; last.contact.len()];
+            tangent_y[row * t + ic] = -target.sin();
+            tangent_y[row * t + is] = target.cos();
+            let mut predicted = OrbitState {
+                y: last.contact.clone(),
+                omega: last.omega,
+            };
+            predicted.y[row * t + ic] = amplitude * target.cos();
+            predicted.y[row * t + is] = amplitude * target.sin();
+            let arc = ArcRow {
+                tangent_y,
+                tangent_w: 0.0,
+                predicted: predicted.clone(),
+                y_scale: self.y_scale,
+                w_scale: self.w_scale,
+            };
+            let start = ForcedStart {
+                state: predicted,
+                multipliers: last.multipliers.clone(),
+            };
+            let reach = HOP_REACH * dphi * (1.0 + amplitude / self.y_scale);
+            let landed = self.solver.solve(start, Some(&arc)).ok().filter(|p| {
+                let d = self.corrector_distance(&arc, p);
+                tracing::debug!(
+                    omega = p.omega,
+                    distance = d,
+                    reach,
+                    "forced response: phase hop"
+                );
+                d <= reach
+            });
+            if let Some(p) = landed {
                 self.curve.points.push(p);
                 self.curve.hops.push(self.curve.points.len() - 1);
                 self.note_fold();
