@@ -12,9 +12,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use nlmodes_forced::{
-    frequency_response, Damping, ForcedSettings, ForcedSolver, FrfSettings, Load,
-};
+use nlmodes_forced::{response_curve, Damping, ForcedSettings, ForcedSolver, FrfSettings, Load};
 use nlmodes_modal::ReducedModel;
 use nlmodes_nnm::{ContactMethod, System};
 
@@ -75,7 +73,7 @@ fn main() {
         let t0 = Instant::now();
         let verbose = std::env::var("VERBOSE").is_ok_and(|v| v == "1");
         let t_point = std::cell::Cell::new(Instant::now());
-        let curve = frequency_response(&solver, &frf, |p| {
+        let curve = response_curve(&solver, &frf, |p| {
             if verbose {
                 eprintln!(
                     "W/w1 = {:.6} solves {} newton {} G {:.2e} {:.3} s",
@@ -123,7 +121,7 @@ fn main() {
                 }
             }
             for (i, f) in curve.folds.iter().enumerate() {
-                println!("fold {i}: W/w1 = {:.5} {:?}", f.omega / w1, f.kind);
+                println!("fold {i}: W/w1 = {:.5} {:?}", f.at / w1, f.kind);
             }
             println!(
                 "{} points, {} folds, {} hops, {unstable} unstable, end: {:?}\npeak q/g0 = {:.3} at W/w1 = {:.5}, force {force:.3e} N",

@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use faer::Mat;
 use indicatif::ProgressBar;
 use nlmodes_forced::{
-    frequency_response, modal_ratios, synthesize, ForcedSettings, ForcedSolver, FreeOrbit,
+    modal_ratios, response_curve, synthesize, ForcedSettings, ForcedSolver, FreeOrbit,
     FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, SynthesizedPoint,
 };
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
@@ -268,14 +268,14 @@ fn trace_level(
     level: f64,
 ) -> Result<FrequencyResponse> {
     let solver = ForcedSolver::new(system, c, load, settings)?;
-    let curve = frequency_response(&solver, frf, |p| {
+    let curve = response_curve(&solver, frf, |p| {
         bar.set_message(format!("level {level}: W = {:.1} rad/s", p.omega));
     })?;
     tracing::info!(
-        "forced level {level}: {} points, {} folds, {:?}",
+        "forced level {level}: {} points, {} folds, {}",
         curve.points.len(),
         curve.folds.len(),
-        curve.termination
+        curve.end_text()
     );
     Ok(curve)
 }
@@ -308,7 +308,7 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
         .curves
         .iter()
         .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
-        .map(|c| format!("level {}: {}", c.level, c.response.termination))
+        .map(|c| format!("level {}: {}", c.level, c.response.end_text()))
         .collect();
     if stopped.is_empty() {
         return Ok(());

@@ -194,10 +194,6 @@ struct StudyRecord<'a> {
     curves: Vec<CurveRecord<'a>>,
 }
 
-fn termination_text(t: &FrfTermination) -> String {
-    t.to_string()
-}
-
 fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
     let r = &c.response;
     let orbits = r
@@ -228,14 +224,14 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
     CurveRecord {
         level: c.level,
         force_n: c.force,
-        termination: termination_text(&r.termination),
+        termination: r.end_text(),
         folds: r
             .folds
             .iter()
-            .map(|f| (f.point, f.omega, format!("{:?}", f.kind)))
+            .map(|f| (f.point, f.at, format!("{:?}", f.kind)))
             .collect(),
         hops: &r.hops,
-        jump_frequencies_rad_s: r.folds.iter().map(|f| f.omega).collect(),
+        jump_frequencies_rad_s: r.folds.iter().map(|f| f.at).collect(),
         synthesis: c
             .synthesis
             .iter()
@@ -439,7 +435,7 @@ pub fn summary(st: &ForcedStudy) -> String {
                 count(Verdict::Stable),
                 count(Verdict::Unstable),
                 count(Verdict::Undetermined),
-                termination_text(&r.termination)
+                r.end_text()
             );
         }
     }

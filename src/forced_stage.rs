@@ -152,7 +152,7 @@ fn section(st: &ForcedStudy) -> String {
         let folds: Vec<String> = r
             .folds
             .iter()
-            .map(|f| format!("{:.4}", f.omega / st.omega_mode))
+            .map(|f| format!("{:.4}", f.at / st.omega_mode))
             .collect();
         let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
         let _ = writeln!(
@@ -171,7 +171,7 @@ fn section(st: &ForcedStudy) -> String {
             count(Verdict::Stable),
             count(Verdict::Unstable),
             count(Verdict::Undetermined),
-            r.termination.to_string().replace('|', "/")
+            r.end_text().replace('|', "/")
         );
     }
     let _ = writeln!(

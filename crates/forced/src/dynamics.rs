@@ -277,9 +277,14 @@ impl ModalDynamics {
         Ok(r)
     }
 
-    /// Modal coefficients z (n x (2N + 1)) of the linear response to the load minus the contact
-    /// forces `lambda` (signal-major c (2N + 1)) at W.
-    pub fn response(&self, omega: f64, lambda: &[f64]) -> Result<Mat<f64>, ForcedError> {
+    /// Modal coefficients z (n x (2N + 1)) of the linear response to `level` times the load
+    /// minus the contact forces `lambda` (signal-major c (2N + 1)) at W.
+    pub fn response(
+        &self,
+        omega: f64,
+        level: f64,
+        lambda: &[f64],
+    ) -> Result<Mat<f64>, ForcedError> {
         let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
         let mut z = Mat::zeros(nd, terms);
         for n in 0..=terms / 2 {
@@ -291,7 +296,7 @@ impl ModalDynamics {
             let lam = Mat::from_fn(c, parts.len(), |j, col| lambda[j * terms + parts[col]]);
             let contact = product(self.psi.transpose(), lam.as_ref());
             let mut r = Mat::from_fn(nd, parts.len(), |k, col| {
-                self.load[(k, parts[col])] - contact[(k, col)]
+                level * self.load[(k, parts[col])] - contact[(k, col)]
             });
             self.solve_harmonic(n, omega, &mut r)?;
             for (col, &p) in parts.iter().enumerate() {

@@ -1,7 +1,10 @@
-//! Frequency continuation of the forced response (DESIGN §10.5): pseudo-arc-length in (orbit, W)
-//! from the linear response at the start frequency, through folds, to the end frequency.
+//! Continuation of the forced response (DESIGN §10.5): pseudo-arc-length in (orbit, p) from the
+//! linear response at the start of the range, through folds, to its end, where p is W (the
+//! frequency response at a fixed load, [`Sweep::Frequency`]) or the load scale s at a fixed W
+//! (the response to a growing force, [`Sweep::Level`]).
 //!
-//! Scaled space: y / (g_ref sqrt(c)) and W / w_ref (w_ref the first linear frequency). The first
+//! Scaled space: y / (g_ref sqrt(c)) and p / p_ref (w_ref the first linear frequency for W, the
+//! end of the range for s). The first
 //! two points are solved at fixed W; then each step predicts along the secant of the last two
 //! points, x_p = x_k + h t, and solves the forced problem with the row t . (x - x_p) = 0
 //! (`ArcRow`). A step that fails is halved; one that converges in few Newton iterations lets the
@@ -11,7 +14,7 @@
 //! is refined by the parabola through the three points around the extremum.
 
 use crate::error::ForcedError;
-use crate::newton::{ArcRow, OrbitState};
+use crate::newton::{ArcRow, OrbitState, Parameter};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 use nlmodes_hb::FullBasis;
@@ -31,14 +34,40 @@ const HOP_REACH: f64 = 20.0;
 /// refused once h is small.
 const CORRECTOR_REACH: f64 = 4.0;
 
-/// Settings of one frequency continuation.
+/// What a continuation sweeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Sweep {
+    /// W over [start, end] (rad/s) at the solver's load.
+    Frequency,
+    /// The load scale s over [start, end] (times the solver's load) at W = `omega` (rad/s).
+    Level {
+        /// The fixed excitation frequency (rad/s).
+        omega: f64,
+    },
+}
+
+impl Sweep {
+    /// The free parameter of the arc rows.
+    pub fn parameter(&self) -> Parameter {
+        match self {
+            Self::Frequency => Parameter::Frequency,
+            Self::Level { .. } => Parameter::Level,
+        }
+    }
+}
+
+/// Settings of one continuation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrfSettings {
-    /// Start frequency (rad/s), where the response is taken from its linear solution.
-    pub omega_start: f64,
-    /// End frequency (rad/s), > start.
-    pub omega_end: f64,
-    /// First step in the scaled space (default 0.005: half a percent of w_ref).
+    /// What is swept (default: the frequency).
+    pub sweep: Sweep,
+    /// Start of the range (rad/s, or the load scale), where the response is taken from its
+    /// linear solution.
+    pub start: f64,
+    /// End of the range, > start.
+    pub end: f64,
+    /// First step in the scaled space (default 0.005: half a percent of w_ref, or of the end
+    /// level).
     pub step: f64,
     /// Smallest step before giving up (default 1e-6).
     pub min_step: f64,
@@ -48,8 +77,8 @@ pub struct FrfSettings {
     pub max_points: usize,
     /// Floquet stability of every point (default true).
     pub stability: bool,
-    /// A fold is reported when W retreats from its extremum by more than this fraction of
-    /// w_ref (default 1e-3): hysteresis against the kinks of the sampled problem.
+    /// A fold is reported when the parameter retreats from its extremum by more than this
+    /// fraction of p_ref (default 1e-3): hysteresis against the kinks of the sampled problem.
     pub fold_tolerance: f64,
     /// Margin around |mu| = 1 inside which the verdict is undetermined (default 1e-3; the
     /// Liouville error of the point is added to it).
@@ -64,11 +93,12 @@ pub struct FrfSettings {
 }
 
 impl FrfSettings {
-    /// Defaults over [start, end] (rad/s).
-    pub fn new(omega_start: f64, omega_end: f64) -> Self {
+    /// A frequency sweep over [start, end] (rad/s), defaults otherwise.
+    pub fn new(start: f64, end: f64) -> Self {
         Self {
-            omega_start,
-            omega_end,
+            sweep: Sweep::Frequency,
+            start,
+            end,
             step: 0.005,
             min_step: 1e-6,
             max_step: 0.02,
@@ -89,15 +119,16 @@ impl FrfSettings {
                 expected,
             })
         };
-        if !(self.omega_start.is_finite() && self.omega_start > 0.0) {
-            return bad("omega_start", self.omega_start, "a finite frequency > 0");
+        if let Sweep::Level { omega } = self.sweep {
+            if !(omega.is_finite() && omega > 0.0) {
+                return bad("omega", omega, "a finite frequency > 0");
+            }
         }
-        if !(self.omega_end.is_finite() && self.omega_end > self.omega_start) {
-            return bad(
-                "omega_end",
-                self.omega_end,
-                "a finite frequency > omega_start",
-            );
+        if !(self.start.is_finite() && self.start > 0.0) {
+            return bad("start", self.start, "a finite value > 0");
+        }
+        if !(self.end.is_finite() && self.end > self.start) {
+            return bad("end", self.end, "a finite value > start");
         }
         for (name, v) in [
             ("step", self.step),
@@ -131,9 +162,9 @@ impl FrfSettings {
 /// Which way W turns at a fold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FoldKind {
-    /// W rose and now falls: a sweep up jumps down here.
+    /// The parameter rose and now falls: a sweep up jumps down here.
     TurnsBack,
-    /// W fell and now rises: a sweep down jumps up here.
+    /// The parameter fell and now rises: a sweep down jumps up here.
     TurnsForward,
 }
 
@@ -142,49 +173,32 @@ pub enum FoldKind {
 pub struct Fold {
     /// Index of the point nearest the fold.
     pub point: usize,
-    /// Refined fold frequency (rad/s).
-    pub omega: f64,
-    /// Which way W turns.
+    /// The swept parameter at the fold, refined (W in rad/s, or the load scale).
+    pub at: f64,
+    /// Which way the parameter turns.
     pub kind: FoldKind,
 }
 
 /// Why the continuation stopped.
 #[derive(Clone, Debug, PartialEq)]
 pub enum FrfTermination {
-    /// W passed the end frequency.
+    /// The parameter passed the end of the range.
     Complete,
     /// The step fell below `min_step` (the reason of the last failure).
     StepTooSmall {
-        /// W of the last point (rad/s).
-        omega: f64,
+        /// The parameter at the last point (W in rad/s, or the load scale).
+        at: f64,
         /// The last solver error.
         reason: String,
     },
     /// `max_points` reached.
     PointLimit,
-    /// The curve turned back below the start frequency (an isola-like branch, or a wrong turn
-    /// at a corner): the points below omega_start are not kept.
+    /// The curve turned back below the start of the range (an isola-like branch, or a wrong
+    /// turn at a corner): the points below it are not kept.
     LeftRange {
-        /// W of the last point kept (rad/s).
-        omega: f64,
+        /// The parameter at the last point kept (W in rad/s, or the load scale).
+        at: f64,
     },
-}
-
-impl std::fmt::Display for FrfTermination {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Complete => write!(f, "complete"),
-            Self::StepTooSmall { omega, reason } => write!(
-                f,
-                "stopped at W = {omega:.6e} rad/s: no step down to min_step converged ({reason})"
-            ),
-            Self::PointLimit => write!(f, "stopped at the point limit (max_points)"),
-            Self::LeftRange { omega } => write!(
-                f,
-                "the curve turned back below the start frequency after W = {omega:.6e} rad/s"
-            ),
-        }
-    }
 }
 
 /// What a change of stability between two points is, from the multiplier that crossed the unit
@@ -269,9 +283,11 @@ impl PointStability {
     }
 }
 
-/// A frequency-response curve.
+/// A response curve over the swept parameter.
 #[derive(Clone, Debug)]
 pub struct FrequencyResponse {
+    /// What was swept.
+    pub sweep: Sweep,
     /// The points in continuation order.
     pub points: Vec<ForcedPoint>,
     /// The folds met.
@@ -284,12 +300,43 @@ pub struct FrequencyResponse {
     pub termination: FrfTermination,
 }
 
+impl FrequencyResponse {
+    /// The swept parameter of a point (W in rad/s, or the load scale).
+    pub fn parameter(&self, p: &ForcedPoint) -> f64 {
+        match self.sweep {
+            Sweep::Frequency => p.omega,
+            Sweep::Level { .. } => p.level,
+        }
+    }
+
+    /// Why the curve ended, as a sentence naming the parameter with its unit.
+    pub fn end_text(&self) -> String {
+        let at = |v: f64| match self.sweep {
+            Sweep::Frequency => format!("W = {v:.6e} rad/s"),
+            Sweep::Level { .. } => format!("load scale {v:.6e}"),
+        };
+        match &self.termination {
+            FrfTermination::Complete => "complete".into(),
+            FrfTermination::StepTooSmall { at: v, reason } => format!(
+                "stopped at {}: no step down to min_step converged ({reason})",
+                at(*v)
+            ),
+            FrfTermination::PointLimit => "stopped at the point limit (max_points)".into(),
+            FrfTermination::LeftRange { at: v } => format!(
+                "the curve turned back below the start of the range after {}",
+                at(*v)
+            ),
+        }
+    }
+}
+
 /// The continuation in progress (see module docs).
 struct FrfTrace<'a, 's> {
     solver: &'a ForcedSolver<'s>,
     settings: &'a FrfSettings,
     y_scale: f64,
-    w_scale: f64,
+    /// p_ref: w_ref for W, the end of the range for the load scale.
+    p_scale: f64,
     step: f64,
     /// Direction of travel in W (+1 or -1) and the index of the running extremum of W.
     travel: (f64, usize),
@@ -299,7 +346,7 @@ struct FrfTrace<'a, 's> {
 impl<'a, 's> FrfTrace<'a, 's> {
     fn scaled(&self, p: &ForcedPoint) -> Vec<f64> {
         let mut v: Vec<f64> = p.contact.iter().map(|y| y / self.y_scale).collect();
-        v.push(p.omega / self.w_scale);
+        v.push(self.curve.parameter(p) / self.p_scale);
         v
     }
 
@@ -319,20 +366,26 @@ impl<'a, 's> FrfTrace<'a, 's> {
     fn arc(&self, tangent: &[f64], h: f64) -> ArcRow {
         let last = self.curve.points.last().expect("two points");
         let l = last.contact.len();
+        let parameter = self.curve.sweep.parameter();
+        let mut predicted = OrbitState {
+            y: last
+                .contact
+                .iter()
+                .zip(tangent)
+                .map(|(y, t)| y + h * t * self.y_scale)
+                .collect(),
+            omega: last.omega,
+            level: last.level,
+        };
+        let p = self.curve.parameter(last) + h * tangent[l] * self.p_scale;
+        predicted.set_parameter(parameter, p);
         ArcRow {
+            parameter,
             tangent_y: tangent[..l].to_vec(),
-            tangent_w: tangent[l],
-            predicted: OrbitState {
-                y: last
-                    .contact
-                    .iter()
-                    .zip(tangent)
-                    .map(|(y, t)| y + h * t * self.y_scale)
-                    .collect(),
-                omega: last.omega + h * tangent[l] * self.w_scale,
-            },
+            tangent_parameter: tangent[l],
+            predicted,
             y_scale: self.y_scale,
-            w_scale: self.w_scale,
+            parameter_scale: self.p_scale,
         }
     }
 
@@ -369,8 +422,9 @@ impl<'a, 's> FrfTrace<'a, 's> {
                     self.step *= 0.5;
                     if self.step < self.settings.min_step {
                         return Err(format!(
-                            "the corrector lands farther than the step from the prediction at W = {:.6e} rad/s",
-                            p.omega
+                            "the corrector lands farther than the step from the prediction at \
+                             {:.6e} (W in rad/s, or the load scale)",
+                            self.curve.parameter(&p)
                         ));
                     }
                 }
@@ -398,14 +452,15 @@ impl<'a, 's> FrfTrace<'a, 's> {
     }
 
     /// A corner of the sampled problem (contact setting in on a coordinate with mass, where the
-    /// curve turns by a finite angle): solves at fixed W = W_k + `direction` dW from the last
-    /// orbit for growing dW (1e-4, 1e-3, 5e-3 w_ref) and keeps the first that converges, flagged
+    /// curve turns by a finite angle): solves at a fixed parameter p_k + `direction` dp from the
+    /// last orbit for growing dp (1e-4, 1e-3, 5e-3 p_ref) and keeps the first that converges, flagged
     /// as a hop (`FrequencyResponse::hops`). Returns whether one did.
     fn hop(&mut self, direction: f64) -> bool {
         let last = self.curve.points.last().expect("two points").clone();
         for dw in [1e-4, 1e-3, 5e-3] {
             let mut start = ForcedSolver::start_from(&last);
-            start.state.omega += direction * dw * self.w_scale;
+            let p = self.curve.parameter(&last) + direction * dw * self.p_scale;
+            start.state.set_parameter(self.curve.sweep.parameter(), p);
             let landed = self.solver.solve(start, None).ok().filter(|p| {
                 // A hop stays on the curve: within a few dW of the last orbit, never on another
                 // branch (the small orbit out of contact, say).
@@ -468,15 +523,17 @@ impl<'a, 's> FrfTrace<'a, 's> {
             let mut predicted = OrbitState {
                 y: last.contact.clone(),
                 omega: last.omega,
+                level: last.level,
             };
             predicted.y[row * t + ic] = amplitude * target.cos();
             predicted.y[row * t + is] = amplitude * target.sin();
             let arc = ArcRow {
+                parameter: self.curve.sweep.parameter(),
                 tangent_y,
-                tangent_w: 0.0,
+                tangent_parameter: 0.0,
                 predicted: predicted.clone(),
                 y_scale: self.y_scale,
-                w_scale: self.w_scale,
+                parameter_scale: self.p_scale,
             };
             let start = ForcedStart {
                 state: predicted,
@@ -543,34 +600,35 @@ impl<'a, 's> FrfTrace<'a, 's> {
             .zip(&arc.predicted.y)
             .map(|(a, b)| ((a - b) / self.y_scale).powi(2))
             .sum();
-        (dy + ((p.omega - arc.predicted.omega) / self.w_scale).powi(2)).sqrt()
+        let dp = self.curve.parameter(p) - arc.predicted.parameter(arc.parameter);
+        (dy + (dp / self.p_scale).powi(2)).sqrt()
     }
 
-    /// Marks a fold when W has retreated from its running extremum by more than
+    /// Marks a fold when the parameter has retreated from its running extremum by more than
     /// `fold_tolerance` w_ref: a turn of the curve, not a kink of the sampled problem (where W
     /// wobbles by 1e-5 w_ref near a peak: the active samples switch one by one).
     fn note_fold(&mut self) {
         let n = self.curve.points.len();
-        let w = |i: usize| self.curve.points[i].omega;
+        let w = |i: usize| self.curve.parameter(&self.curve.points[i]);
         let last = n - 1;
         let travel = self.travel.0;
         let extremum = self.travel.1;
         if (w(last) - w(extremum)) * travel > 0.0 {
             self.travel.1 = last;
-        } else if (w(extremum) - w(last)) * travel > self.settings.fold_tolerance * self.w_scale {
+        } else if (w(extremum) - w(last)) * travel > self.settings.fold_tolerance * self.p_scale {
             let kind = if travel > 0.0 {
                 FoldKind::TurnsBack
             } else {
                 FoldKind::TurnsForward
             };
-            let omega = if extremum > 0 && extremum + 1 < n {
-                self.fold_frequency(extremum)
+            let at = if extremum > 0 && extremum + 1 < n {
+                self.fold_parameter(extremum)
             } else {
                 w(extremum)
             };
             self.curve.folds.push(Fold {
                 point: extremum,
-                omega,
+                at,
                 kind,
             });
             self.travel = (-travel, last);
@@ -579,7 +637,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
 
     /// The extremum of the parabola through (s, W) of points i - 1, i, i + 1 (s the scaled arc
     /// length along the polyline).
-    fn fold_frequency(&self, i: usize) -> f64 {
+    fn fold_parameter(&self, i: usize) -> f64 {
         let p = |k: usize| self.scaled(&self.curve.points[k]);
         let dist = |a: &[f64], b: &[f64]| {
             a.iter()
@@ -590,7 +648,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
         };
         let (a, b, c) = (p(i - 1), p(i), p(i + 1));
         let (s0, s1, s2) = (0.0, dist(&a, &b), dist(&a, &b) + dist(&b, &c));
-        let w = |k: usize| self.curve.points[k].omega;
+        let w = |k: usize| self.curve.parameter(&self.curve.points[k]);
         let (w0, w1, w2) = (w(i - 1), w(i), w(i + 1));
         // Divided differences of the interpolating parabola, then its vertex.
         let f01 = (w1 - w0) / (s1 - s0);
@@ -604,30 +662,37 @@ impl<'a, 's> FrfTrace<'a, 's> {
     }
 }
 
-/// Traces the frequency response of `solver` over the settings' range (see module docs);
-/// `progress` sees every accepted point.
-pub fn frequency_response(
+/// Traces the response curve of `solver` over the settings' range, in W or in the load scale
+/// (see module docs); `progress` sees every accepted point.
+pub fn response_curve(
     solver: &ForcedSolver<'_>,
     settings: &FrfSettings,
     mut progress: impl FnMut(&ForcedPoint),
 ) -> Result<FrequencyResponse, ForcedError> {
     settings.validate()?;
     let system = solver.system();
-    let w_ref = system.linear_frequencies()[0];
-    let first = solver.solve(solver.linear_start(settings.omega_start)?, None)?;
+    let (omega, level, p_scale) = match settings.sweep {
+        Sweep::Frequency => (settings.start, 1.0, system.linear_frequencies()[0]),
+        Sweep::Level { omega } => (omega, settings.start, settings.end),
+    };
+    let first = solver.solve(solver.linear_start(omega, level)?, None)?;
     progress(&first);
     let mut start = ForcedSolver::start_from(&first);
-    start.state.omega += settings.step * w_ref;
+    let parameter = settings.sweep.parameter();
+    start
+        .state
+        .set_parameter(parameter, settings.start + settings.step * p_scale);
     let second = solver.solve(start, None)?;
     progress(&second);
     let mut trace = FrfTrace {
         solver,
         settings,
         y_scale: system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt(),
-        w_scale: w_ref,
+        p_scale,
         step: settings.step,
         travel: (1.0, 1),
         curve: FrequencyResponse {
+            sweep: settings.sweep,
             points: vec![first, second],
             folds: Vec::new(),
             hops: Vec::new(),
@@ -636,34 +701,44 @@ pub fn frequency_response(
         },
     };
     trace.assess_stability()?;
-    loop {
-        let last = trace.curve.points.last().expect("points").omega;
-        if last >= settings.omega_end {
-            break;
-        }
-        if trace.curve.points.len() >= settings.max_points {
-            trace.curve.termination = FrfTermination::PointLimit;
-            break;
-        }
-        if let Err(reason) = trace.advance() {
-            trace.curve.termination = FrfTermination::StepTooSmall {
-                omega: last,
-                reason,
-            };
-            break;
-        }
-        if trace.curve.points.last().expect("just pushed").omega < settings.omega_start {
-            trace.curve.points.pop();
-            trace.curve.hops.retain(|&h| h < trace.curve.points.len());
-            trace
-                .curve
-                .folds
-                .retain(|f| f.point < trace.curve.points.len());
-            trace.curve.termination = FrfTermination::LeftRange { omega: last };
-            break;
-        }
-        trace.assess_stability()?;
-        progress(trace.curve.points.last().expect("just pushed"));
-    }
+    trace.run(progress)?;
     Ok(trace.curve)
+}
+
+impl FrfTrace<'_, '_> {
+    /// Steps until the end of the range, the point limit, a failed step or a turn below the
+    /// start.
+    fn run(&mut self, mut progress: impl FnMut(&ForcedPoint)) -> Result<(), ForcedError> {
+        let (start, end) = (self.settings.start, self.settings.end);
+        loop {
+            let last = self
+                .curve
+                .parameter(self.curve.points.last().expect("points"));
+            if last >= end {
+                return Ok(());
+            }
+            if self.curve.points.len() >= self.settings.max_points {
+                self.curve.termination = FrfTermination::PointLimit;
+                return Ok(());
+            }
+            if let Err(reason) = self.advance() {
+                self.curve.termination = FrfTermination::StepTooSmall { at: last, reason };
+                return Ok(());
+            }
+            if self
+                .curve
+                .parameter(self.curve.points.last().expect("just pushed"))
+                < start
+            {
+                self.curve.points.pop();
+                let n = self.curve.points.len();
+                self.curve.hops.retain(|&h| h < n);
+                self.curve.folds.retain(|f| f.point < n);
+                self.curve.termination = FrfTermination::LeftRange { at: last };
+                return Ok(());
+            }
+            self.assess_stability()?;
+            progress(self.curve.points.last().expect("just pushed"));
+        }
+    }
 }

@@ -12,7 +12,8 @@
 //! motion. Units: SI for SI matrices (W in rad/s, forces in N, damping in N s/m).
 //!
 //! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row),
-//! [`frequency_response`] (the curve over a frequency range, through its folds), [`synthesize`]
+//! [`response_curve`] (the curve over a frequency range, or over the load at a fixed
+//! frequency, through its folds), [`synthesize`]
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod damping;
@@ -29,11 +30,11 @@ pub use damping::{modal_ratios, Damping};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
 pub use frf::{
-    frequency_response, Fold, FoldKind, ForcedBifurcation, FrequencyResponse, FrfSettings,
-    FrfTermination, PointStability,
+    response_curve, Fold, FoldKind, ForcedBifurcation, FrequencyResponse, FrfSettings,
+    FrfTermination, PointStability, Sweep,
 };
 pub use load::{HarmonicLoad, Load};
-pub use newton::{ArcRow, OrbitState};
+pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 pub use synthesis::{

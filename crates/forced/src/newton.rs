@@ -2,13 +2,14 @@
 //! (Eq. 14 on the full basis; DESIGN §10.4): a semi-smooth Newton method on the contact
 //! coordinates y alone, the structure being condensed exactly (`dynamics`):
 //!
-//!   R(y, W) = y - y_F(W) + G(W) Lambda(y) = 0,   Lambda = P kappa (E y - g0 + theta)_+,
+//!   R(y, W, s) = y - s y_F(W) + G(W) Lambda(y) = 0,   Lambda = P kappa (E y - g0 + theta)_+,
 //!
 //! with Jacobian I + G J_Lambda, J_Lambda block-diagonal over the contact rows (one (2N+1)^2
 //! block P diag(slope) E per row, `FullBasis::project_slopes`). Rows with no active sample have a
-//! zero block, so the system is solved on the active rows and the others follow. For the
-//! frequency continuation W is an unknown too, bordered by the pseudo-arc-length row
-//! t_y . (y - y_p) / y_s + t_W (W - W_p) / W_s = 0 (the bordered matrix stays regular at folds).
+//! zero block, so the system is solved on the active rows and the others follow. For a
+//! continuation one parameter p (W, or the load scale s at fixed W) is an unknown too, bordered
+//! by the pseudo-arc-length row t_y . (y - y_p) / y_s + t_p (p - p_p) / p_s = 0 (the bordered
+//! matrix stays regular at folds); its column is dR/dW = -dy_lin/dW or dR/ds = -y_F.
 
 use faer::Mat;
 use nlmodes_hb::contact::{apply_contact_law, Multipliers};
@@ -18,28 +19,60 @@ use nlmodes_hb::FullBasis;
 use crate::dynamics::{product, ContactCompliance, ModalDynamics};
 use crate::error::ForcedError;
 
-/// An orbit as the Newton solve sees it: contact coordinates y (signal-major, length unit) and W.
+/// An orbit as the Newton solve sees it: contact coordinates y (signal-major, length unit), W
+/// and the load scale s.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OrbitState {
     /// y[j (2N + 1) + p].
     pub y: Vec<f64>,
     /// Excitation frequency W (rad/s).
     pub omega: f64,
+    /// Load scale s: the load is s times the solver's (1 in a frequency sweep).
+    pub level: f64,
+}
+
+/// The parameter an arc-length row sets free; the other stays at the state's value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parameter {
+    /// W (rad/s): the frequency response at a fixed load.
+    Frequency,
+    /// s (the load scale): the response to a growing load at a fixed W.
+    Level,
+}
+
+impl OrbitState {
+    /// The value of `parameter`.
+    pub fn parameter(&self, parameter: Parameter) -> f64 {
+        match parameter {
+            Parameter::Frequency => self.omega,
+            Parameter::Level => self.level,
+        }
+    }
+
+    /// Sets `parameter` to `value`.
+    pub fn set_parameter(&mut self, parameter: Parameter, value: f64) {
+        match parameter {
+            Parameter::Frequency => self.omega = value,
+            Parameter::Level => self.level = value,
+        }
+    }
 }
 
 /// The pseudo-arc-length row (see module docs); tangent in the scaled space.
 #[derive(Clone, Debug)]
 pub struct ArcRow {
+    /// The free parameter (W or s).
+    pub parameter: Parameter,
     /// t_y.
     pub tangent_y: Vec<f64>,
-    /// t_W.
-    pub tangent_w: f64,
+    /// t_p, the parameter's component.
+    pub tangent_parameter: f64,
     /// Predicted point.
     pub predicted: OrbitState,
     /// y_s (length).
     pub y_scale: f64,
-    /// W_s (rad/s).
-    pub w_scale: f64,
+    /// p_s (rad/s for W, 1 for s).
+    pub parameter_scale: f64,
 }
 
 impl ArcRow {
@@ -50,7 +83,8 @@ impl ArcRow {
             .zip(s.y.iter().zip(&self.predicted.y))
             .map(|(t, (a, b))| t * (a - b))
             .sum();
-        dy / self.y_scale + self.tangent_w * (s.omega - self.predicted.omega) / self.w_scale
+        let dp = s.parameter(self.parameter) - self.predicted.parameter(self.parameter);
+        dy / self.y_scale + self.tangent_parameter * dp / self.parameter_scale
     }
 }
 
@@ -159,7 +193,7 @@ impl InnerNewton<'_> {
         let lambda = faer::MatRef::from_column_major_slice(&cs.coefficients, s.y.len(), 1);
         let g_lambda = product(comp.g.as_ref(), lambda);
         let r = (0..s.y.len())
-            .map(|i| s.y[i] - comp.y_load[i] + g_lambda[(i, 0)])
+            .map(|i| s.y[i] - s.level * comp.y_load[i] + g_lambda[(i, 0)])
             .collect();
         Ok((r, cs))
     }
@@ -219,13 +253,17 @@ impl InnerNewton<'_> {
             if merit <= self.settings.tolerance {
                 return Ok(it);
             }
-            let (dy, dw) = self.direction(state, &r, &cs, arc)?;
+            let (dy, dp) = self.direction(state, &r, &cs, arc)?;
             let mut step = 1.0;
             loop {
-                let trial = OrbitState {
+                let mut trial = OrbitState {
                     y: state.y.iter().zip(&dy).map(|(a, d)| a + step * d).collect(),
-                    omega: state.omega + step * dw,
+                    ..state.clone()
                 };
+                if let Some(a) = arc {
+                    let p = state.parameter(a.parameter);
+                    trial.set_parameter(a.parameter, p + step * dp);
+                }
                 let (rt, ct) = self.residual(&trial, mu)?;
                 let mt = self.merit(&rt, arc.map(|a| (a, &trial)));
                 if mt.is_finite() && (mt < merit || step < 1.0 / 64.0) {
@@ -249,7 +287,7 @@ impl InnerNewton<'_> {
 }
 
 impl InnerNewton<'_> {
-    /// The Newton direction (dy, dW) from the reduced (bordered) system on the active rows.
+    /// The Newton direction (dy, dp) from the reduced (bordered) system on the active rows.
     fn direction(
         &mut self,
         s: &OrbitState,
@@ -262,12 +300,18 @@ impl InnerNewton<'_> {
             .filter(|&j| cs.slope[j * m..(j + 1) * m].iter().any(|&v| v != 0.0))
             .collect();
         let gj = self.compliance_times_slopes(s.omega, &active, &cs.slope)?;
-        let rate = match arc {
-            Some(_) => {
-                let z = self.dynamics.response(s.omega, &cs.coefficients)?;
+        let rate = match arc.map(|a| a.parameter) {
+            Some(Parameter::Frequency) => {
+                let z = self.dynamics.response(s.omega, s.level, &cs.coefficients)?;
                 let rate = self.dynamics.response_rate(s.omega, &z)?;
                 rate.into_iter().map(|v| -v).collect()
             }
+            Some(Parameter::Level) => self
+                .compliance(s.omega)?
+                .y_load
+                .iter()
+                .map(|v| -v)
+                .collect(),
             None => vec![0.0; l],
         };
         let is_active = |i: usize| active.binary_search(&(i / t)).is_ok();
@@ -295,8 +339,8 @@ impl InnerNewton<'_> {
                     a[(la, col)] =
                         tv(global(col)) - inactive().map(|i| tv(i) * gj[(i, col)]).sum::<f64>();
                 }
-                a[(la, la)] =
-                    arc.tangent_w / arc.w_scale - inactive().map(|i| tv(i) * rate[i]).sum::<f64>();
+                a[(la, la)] = arc.tangent_parameter / arc.parameter_scale
+                    - inactive().map(|i| tv(i) * rate[i]).sum::<f64>();
                 rhs[la] = -arc.residual(s) + inactive().map(|i| tv(i) * r[i]).sum::<f64>();
             }
         }

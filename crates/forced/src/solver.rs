@@ -53,6 +53,8 @@ impl ForcedSettings {
 pub struct ForcedPoint {
     /// Excitation frequency W (rad/s).
     pub omega: f64,
+    /// Load scale s: the load is s times the solver's (1 in a frequency sweep).
+    pub level: f64,
     /// Physical coefficients, n x (2N + 1): column p is u_0, a_1, b_1, ... (see `FullBasis`).
     pub coefficients: Mat<f64>,
     /// Contact coordinates y = A u, signal-major c (2N + 1).
@@ -220,22 +222,24 @@ impl<'s> ForcedSolver<'s> {
         let ContactMethod::Penalty { stiffness } = self.settings.algorithm.method else {
             return None;
         };
-        let mut check = PeriodCheck::new(
-            self.system,
-            &self.damping,
-            &self.load,
-            stiffness,
-            point.omega,
-        );
+        let load = self.load.scaled(point.level);
+        let mut check = PeriodCheck::new(self.system, &self.damping, &load, stiffness, point.omega);
         Some(check.residual(&point.coefficients))
     }
 
-    /// The linear response at W (no contact force), theta = 0, kappa = kappa^(1).
-    pub fn linear_start(&self, omega: f64) -> Result<ForcedStart, ForcedError> {
-        let y = self.dynamics.compliance(omega)?.y_load;
+    /// The linear response at W to `level` times the load (no contact force), theta = 0,
+    /// kappa = kappa^(1).
+    pub fn linear_start(&self, omega: f64, level: f64) -> Result<ForcedStart, ForcedError> {
+        let y = self
+            .dynamics
+            .compliance(omega)?
+            .y_load
+            .into_iter()
+            .map(|v| level * v)
+            .collect();
         let multipliers = Multipliers::uniform(&self.kappa_initial, self.basis.samples());
         Ok(ForcedStart {
-            state: OrbitState { y, omega },
+            state: OrbitState { y, omega, level },
             multipliers,
         })
     }
@@ -246,6 +250,7 @@ impl<'s> ForcedSolver<'s> {
             state: OrbitState {
                 y: point.contact.clone(),
                 omega: point.omega,
+                level: point.level,
             },
             multipliers: point.multipliers.clone(),
         }
@@ -324,7 +329,9 @@ impl<'s> ForcedSolver<'s> {
         iterations: usize,
     ) -> Result<ForcedPoint, ForcedError> {
         let cs = contact_samples(&self.basis, self.system.gaps(), &state.y, &multipliers);
-        let z = self.dynamics.response(state.omega, &cs.coefficients)?;
+        let z = self
+            .dynamics
+            .response(state.omega, state.level, &cs.coefficients)?;
         let coefficients = self.dynamics.physical(&z);
         if coefficients
             .col_iter()
@@ -338,6 +345,7 @@ impl<'s> ForcedSolver<'s> {
         }
         Ok(ForcedPoint {
             omega: state.omega,
+            level: state.level,
             coefficients,
             contact: state.y,
             contact_force: cs.force,

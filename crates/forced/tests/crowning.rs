@@ -9,7 +9,7 @@
 mod common;
 
 use nlmodes_forced::{
-    frequency_response, Damping, FoldKind, ForcedBifurcation, ForcedSettings, ForcedSolver,
+    response_curve, Damping, FoldKind, ForcedBifurcation, ForcedSettings, ForcedSolver,
     FrfSettings, FrfTermination, Load, Verdict,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings};
@@ -41,7 +41,7 @@ fn peak_and_backbone(zeta: f64, f: f64) -> (f64, f64, f64, usize) {
     };
     let solver = ForcedSolver::new(&system, &c, &load, settings).unwrap();
     let w1 = system.linear_frequencies()[0];
-    let curve = frequency_response(&solver, &FrfSettings::new(0.8 * w1, 1.6 * w1), |_| {}).unwrap();
+    let curve = response_curve(&solver, &FrfSettings::new(0.8 * w1, 1.6 * w1), |_| {}).unwrap();
     assert_eq!(curve.termination, FrfTermination::Complete);
     check_middle_branch(&curve, zeta);
     assert!(

@@ -16,14 +16,14 @@ fn check(damping: Damping) {
     let t = 2 * nh + 1;
     let lambda: Vec<f64> = (0..t).map(|p| 0.05 * (p as f64 + 1.0).sin()).collect();
     let contact = |w: f64| -> Vec<f64> {
-        let z = dynamics.response(w, &lambda).unwrap();
+        let z = dynamics.response(w, 1.0, &lambda).unwrap();
         let psi = dynamics.contact_modes();
         (0..t)
             .map(|p| (0..3).map(|k| psi[(0, k)] * z[(k, p)]).sum())
             .collect()
     };
     for w in [0.4, 0.9, 1.7] {
-        let z = dynamics.response(w, &lambda).unwrap();
+        let z = dynamics.response(w, 1.0, &lambda).unwrap();
         let rate = dynamics.response_rate(w, &z).unwrap();
         let h = 1e-6;
         let (up, down) = (contact(w + h), contact(w - h));

@@ -42,7 +42,7 @@ fn check(damping: Damping) {
         w[2] / 3.0,
         1.7 * w[2],
     ] {
-        let start = solver.linear_start(omega).unwrap();
+        let start = solver.linear_start(omega, 1.0).unwrap();
         let point = solver.solve(start, None).unwrap();
         let mut largest = 0.0_f64;
         let mut worst = 0.0_f64;

@@ -86,7 +86,11 @@ fn the_damping_force_of_a_free_orbit_holds_it() {
         }
     }
     let start = ForcedStart {
-        state: OrbitState { y, omega: w },
+        state: OrbitState {
+            y,
+            omega: w,
+            level: 1.0,
+        },
         multipliers: orbit.multipliers.clone(),
     };
     let point = forced.solve(start, None).unwrap();

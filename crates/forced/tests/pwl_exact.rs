@@ -25,7 +25,7 @@ mod pwl;
 
 use faer::Mat;
 use nlmodes_forced::{
-    frequency_response, Damping, FoldKind, ForcedPoint, ForcedSettings, ForcedSolver,
+    response_curve, Damping, FoldKind, ForcedPoint, ForcedSettings, ForcedSolver,
     FrequencyResponse, FrfSettings, FrfTermination, Load, Verdict,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
@@ -298,7 +298,7 @@ fn hb_curve(case: &Case, harmonics: usize) -> (FrequencyResponse, ForcedSolver<'
         ..ForcedSettings::new(harmonics).unwrap()
     };
     let solver = ForcedSolver::new(&case.system, &case.c, &case.load, settings).unwrap();
-    let curve = frequency_response(
+    let curve = response_curve(
         &solver,
         &FrfSettings::new(case.range.0, case.range.1),
         |_| {},
@@ -375,8 +375,10 @@ fn dense_hb_fold(
         let l = last.contact.len();
         let arc = nlmodes_forced::ArcRow {
             tangent_y: t[..l].to_vec(),
-            tangent_w: t[l],
+            parameter: nlmodes_forced::Parameter::Frequency,
+            tangent_parameter: t[l],
             predicted: nlmodes_forced::OrbitState {
+                level: 1.0,
                 y: last
                     .contact
                     .iter()
@@ -386,7 +388,7 @@ fn dense_hb_fold(
                 omega: last.omega + h * t[l] * w_ref,
             },
             y_scale: g,
-            w_scale: w_ref,
+            parameter_scale: w_ref,
         };
         let start = nlmodes_forced::ForcedStart {
             state: arc.predicted.clone(),
@@ -453,7 +455,7 @@ fn exact_folds(case: &Case, curve: &FrequencyResponse) -> Vec<ExactFold> {
             pwl::nearest_on_curve(sys, &states[i], omegas[i], &t, scales, ORBIT_TOL * sys.gap)
                 .expect("exact orbit near the fold");
         let fold = pwl::fold_near(sys, &start.z0, start.omega, ORBIT_TOL * sys.gap)
-            .unwrap_or_else(|| panic!("{}: no exact fold near W = {}", case.name, f.omega));
+            .unwrap_or_else(|| panic!("{}: no exact fold near W = {}", case.name, f.at));
         let (amplitude, _) = exact_amplitude(sys, &fold, case.response, 1);
         if !out
             .iter()
@@ -481,7 +483,7 @@ fn check_curve(
     let fold_ws: Vec<f64> = curve
         .folds
         .iter()
-        .map(|f| f.omega)
+        .map(|f| f.at)
         .chain(exact.iter().map(|f| f.omega))
         .collect();
     let states: Vec<Vec<f64>> = curve.points.iter().map(hb_state).collect();
@@ -542,14 +544,14 @@ fn check_curve(
             let nearest = exact
                 .iter()
                 .min_by(|x, y| {
-                    let d = |e: &ExactFold| ((e.omega - f.omega) / w_ref).abs();
+                    let d = |e: &ExactFold| ((e.omega - f.at) / w_ref).abs();
                     d(x).total_cmp(&d(y))
                 })
                 .copied()
                 .expect("an exact fold");
             FoldCheck {
                 kind: f.kind,
-                w_reported: f.omega,
+                w_reported: f.at,
                 w_hb: w_dense,
                 a_hb,
                 exact: nearest,
@@ -862,7 +864,7 @@ fn light_damping_chain_against_exact_orbits() {
             "light 2-DOF N = {n}: {:?}",
             curve.termination
         );
-        let folds: Vec<f64> = curve.folds.iter().map(|f| f.omega).collect();
+        let folds: Vec<f64> = curve.folds.iter().map(|f| f.at).collect();
         let (mut compared, mut in_contact, mut worst) = (0, 0, 0.0_f64);
         for (i, p) in curve.points.iter().enumerate() {
             if folds.iter().any(|wf| (p.omega - wf).abs() <= 0.01 * wf) {
@@ -898,4 +900,110 @@ fn light_damping_chain_against_exact_orbits() {
             "N = {n}: {in_contact} compared points in contact"
         );
     }
+}
+
+/// Amplitudes of coordinate j where a polyline of (p, A) crosses p = x (linear interpolation).
+fn crossings(points: &[(f64, f64)], x: f64) -> Vec<f64> {
+    points
+        .windows(2)
+        .filter(|w| (w[0].0 - x) * (w[1].0 - x) < 0.0)
+        .map(|w| w[0].1 + (w[1].1 - w[0].1) * (x - w[0].0) / (w[1].0 - w[0].0))
+        .collect()
+}
+
+/// The continuation in force level at a fixed W against two independent answers: (1) the
+/// frequency sweeps at three load scales, whose crossings of W0 must be the level curve's
+/// crossings of those scales (one or three of them: the S-curve's folds), and (2) the exact
+/// orbit of every level-sweep point away from its folds, with the load scaled by its level.
+/// Measured (N = 20, W0 = 1.12 w1, s from 0.05 to 4): 3170 points, folds at s = 2.160 (the low
+/// branch reaches the stop and turns back) and 0.595 (the jump up); crossings agree to 1.2e-5
+/// (the bound 1e-4 is the linear interpolation's at the fine steps), exact orbits to 4.8e-4.
+#[test]
+fn level_sweep_against_frequency_sweeps_and_exact_orbits() {
+    let case = one_dof();
+    let w1 = case.system.linear_frequencies()[0];
+    let w0 = 1.12 * w1;
+    let n = 20;
+    let settings = ForcedSettings {
+        algorithm: AlgorithmParams {
+            method: ContactMethod::Penalty { stiffness: case.kc },
+            ..AlgorithmParams::default()
+        },
+        ..ForcedSettings::new(n).unwrap()
+    };
+    let solver = ForcedSolver::new(&case.system, &case.c, &case.load, settings.clone()).unwrap();
+    // Fine steps (2e-3 of the range at most) so that the linear interpolation between points,
+    // the test's tool to meet the other curve, errs by less than 1e-4.
+    let fine = |f: FrfSettings| FrfSettings {
+        step: 1e-3,
+        max_step: 2e-3,
+        max_points: 20_000,
+        stability: false,
+        ..f
+    };
+    let sweep = fine(FrfSettings {
+        sweep: nlmodes_forced::Sweep::Level { omega: w0 },
+        ..FrfSettings::new(0.05, 4.0)
+    });
+    let curve = response_curve(&solver, &sweep, |_| {}).unwrap();
+    assert!(
+        matches!(curve.termination, FrfTermination::Complete),
+        "{:?}",
+        curve.termination
+    );
+    let by_level: Vec<(f64, f64)> = curve
+        .points
+        .iter()
+        .map(|p| (p.level, hb_amplitude(p, case.response)))
+        .collect();
+    let mut worst_cross = 0.0_f64;
+    for s in [0.5, 1.0, 1.5] {
+        let load = case.load.scaled(s);
+        let fs = ForcedSolver::new(&case.system, &case.c, &load, settings.clone()).unwrap();
+        let frf = response_curve(
+            &fs,
+            &fine(FrfSettings::new(case.range.0, case.range.1)),
+            |_| {},
+        )
+        .unwrap();
+        let by_w: Vec<(f64, f64)> = frf
+            .points
+            .iter()
+            .map(|p| (p.omega, hb_amplitude(p, case.response)))
+            .collect();
+        let (mut a, mut b) = (crossings(&by_w, w0), crossings(&by_level, s));
+        a.sort_by(f64::total_cmp);
+        b.sort_by(f64::total_cmp);
+        assert_eq!(
+            a.len(),
+            b.len(),
+            "load scale {s}: crossings {a:?} against {b:?}"
+        );
+        for (x, y) in a.iter().zip(&b) {
+            worst_cross = worst_cross.max((x - y).abs() / x);
+        }
+        eprintln!(
+            "load scale {s}: amplitudes at W0 by frequency sweep {a:?}, by level sweep {b:?}"
+        );
+    }
+    let folds: Vec<f64> = curve.folds.iter().map(|f| f.at).collect();
+    let mut worst_exact = 0.0_f64;
+    for p in &curve.points {
+        if folds.iter().any(|f| (p.level - f).abs() <= 0.01 * f) {
+            continue;
+        }
+        let mut sys = case.pwl.clone();
+        sys.fc.iter_mut().for_each(|f| *f *= p.level);
+        let orbit = pwl::periodic_at(&sys, w0, &hb_state(p), ORBIT_TOL * sys.gap)
+            .unwrap_or_else(|| panic!("no exact orbit at level {}", p.level));
+        let (a_exact, _) = exact_amplitude(&sys, &orbit, case.response, n);
+        worst_exact = worst_exact.max((hb_amplitude(p, case.response) - a_exact).abs() / a_exact);
+    }
+    eprintln!(
+        "level sweep at W0 = 1.12 w1: {} points, folds at {folds:?}, crossings {worst_cross:.2e}, exact {worst_exact:.2e}",
+        curve.points.len()
+    );
+    assert_eq!(folds.len(), 2, "the S-curve's two folds");
+    assert!(worst_cross < 1e-4, "crossings differ by {worst_cross:e}");
+    assert!(worst_exact < 5e-3, "exact orbits differ by {worst_exact:e}");
 }

@@ -7,8 +7,8 @@
 mod common;
 
 use nlmodes_forced::{
-    frequency_response, nonlinear_damping_ratio, synthesize, synthesized_peak, Damping,
-    ForcedSettings, ForcedSolver, FreeOrbit, FrfSettings, Load,
+    nonlinear_damping_ratio, response_curve, synthesize, synthesized_peak, Damping, ForcedSettings,
+    ForcedSolver, FreeOrbit, FrfSettings, Load,
 };
 use nlmodes_hb::FullBasis;
 
@@ -47,7 +47,7 @@ fn linear_synthesis_matches_the_modal_damping_and_the_forced_peak() {
         max_step: 0.001,
         ..FrfSettings::new(0.98 * w1, 1.02 * w1)
     };
-    let curve = frequency_response(&solver, &frf, |_| {}).unwrap();
+    let curve = response_curve(&solver, &frf, |_| {}).unwrap();
     let amp = |p: &nlmodes_forced::ForcedPoint| {
         p.coefficients[(2, FullBasis::cos_index(1))]
             .hypot(p.coefficients[(2, FullBasis::sin_index(1))])
