@@ -48,6 +48,9 @@ pub struct ForcedStudy {
     /// The penalty stiffness used (N/m), if the penalty law.
     pub penalty_stiffness: Option<f64>,
     pub curves: Vec<ForcedCurve>,
+    /// The continuations in force level at `level_sweeps` (level 1 and its force; the points'
+    /// `level` is the load scale in `level_unit`).
+    pub level_sweeps: Vec<ForcedCurve>,
     /// The settings it ran with.
     pub settings: ForcedSection,
 }
@@ -75,14 +78,14 @@ pub fn check_against(system: &System, s: &ForcedSection, source: &str) -> Result
 
 /// The unit force pattern: for each harmonic of the excitation its cosine and sine parts, the
 /// largest entry over all of them 1 N, and the coordinate of that entry.
-struct Pattern {
+pub(crate) struct Pattern {
     harmonics: Vec<(usize, Vec<f64>, Vec<f64>)>,
     excitation: usize,
 }
 
 impl Pattern {
     /// The load of a level: the pattern times `force` (N).
-    fn scaled(&self, force: f64) -> Load {
+    pub(crate) fn scaled(&self, force: f64) -> Load {
         let times = |v: &[f64]| v.iter().map(|x| x * force).collect();
         Load {
             harmonics: self
@@ -159,7 +162,7 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
 /// Force (N, largest entry) of a level: as given, or the multiple of the force whose linear
 /// resonant master response |phi_m| |phi . (f_c + i f_s)| / (2 zeta w^2) of the pattern's lowest
 /// harmonic reaches the grazing amplitude.
-fn force_of(
+pub(crate) fn force_of(
     system: &System,
     s: &ForcedSection,
     pattern: &Pattern,
@@ -242,6 +245,14 @@ pub fn run(
         })
         .collect::<Result<Vec<_>>>()?;
     bar.finish_and_clear();
+    let sweep = crate::level_sweep::LevelSweepInputs {
+        system,
+        damping: &c,
+        pattern: &pattern,
+        zeta: ratios[s.mode],
+        settings: &settings,
+    };
+    let level_sweeps = sweep.run(s)?;
     Ok(ForcedStudy {
         omega_mode: w,
         gap_reference: system.gap_reference(),
@@ -253,6 +264,7 @@ pub fn run(
         linear_frequencies: system.linear_frequencies(),
         penalty_stiffness,
         curves,
+        level_sweeps,
         settings: s.clone(),
     })
 }
@@ -304,11 +316,21 @@ fn synthesis_of(
 /// [`crate::exit::StoppedEarly`] error (exit code 3) naming the levels that stopped and where
 /// the partial results are.
 pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
+    let w = st.omega_mode;
     let stopped: Vec<String> = st
         .curves
         .iter()
         .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
         .map(|c| format!("level {}: {}", c.level, c.response.end_text()))
+        .chain(
+            st.level_sweeps
+                .iter()
+                .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
+                .map(|c| {
+                    let at = crate::level_sweep::sweep_frequency(c) / w;
+                    format!("level sweep at W/w = {at}: {}", c.response.end_text())
+                }),
+        )
         .collect();
     if stopped.is_empty() {
         return Ok(());

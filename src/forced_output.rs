@@ -97,15 +97,31 @@ fn header(n: usize) -> Vec<String> {
     h
 }
 
-fn push_curve(table: &mut CsvTable, st: &ForcedStudy, curve: &ForcedCurve) -> Result<()> {
+/// First-harmonic amplitude of coordinate i (m).
+pub(crate) fn master_amplitude(p: &ForcedPoint, i: usize) -> f64 {
+    harmonic(p, i, 1).0
+}
+
+/// An empty table with frf.csv's columns.
+pub(crate) fn csv_table(st: &ForcedStudy) -> CsvTable {
+    CsvTable::new(&header(st.settings.harmonics))
+}
+
+/// The rows of one curve; a point's level and force are the curve's times its load scale (1
+/// on a frequency curve).
+pub(crate) fn push_curve(
+    table: &mut CsvTable,
+    st: &ForcedStudy,
+    curve: &ForcedCurve,
+) -> Result<()> {
     let (g, w, n) = (st.gap_reference, st.omega_mode, st.settings.harmonics);
     let r = &curve.response;
     for (i, p) in r.points.iter().enumerate() {
         let (q1, _) = harmonic(p, st.master, 1);
         let mmax = max_abs_over_period(p, st.master);
         let mut row: Vec<CsvValue> = vec![
-            curve.level.into(),
-            curve.force.into(),
+            (curve.level * p.level).into(),
+            (curve.force * p.level).into(),
             CsvValue::Int(i as i64),
             p.omega.into(),
             (p.omega / (2.0 * std::f64::consts::PI)).into(),
@@ -145,7 +161,7 @@ fn push_curve(table: &mut CsvTable, st: &ForcedStudy, curve: &ForcedCurve) -> Re
 
 /// `frf.csv`.
 pub fn frf_csv(st: &ForcedStudy) -> Result<CsvTable> {
-    let mut table = CsvTable::new(&header(st.settings.harmonics));
+    let mut table = csv_table(st);
     for curve in &st.curves {
         push_curve(&mut table, st, curve)?;
     }
@@ -249,7 +265,7 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
     }
 }
 
-/// Writes frf.csv, frf.json and the figures into `dir`.
+/// Writes frf.csv, frf.json, the figures and the level sweeps' files into `dir`.
 pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     frf_csv(st)?.write(&dir.join("frf.csv"))?;
@@ -268,11 +284,11 @@ pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> R
     nlmodes_output::write_json_compact(&dir.join("frf.json"), &record)?;
     frf_figure(st, backbone, dir, false)?;
     frf_figure(st, backbone, dir, true)?;
-    Ok(())
+    crate::level_sweep::write(st, dir)
 }
 
 /// Runs of consecutive points with the same verdict, as (verdict, indices).
-fn verdict_runs(c: &ForcedCurve) -> Vec<(Option<Verdict>, Vec<usize>)> {
+pub(crate) fn verdict_runs(c: &ForcedCurve) -> Vec<(Option<Verdict>, Vec<usize>)> {
     let mut runs: Vec<(Option<Verdict>, Vec<usize>)> = Vec::new();
     for i in 0..c.response.points.len() {
         let v = c.response.stability.get(i).map(|s| s.verdict);
@@ -387,7 +403,6 @@ fn frf_figure(
     Ok(())
 }
 
-/// The lines printed after a forced run.
 /// The point of largest first-harmonic master amplitude of a curve.
 pub fn peak_point(c: &ForcedCurve, master: usize) -> Option<usize> {
     let amp = |i: usize| harmonic(&c.response.points[i], master, 1).0;
@@ -405,6 +420,7 @@ pub fn peak_note(c: &ForcedCurve, peak: usize) -> &'static str {
     }
 }
 
+/// The lines printed after a forced run.
 pub fn summary(st: &ForcedStudy) -> String {
     let (g, w) = (st.gap_reference, st.omega_mode);
     let mut out = format!(
@@ -439,5 +455,5 @@ pub fn summary(st: &ForcedStudy) -> String {
             );
         }
     }
-    out
+    out + &crate::level_sweep::summary(st)
 }

@@ -94,8 +94,15 @@ pub struct ForcedSection {
     pub load_direction: [f64; 3],
     /// Force levels, one curve each.
     pub levels: Vec<f64>,
-    /// Unit of `levels`.
+    /// Unit of `levels` and of `level_range`.
     pub level_unit: LevelUnit,
+    /// Frequencies W / w_mode at which the response is also continued in force level over
+    /// `level_range`, one curve each (`forced/level_sweeps.csv`, `level_sweeps.png`; default
+    /// none).
+    pub level_sweeps: Vec<f64>,
+    /// The force range [start, end] of the level sweeps, in `level_unit` (default [0.1, 10]);
+    /// each sweep starts from the linear response at the start.
+    pub level_range: [f64; 2],
     /// Contact law.
     pub contact: ForcedContact,
     /// kc / (static contact stiffness of the row) for `contact = "penalty"`.
@@ -132,6 +139,8 @@ impl Default for ForcedSection {
             load_direction: [1.0, 0.0, 0.0],
             levels: vec![0.5, 2.0, 5.0],
             level_unit: LevelUnit::Grazing,
+            level_sweeps: Vec::new(),
+            level_range: [0.1, 10.0],
             contact: ForcedContact::Penalty,
             penalty_factor: 1e3,
             stability: true,
@@ -258,6 +267,32 @@ impl ForcedSection {
             "forced.penalty_factor",
             self.penalty_factor,
             "a finite factor > 0",
+        );
+        self.check_level_sweeps(p);
+    }
+
+    /// `level_sweeps` and `level_range`.
+    fn check_level_sweeps(&self, p: &mut Problems) {
+        for w in &self.level_sweeps {
+            p.check(
+                w.is_finite() && *w > 0.0,
+                "forced.level_sweeps",
+                w,
+                "frequencies W / w_mode > 0",
+            );
+        }
+        let [a, b] = self.level_range;
+        p.check(
+            a.is_finite() && a > 0.0,
+            "forced.level_range",
+            self.level_range,
+            "start > 0 (in level_unit)",
+        );
+        p.check(
+            b.is_finite() && b > a,
+            "forced.level_range",
+            self.level_range,
+            "a non-empty range [start, end] with end > start",
         );
     }
 

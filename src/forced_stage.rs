@@ -185,5 +185,5 @@ fn section(st: &ForcedStudy) -> String {
          dynamics beyond N harmonics) and the point is undetermined. Black: the backbone of the \
          same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
     );
-    s
+    s + &crate::level_sweep::report_section(st)
 }

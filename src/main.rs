@@ -17,6 +17,7 @@ mod forced_settings;
 mod forced_stage;
 mod gmsh;
 mod layout;
+mod level_sweep;
 mod mesh_stage;
 mod output;
 mod post;

@@ -340,6 +340,8 @@ def forced_settings(c, model):
     bad("mode_beyond_model", "mode = 5000\n", r"forced\.mode = 5000: expected a linear mode index \(0-based\) below \d+")
     bad("load_mode_beyond_model", "load = \"mode\"\nload_mode = 777\n", r"forced\.load_mode = 777: expected a linear mode index")
     bad("load_direction_zero", "load = \"group\"\nload_direction = [0.0, 0.0, 0.0]\n", r"forced\.load_direction = \[0\.0, 0\.0, 0\.0\]: expected a finite, non-zero direction")
+    bad("level_sweeps_negative", "level_sweeps = [-1.05]\n", r"forced\.level_sweeps = -1\.05: expected frequencies W / w_mode > 0")
+    bad("level_range_inverted", "level_sweeps = [1.05]\nlevel_range = [5.0, 0.5]\n", r"forced\.level_range = \[5\.0, 0\.5\]: expected a non-empty range")
     bad("keep_negative", "keep = [-1.0]\n", r"forced\.keep = -1\.0: expected finite frequencies W / w_mode > 0")
     bad("frames_one", "frames = 1\n", r"forced\.frames = 1: expected between 2 and 1000 frames per period")
     bad("load_file_missing", "load = \"file\"\n", r"forced\.load = \"file\": .*F\.mtx: cannot read it")

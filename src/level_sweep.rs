@@ -1,0 +1,204 @@
+//! Continuation in force level at fixed excitation frequencies (`[forced] level_sweeps`, issue
+//! 22 item 4; docs/DESIGN.md §10.5): at each W the response is continued in the load scale s
+//! over `level_range` (in `level_unit`) from the linear response, through the folds of the
+//! S-curve where the response jumps as the force grows or falls. Same model, damping, load
+//! pattern and contact law as the frequency curves. Outputs: `level_sweeps.csv` (the columns of
+//! frf.csv, one curve per frequency), `level_sweeps.png`/`.svg` (first-harmonic amplitude of the
+//! master / g0 against the level; stable solid, unstable dashed, undetermined dotted).
+
+use std::path::Path;
+
+use anyhow::Result;
+use faer::Mat;
+use nlmodes_forced::{response_curve, ForcedSettings, ForcedSolver, FrfSettings, Sweep, Verdict};
+use nlmodes_nnm::System;
+use nlmodes_output::plot::{LinePlot, LineStyle, Series, PALETTE};
+use rayon::prelude::*;
+
+use crate::forced::{force_of, ForcedCurve, ForcedStudy, Pattern};
+use crate::forced_settings::{ForcedSection, LevelUnit};
+
+/// What the sweeps share with the frequency curves of the study.
+pub struct LevelSweepInputs<'a> {
+    pub system: &'a System,
+    /// C (N s/m).
+    pub damping: &'a Mat<f64>,
+    pub pattern: &'a Pattern,
+    /// Damping ratio of the swept mode (for `level_unit = "grazing"`).
+    pub zeta: f64,
+    pub settings: &'a ForcedSettings,
+}
+
+impl LevelSweepInputs<'_> {
+    /// One curve per `level_sweeps` frequency (in parallel); none when the list is empty.
+    pub fn run(&self, s: &ForcedSection) -> Result<Vec<ForcedCurve>> {
+        if s.level_sweeps.is_empty() {
+            return Ok(Vec::new());
+        }
+        let unit = force_of(self.system, s, self.pattern, self.zeta, 1.0)?;
+        let load = self.pattern.scaled(unit);
+        let w = self.system.linear_frequencies()[s.mode];
+        let bar = crate::ui::bar(s.level_sweeps.len() as u64, "level sweeps");
+        let curves = s
+            .level_sweeps
+            .par_iter()
+            .map(|&ratio| {
+                let frf = FrfSettings {
+                    sweep: Sweep::Level { omega: ratio * w },
+                    stability: s.stability,
+                    ..FrfSettings::new(s.level_range[0], s.level_range[1])
+                };
+                let solver =
+                    ForcedSolver::new(self.system, self.damping, &load, self.settings.clone())?;
+                let response = response_curve(&solver, &frf, |p| {
+                    bar.set_message(format!("W/w = {ratio}: level {:.3}", p.level));
+                })?;
+                tracing::info!(
+                    "level sweep at W/w = {ratio}: {} points, {} folds, {}",
+                    response.points.len(),
+                    response.folds.len(),
+                    response.end_text()
+                );
+                bar.inc(1);
+                Ok(ForcedCurve {
+                    level: 1.0,
+                    force: unit,
+                    response,
+                    synthesis: Vec::new(),
+                })
+            })
+            .collect::<Result<Vec<_>>>();
+        bar.finish_and_clear();
+        curves
+    }
+}
+
+/// The fixed W of a level sweep (rad/s).
+pub fn sweep_frequency(c: &ForcedCurve) -> f64 {
+    match c.response.sweep {
+        Sweep::Level { omega } => omega,
+        Sweep::Frequency => f64::NAN,
+    }
+}
+
+fn unit_label(s: &ForcedSection) -> &'static str {
+    match s.level_unit {
+        LevelUnit::Newton => "force (N)",
+        LevelUnit::Grazing => "force / grazing force",
+    }
+}
+
+/// Writes level_sweeps.csv and the figure when the study has sweeps.
+pub fn write(st: &ForcedStudy, dir: &Path) -> Result<()> {
+    if st.level_sweeps.is_empty() {
+        return Ok(());
+    }
+    let mut table = crate::forced_output::csv_table(st);
+    for c in &st.level_sweeps {
+        crate::forced_output::push_curve(&mut table, st, c)?;
+    }
+    table.write(&dir.join("level_sweeps.csv"))?;
+    figure(st, dir)
+}
+
+/// First-harmonic master amplitude / g0 against the level, per frequency, styled by verdict.
+fn figure(st: &ForcedStudy, dir: &Path) -> Result<()> {
+    let mut plot = LinePlot::new(
+        "Response to a growing force at fixed frequencies",
+        unit_label(&st.settings),
+        "first harmonic of the master / g0",
+    );
+    for (k, c) in st.level_sweeps.iter().enumerate() {
+        let color = PALETTE[k % PALETTE.len()];
+        let mut labelled = false;
+        for (v, idx) in crate::forced_output::verdict_runs(c) {
+            let style = match v {
+                Some(Verdict::Unstable) => LineStyle::Dashed,
+                Some(Verdict::Undetermined) => LineStyle::Dotted,
+                _ => LineStyle::Solid,
+            };
+            let points = &c.response.points;
+            let x: Vec<f64> = idx.iter().map(|&i| points[i].level).collect();
+            let y: Vec<f64> = idx
+                .iter()
+                .map(|&i| {
+                    crate::forced_output::master_amplitude(&points[i], st.master) / st.gap_reference
+                })
+                .collect();
+            let label = if labelled {
+                String::new()
+            } else {
+                format!("W/w = {:.4}", sweep_frequency(c) / st.omega_mode)
+            };
+            labelled = true;
+            plot = plot.with_series(Series::new(label, x, y).color(color).style(style));
+        }
+    }
+    plot.write_svg_and_png(&dir.join("level_sweeps"))?;
+    Ok(())
+}
+
+/// The summary lines of the sweeps (after the frequency curves').
+pub fn summary(st: &ForcedStudy) -> String {
+    let mut out = String::new();
+    for c in &st.level_sweeps {
+        let r = &c.response;
+        let folds: Vec<String> = r
+            .folds
+            .iter()
+            .map(|f| format!("{:.4} ({:?})", f.at, f.kind))
+            .collect();
+        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        out += &format!(
+            "  level sweep at W/w = {:.4}: {} points, folds at level {}, {} stable / {} unstable / {} undetermined, {}\n",
+            sweep_frequency(c) / st.omega_mode,
+            r.points.len(),
+            if folds.is_empty() { "none".to_string() } else { folds.join(", ") },
+            count(Verdict::Stable),
+            count(Verdict::Unstable),
+            count(Verdict::Undetermined),
+            r.end_text()
+        );
+    }
+    out
+}
+
+/// The report's subsection on the sweeps (empty without them).
+pub fn report_section(st: &ForcedStudy) -> String {
+    if st.level_sweeps.is_empty() {
+        return String::new();
+    }
+    let [a, b] = st.settings.level_range;
+    let mut s = format!(
+        "### Response to a growing force\n\nAt fixed W the response is continued in force level \
+         from {a} to {b} ({}), through the folds where it jumps as the force grows (the fold \
+         turning back) or falls (the fold turning forward). Data: `forced/level_sweeps.csv`.\n\n\
+         | W / w | points | folds (level, kind) | stable / unstable / undetermined | end |\n\
+         |---|---|---|---|---|\n",
+        unit_label(&st.settings)
+    );
+    for c in &st.level_sweeps {
+        let r = &c.response;
+        let folds: Vec<String> = r
+            .folds
+            .iter()
+            .map(|f| format!("{:.4} {:?}", f.at, f.kind))
+            .collect();
+        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        s += &format!(
+            "| {:.4} | {} | {} | {} / {} / {} | {} |\n",
+            sweep_frequency(c) / st.omega_mode,
+            r.points.len(),
+            if folds.is_empty() {
+                "none".into()
+            } else {
+                folds.join(", ")
+            },
+            count(Verdict::Stable),
+            count(Verdict::Unstable),
+            count(Verdict::Undetermined),
+            r.end_text().replace('|', "/")
+        );
+    }
+    s + "\n![level sweeps](forced/level_sweeps.png)\n"
+}
