@@ -20,7 +20,8 @@ use crate::results::BackboneFile;
 pub struct ForcedCurve {
     /// The level as given (`level_unit`).
     pub level: f64,
-    /// Largest entry of the force pattern (N).
+    /// The level's load scale: largest entry of the force pattern (N), the total force of a
+    /// group load (N), the pressure of a pressure load (Pa).
     pub force: f64,
     /// The traced curve.
     pub response: FrequencyResponse,
@@ -106,7 +107,7 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
     let n = system.n_dofs();
     let mut harmonics = Vec::new();
     match (s.load, file) {
-        (ForcedLoadKind::File | ForcedLoadKind::Group, Some(f)) => {
+        (ForcedLoadKind::File | ForcedLoadKind::Group | ForcedLoadKind::Pressure, Some(f)) => {
             let hs = crate::forced_settings::file_load_harmonics(s);
             let col = |j: usize| (0..n).map(|i| f[(i, j)]).collect::<Vec<f64>>();
             for (k, &h) in hs.iter().enumerate() {
@@ -118,7 +119,7 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
                 harmonics.push((h, col(2 * k), sin));
             }
         }
-        (ForcedLoadKind::File | ForcedLoadKind::Group, None) => {
+        (ForcedLoadKind::File | ForcedLoadKind::Group | ForcedLoadKind::Pressure, None) => {
             anyhow::bail!("forced.load = {:?} without F.mtx", s.load)
         }
         (ForcedLoadKind::Master, _) => {
@@ -144,8 +145,9 @@ fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Resul
         }
     }
     anyhow::ensure!(big > 0.0, "[forced] the load pattern is zero");
-    // A group load is 1 N in total: its levels are the total force, not the largest entry.
-    let unit = if s.load == ForcedLoadKind::Group {
+    // A group load is 1 N in total, a pressure load 1 Pa: its levels are the total force or the
+    // pressure, not the largest entry.
+    let unit = if s.load.is_full_model_load() {
         1.0
     } else {
         big

@@ -352,7 +352,12 @@ fn frf_figure(
             let label = if labelled {
                 String::new()
             } else {
-                format!("level {} ({:.3e} N)", c.level, c.force)
+                format!(
+                    "level {} ({:.3e} {})",
+                    c.level,
+                    c.force,
+                    st.settings.load.unit()
+                )
             };
             labelled = true;
             plot = plot.with_series(Series::new(label, x, y).color(color).style(style));
@@ -440,9 +445,10 @@ pub fn summary(st: &ForcedStudy) -> String {
         if let Some(i) = peak_point(c, st.master) {
             let p = &r.points[i];
             out += &format!(
-                "  level {:>8}: force {:.4e} N, peak q/g0 = {:.4} at W/w = {:.5}{}, {} points, {} folds, {} stable / {} unstable / {} undetermined, {}\n",
+                "  level {:>8}: load {:.4e} {}, peak q/g0 = {:.4} at W/w = {:.5}{}, {} points, {} folds, {} stable / {} unstable / {} undetermined, {}\n",
                 c.level,
                 c.force,
+                st.settings.load.unit(),
                 harmonic(p, st.master, 1).0 / g,
                 p.omega / w,
                 peak_note(c, i),

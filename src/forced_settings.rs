@@ -39,12 +39,34 @@ pub enum ForcedLoadKind {
     /// correction to the Craig-Bampton basis (so the reduced model carries it exactly in the
     /// static limit) and writes its reduced form T^T f as `F.mtx` of the model directory.
     Group,
+    /// A uniform pressure of 1 Pa on the surface group `load_group` (a Physical Surface, dim 2),
+    /// positive into the solid, as consistent nodal forces f_i = -p ∫ N_i n dA
+    /// (`nlmodes_fem::surface_load`); the levels are the pressure amplitude (Pa). Same path as
+    /// `Group`: static correction in the basis, T^T f as `F.mtx`.
+    Pressure,
+}
+
+impl ForcedLoadKind {
+    /// Whether the reduce stage builds this load on the full model (static correction, `F.mtx`).
+    pub fn is_full_model_load(self) -> bool {
+        matches!(self, ForcedLoadKind::Group | ForcedLoadKind::Pressure)
+    }
+
+    /// The unit of the load's scale (its levels with `level_unit = "N"`): Pa for a pressure, N
+    /// for the others.
+    pub fn unit(self) -> &'static str {
+        if self == ForcedLoadKind::Pressure {
+            "Pa"
+        } else {
+            "N"
+        }
+    }
 }
 
 /// How `levels` are read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum LevelUnit {
-    /// Force amplitudes in newtons.
+    /// Load amplitudes in newtons (in pascals for `load = "pressure"`).
     #[serde(rename = "N")]
     Newton,
     /// Multiples of the force whose linear resonant response of the master reaches the
@@ -88,11 +110,12 @@ pub struct ForcedSection {
     /// The harmonics of the (cosine, sine) column pairs of `F.mtx` for `load = "file"` (empty:
     /// one pair or one cosine column at `harmonic`).
     pub load_harmonics: Vec<usize>,
-    /// The mesh group of `load = "group"`.
+    /// The mesh group of `load = "group"` (any dimension: its nodes) or of `load = "pressure"`
+    /// (a surface group, dim 2: its triangles).
     pub load_group: String,
     /// The direction of `load = "group"` (normalized; any non-zero length).
     pub load_direction: [f64; 3],
-    /// Force levels, one curve each.
+    /// Load levels, one curve each (N, or Pa for a pressure; see `level_unit`).
     pub levels: Vec<f64>,
     /// Unit of `levels` and of `level_range`.
     pub level_unit: LevelUnit,
@@ -194,6 +217,14 @@ impl ForcedSection {
                 "distinct harmonics 1 <= h <= harmonics",
             );
         }
+        if self.load.is_full_model_load() {
+            p.check(
+                !self.load_group.is_empty(),
+                "forced.load_group",
+                &self.load_group,
+                "the name of a mesh group",
+            );
+        }
         if self.load == ForcedLoadKind::Group {
             let d = self.load_direction;
             let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -202,12 +233,6 @@ impl ForcedSection {
                 "forced.load_direction",
                 d,
                 "a finite, non-zero direction [x, y, z]",
-            );
-            p.check(
-                !self.load_group.is_empty(),
-                "forced.load_group",
-                &self.load_group,
-                "the name of a mesh group",
             );
         }
         for k in &self.keep {
@@ -354,21 +379,22 @@ pub fn file_load_harmonics(s: &ForcedSection) -> Vec<usize> {
     }
 }
 
-/// `F.mtx` of the model directory for `load = "file"` (None for the other loads), checked
-/// against the model's order `n` and `load_harmonics`: bad input naming the file otherwise.
+/// `F.mtx` of the model directory for `load = "file"`, `"group"` or `"pressure"` (None for the
+/// other loads), checked against the model's order `n` and `load_harmonics`: bad input naming
+/// the file otherwise.
 pub fn file_load(
     s: &ForcedSection,
     model_dir: &std::path::Path,
     n: usize,
 ) -> anyhow::Result<Option<faer::Mat<f64>>> {
-    if !matches!(s.load, ForcedLoadKind::File | ForcedLoadKind::Group) {
+    if !(s.load == ForcedLoadKind::File || s.load.is_full_model_load()) {
         return Ok(None);
     }
     let path = model_dir.join("F.mtx");
-    let word = if s.load == ForcedLoadKind::Group {
-        "group"
-    } else {
-        "file"
+    let word = match s.load {
+        ForcedLoadKind::Group => "group",
+        ForcedLoadKind::Pressure => "pressure",
+        _ => "file",
     };
     let bad = |what: String| {
         crate::exit::bad_input(format!(
@@ -385,7 +411,7 @@ pub fn file_load(
         )));
     }
     let pairs = file_load_harmonics(s).len();
-    let single = (s.load_harmonics.is_empty() || s.load == ForcedLoadKind::Group) && f.ncols() == 1;
+    let single = (s.load_harmonics.is_empty() || s.load.is_full_model_load()) && f.ncols() == 1;
     if !single && f.ncols() != 2 * pairs {
         return Err(bad(format!(
             "{} columns, expected {} (a cosine and a sine column for each of the harmonics {:?}{})",
@@ -405,16 +431,59 @@ pub fn file_load(
     Ok(Some(f))
 }
 
-/// The full load of `load = "group"` on the free DOFs of `fe` (1 N in total along the unit
-/// direction, shared equally by the group's free nodes); bad input naming the group when the
-/// mesh has none of that name or its nodes are all clamped.
-pub fn group_load(s: &ForcedSection, fe: &crate::fe_model::FeModel) -> anyhow::Result<Vec<f64>> {
-    let group = fe.mesh.group(&s.load_group).map_err(|e| {
+/// The load the reduce stage builds on the full model, on its free DOFs, with the comment of
+/// `F.mtx` that says what it is.
+pub struct FullLoad {
+    /// f on the free DOFs (N): 1 N in total for a group load, the forces of 1 Pa for a pressure.
+    pub f: Vec<f64>,
+    /// One line for `F.mtx` and the log.
+    pub description: String,
+}
+
+/// The full load of `load = "group"` or `"pressure"` (None for the other loads); bad input
+/// naming `forced.load_group`, its value and the mesh's groups when the group is absent, not a
+/// surface (pressure) or carries no load on the free DOFs.
+pub fn full_load(
+    s: &ForcedSection,
+    fe: &crate::fe_model::FeModel,
+) -> anyhow::Result<Option<FullLoad>> {
+    let bad = |e: &dyn std::fmt::Display| {
         crate::exit::bad_input(format!(
-            "forced.load_group = {:?}: {e} (the groups of the mesh are its physical names)",
-            s.load_group
+            "forced.load_group = {:?} (forced.load = \"{}\"): {e}",
+            s.load_group,
+            if s.load == ForcedLoadKind::Pressure {
+                "pressure"
+            } else {
+                "group"
+            }
         ))
-    })?;
+    };
+    let (f, description) = match s.load {
+        ForcedLoadKind::Group => (
+            group_load(s, fe).map_err(|e| bad(&e))?,
+            format!(
+                "T^T f of [forced] load = \"group\": 1 N along {:?} on the group {:?}, N per \
+                 reduced coordinate",
+                s.load_direction, s.load_group
+            ),
+        ),
+        ForcedLoadKind::Pressure => pressure_load(s, fe).map_err(|e| bad(&e))?,
+        _ => return Ok(None),
+    };
+    if f.iter().all(|v| *v == 0.0) {
+        return Err(bad(
+            &"every node of the group is clamped: no load on the free DOFs",
+        ));
+    }
+    Ok(Some(FullLoad { f, description }))
+}
+
+/// 1 N in total along the unit direction, shared equally by the group's free nodes.
+fn group_load(
+    s: &ForcedSection,
+    fe: &crate::fe_model::FeModel,
+) -> Result<Vec<f64>, nlmodes_fem::FemError> {
+    let group = fe.mesh.group(&s.load_group)?;
     let d = s.load_direction;
     let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
     let free: Vec<usize> = group
@@ -423,12 +492,6 @@ pub fn group_load(s: &ForcedSection, fe: &crate::fe_model::FeModel) -> anyhow::R
         .copied()
         .filter(|&n| (0..3).all(|c| fe.dofs.free_index(3 * n + c).is_some()))
         .collect();
-    if free.is_empty() {
-        return Err(crate::exit::bad_input(format!(
-            "forced.load_group = {:?}: every node of the group is clamped",
-            s.load_group
-        )));
-    }
     let mut f = vec![0.0; fe.dofs.n_free()];
     for &n in &free {
         for (c, dc) in d.iter().enumerate() {
@@ -437,4 +500,27 @@ pub fn group_load(s: &ForcedSection, fe: &crate::fe_model::FeModel) -> anyhow::R
         }
     }
     Ok(f)
+}
+
+/// The consistent nodal forces of 1 Pa on the surface group, on the free DOFs (the clamped
+/// DOFs' share goes to the supports), with a description naming the total force and ∫ n dA.
+fn pressure_load(
+    s: &ForcedSection,
+    fe: &crate::fe_model::FeModel,
+) -> Result<(Vec<f64>, String), nlmodes_fem::FemError> {
+    use nlmodes_fem::surface_load;
+    let full = surface_load::pressure_load(&fe.mesh, &s.load_group, 1.0)?;
+    let area = surface_load::area_vector(&fe.mesh, &s.load_group)?;
+    let mut f = vec![0.0; fe.dofs.n_free()];
+    for (dof, v) in full.iter().enumerate() {
+        if let Some(i) = fe.dofs.free_index(dof) {
+            f[i] = *v;
+        }
+    }
+    let description = format!(
+        "T^T f of [forced] load = \"pressure\": 1 Pa into the surface {:?} (int n dA = \
+         [{:.6e}, {:.6e}, {:.6e}] m^2, total force -p int n dA), N per reduced coordinate",
+        s.load_group, area[0], area[1], area[2]
+    );
+    Ok((f, description))
 }

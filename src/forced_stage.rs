@@ -139,7 +139,7 @@ fn section(st: &ForcedStudy) -> String {
             z
         );
     }
-    let _ = writeln!(s, "\n| level | force (N) | peak q/g0 | at W/w | folds (W/w) | stable / unstable / undetermined | end |\n|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "\n| level | load ({}) | peak q/g0 | at W/w | folds (W/w) | stable / unstable / undetermined | end |\n|---|---|---|---|---|---|---|", st.settings.load.unit());
     for c in &st.curves {
         let r = &c.response;
         let amp = |i: usize| {

@@ -81,10 +81,10 @@ pub fn sweep_frequency(c: &ForcedCurve) -> f64 {
     }
 }
 
-fn unit_label(s: &ForcedSection) -> &'static str {
+fn unit_label(s: &ForcedSection) -> String {
     match s.level_unit {
-        LevelUnit::Newton => "force (N)",
-        LevelUnit::Grazing => "force / grazing force",
+        LevelUnit::Newton => format!("load ({})", s.load.unit()),
+        LevelUnit::Grazing => "load / grazing load".into(),
     }
 }
 

@@ -88,12 +88,15 @@ pub struct ReduceStage<'a> {
 impl<'a> ReduceStage<'a> {
     pub fn new(case: &'a Case, layout: &'a Layout, material: &'a Isotropic, fe_hash: &str) -> Self {
         let f = &case.forced;
-        let group_load = (f.enabled && f.load == ForcedLoadKind::Group)
-            .then_some((&f.load_group, f.load_direction));
-        // Without a group load the inputs are those of every earlier version (same stamps).
-        let hash = match group_load {
+        let load = match (f.enabled, f.load) {
+            (true, ForcedLoadKind::Group) => Some(json(&(&f.load_group, f.load_direction))),
+            (true, ForcedLoadKind::Pressure) => Some(json(&("pressure", &f.load_group))),
+            _ => None,
+        };
+        // Without a full-model load the inputs are those of every earlier version (same stamps).
+        let hash = match &load {
             None => fnv1a(&[fe_hash.as_bytes(), &json(&case.model)]),
-            Some(g) => fnv1a(&[fe_hash.as_bytes(), &json(&case.model), &json(&g)]),
+            Some(l) => fnv1a(&[fe_hash.as_bytes(), &json(&case.model), l]),
         };
         Self {
             case,
@@ -104,13 +107,20 @@ impl<'a> ReduceStage<'a> {
     }
 
     /// Builds the FE model, reduces it and writes `model/` (with `F.mtx`, the reduced load, and
-    /// the load's static correction in the basis when `[forced] load = "group"`).
+    /// the load's static correction in the basis when `[forced] load = "group"` or
+    /// `"pressure"`).
     fn reduce(&self) -> Result<nlmodes_modal::ReducedModel> {
         let fe = FeModel::build(&self.layout.mesh(), self.material, &self.case.model.clamp)?;
         let mut settings = reduce_settings(self.case)?;
         let f = &self.case.forced;
-        if f.enabled && f.load == ForcedLoadKind::Group {
-            settings.loads = vec![crate::forced_settings::group_load(f, &fe)?];
+        let full_load = if f.enabled {
+            crate::forced_settings::full_load(f, &fe)?
+        } else {
+            None
+        };
+        if let Some(load) = &full_load {
+            tracing::info!("stage reduce: {}", load.description);
+            settings.loads = vec![load.f.clone()];
         }
         let (mut model, _) = reduce::reduce(&fe, &settings)?;
         let reduced_loads = settings
@@ -120,21 +130,17 @@ impl<'a> ReduceStage<'a> {
             .collect::<Result<Vec<_>>>()?;
         reduce::write_model(&mut model, &self.layout.model(), &self.layout.mesh())?;
         let path = self.layout.model().join("F.mtx");
-        match reduced_loads.first() {
-            Some(fr) => {
+        match (reduced_loads.first(), &full_load) {
+            (Some(fr), Some(load)) => {
                 let col = faer::Mat::from_fn(fr.len(), 1, |i, _| fr[i]);
                 nlmodes_modal::matrix_market_general::write_dense_general(
                     &path,
                     col.as_ref(),
-                    &format!(
-                        "T^T f of [forced] load = \"group\": 1 N along {:?} on the group {:?}, N \
-                         per reduced coordinate",
-                        f.load_direction, f.load_group
-                    ),
+                    &load.description,
                 )?;
             }
-            None if path.exists() => std::fs::remove_file(&path)?,
-            None => {}
+            _ if path.exists() => std::fs::remove_file(&path)?,
+            _ => {}
         }
         Ok(model)
     }

@@ -217,6 +217,18 @@ def case_files(c, geo):
         bad(f"rotation_{name}", pat, text=base_case(c, geo) + "[rotation]\n" + lines + "\n")
     bad("forced_load_file_in_a_case", r"forced\.load = \"file\": expected \"master\" or \"mode\" in a case: .*F\.mtx does not exist",
         text=base_case(c, geo) + "[forced]\nload = \"file\"\n")
+    # [forced] load = "pressure" (issue 22, item 3): the group must be a surface of the mesh; known
+    # only once the mesh exists, so these two mesh the coarse blade and fail at the reduce stage.
+    pressure = '[forced]\nload = "pressure"\nload_group = "{}"\n'
+    groups = r".*'root' \(dim 2\), 'tip' \(dim 2\)"
+    bad("forced_pressure_on_a_volume",
+        r'forced\.load_group = "blade" \(forced\.load = "pressure"\): physical group \'blade\' \(dim 3\) '
+        r"is not a surface of triangles: a pressure acts on a surface group \(dim 2\); groups present:" + groups,
+        text=base_case(c, geo, model='full_check = "off"') + pressure.format("blade"))
+    bad("forced_pressure_missing_group",
+        r'forced\.load_group = "casing" \(forced\.load = "pressure"\): no physical group named \'casing\'; '
+        r"groups present:" + groups,
+        text=base_case(c, geo, model='full_check = "off"') + pressure.format("casing"))
     bad("rotation_zero_axis", r"model\.rotor_axis_direction = \[0\.0, 0\.0, 0\.0\]",
         text=base_case(c, geo, model="rotor_axis_direction = [0.0, 0.0, 0.0]") + "[rotation]\n")
 

@@ -114,6 +114,58 @@ pub enum FemError {
         node_tag: usize,
     },
 
+    /// A surface group holds 2-D elements that are not the faces of the volume's tetrahedra.
+    #[error(
+        "'{}': surface group '{group}' holds elements of gmsh type {gmsh_type} ({type_name}); \
+         the faces of a {kind:?} mesh are gmsh type {expected} triangles",
+        path.display()
+    )]
+    UnsupportedSurfaceElement {
+        /// The file.
+        path: PathBuf,
+        /// Group name.
+        group: String,
+        /// The gmsh type found.
+        gmsh_type: i32,
+        /// A readable name of that type.
+        type_name: String,
+        /// The gmsh type expected (2 = TRI3, 9 = TRI6).
+        expected: i32,
+        /// The volume's element kind.
+        kind: crate::tet_kind::TetKind,
+    },
+
+    /// A group given as a surface (a pressure load) is not one: wrong dimension, or no triangles.
+    #[error(
+        "physical group '{name}' (dim {dim}) is not a surface of triangles: {reason}; groups \
+         present: {available}"
+    )]
+    NotASurface {
+        /// The group's name.
+        name: String,
+        /// Its dimension.
+        dim: usize,
+        /// What is wrong.
+        reason: String,
+        /// The groups of the mesh, with their dimensions.
+        available: String,
+    },
+
+    /// A triangle of a surface group is not the face of exactly one tetrahedron.
+    #[error(
+        "surface group '{group}': the triangle on nodes {nodes:?} (0-based) is a face of \
+         {owners} tetrahedra; a surface load needs boundary faces, each the face of exactly one \
+         tetrahedron (with matching mid-edge nodes on TET10)"
+    )]
+    SurfaceNotOnBoundary {
+        /// The group's name.
+        group: String,
+        /// The triangle's nodes (0-based).
+        nodes: Vec<usize>,
+        /// How many tetrahedra have it as a face.
+        owners: usize,
+    },
+
     /// A physical group name was asked for that the mesh does not have.
     #[error("no physical group named '{name}'; groups present: {available}")]
     UnknownGroup {

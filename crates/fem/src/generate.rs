@@ -54,7 +54,7 @@ pub fn orient_positive(nodes: &[[f64; 3]], tet: [usize; 4]) -> [usize; 4] {
 /// edge (shared between the elements of the edge), appended after the existing nodes, gmsh
 /// order. Groups of dimension 0 are unchanged; a group of dimension >= 1 gains the mid-edge
 /// node of every edge with both ends in the group (right for the planar faces of convex
-/// bodies and for volume groups).
+/// bodies and for volume groups); a surface group's TRI3 become TRI6 on the same mid-edge nodes.
 pub fn tet4_to_tet10(mesh: &Mesh) -> Result<Mesh, FemError> {
     if mesh.kind != TetKind::Tet4 {
         return Err(FemError::InvalidMesh(
@@ -89,6 +89,7 @@ pub fn tet4_to_tet10(mesh: &Mesh) -> Result<Mesh, FemError> {
         .iter()
         .map(|g| {
             let mut g = g.clone();
+            g.triangles = tri3_to_tri6(&g.triangles, &edges)?;
             if g.dim >= 1 {
                 for &((a, b), m) in &edges {
                     if g.nodes.binary_search(&a).is_ok() && g.nodes.binary_search(&b).is_ok() {
@@ -98,9 +99,9 @@ pub fn tet4_to_tet10(mesh: &Mesh) -> Result<Mesh, FemError> {
                 g.nodes.sort_unstable();
                 g.nodes.dedup();
             }
-            g
+            Ok(g)
         })
-        .collect();
+        .collect::<Result<_, FemError>>()?;
     Ok(Mesh {
         nodes,
         kind: TetKind::Tet10,
@@ -108,6 +109,27 @@ pub fn tet4_to_tet10(mesh: &Mesh) -> Result<Mesh, FemError> {
         element_tags: mesh.element_tags.clone(),
         groups,
     })
+}
+
+/// TRI3 triangles (flat) as TRI6 (corners, then the mid-edge nodes of edges 0-1, 1-2, 2-0), the
+/// mid-edge nodes looked up in the sorted (edge, node) list; an edge that no tetrahedron has is
+/// an error.
+fn tri3_to_tri6(tri3: &[usize], edges: &[((usize, usize), usize)]) -> Result<Vec<usize>, FemError> {
+    let mid = |a: usize, b: usize| {
+        let key = (a.min(b), a.max(b));
+        edges
+            .binary_search_by_key(&key, |&(e, _)| e)
+            .map(|i| edges[i].1)
+            .map_err(|_| {
+                FemError::InvalidMesh(format!("triangle edge {key:?} is no tetrahedron's edge"))
+            })
+    };
+    let mut out = Vec::with_capacity(2 * tri3.len());
+    for t in tri3.chunks_exact(3) {
+        out.extend_from_slice(t);
+        out.extend([mid(t[0], t[1])?, mid(t[1], t[2])?, mid(t[2], t[0])?]);
+    }
+    Ok(out)
 }
 
 /// The box [0, size_x] x [0, size_y] x [0, size_z] (m) cut into `cells` hexahedra, each split
@@ -147,31 +169,64 @@ pub fn box_mesh(size: [f64; 3], cells: [usize; 3], kind: TetKind) -> Result<Mesh
         }
     }
     let n_elements = connectivity.len() / 4;
-    let tet4 = Mesh {
+    let mut tet4 = Mesh {
         nodes,
         kind: TetKind::Tet4,
         connectivity,
         element_tags: (1..=n_elements).collect(),
         groups: Vec::new(),
     };
-    let mut mesh = match kind {
+    tet4.groups = box_groups(&tet4, size);
+    let mesh = match kind {
         TetKind::Tet4 => tet4,
         TetKind::Tet10 => tet4_to_tet10(&tet4)?,
     };
+    mesh.validate()?;
+    Ok(mesh)
+}
+
+/// The groups of [`box_mesh`] on its TET4 mesh: the six faces (nodes on the plane, and the
+/// boundary faces of the tetrahedra on it as TRI3, in the tetrahedra's vertex order) and the
+/// volume.
+fn box_groups(tet4: &Mesh, size: [f64; 3]) -> Vec<PhysicalGroup> {
+    let mut count: HashMap<[usize; 3], (usize, [usize; 3])> = HashMap::new();
+    for e in 0..tet4.n_elements() {
+        let v = tet4.element(e);
+        for face in [
+            [v[1], v[2], v[3]],
+            [v[0], v[3], v[2]],
+            [v[0], v[1], v[3]],
+            [v[0], v[2], v[1]],
+        ] {
+            let mut key = face;
+            key.sort_unstable();
+            count.entry(key).or_insert((0, face)).0 += 1;
+        }
+    }
+    let mut boundary: Vec<[usize; 3]> = count
+        .into_values()
+        .filter(|(c, _)| *c == 1)
+        .map(|(_, f)| f)
+        .collect();
+    boundary.sort_unstable();
     let mut groups = Vec::new();
     let names = [["xmin", "xmax"], ["ymin", "ymax"], ["zmin", "zmax"]];
     for (d, pair) in names.iter().enumerate() {
         for (side, name) in pair.iter().enumerate() {
             let target = if side == 0 { 0.0 } else { size[d] };
             let tol = 1e-12 * size[d];
-            let nodes = (0..mesh.n_nodes())
-                .filter(|&v| (mesh.nodes[v][d] - target).abs() <= tol)
-                .collect();
+            let on = |v: usize| (tet4.nodes[v][d] - target).abs() <= tol;
             groups.push(PhysicalGroup {
                 name: (*name).to_string(),
                 dim: 2,
                 tag: (2 * d + side + 1) as i32,
-                nodes,
+                nodes: (0..tet4.n_nodes()).filter(|&v| on(v)).collect(),
+                triangles: boundary
+                    .iter()
+                    .filter(|f| f.iter().all(|&v| on(v)))
+                    .flatten()
+                    .copied()
+                    .collect(),
             });
         }
     }
@@ -179,11 +234,10 @@ pub fn box_mesh(size: [f64; 3], cells: [usize; 3], kind: TetKind) -> Result<Mesh
         name: "volume".to_string(),
         dim: 3,
         tag: 7,
-        nodes: (0..mesh.n_nodes()).collect(),
+        nodes: (0..tet4.n_nodes()).collect(),
+        triangles: Vec::new(),
     });
-    mesh.groups = groups;
-    mesh.validate()?;
-    Ok(mesh)
+    groups
 }
 
 #[cfg(test)]

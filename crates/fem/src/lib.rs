@@ -9,6 +9,9 @@
 //! - [`DofMap`], [`fixed_dofs`], [`parse_fix_spec`]: Dirichlet conditions on named groups by
 //!   DOF elimination (`root`, `bottom:z`, `root:xy`).
 //!
+//! - [`surface_load`]: consistent nodal forces of a uniform pressure on a surface group (TRI3 or
+//!   curved TRI6 faces, oriented out of the solid), exact quadrature.
+//!
 //! - [`rotation`]: centrifugal load, spin softening, stress stiffness, Coriolis, the static
 //!   centrifugal equilibrium (geometrically nonlinear or linearized) and the stiffness at speed.
 //!
@@ -33,6 +36,7 @@ pub mod quadrature;
 pub mod rotation;
 pub mod rule_choice;
 pub mod shape;
+pub mod surface_load;
 mod tabulated_rule;
 pub mod tet_kind;
 

@@ -15,6 +15,11 @@ pub struct PhysicalGroup {
     pub tag: i32,
     /// Nodes of the group's elements: sorted, unique, 0-based indices into `Mesh::nodes`.
     pub nodes: Vec<usize>,
+    /// The triangles of a surface group (dim 2), flat: [`TetKind::nodes_per_face`] 0-based node
+    /// indices each (TRI3 on a TET4 mesh, TRI6 on a TET10 mesh), gmsh order (corners, then the
+    /// mid-edge nodes of edges 0-1, 1-2, 2-0), orientation as stored (not necessarily outward).
+    /// Empty for the other dimensions and for groups built without their surface elements.
+    pub triangles: Vec<usize>,
 }
 
 /// A tetrahedral mesh (all TET4 or all TET10) with named groups.
@@ -143,7 +148,18 @@ impl Mesh {
                 });
             }
         }
+        let npf = self.kind.nodes_per_face();
         for g in &self.groups {
+            let in_range = g.triangles.iter().all(|&v| v < n);
+            if !g.triangles.len().is_multiple_of(npf)
+                || !in_range
+                || (g.dim != 2 && !g.triangles.is_empty())
+            {
+                return Err(FemError::InvalidMesh(format!(
+                    "group '{}' (dim {}): triangles must belong to a dim-2 group, {npf} node indices < {n} each",
+                    g.name, g.dim
+                )));
+            }
             let sorted = g.nodes.windows(2).all(|w| w[0] < w[1]);
             if !sorted || g.nodes.last().is_some_and(|&v| v >= n) || g.dim > 3 {
                 return Err(FemError::InvalidMesh(format!(
@@ -172,12 +188,14 @@ mod tests {
                     dim: 2,
                     tag: 1,
                     nodes: vec![0, 1, 2],
+                    triangles: vec![0, 2, 1],
                 },
                 PhysicalGroup {
                     name: "tip_edge".into(),
                     dim: 0,
                     tag: 2,
                     nodes: vec![3],
+                    triangles: Vec::new(),
                 },
             ],
         }

@@ -7,7 +7,9 @@
 //!   that no tetrahedron uses would give an empty row in K and M).
 //! - Physical groups of dimension 0..3 take their names from `$PhysicalNames` (a group without
 //!   a name is named by its tag); a group's nodes are collected from the elements of its
-//!   entities (points, lines, triangles, tetrahedra of any order), sorted and unique.
+//!   entities (points, lines, triangles, tetrahedra of any order), sorted and unique; a surface
+//!   group (dim 2) also keeps its triangles (TRI3 on a TET4 mesh, TRI6 on a TET10 mesh; any
+//!   other 2-D element is an error), for the loads on a surface (`surface_load`).
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
@@ -221,6 +223,7 @@ fn build_mesh(
                 dim: n.dim,
                 tag: n.tag,
                 nodes: Vec::new(),
+                triangles: Vec::new(),
             },
         );
     }
@@ -240,6 +243,7 @@ fn build_mesh(
                     dim,
                     tag: p,
                     nodes: Vec::new(),
+                    triangles: Vec::new(),
                 });
             }
             entity_groups.insert((dim, tag), phys.clone());
@@ -259,6 +263,10 @@ fn build_mesh(
                 continue;
             };
             let point_group = dim == 0;
+            let surface = dim == 2;
+            if surface {
+                check_surface_type(block.element_type, kind, &group.name, path)?;
+            }
             for el in &block.elements {
                 for &n in &el.nodes {
                     if point_group {
@@ -273,6 +281,9 @@ fn build_mesh(
                         });
                     }
                     group.nodes.push(mapped);
+                    if surface {
+                        group.triangles.push(mapped);
+                    }
                 }
             }
         }
@@ -296,6 +307,31 @@ fn build_mesh(
     };
     mesh.validate()?;
     Ok(mesh)
+}
+
+/// The 2-D elements of a surface group must be the faces of the volume's tetrahedra: TRI3
+/// (gmsh type 2) on a TET4 mesh, TRI6 (type 9) on a TET10 mesh.
+fn check_surface_type(
+    found: ElementType,
+    kind: TetKind,
+    group: &str,
+    path: &Path,
+) -> Result<(), FemError> {
+    let expected = match kind {
+        TetKind::Tet4 => ElementType::Tri3,
+        TetKind::Tet10 => ElementType::Tri6,
+    };
+    if found == expected {
+        return Ok(());
+    }
+    Err(FemError::UnsupportedSurfaceElement {
+        path: path.to_path_buf(),
+        group: group.to_string(),
+        gmsh_type: gmsh_type(found),
+        type_name: format!("{found:?}"),
+        expected: gmsh_type(expected),
+        kind,
+    })
 }
 
 /// Two point elements of one dim-0 group on the same mesh node would silently merge into one

@@ -19,6 +19,14 @@ impl TetKind {
         }
     }
 
+    /// Nodes per boundary triangle: 3 (TRI3, gmsh type 2) or 6 (TRI6, gmsh type 9).
+    pub fn nodes_per_face(self) -> usize {
+        match self {
+            TetKind::Tet4 => 3,
+            TetKind::Tet10 => 6,
+        }
+    }
+
     /// gmsh element type number: 4 or 11.
     pub fn gmsh_type(self) -> i32 {
         match self {

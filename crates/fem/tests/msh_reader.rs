@@ -143,6 +143,20 @@ fn hand_written_tet4_file_with_groups_of_all_dimensions() {
         ],
     );
     assert_eq!(mesh.groups.len(), 4);
+    // The surface group keeps its triangle; a pressure on it pushes into the solid: the face
+    // z = 0 of area 1/2 has the outward normal -e_z, so the total force is +p / 2 e_z.
+    let bottom = mesh.group("bottom").expect("present");
+    assert_eq!(bottom.triangles.len(), 3);
+    assert!(mesh.group("edge").expect("present").triangles.is_empty());
+    let f = nlmodes_fem::surface_load::pressure_load(&mesh, "bottom", 4.0).expect("surface");
+    let fz: f64 = f.iter().skip(2).step_by(3).sum();
+    let fxy: f64 = f
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| i % 3 != 2)
+        .map(|(_, v)| v.abs())
+        .sum();
+    assert!((fz - 2.0).abs() < 1e-15 && fxy < 1e-15, "{f:?}");
     // Constraints on the groups.
     let fixed = fixed_dofs(&mesh, &["bottom:z", "corner"]).expect("valid specs");
     assert_eq!(fixed.len(), 3 + 2);
@@ -351,6 +365,19 @@ fn file_written_by_gmsh_ascii_and_binary() {
     let edge = &mesh.group("front_edge").expect("present").nodes;
     assert_eq!(edge.len(), 9);
     assert_eq!(*edge, on(&|x| x[1].abs() < tol && x[2].abs() < tol));
+    // The TRI6 of the bottom face (unstructured, 42 triangles in gmsh 4.x), oriented by their
+    // tetrahedra: a pressure p pushes the unit face z = 0 with a total force +p e_z.
+    let bottom = mesh.group("bottom").expect("present");
+    assert!(bottom.triangles.len() >= 6 * 32 && bottom.triangles.len().is_multiple_of(6));
+    let f = nlmodes_fem::surface_load::pressure_load(&mesh, "bottom", 1e5).expect("surface");
+    let sum = |d: usize| f.iter().skip(d).step_by(3).sum::<f64>();
+    assert!(
+        sum(0).abs() < 1e-10 && sum(1).abs() < 1e-10 && (sum(2) - 1e5).abs() < 1e-10,
+        "{} {} {}",
+        sum(0),
+        sum(1),
+        sum(2)
+    );
     let corner = &mesh.group("corner").expect("present");
     assert_eq!((corner.dim, corner.nodes.len()), (0, 1));
     assert_eq!(mesh.nodes[corner.nodes[0]], [1.0, 0.0, 0.0]);
@@ -512,6 +539,19 @@ fn two_point_elements_of_a_group_on_one_node_are_an_error() {
     let msg = expect_error(text.as_bytes());
     assert!(
         msg.contains("node 10") && msg.contains("'corner'") && msg.contains("2 point elements"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn a_surface_group_of_other_than_triangles_is_an_error() {
+    // The triangle of "bottom" (surface entity 1) replaced by a line element (gmsh type 1).
+    let text = format!("{HEADER}{TWO_TET4}").replace("2 1 2 1\n3 10 20 30\n", "2 1 1 1\n3 10 20\n");
+    let msg = expect_error(text.as_bytes());
+    assert!(
+        msg.contains("surface group 'bottom'")
+            && msg.contains("gmsh type 1")
+            && msg.contains("type 2"),
         "{msg}"
     );
 }

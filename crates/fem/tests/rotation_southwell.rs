@@ -152,6 +152,7 @@ fn beam(nx: usize, half: usize) -> Beam {
             dim: 2,
             tag: 1,
             nodes: root,
+            triangles: Vec::new(),
         }],
     };
     let mesh = tet4_to_tet10(&tet4).expect("TET10");
