@@ -7,6 +7,7 @@ use nlmodes_nnm::{
     analyze_backbone, backbone, Backbone, Bifurcation, BranchKind, ContinuationSettings,
     HarmonicSettings, SolverSettings, System, Termination,
 };
+use rayon::prelude::*;
 use std::fmt::Write as _;
 
 use crate::case::StabilitySection;
@@ -120,12 +121,14 @@ pub fn truncation(
             })
             .ok()
     };
-    for &i in &chosen {
-        b.points[i].truncation = estimate(&b.points[i]);
+    // Independent re-solves, in parallel (each depends on its point alone).
+    let found: Vec<_> = chosen.par_iter().map(|&i| estimate(&b.points[i])).collect();
+    for (&i, t) in chosen.iter().zip(found) {
+        b.points[i].truncation = t;
     }
-    for p in extra.iter_mut() {
-        p.truncation = estimate(p);
-    }
+    extra
+        .par_iter_mut()
+        .for_each(|p| p.truncation = estimate(p));
     let done: Vec<&nlmodes_nnm::TruncationEstimate> = b
         .points
         .iter()
