@@ -560,24 +560,34 @@ impl<'a, 's> FrfTrace<'a, 's> {
         false
     }
 
-    /// Floquet stability of the points not assessed yet (when asked for).
+    /// Floquet stability of the points not assessed yet (when asked for): each point's period
+    /// check and monodromy in parallel (they depend on the point alone, so the result is the
+    /// same in any order), then the changes of stability in order.
     fn assess_stability(&mut self) -> Result<(), ForcedError> {
+        use rayon::prelude::*;
         if !self.settings.stability {
             return Ok(());
         }
-        while self.curve.stability.len() < self.curve.points.len() {
-            let i = self.curve.stability.len();
-            let point = &self.curve.points[i];
-            let residual = self.solver.period_residual(point);
-            let mut st = if residual.is_some_and(|r| r > self.settings.period_tolerance) {
-                // Not a periodic solution of the equation the monodromy linearizes: no verdict
-                // to compute.
-                PointStability::unchecked()
-            } else {
-                let mono = self.solver.monodromy(point)?;
-                PointStability::of(&mono, self.settings.stability_margin)
-            };
-            st.period_residual = residual;
+        let from = self.curve.stability.len();
+        let (solver, settings) = (self.solver, self.settings);
+        let assessed: Vec<Result<PointStability, ForcedError>> = self.curve.points[from..]
+            .par_iter()
+            .map(|point| {
+                let residual = solver.period_residual(point);
+                let mut st = if residual.is_some_and(|r| r > settings.period_tolerance) {
+                    // Not a periodic solution of the equation the monodromy linearizes: no
+                    // verdict to compute.
+                    PointStability::unchecked()
+                } else {
+                    let mono = solver.monodromy(point)?;
+                    PointStability::of(&mono, settings.stability_margin)
+                };
+                st.period_residual = residual;
+                Ok(st)
+            })
+            .collect();
+        for st in assessed {
+            let mut st = st?;
             let determined = self
                 .curve
                 .stability
@@ -700,8 +710,8 @@ pub fn response_curve(
             termination: FrfTermination::Complete,
         },
     };
-    trace.assess_stability()?;
     trace.run(progress)?;
+    trace.assess_stability()?;
     Ok(trace.curve)
 }
 
@@ -737,7 +747,6 @@ impl FrfTrace<'_, '_> {
                 self.curve.termination = FrfTermination::LeftRange { at: last };
                 return Ok(());
             }
-            self.assess_stability()?;
             progress(self.curve.points.last().expect("just pushed"));
         }
     }
