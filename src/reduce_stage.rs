@@ -220,7 +220,8 @@ pub fn modes_and_reduce(modes: &ModesStage, red: &ReduceStage, want: ModelReques
     }
     let mut reduced = None;
     if want.reduce && (want.force_reduce || !up_to_date(red)) {
-        match red.reduce() {
+        // On a thread of its own, as every stage (`crate::stage::on_own_thread`).
+        match crate::stage::on_own_thread(|| red.reduce()) {
             Ok(model) => reduced = Some(model),
             Err(e) => {
                 if let Some(c) = child.take() {
