@@ -7,7 +7,7 @@ use faer::Mat;
 use indicatif::ProgressBar;
 use nlmodes_forced::{
     modal_ratios, response_curve, synthesize, ForcedSettings, ForcedSolver, FreeOrbit,
-    FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, SynthesizedPoint,
+    FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, Sweep, SynthesizedPoint,
 };
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
 use rayon::prelude::*;
@@ -247,7 +247,7 @@ pub fn run(
         })
         .collect::<Result<Vec<_>>>()?;
     bar.finish_and_clear();
-    let sweep = crate::level_sweep::LevelSweepInputs {
+    let sweep = LevelSweeps {
         system,
         damping: &c,
         pattern: &pattern,
@@ -269,6 +269,70 @@ pub fn run(
         level_sweeps,
         settings: s.clone(),
     })
+}
+
+/// The continuations in force level at fixed frequencies (`[forced] level_sweeps`; their files:
+/// `crate::level_sweep`), with what they share with the frequency curves of the study.
+struct LevelSweeps<'a> {
+    system: &'a System,
+    /// C (N s/m).
+    damping: &'a Mat<f64>,
+    pattern: &'a Pattern,
+    /// Damping ratio of the swept mode (for `level_unit = "grazing"`).
+    zeta: f64,
+    settings: &'a ForcedSettings,
+}
+
+impl LevelSweeps<'_> {
+    /// One curve per `level_sweeps` frequency (in parallel); none when the list is empty.
+    fn run(&self, s: &ForcedSection) -> Result<Vec<ForcedCurve>> {
+        if s.level_sweeps.is_empty() {
+            return Ok(Vec::new());
+        }
+        let unit = force_of(self.system, s, self.pattern, self.zeta, 1.0)?;
+        let load = self.pattern.scaled(unit);
+        let w = self.system.linear_frequencies()[s.mode];
+        let bar = crate::ui::bar(s.level_sweeps.len() as u64, "level sweeps");
+        let curves = s
+            .level_sweeps
+            .par_iter()
+            .map(|&ratio| {
+                let frf = FrfSettings {
+                    sweep: Sweep::Level { omega: ratio * w },
+                    stability: s.stability,
+                    ..FrfSettings::new(s.level_range[0], s.level_range[1])
+                };
+                let solver =
+                    ForcedSolver::new(self.system, self.damping, &load, self.settings.clone())?;
+                let response = response_curve(&solver, &frf, |p| {
+                    bar.set_message(format!("W/w = {ratio}: level {:.3}", p.level));
+                })?;
+                tracing::info!(
+                    "level sweep at W/w = {ratio}: {} points, {} folds, {}",
+                    response.points.len(),
+                    response.folds.len(),
+                    response.end_text()
+                );
+                bar.inc(1);
+                Ok(ForcedCurve {
+                    level: 1.0,
+                    force: unit,
+                    response,
+                    synthesis: Vec::new(),
+                })
+            })
+            .collect::<Result<Vec<_>>>();
+        bar.finish_and_clear();
+        curves
+    }
+}
+
+/// The fixed W of a level sweep (rad/s).
+pub fn sweep_frequency(c: &ForcedCurve) -> f64 {
+    match c.response.sweep {
+        Sweep::Level { omega } => omega,
+        Sweep::Frequency => f64::NAN,
+    }
 }
 
 /// One level's frequency continuation, its progress on the shared bar.
@@ -329,7 +393,7 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
                 .iter()
                 .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
                 .map(|c| {
-                    let at = crate::level_sweep::sweep_frequency(c) / w;
+                    let at = sweep_frequency(c) / w;
                     format!("level sweep at W/w = {at}: {}", c.response.end_text())
                 }),
         )

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use nlmodes_forced::{ForcedPoint, FrfTermination, PointStability, Verdict};
+use nlmodes_forced::{ForcedPoint, FrequencyResponse, FrfTermination, PointStability, Verdict};
 use nlmodes_hb::FullBasis;
 use nlmodes_output::plot::{Color, LinePlot, LineStyle, Series, PALETTE};
 use nlmodes_output::{CsvTable, CsvValue};
@@ -265,7 +265,8 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
     }
 }
 
-/// Writes frf.csv, frf.json, the figures and the level sweeps' files into `dir`.
+/// Writes frf.csv, frf.json and the figures into `dir` (the level sweeps' files:
+/// `crate::level_sweep::write`).
 pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     frf_csv(st)?.write(&dir.join("frf.csv"))?;
@@ -283,8 +284,7 @@ pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> R
     };
     nlmodes_output::write_json_compact(&dir.join("frf.json"), &record)?;
     frf_figure(st, backbone, dir, false)?;
-    frf_figure(st, backbone, dir, true)?;
-    crate::level_sweep::write(st, dir)
+    frf_figure(st, backbone, dir, true)
 }
 
 /// Runs of consecutive points with the same verdict, as (verdict, indices).
@@ -408,6 +408,16 @@ fn frf_figure(
     Ok(())
 }
 
+/// How many points of a curve are stable, unstable and undetermined.
+pub(crate) fn verdict_counts(r: &FrequencyResponse) -> [usize; 3] {
+    let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+    [
+        count(Verdict::Stable),
+        count(Verdict::Unstable),
+        count(Verdict::Undetermined),
+    ]
+}
+
 /// The point of largest first-harmonic master amplitude of a curve.
 pub fn peak_point(c: &ForcedCurve, master: usize) -> Option<usize> {
     let amp = |i: usize| harmonic(&c.response.points[i], master, 1).0;
@@ -441,7 +451,7 @@ pub fn summary(st: &ForcedStudy) -> String {
     );
     for c in &st.curves {
         let r = &c.response;
-        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        let [stable, unstable, undetermined] = verdict_counts(r);
         if let Some(i) = peak_point(c, st.master) {
             let p = &r.points[i];
             out += &format!(
@@ -454,12 +464,12 @@ pub fn summary(st: &ForcedStudy) -> String {
                 peak_note(c, i),
                 r.points.len(),
                 r.folds.len(),
-                count(Verdict::Stable),
-                count(Verdict::Unstable),
-                count(Verdict::Undetermined),
+                stable,
+                unstable,
+                undetermined,
                 r.end_text()
             );
         }
     }
-    out + &crate::level_sweep::summary(st)
+    out
 }

@@ -6,8 +6,8 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use crate::forced_output::verdict_counts;
 use anyhow::Result;
-use nlmodes_forced::Verdict;
 
 use crate::case::Case;
 use crate::forced::ForcedStudy;
@@ -70,10 +70,12 @@ impl<'a> ForcedStage<'a> {
         let study =
             crate::forced::run(&system, &self.case.forced, c, f.as_ref(), backbone.as_ref())?;
         crate::forced_output::write(&study, backbone.as_ref(), &self.out)?;
+        crate::level_sweep::write(&study, &self.out)?;
         let orbits = crate::forced_paraview::write_orbits(&study, &model_dir, &self.out)?;
         tracing::info!("forced: {orbits} orbits written for ParaView in forced/orbits");
         crate::output::write_atomic(&self.out.join("section.md"), section(&study).as_bytes())?;
-        crate::ui::say(&crate::forced_output::summary(&study));
+        let summary = crate::forced_output::summary(&study) + &crate::level_sweep::summary(&study);
+        crate::ui::say(&summary);
         st.done(&format!("wrote {}", self.out.display()));
         crate::forced::stopped_early(&study, &self.out)
     }
@@ -154,7 +156,7 @@ fn section(st: &ForcedStudy) -> String {
             .iter()
             .map(|f| format!("{:.4}", f.at / st.omega_mode))
             .collect();
-        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        let [stable, unstable, undetermined] = verdict_counts(r);
         let _ = writeln!(
             s,
             "| {} | {:.4e} | {:.4} | {:.5}{} | {} | {} / {} / {} | {} |",
@@ -168,9 +170,9 @@ fn section(st: &ForcedStudy) -> String {
             } else {
                 folds.join(", ")
             },
-            count(Verdict::Stable),
-            count(Verdict::Unstable),
-            count(Verdict::Undetermined),
+            stable,
+            unstable,
+            undetermined,
             r.end_text().replace('|', "/")
         );
     }

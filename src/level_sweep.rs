@@ -1,85 +1,20 @@
-//! Continuation in force level at fixed excitation frequencies (`[forced] level_sweeps`, issue
-//! 22 item 4; docs/DESIGN.md §10.5): at each W the response is continued in the load scale s
-//! over `level_range` (in `level_unit`) from the linear response, through the folds of the
-//! S-curve where the response jumps as the force grows or falls. Same model, damping, load
-//! pattern and contact law as the frequency curves. Outputs: `level_sweeps.csv` (the columns of
+//! The files of the continuations in force level at fixed excitation frequencies (`[forced]
+//! level_sweeps`, issue 22 item 4; traced by `crate::forced::run`, docs/DESIGN.md §10.5): at
+//! each W the response is continued in the load scale s over `level_range` (in `level_unit`)
+//! from the linear response, through the folds of the S-curve where the response jumps as the
+//! force grows or falls. Outputs: `level_sweeps.csv` (the columns of
 //! frf.csv, one curve per frequency), `level_sweeps.png`/`.svg` (first-harmonic amplitude of the
 //! master / g0 against the level; stable solid, unstable dashed, undetermined dotted).
 
 use std::path::Path;
 
 use anyhow::Result;
-use faer::Mat;
-use nlmodes_forced::{response_curve, ForcedSettings, ForcedSolver, FrfSettings, Sweep, Verdict};
-use nlmodes_nnm::System;
+use nlmodes_forced::Verdict;
 use nlmodes_output::plot::{LinePlot, LineStyle, Series, PALETTE};
-use rayon::prelude::*;
 
-use crate::forced::{force_of, ForcedCurve, ForcedStudy, Pattern};
+use crate::forced::{sweep_frequency, ForcedStudy};
+use crate::forced_output::verdict_counts;
 use crate::forced_settings::{ForcedSection, LevelUnit};
-
-/// What the sweeps share with the frequency curves of the study.
-pub struct LevelSweepInputs<'a> {
-    pub system: &'a System,
-    /// C (N s/m).
-    pub damping: &'a Mat<f64>,
-    pub pattern: &'a Pattern,
-    /// Damping ratio of the swept mode (for `level_unit = "grazing"`).
-    pub zeta: f64,
-    pub settings: &'a ForcedSettings,
-}
-
-impl LevelSweepInputs<'_> {
-    /// One curve per `level_sweeps` frequency (in parallel); none when the list is empty.
-    pub fn run(&self, s: &ForcedSection) -> Result<Vec<ForcedCurve>> {
-        if s.level_sweeps.is_empty() {
-            return Ok(Vec::new());
-        }
-        let unit = force_of(self.system, s, self.pattern, self.zeta, 1.0)?;
-        let load = self.pattern.scaled(unit);
-        let w = self.system.linear_frequencies()[s.mode];
-        let bar = crate::ui::bar(s.level_sweeps.len() as u64, "level sweeps");
-        let curves = s
-            .level_sweeps
-            .par_iter()
-            .map(|&ratio| {
-                let frf = FrfSettings {
-                    sweep: Sweep::Level { omega: ratio * w },
-                    stability: s.stability,
-                    ..FrfSettings::new(s.level_range[0], s.level_range[1])
-                };
-                let solver =
-                    ForcedSolver::new(self.system, self.damping, &load, self.settings.clone())?;
-                let response = response_curve(&solver, &frf, |p| {
-                    bar.set_message(format!("W/w = {ratio}: level {:.3}", p.level));
-                })?;
-                tracing::info!(
-                    "level sweep at W/w = {ratio}: {} points, {} folds, {}",
-                    response.points.len(),
-                    response.folds.len(),
-                    response.end_text()
-                );
-                bar.inc(1);
-                Ok(ForcedCurve {
-                    level: 1.0,
-                    force: unit,
-                    response,
-                    synthesis: Vec::new(),
-                })
-            })
-            .collect::<Result<Vec<_>>>();
-        bar.finish_and_clear();
-        curves
-    }
-}
-
-/// The fixed W of a level sweep (rad/s).
-pub fn sweep_frequency(c: &ForcedCurve) -> f64 {
-    match c.response.sweep {
-        Sweep::Level { omega } => omega,
-        Sweep::Frequency => f64::NAN,
-    }
-}
 
 fn unit_label(s: &ForcedSection) -> String {
     match s.level_unit {
@@ -148,15 +83,15 @@ pub fn summary(st: &ForcedStudy) -> String {
             .iter()
             .map(|f| format!("{:.4} ({:?})", f.at, f.kind))
             .collect();
-        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        let [stable, unstable, undetermined] = verdict_counts(r);
         out += &format!(
             "  level sweep at W/w = {:.4}: {} points, folds at level {}, {} stable / {} unstable / {} undetermined, {}\n",
             sweep_frequency(c) / st.omega_mode,
             r.points.len(),
             if folds.is_empty() { "none".to_string() } else { folds.join(", ") },
-            count(Verdict::Stable),
-            count(Verdict::Unstable),
-            count(Verdict::Undetermined),
+            stable,
+            unstable,
+            undetermined,
             r.end_text()
         );
     }
@@ -184,7 +119,7 @@ pub fn report_section(st: &ForcedStudy) -> String {
             .iter()
             .map(|f| format!("{:.4} {:?}", f.at, f.kind))
             .collect();
-        let count = |v: Verdict| r.stability.iter().filter(|s| s.verdict == v).count();
+        let [stable, unstable, undetermined] = verdict_counts(r);
         s += &format!(
             "| {:.4} | {} | {} | {} / {} / {} | {} |\n",
             sweep_frequency(c) / st.omega_mode,
@@ -194,9 +129,9 @@ pub fn report_section(st: &ForcedStudy) -> String {
             } else {
                 folds.join(", ")
             },
-            count(Verdict::Stable),
-            count(Verdict::Unstable),
-            count(Verdict::Undetermined),
+            stable,
+            unstable,
+            undetermined,
             r.end_text().replace('|', "/")
         );
     }

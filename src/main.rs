@@ -470,12 +470,13 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     let f = forced_settings::file_load(&section, &a.model, system.n_dofs())?;
     let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
     forced_output::write(&study, backbone.as_ref(), &a.out)?;
+    level_sweep::write(&study, &a.out)?;
     let orbits = forced_paraview::write_orbits(&study, &a.model, &a.out)?;
     tracing::info!(
         "{orbits} orbits written for ParaView in {}",
         a.out.join("orbits").display()
     );
-    ui::say(&forced_output::summary(&study));
+    ui::say(&(forced_output::summary(&study) + &level_sweep::summary(&study)));
     forced::stopped_early(&study, &a.out)
 }
 

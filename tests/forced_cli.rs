@@ -15,23 +15,7 @@ use std::process::Command;
 
 mod common;
 
-fn nlmodes(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_nlmodes"))
-        .arg("--quiet")
-        .args(args)
-        .output()
-        .expect("cannot start nlmodes")
-}
-
-fn ok(args: &[&str]) {
-    let out = nlmodes(args);
-    assert!(
-        out.status.success(),
-        "nlmodes {args:?} failed:\n{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+use common::{nlmodes, nlmodes_ok as ok};
 
 /// Column `name` of frf.csv for the rows of `level`.
 fn column(csv: &str, level: f64, name: &str) -> Vec<String> {
@@ -397,7 +381,6 @@ fn a_load_file_gives_the_master_load_and_its_quarter_period_shift() {
 /// * a group the mesh does not have is refused before the reduction, naming it.
 #[test]
 fn a_group_load_is_exact_in_the_static_limit() {
-    use faer::linalg::solvers::Solve;
     let dir = tempfile::tempdir().unwrap();
     let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo");
     let case = |group: &str| {
@@ -438,43 +421,8 @@ fn a_group_load_is_exact_in_the_static_limit() {
     for &n in &free {
         f[fe.dofs.free_index(3 * n + 1).unwrap()] = 1.0 / free.len() as f64;
     }
-    let chol = nlmodes_modal::SparseCholesky::new(&fe.k).unwrap();
-    let mut u = faer::Mat::from_fn(f.len(), 1, |i, _| f[i]);
-    chol.solve_many(u.as_mut()).unwrap();
-    let contact_dofs: Vec<(usize, usize)> = model
-        .contact_nodes
-        .iter()
-        .flat_map(|c| {
-            let node = c.mesh_node.unwrap() as usize - 1;
-            (0..3).map(move |k| (c.dofs[k], 3 * node + k))
-        })
-        .map(|(reduced, global)| (reduced, fe.dofs.free_index(global).unwrap()))
-        .collect();
-    let recovery = model.recovery.as_ref().unwrap();
-    let solve = |keep: usize| {
-        let k = faer::Mat::from_fn(keep, keep, |i, j| model.k[(i, j)]);
-        let rhs = faer::Mat::from_fn(keep, 1, |i, _| fr[(i, 0)]);
-        k.partial_piv_lu().solve(&rhs)
-    };
-    let relative = |pairs: &mut dyn Iterator<Item = (f64, f64)>| {
-        let (d2, u2) = pairs.fold((0.0, 0.0), |(d, n), (a, b)| {
-            (d + (a - b).powi(2), n + b * b)
-        });
-        (d2 / u2).sqrt()
-    };
-    let at_contacts = |q: &faer::Mat<f64>| {
-        relative(&mut contact_dofs.iter().map(|&(r, g)| (q[(r, 0)], u[(g, 0)])))
-    };
-    let everywhere = |q: &faer::Mat<f64>| {
-        let keep = q.nrows();
-        relative(&mut (0..recovery.nrows()).map(|i| {
-            let v: f64 = (0..keep).map(|j| recovery[(i, j)] * q[(j, 0)]).sum();
-            (v, u[(i, 0)])
-        }))
-    };
-    let (q_with, q_without) = (solve(nr), solve(nr - 1));
-    let (c_with, c_without) = (at_contacts(&q_with), at_contacts(&q_without));
-    let (e_with, e_without) = (everywhere(&q_with), everywhere(&q_without));
+    let ([c_with, e_with], [c_without, e_without]) =
+        common::reduced_static_errors(&model, &fr, &fe, &f);
     println!(
         "static displacement: contact nodes {c_with:.1e} with the correction, {c_without:.1e} \
          without; whole blade {e_with:.1e} with, {e_without:.1e} without"

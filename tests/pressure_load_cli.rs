@@ -18,27 +18,10 @@
 //! Cost: mesh + reduction about 3 s, the full model's sparse Cholesky about 1 s.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 mod common;
 
-fn nlmodes(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_nlmodes"))
-        .arg("--quiet")
-        .args(args)
-        .output()
-        .expect("cannot start nlmodes")
-}
-
-fn ok(args: &[&str]) {
-    let out = nlmodes(args);
-    assert!(
-        out.status.success(),
-        "nlmodes {args:?} failed:\n{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+use common::{nlmodes, nlmodes_ok as ok};
 
 /// A coarse TET10 blade case with the pressure load on `group`.
 fn write_case(dir: &Path, group: &str) -> PathBuf {
@@ -87,7 +70,6 @@ fn tri6_area(nodes: &[[f64; 3]], triangles: &[usize]) -> f64 {
 
 #[test]
 fn a_pressure_load_is_exact_in_the_static_limit() {
-    use faer::linalg::solvers::Solve;
     let dir = tempfile::tempdir().unwrap();
     let path = write_case(dir.path(), "tip");
     ok(&["run", path.to_str().unwrap(), "--only", "reduce"]);
@@ -145,42 +127,8 @@ fn a_pressure_load_is_exact_in_the_static_limit() {
     assert!(f_error < 1e-6, "{f_error:e}");
 
     // Full static response K^-1 f against the reduced one.
-    let chol = nlmodes_modal::SparseCholesky::new(&fe.k).unwrap();
-    let mut u = faer::Mat::from_fn(f.len(), 1, |i, _| f[i]);
-    chol.solve_many(u.as_mut()).unwrap();
-    let contact_dofs: Vec<(usize, usize)> = model
-        .contact_nodes
-        .iter()
-        .flat_map(|c| {
-            let node = c.mesh_node.unwrap() as usize - 1;
-            (0..3).map(move |k| (c.dofs[k], 3 * node + k))
-        })
-        .map(|(reduced, global)| (reduced, fe.dofs.free_index(global).unwrap()))
-        .collect();
-    let solve = |keep: usize| {
-        let k = faer::Mat::from_fn(keep, keep, |i, j| model.k[(i, j)]);
-        let rhs = faer::Mat::from_fn(keep, 1, |i, _| fr[(i, 0)]);
-        k.partial_piv_lu().solve(&rhs)
-    };
-    let relative = |pairs: &mut dyn Iterator<Item = (f64, f64)>| {
-        let (d2, u2) = pairs.fold((0.0, 0.0), |(d, n), (a, b)| {
-            (d + (a - b).powi(2), n + b * b)
-        });
-        (d2 / u2).sqrt()
-    };
-    let at_contacts = |q: &faer::Mat<f64>| {
-        relative(&mut contact_dofs.iter().map(|&(r, g)| (q[(r, 0)], u[(g, 0)])))
-    };
-    let everywhere = |q: &faer::Mat<f64>| {
-        let keep = q.nrows();
-        relative(&mut (0..recovery.nrows()).map(|i| {
-            let v: f64 = (0..keep).map(|j| recovery[(i, j)] * q[(j, 0)]).sum();
-            (v, u[(i, 0)])
-        }))
-    };
-    let (q_with, q_without) = (solve(nr), solve(nr - 1));
-    let (c_with, c_without) = (at_contacts(&q_with), at_contacts(&q_without));
-    let (e_with, e_without) = (everywhere(&q_with), everywhere(&q_without));
+    let ([c_with, e_with], [c_without, e_without]) =
+        common::reduced_static_errors(&model, &fr, &fe, &f);
     println!(
         "static displacement under the tip pressure: contact nodes {c_with:.1e} with the \
          correction, {c_without:.1e} without; whole blade {e_with:.1e} with, {e_without:.1e} without"

@@ -222,18 +222,7 @@ pub fn timed<T>(label: &str, f: impl FnOnce() -> T) -> T {
 /// edge with 20 fixed-interface modes, through the command a user runs: `nlmodes mesh` and
 /// `nlmodes reduce` into `dir`; returns the reduced-model directory. About 2 s.
 pub fn coarse_blade_model(dir: &Path) -> PathBuf {
-    let run = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_nlmodes"))
-            .arg("--quiet")
-            .args(args)
-            .output()
-            .expect("cannot start nlmodes");
-        assert!(
-            out.status.success(),
-            "nlmodes {args:?} failed:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    };
+    let run = nlmodes_ok;
     let (mesh, model) = (dir.join("coarse.msh"), dir.join("model"));
     let geo = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("meshes/blade.geo");
     let (geo, mesh_s, model_s) = (
@@ -253,4 +242,72 @@ pub fn coarse_blade_model(dir: &Path) -> PathBuf {
         model_s,
     ]);
     model
+}
+
+/// Runs the nlmodes binary with `--quiet` and `args`.
+pub fn nlmodes(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_nlmodes"))
+        .arg("--quiet")
+        .args(args)
+        .output()
+        .expect("cannot start nlmodes")
+}
+
+/// Runs the nlmodes binary and fails the test, with its output, unless it succeeds.
+pub fn nlmodes_ok(args: &[&str]) {
+    let out = nlmodes(args);
+    assert!(
+        out.status.success(),
+        "nlmodes {args:?} failed:\n{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// How far the reduced model's static response to its load `fr` (the column of F.mtx, whose
+/// last coordinate is the load's static correction) is from the full model's K^-1 `f` (`f` on
+/// the free DOFs of `fe`), relative 2-norms: ([at the contact nodes, over the whole blade] with
+/// the correction coordinate, the same without it).
+pub fn reduced_static_errors(
+    model: &nlmodes_modal::ReducedModel,
+    fr: &faer::Mat<f64>,
+    fe: &FeSystem,
+    f: &[f64],
+) -> ([f64; 2], [f64; 2]) {
+    use faer::linalg::solvers::Solve;
+    let nr = model.k.nrows();
+    let chol = nlmodes_modal::SparseCholesky::new(&fe.k).unwrap();
+    let mut u = faer::Mat::from_fn(f.len(), 1, |i, _| f[i]);
+    chol.solve_many(u.as_mut()).unwrap();
+    let contact_dofs: Vec<(usize, usize)> = model
+        .contact_nodes
+        .iter()
+        .flat_map(|c| {
+            let node = c.mesh_node.unwrap() as usize - 1;
+            (0..3).map(move |k| (c.dofs[k], 3 * node + k))
+        })
+        .map(|(reduced, global)| (reduced, fe.dofs.free_index(global).unwrap()))
+        .collect();
+    let recovery = model.recovery.as_ref().unwrap();
+    let solve = |keep: usize| {
+        let k = faer::Mat::from_fn(keep, keep, |i, j| model.k[(i, j)]);
+        let rhs = faer::Mat::from_fn(keep, 1, |i, _| fr[(i, 0)]);
+        k.partial_piv_lu().solve(&rhs)
+    };
+    let relative = |pairs: &mut dyn Iterator<Item = (f64, f64)>| {
+        let (d2, u2) = pairs.fold((0.0, 0.0), |(d, n), (a, b)| {
+            (d + (a - b).powi(2), n + b * b)
+        });
+        (d2 / u2).sqrt()
+    };
+    let errors = |q: &faer::Mat<f64>| {
+        let at_contacts = relative(&mut contact_dofs.iter().map(|&(r, g)| (q[(r, 0)], u[(g, 0)])));
+        let keep = q.nrows();
+        let everywhere = relative(&mut (0..recovery.nrows()).map(|i| {
+            let v: f64 = (0..keep).map(|j| recovery[(i, j)] * q[(j, 0)]).sum();
+            (v, u[(i, 0)])
+        }));
+        [at_contacts, everywhere]
+    };
+    (errors(&solve(nr)), errors(&solve(nr - 1)))
 }

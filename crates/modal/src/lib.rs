@@ -17,6 +17,7 @@ pub mod eigen_options;
 pub mod error;
 pub mod matrix_market;
 pub mod matrix_market_general;
+mod matrix_market_io;
 pub mod memory;
 pub mod model_checks;
 pub mod modes;

@@ -24,16 +24,15 @@
 //! header, size line or entry, wrong entry count, index out of range,
 //! duplicated entry, non-finite value, non-square or non-symmetric matrix.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 
 use faer::{Mat, MatRef};
 use sprs::{CsMat, TriMat};
 
 use crate::dense::check_dense_symmetric;
 use crate::error::ModalError;
-use crate::matrix_market_general::DataLines;
+use crate::matrix_market_io::{write_atomic, DataLines};
 use crate::sparse_ops::{as_csc, check_symmetric_input, SYMMETRY_TOLERANCE};
 
 /// Writes a dense symmetric matrix (lower triangle, every entry).
@@ -104,46 +103,6 @@ pub fn read_symmetric_sparse(path: &Path) -> Result<CsMat<f64>, ModalError> {
         }
     }
     Ok(t.to_csc())
-}
-
-/// Writes `path` through `<path>.tmp` and a rename, so readers never see a
-/// partial file.
-pub(crate) fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-) -> Result<(), ModalError> {
-    let tmp = tmp_path(path);
-    let io_err = |action: &'static str, p: &Path| {
-        let p = p.to_path_buf();
-        move |source| ModalError::Io {
-            action,
-            path: p,
-            source,
-        }
-    };
-    let file = File::create(&tmp).map_err(io_err("cannot create", &tmp))?;
-    let mut writer = BufWriter::new(file);
-    let result = body(&mut writer).and_then(|_| writer.flush());
-    let result = result.and_then(|_| writer.get_ref().sync_all());
-    if let Err(source) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(ModalError::Io {
-            action: "cannot write",
-            path: tmp,
-            source,
-        });
-    }
-    drop(writer);
-    std::fs::rename(&tmp, path).map_err(io_err("cannot rename the temporary file to", path))
-}
-
-fn tmp_path(path: &Path) -> PathBuf {
-    let mut name = path
-        .file_name()
-        .map(|s| s.to_os_string())
-        .unwrap_or_default();
-    name.push(".tmp");
-    path.with_file_name(name)
 }
 
 fn write_header<W: Write>(w: &mut W, comment: &str, n: usize, count: usize) -> std::io::Result<()> {
@@ -393,17 +352,4 @@ fn mirrored_value(
         SYMMETRY_TOLERANCE
     );
     Err(lines.error(e.line, message))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn tmp_name_is_in_the_same_directory() {
-        assert_eq!(
-            tmp_path(Path::new("/a/b/K.mtx")),
-            PathBuf::from("/a/b/K.mtx.tmp")
-        );
-    }
 }

@@ -14,61 +14,12 @@
 //! size line, a value that is not a finite number, an index out of range, a repeated entry, too
 //! few or too many values.
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use faer::Mat;
 
 use crate::error::ModalError;
-
-/// The lines of a file that carry data (comments and blank lines skipped), numbered from 1;
-/// shared with the symmetric reader (`crate::matrix_market`).
-pub(crate) struct DataLines<'p> {
-    path: &'p Path,
-    lines: std::iter::Enumerate<std::io::Lines<BufReader<std::fs::File>>>,
-}
-
-impl<'p> DataLines<'p> {
-    pub(crate) fn open(path: &'p Path) -> Result<Self, ModalError> {
-        let file = std::fs::File::open(path).map_err(|source| ModalError::Io {
-            action: "cannot open",
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Ok(Self {
-            path,
-            lines: BufReader::new(file).lines().enumerate(),
-        })
-    }
-
-    pub(crate) fn error(&self, line: usize, message: String) -> ModalError {
-        ModalError::MatrixMarket {
-            path: self.path.to_path_buf(),
-            line,
-            message,
-        }
-    }
-
-    /// The next line, comments included (the header is one).
-    pub(crate) fn raw(&mut self) -> Result<Option<(usize, String)>, ModalError> {
-        match self.lines.next() {
-            None => Ok(None),
-            Some((i, Ok(text))) => Ok(Some((i + 1, text))),
-            Some((i, Err(e))) => Err(self.error(i + 1, format!("cannot read the line: {e}"))),
-        }
-    }
-
-    /// The next line with data.
-    pub(crate) fn data(&mut self) -> Result<Option<(usize, String)>, ModalError> {
-        while let Some((no, text)) = self.raw()? {
-            let t = text.trim();
-            if !t.is_empty() && !t.starts_with('%') {
-                return Ok(Some((no, t.to_string())));
-            }
-        }
-        Ok(None)
-    }
-}
+use crate::matrix_market_io::DataLines;
 
 /// `array` or `coordinate`, from the header line.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -213,7 +164,7 @@ pub fn write_dense_general(
     comment: &str,
 ) -> Result<(), ModalError> {
     use std::io::Write as _;
-    crate::matrix_market::write_atomic(path, |w| {
+    crate::matrix_market_io::write_atomic(path, |w| {
         writeln!(w, "%%MatrixMarket matrix array real general")?;
         for line in comment.lines() {
             writeln!(w, "% {line}")?;

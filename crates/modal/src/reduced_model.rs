@@ -104,7 +104,8 @@ use serde::{Deserialize, Serialize};
 use crate::contact_geometry::{norm, RotorAxis};
 use crate::dense::{check_dense_symmetric, dense_generalized_eigen};
 use crate::error::ModalError;
-use crate::matrix_market::{read_symmetric_dense, write_atomic, write_symmetric_dense};
+use crate::matrix_market::{read_symmetric_dense, write_symmetric_dense};
+use crate::matrix_market_io::write_atomic;
 use crate::model_checks::{check_physics, ContactPoint};
 
 /// Value of the `format` field.
