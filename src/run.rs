@@ -1,6 +1,6 @@
 //! `nlmodes run CASE.toml`: the study as the list of its stages, each a file of its own that
 //! implements [`Stage`] (its inputs' hash, its outputs, its work) and reruns only when its inputs
-//! changed (`crate::stage`). In order: mesh, modes alongside reduce, the prestress and reduced
+//! changed (`crate::stage`). In order: mesh, reduce (then the modes beside what follows), the prestress and reduced
 //! model at each speed and the Campbell diagram (`[rotation]`), the backbone of each traced mode
 //! and at each speed, the forced response (`[forced]`), the interaction map, post and report.
 
@@ -97,8 +97,10 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
     .context("[material] of the case file")?;
     let fe_hash = crate::reduce_stage::fe_hash(&case, mesh.hash());
     let reduce = ReduceStage::new(&case, &layout, &material, &fe_hash);
-    crate::reduce_stage::modes_and_reduce(
-        &ModesStage::new(&case, &layout, &fe_hash),
+    let modes = ModesStage::new(&case, &layout, &fe_hash);
+    // The full model's modes run in a child process beside the stages below, until post.
+    let pending_modes = crate::reduce_stage::modes_and_reduce(
+        &modes,
         &reduce,
         ModelRequest {
             modes: sel.wants(Only::Modes),
@@ -140,6 +142,7 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
         let stage = ForcedStage::new(&case, &layout, reduce.hash());
         stops.absorb(sel.run(&stage, &[Only::Post]))?;
     }
+    pending_modes.finish()?;
     if let Some(r) = &case.rotation {
         if sel.wants_any(&[Only::Campbell, Only::Post]) {
             crate::campbell_stage::draw(&case, r, &layout)?;
