@@ -61,6 +61,13 @@
 // (`-order 2` is honoured). Invalid parameters print an Error and gmsh exits with status 1.
 
 SetFactory("OpenCASCADE");
+// Curving the TET10 mid-edge nodes onto the lofted surfaces projects each of them onto its surface.
+// OpenCASCADE's projection builds a sampling grid of the BSpline surface at every call: 5.4 s of
+// the 6.1 s this file took to mesh (gmsh 4.8.4, default blade). gmsh's own closest-point search
+// takes 0.7 s; on the default blade the nodes it places lie within 4.8e-6 m of OpenCASCADE's
+// (2 mm elements) and the first 8 clamped frequencies move by at most 6e-7 relative, against a
+// discretization error of about 5e-4 (docs/BENCHMARKS.md, session 11).
+Geometry.OCCUseGenericClosestPoint = 1;
 
 If (!Exists(hub_radius)) hub_radius = 0.25; EndIf
 If (!Exists(span)) span = 0.12; EndIf

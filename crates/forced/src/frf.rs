@@ -19,6 +19,13 @@ use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 use nlmodes_hb::FullBasis;
 
+/// How far (scaled distance) a hop at fixed phase may land from the last orbit: past a corner
+/// of the resonance tip the returning branch is that close; farther, the hop has skipped along
+/// a branch on which the phase hardly turns (the middle branch of a stiff resonance, which
+/// hugs the backbone at a lag near pi/2: on the light 2-DOF chain a lag 0.01 rad larger than
+/// the tip's lies at W / w1 = 1.008, against 1.131 at the tip).
+const PHASE_HOP_REACH: f64 = 0.02;
+
 /// Scaled step below which a failing arc-length step gives way to a hop at fixed W.
 const CORNER_STEP: f64 = 1e-3;
 
@@ -403,7 +410,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
         let tangent = self.secant();
         loop {
             if self.step < CORNER_STEP {
-                if self.hop(tangent[tangent.len() - 1].signum()) {
+                if self.hop(tangent[tangent.len() - 1].signum()) || self.phase_hop() {
                     self.step = CORNER_STEP;
                     return Ok(());
                 }
@@ -474,14 +481,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
             let landed = self.solver.solve(start, None).ok().filter(|p| {
                 // A hop stays on the curve: within a few dW of the last orbit, never on another
                 // branch (the small orbit out of contact, say).
-                let (a, b) = (self.scaled(p), self.scaled(&last));
-                let d = a
-                    .iter()
-                    .zip(&b)
-                    .map(|(x, y)| (x - y).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                d <= HOP_REACH * dw
+                self.distance(p, &last) <= HOP_REACH * dw
             });
             if let Some(p) = landed {
                 tracing::debug!(
@@ -495,6 +495,85 @@ impl<'a, 's> FrfTrace<'a, 's> {
             }
         }
         false
+    }
+
+    /// A corner at the resonance tip (a lightly damped curve under a stiff law: the rising and
+    /// the returning branches meet at nearly 180 degrees, so no arc hyperplane meets the
+    /// returning branch near the tip and no orbit exists at a larger W): solves with the phase
+    /// lag of the first harmonic of the contact coordinate that moves most fixed a little
+    /// further than the last orbit's, W free, for growing steps (1e-3, 1e-2, 5e-2 rad). The
+    /// direction is physical, not read from the last steps: driven at W, the response lags the
+    /// force by a phase that grows along a resonance through both of its folds (0 below it,
+    /// pi/2 at phase resonance, towards pi past it; the phase-resonance parametrization of
+    /// phase-locked-loop testing), so a larger lag is always forward on the curve (the phase
+    /// read from the last two points turns the wrong way at a corner, and a hop in that
+    /// direction sent the coarse blade's curve back out of its range in session 10). Only for a
+    /// frequency sweep under a force at the first harmonic. The point is flagged as a hop.
+    fn phase_hop(&mut self) -> bool {
+        let first_harmonic_force = self.solver.load().harmonics.iter().all(|h| h.harmonic == 1);
+        if self.curve.sweep.parameter() != Parameter::Frequency || !first_harmonic_force {
+            return false;
+        }
+        let last = self.curve.points.last().expect("two points").clone();
+        let row = self.phase_row(&last);
+        let (lag, amplitude) = (self.phase(&last, row), self.amplitude(&last, row));
+        for dphi in [1e-4, 3e-4, 1e-3, 3e-3, 1e-2] {
+            let arc = self.phase_row_arc(&last, row, lag + dphi, amplitude);
+            let start = ForcedStart {
+                state: arc.predicted.clone(),
+                multipliers: last.multipliers.clone(),
+            };
+            let landed = self.solver.solve(start, Some(&arc)).ok().filter(|p| {
+                let turn = wrap_angle(self.phase(p, row) - lag);
+                let distance = self.distance(p, &last);
+                tracing::debug!(omega = p.omega, dphi, turn, distance, "phase hop landed");
+                turn > 0.0 && distance <= PHASE_HOP_REACH
+            });
+            if let Some(p) = landed {
+                tracing::debug!(omega = p.omega, dphi, "forced response: hop at fixed phase");
+                self.curve.points.push(p);
+                self.curve.hops.push(self.curve.points.len() - 1);
+                self.note_fold();
+                return true;
+            }
+        }
+        false
+    }
+
+    /// The row "phase lag of contact coordinate `row`'s first harmonic = `lag`" (the first
+    /// harmonic a cos + b sin held on the line -sin(lag) a + cos(lag) b = 0, W free), with the
+    /// last orbit rotated to that lag as its prediction.
+    fn phase_row_arc(&self, last: &ForcedPoint, row: usize, lag: f64, amplitude: f64) -> ArcRow {
+        let t = self.solver.basis().terms();
+        let (ic, is) = (FullBasis::cos_index(1), FullBasis::sin_index(1));
+        let mut tangent_y = vec![0.0; last.contact.len()];
+        tangent_y[row * t + ic] = -lag.sin();
+        tangent_y[row * t + is] = lag.cos();
+        let mut predicted = OrbitState {
+            y: last.contact.clone(),
+            omega: last.omega,
+            level: last.level,
+        };
+        predicted.y[row * t + ic] = amplitude * lag.cos();
+        predicted.y[row * t + is] = amplitude * lag.sin();
+        ArcRow {
+            parameter: self.curve.sweep.parameter(),
+            tangent_y,
+            tangent_parameter: 0.0,
+            predicted,
+            y_scale: self.y_scale,
+            parameter_scale: self.p_scale,
+        }
+    }
+
+    /// The distance between two points in the scaled space of the continuation.
+    fn distance(&self, a: &ForcedPoint, b: &ForcedPoint) -> f64 {
+        let (a, b) = (self.scaled(a), self.scaled(b));
+        a.iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt()
     }
 
     /// Whether the corrector's point `p` is too far from the last point to be the next one on

@@ -190,6 +190,11 @@ impl<'s> ForcedSolver<'s> {
         &self.basis
     }
 
+    /// The excitation.
+    pub fn load(&self) -> &Load {
+        &self.load
+    }
+
     /// The settings.
     pub fn settings(&self) -> &ForcedSettings {
         &self.settings

@@ -186,13 +186,15 @@ pub enum HbError {
     },
     /// Algorithm 1 stopped without reaching G <= epsilon.
     #[error(
-        "augmented Lagrangian (Algorithm 1) did not converge at q = {q:e}: {reason}; last Powell \
-         measure G = {measure:e} (epsilon = {epsilon:e}), {accepted} accepted iterations, {solves} \
-         inner solves, {newton_iterations} Newton iterations"
+        "augmented Lagrangian (Algorithm 1) did not converge at q/g0 = {q_over_g0}: {reason}; \
+         last Powell measure G = {measure:e} (epsilon = {epsilon:e}), {accepted} accepted \
+         iterations, {solves} inner solves, {newton_iterations} Newton iterations"
     )]
     NotConverged {
-        /// Amplitude of the master coordinate.
+        /// Amplitude of the master coordinate (m).
         q: f64,
+        /// The same amplitude in units of the reference gap g0 (how every log line gives it).
+        q_over_g0: f64,
         /// Why it stopped.
         reason: String,
         /// Last Powell measure G (Eq. 21), in units of g0.

@@ -230,6 +230,7 @@ impl<'s> Solver<'s> {
                 penalty_solve(&mut inner, &multipliers, &self.params).map_err(|e| {
                     NnmError::NotConverged {
                         q: row.q_p,
+                        q_over_g0: row.q_p / self.system.gap_reference(),
                         reason: format!("penalty solve failed: {e}"),
                         measure: f64::INFINITY,
                         epsilon: self.params.epsilon,
@@ -248,6 +249,7 @@ impl<'s> Solver<'s> {
             )
             .map_err(|f| NnmError::NotConverged {
                 q: inner.state.q,
+                q_over_g0: inner.state.q / self.system.gap_reference(),
                 reason: f.reason,
                 measure: f.report.measure,
                 epsilon: self.params.epsilon,

@@ -194,7 +194,7 @@ impl<'s, 'c> Sweep<'s, 'c> {
     /// yet (the sweep then ends).
     fn skip(&mut self, level: f64, last_error: String) -> bool {
         let q = level * self.g_ref;
-        tracing::warn!(q, "amplitude level skipped: {last_error}");
+        tracing::warn!(q_over_g0 = level, "amplitude level skipped: {last_error}");
         self.result.termination = match self.history.last() {
             None => Termination::StartFailed {
                 reason: last_error.clone(),

@@ -56,7 +56,9 @@ pub struct NewtonOptions {
     /// Cutbacks allowed per step: a step that fails (Newton diverges, reaches the iteration
     /// limit or meets a singular or indefinite tangent) is retried from the last converged
     /// state with half the Omega^2 increment, up to this many times; after a converged step
-    /// the increment doubles again, up to the nominal Omega^2 / load_steps. Default 10.
+    /// the increment doubles again, up to the nominal Omega^2 / load_steps. The increment never
+    /// falls below the nominal one / 2^max_cutbacks either (a limit point approached by steps
+    /// that alternately fail and pass ends there). Default 10.
     pub max_cutbacks: usize,
     /// Newton iterations allowed per step (>= 1). Default 25.
     pub max_iterations: usize,
@@ -193,6 +195,11 @@ impl RotatingModel<'_> {
             None => (0.0, vec![0.0; self.dofs().n_free()]),
         };
         let nominal = (target - level0) / options.load_steps as f64;
+        // Cutbacks count per step and a success doubles the increment again, so near a limit
+        // point (the tangent about to turn indefinite) the level could creep towards it with
+        // steps that alternately fail and pass, forever (a soft blade did: 10 minutes of load
+        // steps). The increment may not fall below nominal / 2^max_cutbacks, whatever the step.
+        let smallest = nominal * 0.5_f64.powi(options.max_cutbacks as i32);
         let (mut level, mut increment, mut cutbacks) = (level0, nominal, 0);
         let mut steps = Vec::with_capacity(options.load_steps);
         while steps.is_empty() || level < target {
@@ -215,7 +222,9 @@ impl RotatingModel<'_> {
                     (u, level, cutbacks) = (trial, next, 0);
                     increment = (2.0 * increment).min(nominal);
                 }
-                Err((reason, history)) if cutbacks >= options.max_cutbacks => {
+                Err((reason, history))
+                    if cutbacks >= options.max_cutbacks || 0.5 * increment < smallest =>
+                {
                     return Err(RotationError::StaticSolve {
                         step: steps.len() + 1,
                         omega: omega_k,
