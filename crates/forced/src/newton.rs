@@ -176,8 +176,16 @@ pub struct InnerNewton<'p> {
 
 impl InnerNewton<'_> {
     fn compliance(&mut self, omega: f64) -> Result<&ContactCompliance, ForcedError> {
-        if self.cache.as_ref().is_none_or(|c| c.omega != omega) {
-            self.cache = Some(self.dynamics.compliance(omega)?);
+        match &mut self.cache {
+            Some(c) if c.omega == omega => {}
+            Some(c) => {
+                // In place: an error leaves it half written, so it is dropped then.
+                if let Err(e) = self.dynamics.compliance_into(omega, c) {
+                    self.cache = None;
+                    return Err(e);
+                }
+            }
+            None => self.cache = Some(self.dynamics.compliance(omega)?),
         }
         Ok(self.cache.as_ref().expect("just set"))
     }
