@@ -98,7 +98,7 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
     let fe_hash = crate::reduce_stage::fe_hash(&case, mesh.hash());
     let reduce = ReduceStage::new(&case, &layout, &material, &fe_hash);
     let modes = ModesStage::new(&case, &layout, &fe_hash);
-    // The full model's modes run in a child process beside the stages below, until post.
+    // The full model's modes run in a child process beside the stages below, until forced.
     let pending_modes = crate::reduce_stage::modes_and_reduce(
         &modes,
         &reduce,
@@ -137,12 +137,14 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
             post::post(&case, stage.results())?;
         }
     }
+    // The modes child ran beside the single-threaded backbones; the forced stage uses both
+    // cores (its levels in parallel), so the child ends first.
+    pending_modes.finish()?;
     // forced (issue 22): after the backbone it is crowned by, before the report that shows it
     if case.forced.enabled {
         let stage = ForcedStage::new(&case, &layout, reduce.hash());
         stops.absorb(sel.run(&stage, &[Only::Post]))?;
     }
-    pending_modes.finish()?;
     if let Some(r) = &case.rotation {
         if sel.wants_any(&[Only::Campbell, Only::Post]) {
             crate::campbell_stage::draw(&case, r, &layout)?;
