@@ -1,8 +1,9 @@
 //! `nlmodes run CASE.toml`: the study as the list of its stages, each a file of its own that
 //! implements [`Stage`] (its inputs' hash, its outputs, its work) and reruns only when its inputs
-//! changed (`crate::stage`). In order: mesh, reduce (then the modes beside what follows), the prestress and reduced
-//! model at each speed and the Campbell diagram (`[rotation]`), the backbone of each traced mode
-//! and at each speed, the forced response (`[forced]`), the interaction map, post and report.
+//! changed (`crate::stage`). In order: mesh, reduce (the full model's modes then run beside the
+//! stages up to forced), the prestress and reduced model at each speed and the Campbell diagram
+//! (`[rotation]`), the backbone of each traced mode and at each speed, the forced response
+//! (`[forced]`), the interaction map, post and report.
 
 use anyhow::{Context, Result};
 use nlmodes_fem::Isotropic;

@@ -501,7 +501,8 @@ impl<'a, 's> FrfTrace<'a, 's> {
     /// the returning branches meet at nearly 180 degrees, so no arc hyperplane meets the
     /// returning branch near the tip and no orbit exists at a larger W): solves with the phase
     /// lag of the first harmonic of the contact coordinate that moves most fixed a little
-    /// further than the last orbit's, W free, for growing steps (1e-3, 1e-2, 5e-2 rad). The
+    /// further than the last orbit's, W free, for growing steps (1e-4 .. 1e-2 rad), the first
+    /// that lands within `PHASE_HOP_REACH` of the last orbit with the lag grown kept. The
     /// direction is physical, not read from the last steps: driven at W, the response lags the
     /// force by a phase that grows along a resonance through both of its folds (0 below it,
     /// pi/2 at phase resonance, towards pi past it; the phase-resonance parametrization of

@@ -253,10 +253,10 @@ pub(crate) fn constant_pieces(
     for (start, end, k) in edges {
         let mut cuts = vec![start, end];
         if mode == JacobianInTime::Continuous {
+            let (mid, half_width) = (0.5 * (start + end), 0.5 * (end - start));
             for (j, bound) in bounds.iter().enumerate() {
-                let mid = 0.5 * (start + end);
                 let theta = mult.theta[j * m + k];
-                if bound.excludes(shifted_gap(j, k, mid), theta, 0.5 * (end - start)) {
+                if bound.excludes(shifted_gap(j, k, mid), theta, half_width) {
                     continue;
                 }
                 cuts.extend(roots_in(|t| shifted_gap(j, k, t), start, end));
