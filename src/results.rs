@@ -79,6 +79,9 @@ pub struct StabilityRecord {
     /// Every multiplier (re, im), the trivial pair included, and the trivial pair's indices.
     pub multipliers: Vec<[f64; 2]>,
     pub trivial: [usize; 2],
+    /// |w_shot - w| / w of the shooting method (absent in files of other methods: 0).
+    #[serde(default)]
+    pub orbit_shift: f64,
 }
 
 impl Orbit {
@@ -93,6 +96,7 @@ impl Orbit {
                 trivial_pair_error: s.trivial_pair_error,
                 multipliers: &s.multipliers,
                 trivial: s.trivial,
+                orbit_shift: s.orbit_shift,
             })
         })
     }

@@ -99,7 +99,8 @@ pub use solver::{solve_point, Solver, Start};
 pub use stability::{
     analyze_backbone, classify, floquet, monodromy_by_integration, verdict_word, Bifurcation,
     FloquetAnalysis, FloquetSettings, JacobianInTime, Monodromy, MonodromySettings, Stability,
-    StabilityMethod, UnstableCounts, VerdictInputs, SALTATION_TRIVIAL_LIMIT, TRIVIAL_PAIR_LIMIT,
+    StabilityMethod, UnstableCounts, VerdictInputs, SALTATION_TRIVIAL_LIMIT, SHOOTING_SHIFT_LIMIT,
+    TRIVIAL_PAIR_LIMIT,
 };
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};

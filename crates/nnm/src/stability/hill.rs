@@ -4,6 +4,7 @@
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
 
+use super::boundary_shooting::{boundary_model, exponents_of, modal_coordinates, shoot, ModalData};
 use super::impact::impact_equivalent_pieces;
 use super::monodromy::constant_pieces;
 use super::saltation::{reduced_multipliers, unresolved_impacts, ModalFlow};
@@ -116,6 +117,9 @@ impl<'s> FloquetAnalysis<'s> {
         if let Some(out) = self.analyze_by_saltation(point, harmonics)? {
             return Ok(out);
         }
+        if let Some(out) = self.analyze_by_shooting(point, harmonics)? {
+            return Ok(out);
+        }
         self.analyze_by_hill(point, harmonics, samples)
     }
 
@@ -169,6 +173,49 @@ impl<'s> FloquetAnalysis<'s> {
         out.modes_kept = n;
         out.harmonics = harmonics;
         out.impacts = impacts.len();
+        Ok(Some(out))
+    }
+
+    /// The massless-boundary shooting (`boundary_shooting`) when it applies and converges.
+    fn analyze_by_shooting(
+        &self,
+        point: &BackbonePoint,
+        harmonics: usize,
+    ) -> Result<Option<Stability>, NnmError> {
+        let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * point.omega;
+        let r = (self.omega.iter().filter(|&&w| w <= limit).count())
+            .max(self.settings.min_modes)
+            .min(self.omega.len());
+        let in_contact = point.contact_force.iter().flatten().any(|&f| f > 0.0);
+        if !self.settings.shooting || !in_contact || r == self.omega.len() {
+            return Ok(None);
+        }
+        let modal = ModalData {
+            omega: &self.omega,
+            contact_modal: self.contact_modal.as_ref(),
+            projection: self.modal_projection.as_ref(),
+        };
+        let penalty = penalty_of(point);
+        let Some(model) = boundary_model(&modal, self.system.gaps(), r, penalty.as_deref()) else {
+            return Ok(None);
+        };
+        let q0 = modal_coordinates(&modal, &point.displacement_at(0.0), r);
+        let Some(orbit) = shoot(&model, q0, point.period())? else {
+            tracing::debug!(
+                w = point.omega,
+                "massless-boundary shooting did not converge"
+            );
+            return Ok(None);
+        };
+        let exponents = exponents_of(&orbit)?;
+        let mut out = stability_from_exponents(&exponents, orbit.period, self.settings.tolerance);
+        out.method = StabilityMethod::Shooting;
+        out.selection_mean_harmonic_max = 0.0;
+        out.rejection_mean_harmonic_min = 0.0;
+        out.modes_kept = r;
+        out.harmonics = harmonics;
+        out.impacts = orbit.switches;
+        out.orbit_shift = (point.period() / orbit.period - 1.0).abs();
         Ok(Some(out))
     }
 
@@ -669,5 +716,21 @@ pub(crate) fn stability_with_trivial(
         rejection_mean_harmonic_min: f64::INFINITY,
         method: StabilityMethod::Hill,
         impacts: 0,
+        orbit_shift: 0.0,
     }
+}
+
+/// The penalty stiffness of each row of a penalty orbit (theta = 0 everywhere: the largest kappa
+/// of the row's samples), `None` for an augmented-Lagrangian (rigid-contact) orbit.
+fn penalty_of(point: &BackbonePoint) -> Option<Vec<f64>> {
+    let mult = &point.multipliers;
+    if mult.theta.iter().any(|&t| t != 0.0) || mult.samples == 0 {
+        return None;
+    }
+    Some(
+        mult.kappa
+            .chunks(mult.samples)
+            .map(|row| row.iter().fold(0.0_f64, |a, &k| a.max(k)))
+            .collect(),
+    )
 }

@@ -79,6 +79,8 @@
 //! approximated beyond N and m.
 
 mod bifurcation;
+mod boundary_flow;
+mod boundary_shooting;
 mod hill;
 mod impact;
 mod monodromy;
@@ -138,6 +140,17 @@ pub struct FloquetSettings {
     /// any other contact phase (persistent contact, simultaneous impacts, penalty law) and
     /// contact-free orbits use Hill's method. Off: Hill's method everywhere.
     pub saltation: bool,
+    /// Stability on the massless contact boundary (default true; docs/STABILITY.md, Sec. 9):
+    /// for an orbit in contact on a model with modes above `shooting_cutoff` (N + 1) w, the
+    /// modes up to that cutoff stay dynamic, the others act on the contact rows through their
+    /// residual flexibility, the contact displacements carry no mass, and the periodic orbit of
+    /// that model nearest the harmonic-balance orbit is found by shooting; its multipliers are
+    /// the eigenvalues of its exact monodromy. Off, or where shooting does not converge: Hill's
+    /// method.
+    pub shooting: bool,
+    /// Modes kept dynamic on the massless boundary: w_k <= shooting_cutoff (N + 1) w (default 1:
+    /// the modes whose resonant harmonics the orbit holds), at least `min_modes`.
+    pub shooting_cutoff: f64,
 }
 
 impl Default for FloquetSettings {
@@ -150,6 +163,8 @@ impl Default for FloquetSettings {
             jacobian: JacobianInTime::Continuous,
             impact_width: 1.5,
             saltation: true,
+            shooting: true,
+            shooting_cutoff: 1.0,
         }
     }
 }
@@ -165,6 +180,13 @@ impl FloquetSettings {
             "a finite multiple of (N + 1) w > 0",
         )?;
         at_least_one("min_modes", self.min_modes)?;
+        let s = self.shooting_cutoff;
+        require(
+            "shooting_cutoff",
+            s,
+            s.is_finite() && s > 0.0,
+            "a finite multiple of (N + 1) w > 0",
+        )?;
         let w = self.impact_width;
         require(
             "impact_width",
@@ -204,6 +226,8 @@ pub enum StabilityMethod {
     Hill,
     /// Event-based monodromy: free linear flow between impacts, a saltation matrix at each.
     Saltation,
+    /// The exact monodromy of the shot periodic orbit of the massless contact boundary.
+    Shooting,
 }
 
 /// Largest trivial-pair error at which Hill's method gives a verdict. The trivial pair is
@@ -223,6 +247,13 @@ pub const TRIVIAL_PAIR_LIMIT: f64 = 0.05;
 /// largest multiplier within 1.1e-2 of the exact one (eps^2 |mu| = 1.2e-2 there).
 pub const SALTATION_TRIVIAL_LIMIT: f64 = 0.3;
 
+/// Largest relative distance |w_shot - w| / w between the harmonic-balance orbit and the shot
+/// orbit of the massless boundary at which the shot orbit's verdict is the point's. The two
+/// orbits differ by the truncation to N harmonics and by the inertia of the discarded modes
+/// (O(((N + 1) w / w_k)^2) of their quasi-static response); further apart, the shot orbit is
+/// another member of the family (or of a tongue) and says nothing of this point.
+pub const SHOOTING_SHIFT_LIMIT: f64 = 1e-2;
+
 /// What a point's verdict is read from: its [`Stability`], or the record of it in a results file.
 #[derive(Clone, Copy, Debug)]
 pub struct VerdictInputs<'a> {
@@ -237,6 +268,8 @@ pub struct VerdictInputs<'a> {
     pub multipliers: &'a [[f64; 2]],
     /// Indices of the trivial pair in `multipliers`.
     pub trivial: [usize; 2],
+    /// |w_shot - w| / w for the shooting method (0 for the others).
+    pub orbit_shift: f64,
 }
 
 impl<'a> VerdictInputs<'a> {
@@ -249,6 +282,7 @@ impl<'a> VerdictInputs<'a> {
             trivial_pair_error: s.trivial_pair_error,
             multipliers: &s.multipliers,
             trivial: s.trivial,
+            orbit_shift: s.orbit_shift,
         }
     }
 }
@@ -266,15 +300,16 @@ impl<'a> VerdictInputs<'a> {
 pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
     let eps = v.trivial_pair_error;
     let limit = match v.method {
-        StabilityMethod::Hill => TRIVIAL_PAIR_LIMIT,
+        StabilityMethod::Hill | StabilityMethod::Shooting => TRIVIAL_PAIR_LIMIT,
         StabilityMethod::Saltation => SALTATION_TRIVIAL_LIMIT,
     };
-    if eps.is_nan() || eps > limit {
+    let shift_ok = !(v.orbit_shift > SHOOTING_SHIFT_LIMIT || v.orbit_shift.is_nan());
+    if eps.is_nan() || eps > limit || !shift_ok {
         return "undetermined";
     }
     let margin = v.max_multiplier_abs - 1.0;
     let (decided, near_collision) = match v.method {
-        StabilityMethod::Hill => (margin > eps, false),
+        StabilityMethod::Hill | StabilityMethod::Shooting => (margin > eps, false),
         StabilityMethod::Saltation => (
             margin > 2.0 * eps * eps * v.max_multiplier_abs,
             v.multipliers
@@ -299,8 +334,12 @@ pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
 pub struct Stability {
     /// How the multipliers were computed.
     pub method: StabilityMethod,
-    /// Impacts per period treated by saltation matrices (0 for Hill's method).
+    /// Impacts per period treated by saltation matrices (0 for Hill's method); contact switches
+    /// per period of the shot orbit for the shooting method.
     pub impacts: usize,
+    /// |w_shot - w| / w: how far the shot periodic orbit of the massless boundary lies from the
+    /// harmonic-balance orbit (shooting method; 0 for the others).
+    pub orbit_shift: f64,
     /// The 2 r multipliers mu = exp(s T) as (re, im), sorted by decreasing |mu|, then by
     /// increasing argument; the trivial pair included.
     pub multipliers: Vec<[f64; 2]>,
@@ -416,6 +455,7 @@ mod verdict_tests {
             trivial_pair_error: eps,
             multipliers: &multipliers,
             trivial: [0, 1],
+            orbit_shift: 0.0,
         })
     }
 

@@ -1,0 +1,407 @@
+//! The massless contact boundary: its exact flow and transition matrices (docs/STABILITY.md,
+//! Sec. 9).
+//!
+//! # Model
+//! The linear modes of the system up to a cutoff are kept as dynamic coordinates q
+//! (mass-normalized: M = I, K = W^2, W in rad/s); every other mode acts quasi-statically on the
+//! contact rows through its residual flexibility R = sum_{k discarded} b_k b_k^T / w_k^2
+//! (c x c, m/N; b_k = A phi_k). The contact displacements carry no mass:
+//!
+//! ```text
+//! q'' + W^2 q = -B^T lambda,   u_c = B q - R lambda,   0 <= lambda  _|_  g0 - u_c >= 0
+//! ```
+//!
+//! (B = A Phi_kept, c x r; lambda in N, u_c and g0 in m). A penalty law kc adds 1 / kc to the
+//! diagonal of R (the spring in series with the stop).
+//!
+//! On a piece of constant active set a the closed rows sit on the stop, u_a = g_a, so
+//! lambda_a = R_aa^-1 (B_a q - g_a) and
+//!
+//! ```text
+//! q'' + K_a q = f_a,   K_a = W^2 + B_a^T R_aa^-1 B_a,   f_a = B_a^T R_aa^-1 g_a,
+//! ```
+//!
+//! a linear oscillator solved exactly in the eigenvectors of K_a (symmetric positive definite).
+//! A closed row opens when its force lambda_j falls to 0; an open row closes when its
+//! penetration p_j = u_j - g_j rises to 0. At either switch lambda_j = 0, so the contact force
+//! and the vector field are continuous: the flow is piecewise linear and Lipschitz, and its
+//! transition matrix is the product of the pieces' exact ones (no saltation term).
+
+use std::collections::HashMap;
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, MatRef, Side};
+
+use crate::NnmError;
+use nlmodes_hb::dense::generalized_eigen;
+
+/// Scan points per shortest period of a piece when looking for a switch.
+const SCAN_PER_PERIOD: f64 = 16.0;
+/// Bisection steps locating a switch (interval / 2^60: below round-off).
+const BISECTION_STEPS: usize = 60;
+/// Most switches in one call of [`BoundaryFlow::advance`] (a chattering set is an error).
+const MAX_SWITCHES: usize = 100_000;
+/// A row switches when its event function passes this fraction of the largest gap.
+const EVENT_THRESHOLD: f64 = 1e-12;
+
+/// The massless-boundary model of a system (see the module docs).
+pub(crate) struct BoundaryModel {
+    /// W^2 of the kept modes (rad^2/s^2).
+    pub omega2: Vec<f64>,
+    /// B = A Phi_kept (c x r).
+    pub contact_modal: Mat<f64>,
+    /// R (+ diag(1 / kc) for a penalty law), c x c, m/N.
+    pub flexibility: Mat<f64>,
+    /// g0 (m).
+    pub gaps: Vec<f64>,
+}
+
+/// The state (q, q') in the kept modal coordinates.
+#[derive(Clone, Debug)]
+pub(crate) struct FlowState {
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+}
+
+/// The exact solution on one active set: K_a = V diag(s^2) V^T, the equilibrium q* and the
+/// event functions phi_j = rho_j . q + beta_j written as offset + (rho_j V) . z, z = V^T (q - q*).
+/// phi_j is R_jj (-lambda_j) for a closed row and p_j for an open one (both in m): a row
+/// switches when its phi_j rises through 0.
+struct Piece {
+    vecs: Mat<f64>,
+    freq: Vec<f64>,
+    equilibrium: Vec<f64>,
+    event_rows: Mat<f64>,
+    event_offset: Vec<f64>,
+}
+
+impl Piece {
+    /// Modal state (z, z') at time t of the piece from (z0, z0').
+    fn modal_at(&self, z0: &[f64], zd0: &[f64], t: f64) -> (Vec<f64>, Vec<f64>) {
+        let mut z = vec![0.0; z0.len()];
+        let mut zd = vec![0.0; z0.len()];
+        for i in 0..z0.len() {
+            let s = self.freq[i];
+            let (sn, cs) = (s * t).sin_cos();
+            z[i] = cs * z0[i] + sn / s * zd0[i];
+            zd[i] = -s * sn * z0[i] + cs * zd0[i];
+        }
+        (z, zd)
+    }
+
+    /// Event function of row j at modal state z.
+    fn event(&self, j: usize, z: &[f64]) -> f64 {
+        self.event_offset[j]
+            + (0..z.len())
+                .map(|i| self.event_rows[(j, i)] * z[i])
+                .sum::<f64>()
+    }
+
+    fn to_modal(&self, state: &FlowState) -> (Vec<f64>, Vec<f64>) {
+        let r = state.q.len();
+        let project = |x: &dyn Fn(usize) -> f64| -> Vec<f64> {
+            (0..r)
+                .map(|i| (0..r).map(|k| self.vecs[(k, i)] * x(k)).sum())
+                .collect()
+        };
+        let z = project(&|k| state.q[k] - self.equilibrium[k]);
+        let zd = project(&|k| state.v[k]);
+        (z, zd)
+    }
+
+    fn from_modal(&self, z: &[f64], zd: &[f64]) -> FlowState {
+        let r = z.len();
+        let q = (0..r)
+            .map(|k| self.equilibrium[k] + (0..r).map(|i| self.vecs[(k, i)] * z[i]).sum::<f64>())
+            .collect();
+        let v = (0..r)
+            .map(|k| (0..r).map(|i| self.vecs[(k, i)] * zd[i]).sum())
+            .collect();
+        FlowState { q, v }
+    }
+
+    /// Transition matrix of the piece over t in (q, q') coordinates (2r x 2r).
+    fn transition(&self, t: f64) -> Mat<f64> {
+        let r = self.freq.len();
+        let mut out = Mat::zeros(2 * r, 2 * r);
+        for i in 0..r {
+            let s = self.freq[i];
+            let (sn, cs) = (s * t).sin_cos();
+            let blocks = [[cs, sn / s], [-s * sn, cs]];
+            for a in 0..r {
+                for b in 0..r {
+                    let vv = self.vecs[(a, i)] * self.vecs[(b, i)];
+                    for (bi, row) in blocks.iter().enumerate() {
+                        for (bj, &x) in row.iter().enumerate() {
+                            out[(bi * r + a, bj * r + b)] += x * vv;
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Acceleration q'' = f_a - K_a q = -V diag(s^2) z at modal state z.
+    fn acceleration(&self, z: &[f64]) -> Vec<f64> {
+        let r = z.len();
+        (0..r)
+            .map(|k| {
+                -(0..r)
+                    .map(|i| self.vecs[(k, i)] * self.freq[i] * self.freq[i] * z[i])
+                    .sum::<f64>()
+            })
+            .collect()
+    }
+}
+
+/// The exact flow of a [`BoundaryModel`], with the pieces of the active sets met so far cached.
+pub(crate) struct BoundaryFlow<'m> {
+    model: &'m BoundaryModel,
+    pieces: HashMap<Vec<bool>, Piece>,
+    threshold: f64,
+    /// Switches made since construction.
+    pub switches: usize,
+}
+
+impl<'m> BoundaryFlow<'m> {
+    pub fn new(model: &'m BoundaryModel) -> Self {
+        let gmax = model.gaps.iter().fold(0.0_f64, |a, &g| a.max(g.abs()));
+        Self {
+            model,
+            pieces: HashMap::new(),
+            threshold: EVENT_THRESHOLD * gmax,
+            switches: 0,
+        }
+    }
+
+    /// The active set of a state at rest on the contact law: the solution of the linear
+    /// complementarity problem lambda = R_aa^-1 (B_a q - g_a) >= 0, p_f <= 0 by Murty's
+    /// least-index principal pivoting (finite for the positive definite R).
+    pub fn active_set_at(&mut self, q: &[f64]) -> Result<Vec<bool>, NnmError> {
+        let c = self.model.gaps.len();
+        let mut active = vec![false; c];
+        for _ in 0..(4 * c * c + 16) {
+            let threshold = self.threshold;
+            let piece = self.piece(&active)?;
+            let z: Vec<f64> = {
+                let state = FlowState {
+                    q: q.to_vec(),
+                    v: vec![0.0; q.len()],
+                };
+                piece.to_modal(&state).0
+            };
+            match (0..c).find(|&j| piece.event(j, &z) > threshold) {
+                Some(j) => active[j] = !active[j],
+                None => return Ok(active),
+            }
+        }
+        Err(NnmError::StabilityInput {
+            detail: "the contact set of the massless boundary did not settle".to_string(),
+        })
+    }
+
+    /// Advances `state` by `duration` (s) on the active set `active` (updated at each switch);
+    /// multiplies `transition` (2r x 2r) from the left by the flow's transition matrix when
+    /// given. Returns the acceleration at the end.
+    pub fn advance(
+        &mut self,
+        state: &mut FlowState,
+        active: &mut [bool],
+        duration: f64,
+        mut transition: Option<&mut Mat<f64>>,
+    ) -> Result<Vec<f64>, NnmError> {
+        let mut left = duration;
+        let mut switches = 0;
+        loop {
+            let threshold = self.threshold;
+            let piece = self.piece(active)?;
+            let (z0, zd0) = piece.to_modal(state);
+            let event = next_switch(piece, threshold, &z0, &zd0, left);
+            let dt = event.map_or(left, |(t, _)| t);
+            let (z, zd) = piece.modal_at(&z0, &zd0, dt);
+            if let Some(m) = transition.as_deref_mut() {
+                *m = piece.transition(dt) * &*m;
+            }
+            *state = piece.from_modal(&z, &zd);
+            let accel = piece.acceleration(&z);
+            left -= dt;
+            match event {
+                None => return Ok(accel),
+                Some((_, row)) => {
+                    active[row] = !active[row];
+                    switches += 1;
+                    self.switches += 1;
+                }
+            }
+            if switches > MAX_SWITCHES {
+                return Err(NnmError::StabilityInput {
+                    detail: format!(
+                        "the contact set of the massless boundary chattered ({MAX_SWITCHES} switches)"
+                    ),
+                });
+            }
+        }
+    }
+
+    fn piece(&mut self, active: &[bool]) -> Result<&Piece, NnmError> {
+        if !self.pieces.contains_key(active) {
+            let piece = build_piece(self.model, active)?;
+            self.pieces.insert(active.to_vec(), piece);
+        }
+        Ok(&self.pieces[active])
+    }
+}
+
+/// The first switch within `horizon` of the piece's start: (time, row). A row whose event
+/// function is already positive at the start switches at once.
+fn next_switch(
+    piece: &Piece,
+    tol: f64,
+    z0: &[f64],
+    zd0: &[f64],
+    horizon: f64,
+) -> Option<(f64, usize)> {
+    let c = piece.event_offset.len();
+    if let Some(j) = (0..c).find(|&j| piece.event(j, z0) > tol) {
+        return Some((0.0, j));
+    }
+    let s_max = piece.freq.iter().fold(0.0_f64, |a, &s| a.max(s));
+    let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * s_max);
+    let mut t0 = 0.0;
+    while t0 < horizon {
+        let t1 = (t0 + step).min(horizon);
+        let (z1, _) = piece.modal_at(z0, zd0, t1);
+        let crossing = (0..c)
+            .filter(|&j| piece.event(j, &z1) > tol)
+            .map(|j| (bisect(piece, z0, zd0, j, t0, t1), j))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if crossing.is_some() {
+            return crossing;
+        }
+        t0 = t1;
+    }
+    None
+}
+
+/// The time in (a, b] where row j's event function rises through 0 (the end on the positive
+/// side, so that the switch happens with the row just past its boundary).
+fn bisect(piece: &Piece, z0: &[f64], zd0: &[f64], j: usize, a: f64, b: f64) -> f64 {
+    let (mut lo, mut hi) = (a, b);
+    for _ in 0..BISECTION_STEPS {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        let (z, _) = piece.modal_at(z0, zd0, mid);
+        if piece.event(j, &z) > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
+/// The exact solution data of the active set `active` (module docs).
+fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, NnmError> {
+    let r = model.omega2.len();
+    let c = model.gaps.len();
+    let b = model.contact_modal.as_ref();
+    let flex = model.flexibility.as_ref();
+    let set: Vec<usize> = (0..c).filter(|&j| active[j]).collect();
+    let na = set.len();
+    // L = R_aa^-1 B_a (na x r), l = R_aa^-1 g_a: lambda_a = L q - l.
+    let (l_mat, l_vec) = if na == 0 {
+        (Mat::zeros(0, r), Mat::zeros(0, 1))
+    } else {
+        let r_aa = Mat::from_fn(na, na, |i, k| flex[(set[i], set[k])]);
+        let llt = r_aa.llt(Side::Lower).map_err(|e| NnmError::Decomposition {
+            what: "Cholesky of the massless boundary's flexibility on the closed rows",
+            detail: format!("{e:?}"),
+        })?;
+        let b_a = Mat::from_fn(na, r, |i, k| b[(set[i], k)]);
+        let g_a = Mat::from_fn(na, 1, |i, _| model.gaps[set[i]]);
+        (llt.solve(&b_a), llt.solve(&g_a))
+    };
+    let b_a = Mat::from_fn(na, r, |i, k| b[(set[i], k)]);
+    let mut k_a = b_a.transpose() * &l_mat;
+    for i in 0..r {
+        k_a[(i, i)] += model.omega2[i];
+    }
+    for i in 0..r {
+        for k in 0..i {
+            let avg = 0.5 * (k_a[(i, k)] + k_a[(k, i)]);
+            k_a[(i, k)] = avg;
+            k_a[(k, i)] = avg;
+        }
+    }
+    let f_a = b_a.transpose() * &l_vec;
+    let identity = Mat::<f64>::identity(r, r);
+    let eig = generalized_eigen(k_a.as_ref(), identity.as_ref(), "I")?;
+    if eig.values.iter().any(|&s2| !(s2 > 0.0)) {
+        return Err(NnmError::NotPositiveDefinite {
+            name: "K_a",
+            detail: "the massless boundary's stiffness on a contact set is not positive definite"
+                .to_string(),
+        });
+    }
+    let freq: Vec<f64> = eig.values.iter().map(|s2| s2.sqrt()).collect();
+    let vecs = eig.vectors;
+    // q* = V diag(1 / s^2) V^T f_a.
+    let modal_force: Vec<f64> = (0..r)
+        .map(|i| (0..r).map(|k| vecs[(k, i)] * f_a[(k, 0)]).sum::<f64>() / eig.values[i])
+        .collect();
+    let equilibrium: Vec<f64> = (0..r)
+        .map(|k| (0..r).map(|i| vecs[(k, i)] * modal_force[i]).sum())
+        .collect();
+    let (rho, beta) = event_functions(b, flex, &model.gaps, &set, l_mat.as_ref(), &l_vec);
+    let event_rows = &rho * &vecs;
+    let event_offset = (0..c)
+        .map(|j| beta[j] + (0..r).map(|k| rho[(j, k)] * equilibrium[k]).sum::<f64>())
+        .collect();
+    Ok(Piece {
+        vecs,
+        freq,
+        equilibrium,
+        event_rows,
+        event_offset,
+    })
+}
+
+/// The event functions phi_j = rho_j . q + beta_j of every row on the active set `set`:
+/// R_jj (l_i - L_i q) for a closed row (i its place in the set: -R_jj lambda_j), and
+/// B_j q - R_ja (L q - l) - g_j for an open row (its penetration).
+fn event_functions(
+    b: MatRef<'_, f64>,
+    flex: MatRef<'_, f64>,
+    gaps: &[f64],
+    set: &[usize],
+    l_mat: MatRef<'_, f64>,
+    l_vec: &Mat<f64>,
+) -> (Mat<f64>, Vec<f64>) {
+    let (c, r) = (b.nrows(), b.ncols());
+    let mut rho = Mat::zeros(c, r);
+    let mut beta = vec![0.0; c];
+    for j in 0..c {
+        if let Some(i) = set.iter().position(|&s| s == j) {
+            let rjj = flex[(j, j)];
+            for k in 0..r {
+                rho[(j, k)] = -rjj * l_mat[(i, k)];
+            }
+            beta[j] = rjj * l_vec[(i, 0)];
+        } else {
+            for k in 0..r {
+                rho[(j, k)] = b[(j, k)]
+                    - (0..set.len())
+                        .map(|i| flex[(j, set[i])] * l_mat[(i, k)])
+                        .sum::<f64>();
+            }
+            beta[j] = (0..set.len())
+                .map(|i| flex[(j, set[i])] * l_vec[(i, 0)])
+                .sum::<f64>()
+                - gaps[j];
+        }
+    }
+    (rho, beta)
+}
