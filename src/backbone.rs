@@ -171,7 +171,7 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
     }
     let stage = ui::Stage::start("stability");
     let bar = ui::bar(b.points.len() as u64, "stability");
-    let failed = analyze_backbone(system, b, &settings.hill, |done, _| {
+    let failed = analyze_backbone(system, b, &settings.analysis(), |done, _| {
         bar.set_position(done as u64)
     })
     .context("Floquet analysis of the backbone")?;

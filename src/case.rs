@@ -45,7 +45,13 @@ pub struct Case {
 pub struct StabilitySection {
     /// Compute the multipliers of every point (adds a few ms per point on the blade).
     pub enabled: bool,
-    /// Hill's method: `nlmodes_nnm::FloquetSettings` (mode cutoff, static correction, ...).
+    /// Check every k-th point's shooting verdict (the massless contact boundary,
+    /// docs/STABILITY.md Sec. 9) by an independent RK4 integration; a verdict the check does not
+    /// confirm becomes `undetermined`. Default 10 (about 0.04 s per checked point on the
+    /// default blade); 0: no check.
+    pub verify_every: usize,
+    /// The analysis: `nlmodes_nnm::FloquetSettings` (mode cutoff, static correction, shooting,
+    /// ...).
     pub hill: nlmodes_nnm::FloquetSettings,
 }
 
@@ -53,8 +59,18 @@ impl Default for StabilitySection {
     fn default() -> Self {
         Self {
             enabled: true,
+            verify_every: 10,
             hill: nlmodes_nnm::FloquetSettings::default(),
         }
+    }
+}
+
+impl StabilitySection {
+    /// The analysis settings with `verify_every` applied.
+    pub fn analysis(&self) -> nlmodes_nnm::FloquetSettings {
+        let mut out = self.hill.clone();
+        out.verify_every = self.verify_every;
+        out
     }
 }
 

@@ -82,6 +82,9 @@ pub struct StabilityRecord {
     /// |w_shot - w| / w of the shooting method (absent in files of other methods: 0).
     #[serde(default)]
     pub orbit_shift: f64,
+    /// The RK4 check of a shooting verdict, where one was made.
+    #[serde(default)]
+    pub check: Option<nlmodes_nnm::ShootingCheck>,
 }
 
 impl Orbit {
@@ -97,6 +100,7 @@ impl Orbit {
                 multipliers: &s.multipliers,
                 trivial: s.trivial,
                 orbit_shift: s.orbit_shift,
+                check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
             })
         })
     }

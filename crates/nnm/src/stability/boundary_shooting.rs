@@ -218,3 +218,216 @@ pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Vec<faer::c64>, NnmError
         .map(|mu| faer::c64::new(mu.norm().ln() / t, mu.arg() / t))
         .collect())
 }
+
+/// The independent RK4 check of a shot orbit (`boundary_rk4`): one period from its start.
+pub(crate) fn check_by_rk4(
+    model: &BoundaryModel,
+    orbit: &ShotOrbit,
+) -> Result<super::ShootingCheck, NnmError> {
+    let r = orbit.q0.len();
+    let start = FlowState {
+        q: orbit.q0.clone(),
+        v: vec![0.0; r],
+    };
+    let steps = super::boundary_rk4::rk4_steps(model, orbit.period)?;
+    let (end, monodromy) = super::boundary_rk4::integrate(model, &start, orbit.period, steps)?;
+    let q_scale = norm(&orbit.q0);
+    let v_scale = q_scale * 2.0 * std::f64::consts::PI / orbit.period;
+    let periodicity = (0..r)
+        .map(|i| ((end.q[i] - start.q[i]) / q_scale).powi(2) + (end.v[i] / v_scale).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let eigenvalues = |m: &Mat<f64>, what: &'static str| {
+        m.eigenvalues()
+            .map(nontrivial)
+            .map_err(|e| NnmError::Decomposition {
+                what,
+                detail: format!("{e:?}"),
+            })
+    };
+    let exact = eigenvalues(
+        &orbit.monodromy,
+        "eigenvalues of the massless boundary's monodromy",
+    )?;
+    let integrated = eigenvalues(&monodromy, "eigenvalues of the RK4 monodromy")?;
+    let multiplier_distance = integrated
+        .iter()
+        .map(|mu| {
+            exact
+                .iter()
+                .map(|nu| (mu - nu).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    let largest = |v: &[faer::c64]| v.iter().map(|mu| mu.norm()).fold(1.0, f64::max);
+    let max_multiplier_abs = largest(&integrated);
+    let max_multiplier_change = (max_multiplier_abs - largest(&exact)).abs();
+    Ok(super::ShootingCheck {
+        steps,
+        periodicity,
+        multiplier_distance,
+        max_multiplier_abs,
+        max_multiplier_change,
+    })
+}
+
+/// The multipliers without the trivial pair (the two nearest +1).
+fn nontrivial(mut values: Vec<faer::c64>) -> Vec<faer::c64> {
+    let one = faer::c64::new(1.0, 0.0);
+    values.sort_by(|a, b| (a - one).norm().total_cmp(&(b - one).norm()));
+    values.split_off(2.min(values.len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stability::boundary_rk4;
+
+    /// One mode (w = 1) on one row of flexibility `flex`, gap 1: a bilinear oscillator.
+    fn bilinear(flex: f64) -> BoundaryModel {
+        BoundaryModel {
+            omega2: vec![1.0],
+            contact_modal: Mat::from_fn(1, 1, |_, _| 1.0),
+            flexibility: Mat::from_fn(1, 1, |_, _| flex),
+            gaps: vec![1.0],
+        }
+    }
+
+    /// The exact period of the bilinear oscillator released at rest from q0 > 1 (in contact):
+    /// contact phase q'' + k2 q = 1 / R (k2 = 1 + 1 / R) down to q = 1, then the free
+    /// oscillation q'' + q = 0 to its turning point, twice.
+    fn bilinear_period(flex: f64, q0: f64) -> f64 {
+        let k2 = 1.0 + 1.0 / flex;
+        let s = k2.sqrt();
+        let q_eq = 1.0 / (flex * k2);
+        let t1 = ((1.0 - q_eq) / (q0 - q_eq)).acos() / s;
+        let v1 = -(q0 - q_eq) * s * (s * t1).sin();
+        let phi = (-v1).atan2(1.0);
+        2.0 * (t1 + std::f64::consts::PI - phi)
+    }
+
+    #[test]
+    fn the_shot_bilinear_orbit_has_the_exact_period_and_a_trivial_pair_at_one() {
+        for flex in [0.1, 1.0, 10.0] {
+            for q0 in [1.05, 1.5, 3.0] {
+                // Start 2 % off in amplitude and 5 % off in period.
+                let model = bilinear(flex);
+                let guess_t = 1.05 * bilinear_period(flex, q0);
+                let orbit = shoot(&model, vec![1.02 * q0], guess_t)
+                    .expect("shooting")
+                    .expect("converges");
+                let exact = bilinear_period(flex, orbit.q0[0]);
+                assert!(
+                    (orbit.period / exact - 1.0).abs() < 1e-10,
+                    "R = {flex}, q0 = {q0}: T = {} vs {exact}",
+                    orbit.period
+                );
+                // One contact phase: two switches per period.
+                assert_eq!(orbit.switches, 2);
+                let exponents = exponents_of(&orbit).expect("multipliers");
+                for s in exponents {
+                    let mu = (s * orbit.period).exp();
+                    assert!((mu - faer::c64::new(1.0, 0.0)).norm() < 1e-4, "{mu:?}");
+                }
+            }
+        }
+    }
+
+    /// Three modes on three rows with a coupled flexibility (a made-up but generic model).
+    fn three_modes() -> BoundaryModel {
+        BoundaryModel {
+            omega2: vec![1.0, 6.25, 20.0],
+            contact_modal: Mat::from_fn(3, 3, |j, k| {
+                [[1.0, 0.4, -0.3], [0.8, -0.6, 0.5], [0.5, 0.9, 0.7]][j][k]
+            }),
+            flexibility: Mat::from_fn(3, 3, |i, j| {
+                [[0.30, 0.05, 0.02], [0.05, 0.25, 0.04], [0.02, 0.04, 0.20]][i][j]
+            }),
+            gaps: vec![1.0, 1.2, 1.5],
+        }
+    }
+
+    #[test]
+    fn the_exact_flow_agrees_with_rk4_and_is_symplectic() {
+        let model = three_modes();
+        let mut flow = BoundaryFlow::new(&model);
+        for (q0, v0) in [
+            ([2.5, 0.3, -0.2], [0.0, 0.5, 1.0]),
+            ([-1.0, 2.0, 0.5], [3.0, 0.0, -1.0]),
+            ([1.2, -0.8, 1.1], [0.0, 0.0, 0.0]),
+        ] {
+            let start = FlowState {
+                q: q0.to_vec(),
+                v: v0.to_vec(),
+            };
+            let mut end = start.clone();
+            let mut active = flow.active_set_at(&q0).expect("set");
+            // The set at rest is the set of the state: the LCP does not depend on the velocity.
+            let mut transition = Mat::<f64>::identity(6, 6);
+            let before = flow.switches;
+            flow.advance(&mut end, &mut active, 7.0, Some(&mut transition))
+                .expect("flow");
+            let switches = flow.switches - before;
+            let (rk, rk_transition) =
+                boundary_rk4::integrate(&model, &start, 7.0, 20_000).expect("rk4");
+            let state_error = (0..3)
+                .map(|i| (end.q[i] - rk.q[i]).abs().max((end.v[i] - rk.v[i]).abs()))
+                .fold(0.0, f64::max);
+            let matrix_error = (0..6)
+                .flat_map(|i| (0..6).map(move |j| (i, j)))
+                .map(|(i, j)| (transition[(i, j)] - rk_transition[(i, j)]).abs())
+                .fold(0.0, f64::max);
+            // J-orthogonality Phi^T J Phi = J of the exact transition (every piece is the flow of
+            // a symmetric stiffness).
+            let mut j = Mat::<f64>::zeros(6, 6);
+            for i in 0..3 {
+                j[(i, 3 + i)] = 1.0;
+                j[(3 + i, i)] = -1.0;
+            }
+            let defect = transition.transpose() * &j * &transition - &j;
+            let symplectic = (0..6)
+                .flat_map(|i| (0..6).map(move |k| (i, k)))
+                .map(|(i, k)| defect[(i, k)].abs())
+                .fold(0.0, f64::max);
+            // Finite differences of the exact flow's end state (central, step 1e-6).
+            let mut fd_error: f64 = 0.0;
+            let mut fd_rk: f64 = 0.0;
+            for col in 0..6 {
+                let shifted = |sign: f64| {
+                    let mut s = start.clone();
+                    if col < 3 {
+                        s.q[col] += sign * 1e-6
+                    } else {
+                        s.v[col - 3] += sign * 1e-6
+                    }
+                    let mut flow = BoundaryFlow::new(&model);
+                    let mut active = flow.active_set_at(&s.q).expect("set");
+                    flow.advance(&mut s, &mut active, 7.0, None).expect("flow");
+                    s
+                };
+                let (p, m) = (shifted(1.0), shifted(-1.0));
+                for i in 0..6 {
+                    let d = if i < 3 {
+                        (p.q[i] - m.q[i]) / 2e-6
+                    } else {
+                        (p.v[i - 3] - m.v[i - 3]) / 2e-6
+                    };
+                    fd_error = fd_error.max((d - transition[(i, col)]).abs());
+                    fd_rk = fd_rk.max((d - rk_transition[(i, col)]).abs());
+                }
+            }
+            println!(
+                "{switches} switches: state {state_error:.1e}, transition {matrix_error:.1e}, \
+                 symplectic defect {symplectic:.1e}, finite differences - exact {fd_error:.1e}, \
+                 - rk4 {fd_rk:.1e}"
+            );
+            assert!(switches >= 2, "the test must cross switches");
+            assert!(state_error < 1e-8, "{state_error}");
+            // Observed: states 3e-11, transitions 3e-10, finite differences 1e-8 (their own
+            // truncation at step 1e-6), symplectic defect 7e-15.
+            assert!(matrix_error < 1e-8, "{matrix_error}");
+            assert!(fd_error < 1e-6 && fd_rk < 1e-6, "{fd_error} {fd_rk}");
+            assert!(symplectic < 1e-9, "{symplectic}");
+        }
+    }
+}

@@ -4,7 +4,9 @@
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
 
-use super::boundary_shooting::{boundary_model, exponents_of, modal_coordinates, shoot, ModalData};
+use super::boundary_shooting::{
+    boundary_model, check_by_rk4, exponents_of, modal_coordinates, shoot, ModalData,
+};
 use super::impact::impact_equivalent_pieces;
 use super::monodromy::constant_pieces;
 use super::saltation::{reduced_multipliers, unresolved_impacts, ModalFlow};
@@ -113,11 +115,21 @@ impl<'s> FloquetAnalysis<'s> {
     /// `saltation` is on), by Hill's method otherwise (see the module docs and
     /// docs/STABILITY.md, Sec. 3).
     pub fn analyze(&self, point: &BackbonePoint) -> Result<Stability, NnmError> {
+        self.analyze_checked(point, false)
+    }
+
+    /// As [`FloquetAnalysis::analyze`]; with `verify`, a shooting verdict is checked by the
+    /// independent RK4 integration ([`super::ShootingCheck`]).
+    pub fn analyze_checked(
+        &self,
+        point: &BackbonePoint,
+        verify: bool,
+    ) -> Result<Stability, NnmError> {
         let (harmonics, samples) = self.check_point(point)?;
         if let Some(out) = self.analyze_by_saltation(point, harmonics)? {
             return Ok(out);
         }
-        if let Some(out) = self.analyze_by_shooting(point, harmonics)? {
+        if let Some(out) = self.analyze_by_shooting(point, harmonics, verify)? {
             return Ok(out);
         }
         self.analyze_by_hill(point, harmonics, samples)
@@ -181,6 +193,7 @@ impl<'s> FloquetAnalysis<'s> {
         &self,
         point: &BackbonePoint,
         harmonics: usize,
+        verify: bool,
     ) -> Result<Option<Stability>, NnmError> {
         let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * point.omega;
         let r = (self.omega.iter().filter(|&&w| w <= limit).count())
@@ -216,6 +229,9 @@ impl<'s> FloquetAnalysis<'s> {
         out.harmonics = harmonics;
         out.impacts = orbit.switches;
         out.orbit_shift = (point.period() / orbit.period - 1.0).abs();
+        if verify {
+            out.check = Some(check_by_rk4(&model, &orbit)?);
+        }
         Ok(Some(out))
     }
 
@@ -717,6 +733,7 @@ pub(crate) fn stability_with_trivial(
         method: StabilityMethod::Hill,
         impacts: 0,
         orbit_shift: 0.0,
+        check: None,
     }
 }
 

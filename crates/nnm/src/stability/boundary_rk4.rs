@@ -1,0 +1,262 @@
+//! An independent integration of the massless-boundary model, the check of the shooting
+//! verdicts (docs/STABILITY.md, Sec. 9; `[stability] verify_every`).
+//!
+//! Classical RK4 on (q, q') and the variational matrix Y (2r x 2r, Y(0) = I), with the contact
+//! force of every stage from the linear complementarity problem solved afresh at that stage's q
+//! (Murty's least-index pivoting on dense Cholesky solves, warm-started from the last stage's
+//! set): no pieces, no eigenvectors. A step whose stages see two active sets is cut at the
+//! change by bisection on its length, so each step integrates one linear piece and RK4 keeps its
+//! fourth order; the check is accurate to about (h s_max)^4 per step, not to round-off.
+
+use std::collections::HashMap;
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+
+use super::boundary_flow::{BoundaryModel, FlowState};
+use crate::NnmError;
+use nlmodes_hb::dense::generalized_eigen;
+
+/// RK4 steps per period of the fastest motion of the model (all rows closed): h s_max = 2 pi /
+/// this, about 0.03, local error ~ 1e-9 per step on the smooth stretches.
+const STEPS_PER_FAST_PERIOD: f64 = 200.0;
+
+/// The active set and the contact forces lambda >= 0 (N) at displacement q: the solution of
+/// lambda_a = R_aa^-1 (B_a q - g_a) >= 0, p_f = B_f q - R_fa lambda_a - g_f <= 0.
+/// Murty's least-index principal pivoting terminates from any starting set for a P-matrix
+/// (R is positive definite), so `start` (the last stage's set) only saves pivots.
+pub(crate) fn contact_solution(
+    model: &BoundaryModel,
+    q: &[f64],
+    start: Vec<usize>,
+) -> Result<(Vec<usize>, Vec<f64>), NnmError> {
+    let c = model.gaps.len();
+    let free_gap: Vec<f64> = (0..c)
+        .map(|j| row_dot(&model.contact_modal, j, q) - model.gaps[j])
+        .collect();
+    let scale = model.gaps.iter().fold(0.0_f64, |a, &g| a.max(g)) * 1e-13;
+    let mut active = start;
+    for _ in 0..(4 * c * c + 16) {
+        let lambda = solve_on(model, &active, &free_gap)?;
+        let violator = (0..c).find(|&j| match active.iter().position(|&a| a == j) {
+            Some(i) => lambda[i] * model.flexibility[(j, j)] < -scale,
+            None => {
+                let p = free_gap[j]
+                    - (0..active.len())
+                        .map(|i| model.flexibility[(j, active[i])] * lambda[i])
+                        .sum::<f64>();
+                p > scale
+            }
+        });
+        match violator {
+            None => return Ok((active, lambda)),
+            Some(j) => match active.iter().position(|&a| a == j) {
+                Some(i) => {
+                    active.remove(i);
+                }
+                None => {
+                    active.push(j);
+                    active.sort_unstable();
+                }
+            },
+        }
+    }
+    Err(NnmError::StabilityInput {
+        detail: "the contact problem of the massless boundary did not settle (RK4 check)"
+            .to_string(),
+    })
+}
+
+fn row_dot(m: &Mat<f64>, j: usize, x: &[f64]) -> f64 {
+    (0..x.len()).map(|k| m[(j, k)] * x[k]).sum()
+}
+
+/// lambda_a = R_aa^-1 (B_a q - g_a) given b_a = B_a q - g_a on every row.
+fn solve_on(
+    model: &BoundaryModel,
+    active: &[usize],
+    free_gap: &[f64],
+) -> Result<Vec<f64>, NnmError> {
+    let na = active.len();
+    if na == 0 {
+        return Ok(Vec::new());
+    }
+    let r_aa = Mat::from_fn(na, na, |i, k| model.flexibility[(active[i], active[k])]);
+    let rhs = Mat::from_fn(na, 1, |i, _| free_gap[active[i]]);
+    let llt = r_aa.llt(Side::Lower).map_err(|e| NnmError::Decomposition {
+        what: "Cholesky of the massless boundary's flexibility (RK4 check)",
+        detail: format!("{e:?}"),
+    })?;
+    let x = llt.solve(&rhs);
+    Ok((0..na).map(|i| x[(i, 0)]).collect())
+}
+
+/// The stiffness W^2 + B_a^T R_aa^-1 B_a of the active set `active` (r x r).
+fn stiffness_on(model: &BoundaryModel, active: &[usize]) -> Result<Mat<f64>, NnmError> {
+    let r = model.omega2.len();
+    let na = active.len();
+    let mut k = Mat::from_fn(r, r, |i, j| if i == j { model.omega2[i] } else { 0.0 });
+    if na > 0 {
+        let r_aa = Mat::from_fn(na, na, |i, l| model.flexibility[(active[i], active[l])]);
+        let b_a = Mat::from_fn(na, r, |i, l| model.contact_modal[(active[i], l)]);
+        let llt = r_aa.llt(Side::Lower).map_err(|e| NnmError::Decomposition {
+            what: "Cholesky of the massless boundary's flexibility (RK4 check)",
+            detail: format!("{e:?}"),
+        })?;
+        k += b_a.transpose() * llt.solve(&b_a);
+    }
+    Ok(k)
+}
+
+/// The active set at q and the derivative of (q, q', Y): (q', -W^2 q - B^T lambda(q), A(q) Y)
+/// with A = [[0, I], [-K_a(q), 0]].
+type Derivative = (Vec<usize>, Vec<f64>, Vec<f64>, Mat<f64>);
+
+/// The integrator's state across stages: the last active set (the next LCP's start) and the
+/// stiffness of every set met.
+struct Rk4<'m> {
+    model: &'m BoundaryModel,
+    last_set: Vec<usize>,
+    stiffness: HashMap<Vec<usize>, Mat<f64>>,
+}
+
+impl Rk4<'_> {
+    fn derivative(&mut self, q: &[f64], v: &[f64], y: &Mat<f64>) -> Result<Derivative, NnmError> {
+        let model = self.model;
+        let r = q.len();
+        let (active, lambda) = contact_solution(model, q, self.last_set.clone())?;
+        self.last_set.clone_from(&active);
+        let accel: Vec<f64> = (0..r)
+            .map(|k| {
+                -model.omega2[k] * q[k]
+                    - (0..active.len())
+                        .map(|i| model.contact_modal[(active[i], k)] * lambda[i])
+                        .sum::<f64>()
+            })
+            .collect();
+        if !self.stiffness.contains_key(&active) {
+            let k = stiffness_on(model, &active)?;
+            self.stiffness.insert(active.clone(), k);
+        }
+        let k_a = &self.stiffness[&active];
+        let n = 2 * r;
+        let mut dy = Mat::zeros(n, n);
+        for col in 0..n {
+            for i in 0..r {
+                dy[(i, col)] = y[(r + i, col)];
+                dy[(r + i, col)] = -(0..r).map(|l| k_a[(i, l)] * y[(l, col)]).sum::<f64>();
+            }
+        }
+        Ok((active, v.to_vec(), accel, dy))
+    }
+    fn rk4_step(
+        &mut self,
+        q: &[f64],
+        v: &[f64],
+        y: &Mat<f64>,
+        h: f64,
+    ) -> Result<Rk4Step, NnmError> {
+        let axpy = |x: &[f64], a: f64, d: &[f64]| -> Vec<f64> {
+            x.iter().zip(d).map(|(xi, di)| xi + a * di).collect()
+        };
+        let (s1, k1q, k1v, k1y) = self.derivative(q, v, y)?;
+        let y2 = y + faer::Scale(0.5 * h) * &k1y;
+        let (q2, v2) = (axpy(q, 0.5 * h, &k1q), axpy(v, 0.5 * h, &k1v));
+        let (s2, k2q, k2v, k2y) = self.derivative(&q2, &v2, &y2)?;
+        let y3 = y + faer::Scale(0.5 * h) * &k2y;
+        let (q3, v3) = (axpy(q, 0.5 * h, &k2q), axpy(v, 0.5 * h, &k2v));
+        let (s3, k3q, k3v, k3y) = self.derivative(&q3, &v3, &y3)?;
+        let y4 = y + faer::Scale(h) * &k3y;
+        let (q4, v4) = (axpy(q, h, &k3q), axpy(v, h, &k3v));
+        let (s4, k4q, k4v, k4y) = self.derivative(&q4, &v4, &y4)?;
+        let combine = |x: &[f64], a: &[f64], b: &[f64], c: &[f64], d: &[f64]| -> Vec<f64> {
+            (0..x.len())
+                .map(|i| x[i] + h / 6.0 * (a[i] + 2.0 * b[i] + 2.0 * c[i] + d[i]))
+                .collect()
+        };
+        let y_new = y + faer::Scale(h / 6.0)
+            * (&k1y + faer::Scale(2.0) * &k2y + faer::Scale(2.0) * &k3y + &k4y);
+        Ok(Rk4Step {
+            q: combine(q, &k1q, &k2q, &k3q, &k4q),
+            v: combine(v, &k1v, &k2v, &k3v, &k4v),
+            y: y_new,
+            one_set: s1 == s2 && s1 == s3 && s1 == s4,
+        })
+    }
+}
+
+/// Number of RK4 steps for `duration` (s): STEPS_PER_FAST_PERIOD per period of the fastest
+/// frequency of the model with every row closed.
+pub(crate) fn rk4_steps(model: &BoundaryModel, duration: f64) -> Result<usize, NnmError> {
+    let all: Vec<usize> = (0..model.gaps.len()).collect();
+    let k = stiffness_on(model, &all)?;
+    let r = k.nrows();
+    let identity = Mat::<f64>::identity(r, r);
+    let eig = generalized_eigen(k.as_ref(), identity.as_ref(), "I")?;
+    let s_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
+    let periods = duration * s_max / (2.0 * std::f64::consts::PI);
+    Ok(((periods * STEPS_PER_FAST_PERIOD).ceil() as usize).max(1000))
+}
+
+/// Bisection steps locating a change of the active set within a step (h / 2^50).
+const SWITCH_BISECTIONS: usize = 50;
+
+/// One RK4 step of (q, q', Y): the new values and whether every stage had the active set of the
+/// first.
+struct Rk4Step {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    y: Mat<f64>,
+    one_set: bool,
+}
+
+/// RK4 over `duration` from `start` in steps of at most duration / `steps`: the end state and the
+/// transition matrix (2r x 2r). A step over which the active set changes is cut, by bisection,
+/// at the change: one step on the old set up to it and one of h / 2^50 across it, so no step
+/// mixes two linear pieces by more than that and the scheme keeps its order on each piece (the
+/// field is continuous at a switch: nothing else happens there).
+pub(crate) fn integrate(
+    model: &BoundaryModel,
+    start: &FlowState,
+    duration: f64,
+    steps: usize,
+) -> Result<(FlowState, Mat<f64>), NnmError> {
+    let r = start.q.len();
+    let mut rk4 = Rk4 {
+        model,
+        last_set: Vec::new(),
+        stiffness: HashMap::new(),
+    };
+    let h_max = duration / steps as f64;
+    let (mut q, mut v) = (start.q.clone(), start.v.clone());
+    let mut y = Mat::<f64>::identity(2 * r, 2 * r);
+    let mut t = 0.0;
+    while t < duration {
+        let h = h_max.min(duration - t);
+        let mut step = rk4.rk4_step(&q, &v, &y, h)?;
+        let mut taken = h;
+        if !step.one_set {
+            let (mut lo, mut hi) = (0.0, h);
+            for _ in 0..SWITCH_BISECTIONS {
+                let mid = 0.5 * (lo + hi);
+                if rk4.rk4_step(&q, &v, &y, mid)?.one_set {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            // Up to the switch on the old set, then across it in a step of h / 2^50: the
+            // variational equation's coefficient jumps there, and a stage evaluated past the
+            // switch must not weigh on a long step.
+            if lo > 0.0 {
+                let before = rk4.rk4_step(&q, &v, &y, lo)?;
+                (q, v, y) = (before.q, before.v, before.y);
+            }
+            taken = hi;
+            step = rk4.rk4_step(&q, &v, &y, hi - lo)?;
+        }
+        (q, v, y) = (step.q, step.v, step.y);
+        t += taken;
+    }
+    Ok((FlowState { q, v }, y))
+}
