@@ -119,7 +119,13 @@ fn blade_hill_cost_and_mode_cutoff_convergence() {
             .collect::<Vec<_>>()
     );
     let points = blade_backbone();
-    let analysis = FloquetAnalysis::new(sys, FloquetSettings::default()).expect("analysis");
+    // Hill's method itself (the massless-boundary shooting would answer for the points in
+    // contact; it has its own test below).
+    let hill_only = FloquetSettings {
+        shooting: false,
+        ..FloquetSettings::default()
+    };
+    let analysis = FloquetAnalysis::new(sys, hill_only.clone()).expect("analysis");
     let mut times = Vec::new();
     let grazing = sys
         .grazing_amplitude(0)
@@ -189,7 +195,7 @@ fn blade_hill_cost_and_mode_cutoff_convergence() {
             p,
             &FloquetSettings {
                 mode_cutoff: 6.0,
-                ..FloquetSettings::default()
+                ..hill_only.clone()
             },
         )
         .expect("reference");
@@ -203,7 +209,7 @@ fn blade_hill_cost_and_mode_cutoff_convergence() {
                 p,
                 &FloquetSettings {
                     mode_cutoff: cutoff,
-                    ..FloquetSettings::default()
+                    ..hill_only.clone()
                 },
             )
             .expect("hill");
@@ -319,6 +325,120 @@ fn truncated_blade_hill_agrees_with_the_integrated_monodromy() {
         hill.unstable
     );
     assert!((hill.max_multiplier_abs - mono_max).abs() <= 1e-3);
+}
+
+/// The massless contact boundary (docs/STABILITY.md, Sec. 9) on the coarse blade's backbone:
+/// every point in contact gets its verdict from the shot orbit, next to the harmonic-balance
+/// orbit, confirmed by the independent RK4 integration; and the penalty law in series with the
+/// same boundary gives the exact-contact verdict back as kc grows.
+#[test]
+fn blade_shooting_verdicts_are_checked_and_the_penalty_law_converges_to_them() {
+    let sys = blade();
+    let points = blade_backbone();
+    let every = FloquetSettings {
+        verify_every: 1,
+        ..FloquetSettings::default()
+    };
+    let analysis = FloquetAnalysis::new(sys, every.clone()).expect("analysis");
+    let g = sys.gap_reference();
+    let mut exact = Vec::new();
+    let mut undetermined = 0;
+    for p in points {
+        let st = analysis.analyze_checked(p, true).expect("stability");
+        let in_contact = p.contact_force.iter().flatten().any(|&f| f > 0.0);
+        if !in_contact {
+            continue;
+        }
+        let check = st.check.clone().expect("checked");
+        let word = nlmodes_nnm::verdict_word(&nlmodes_nnm::VerdictInputs::of(&st));
+        println!(
+            "q/g0 {:6.3} w/w1 {:.5} {:?} r {} switches {} shift {:.1e} trivial {:.1e} max|mu| {:.6} \
+             RK4: {} steps, periodic {:.1e}, max|mu| change {:.1e} -> {word}",
+            p.q / g,
+            p.omega_ratio,
+            st.method,
+            st.modes_kept,
+            st.impacts,
+            st.orbit_shift,
+            st.trivial_pair_error,
+            st.max_multiplier_abs,
+            check.steps,
+            check.periodicity,
+            check.max_multiplier_change
+        );
+        // Every point in contact is shot and the check confirms it (limit 1e-4; observed
+        // <= 3e-7 here, <= 1e-6 on the default blade).
+        assert_eq!(
+            st.method,
+            nlmodes_nnm::StabilityMethod::Shooting,
+            "q/g0 {}",
+            p.q / g
+        );
+        assert!(check.agrees(), "q/g0 {}: {check:?}", p.q / g);
+        if word == "undetermined" {
+            undetermined += 1;
+        } else {
+            exact.push((p, st));
+        }
+    }
+    // Observed: 1 undetermined of 44 (q/g0 = 12, the last point, after a jump of the
+    // continuation: its shot orbit lies 1.3e-2 in w away). Required: at most 10 % (issue 24).
+    let total = exact.len() + undetermined;
+    println!("{undetermined} undetermined of {total} points in contact");
+    assert!(
+        total >= 8 && 10 * undetermined <= total,
+        "{undetermined} of {total}"
+    );
+    penalty_convergence(sys, &exact, &every);
+}
+
+/// Penalty orbits at the amplitudes of the exact-contact points, kc = 1e7 .. 1e10 N/m, analysed
+/// on the massless boundary with the spring in series: the largest |mu| and the verdict approach
+/// the exact-contact ones as kc grows.
+fn penalty_convergence(
+    sys: &System,
+    exact: &[(&BackbonePoint, Stability)],
+    settings: &FloquetSettings,
+) {
+    let analysis = FloquetAnalysis::new(sys, settings.clone()).expect("analysis");
+    let mut worst = Vec::new();
+    for kc in [1e7, 1e8, 1e9, 1e10] {
+        let params = nlmodes_nnm::SolverSettings {
+            algorithm: AlgorithmParams {
+                method: ContactMethod::Penalty { stiffness: kc },
+                ..AlgorithmParams::default()
+            },
+            ..Default::default()
+        };
+        let settings = HarmonicSettings::new(10, 128).expect("settings");
+        let mut solver = Solver::new(sys, settings, params).expect("solver");
+        let (mut d_mu, mut d_w, mut disagree) = (0.0_f64, 0.0_f64, 0);
+        for (p, st) in exact {
+            let pen = solver
+                .solve_point(p.q, Start::Point(p))
+                .expect("penalty orbit");
+            let ps = analysis.analyze(&pen).expect("penalty stability");
+            d_mu = d_mu.max((ps.max_multiplier_abs - st.max_multiplier_abs).abs());
+            d_w = d_w.max((pen.omega / p.omega - 1.0).abs());
+            let words =
+                [st, &ps].map(|s| nlmodes_nnm::verdict_word(&nlmodes_nnm::VerdictInputs::of(s)));
+            disagree += usize::from(words[0] != words[1]);
+        }
+        println!(
+            "penalty kc = {kc:.0e} N/m: max |w_pen / w - 1| = {d_w:.2e}, max |max|mu| - exact| = \
+             {d_mu:.2e}, verdicts differing {disagree} of {}",
+            exact.len()
+        );
+        worst.push((d_w, d_mu, disagree));
+    }
+    // Converging: the stiffest spring's orbits and multipliers are the closest, and its verdicts
+    // are the exact-contact ones.
+    let last = worst.last().expect("four springs");
+    assert!(
+        worst.iter().all(|w| w.0 >= last.0 && w.1 >= last.1),
+        "{worst:?}"
+    );
+    assert_eq!(last.2, 0, "{worst:?}");
 }
 
 /// Cost on a reduced-model directory (the default blade: `nlmodes run cases/blade.toml --only
