@@ -88,6 +88,7 @@ fn header(n: usize) -> Vec<String> {
         "stability",
         "largest_multiplier",
         "period_residual",
+        "boundary_shift",
         "bifurcation",
         "fold",
         "hop",
@@ -150,6 +151,7 @@ pub(crate) fn push_curve(
             CsvValue::Text(verdict_word(stab)),
             opt(stab.and_then(|s| s.largest_multiplier)),
             opt(stab.and_then(|s| s.period_residual)),
+            opt(stab.and_then(|s| s.boundary_shift)),
             CsvValue::Text(bif),
             CsvValue::Text(fold.map_or(String::new(), |f| format!("{:?}", f.kind))),
             CsvValue::Int(i64::from(r.hops.contains(&i))),
@@ -178,6 +180,9 @@ struct OrbitRecord {
     largest_multiplier: Option<f64>,
     liouville_error: Option<f64>,
     period_residual: Option<f64>,
+    /// The massless contact boundary's shot orbit: its scaled distance from this orbit (points
+    /// in contact; docs/STABILITY.md Sec. 9).
+    boundary_shift: Option<f64>,
     bifurcation: Option<String>,
     powell_measure: f64,
     newton_iterations: usize,
@@ -231,6 +236,7 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
                 largest_multiplier: s.and_then(|s| s.largest_multiplier),
                 liouville_error: s.and_then(|s| s.liouville_error),
                 period_residual: s.and_then(|s| s.period_residual),
+                boundary_shift: s.and_then(|s| s.boundary_shift),
                 bifurcation: s.and_then(|s| s.bifurcation).map(|b| format!("{b:?}")),
                 powell_measure: p.powell_measure,
                 newton_iterations: p.newton_iterations,

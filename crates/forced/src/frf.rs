@@ -246,9 +246,23 @@ pub struct PointStability {
     /// lands from it (relative; `period_check`); `None` for exact contact (not checked). Above
     /// `FrfSettings::period_tolerance` the verdict is undetermined.
     pub period_residual: Option<f64>,
+    /// On the massless contact boundary (points in contact, docs/STABILITY.md Sec. 9): the
+    /// scaled distance from the harmonic-balance orbit's start to the shot orbit's, whose
+    /// multipliers these are; above `BOUNDARY_SHIFT_LIMIT` the verdict is undetermined. `None`
+    /// where the massive model's monodromy and the period check were used.
+    pub boundary_shift: Option<f64>,
 }
 
 impl PointStability {
+    fn on_boundary(b: &crate::boundary::BoundaryMonodromy, margin: f64) -> Self {
+        let mut st = Self::of(&b.monodromy, margin);
+        st.boundary_shift = Some(b.shift);
+        if b.shift > crate::boundary::BOUNDARY_SHIFT_LIMIT {
+            st.verdict = Verdict::Undetermined;
+        }
+        st
+    }
+
     fn of(mono: &SampledMonodromy, margin: f64) -> Self {
         let first = mono.multipliers.first().copied().unwrap_or([0.0, 0.0]);
         Self {
@@ -258,6 +272,7 @@ impl PointStability {
             liouville_error: mono.liouville_error,
             bifurcation: None,
             period_residual: None,
+            boundary_shift: None,
         }
     }
 
@@ -270,6 +285,7 @@ impl PointStability {
             liouville_error: None,
             bifurcation: None,
             period_residual: None,
+            boundary_shift: None,
         }
     }
 
@@ -633,6 +649,11 @@ impl<'a, 's> FrfTrace<'a, 's> {
         let assessed: Vec<Result<PointStability, ForcedError>> = self.curve.points[from..]
             .par_iter()
             .map(|point| {
+                if point.contact_force.iter().any(|&f| f > 0.0) {
+                    if let Some(b) = solver.boundary_monodromy(point)? {
+                        return Ok(PointStability::on_boundary(&b, settings.stability_margin));
+                    }
+                }
                 let residual = solver.period_residual(point);
                 let mut st = if residual.is_some_and(|r| r > settings.period_tolerance) {
                     // Not a periodic solution of the equation the monodromy linearizes: no

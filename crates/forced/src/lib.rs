@@ -16,6 +16,7 @@
 //! frequency, through its folds), [`synthesize`]
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
+mod boundary;
 mod damping;
 mod dynamics;
 mod error;
@@ -26,6 +27,9 @@ mod period_check;
 mod solver;
 mod synthesis;
 
+pub use boundary::{
+    boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
+};
 pub use damping::{modal_ratios, Damping};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;

@@ -221,6 +221,31 @@ impl<'s> ForcedSolver<'s> {
         )?)
     }
 
+    /// The multipliers of the point on the massless contact boundary (`boundary`), `None` where
+    /// that model does not apply or shooting does not converge.
+    pub fn boundary_monodromy(
+        &self,
+        point: &ForcedPoint,
+    ) -> Result<Option<crate::boundary::BoundaryMonodromy>, ForcedError> {
+        let penalty = match self.settings.algorithm.method {
+            ContactMethod::Penalty { stiffness } => Some(stiffness),
+            ContactMethod::AugmentedLagrangian => None,
+        };
+        let load = self.load.scaled(point.level);
+        let inputs = crate::boundary::BoundaryInputs {
+            system: self.system,
+            damping: self.damping.as_ref(),
+            load: &load,
+            penalty,
+            harmonics: self.basis.harmonics(),
+        };
+        Ok(crate::boundary::boundary_monodromy(
+            &inputs,
+            &point.coefficients,
+            point.omega,
+        )?)
+    }
+
     /// One period of time integration of the penalty equation from the point's start, its
     /// relative distance to the start (`period_check`); `None` for exact contact.
     pub fn period_residual(&self, point: &ForcedPoint) -> Option<f64> {

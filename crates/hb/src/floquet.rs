@@ -342,8 +342,9 @@ fn merge_pieces(pieces: &[Piece]) -> Vec<Piece> {
     out
 }
 
-/// Multipliers of the monodromy `phi` and its Liouville error.
-fn multipliers_of(
+/// Multipliers of the monodromy `phi` (of a first-order system whose generator has trace
+/// -`trace_minv_c` throughout the period `period`) and its Liouville error.
+pub fn multipliers_of(
     phi: Mat<f64>,
     trace_minv_c: f64,
     period: f64,

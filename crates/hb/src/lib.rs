@@ -32,11 +32,13 @@
 //! helpers), `check` (parameter checks), `error`.
 
 pub mod augmented_lagrangian;
+pub mod boundary_rk4;
 pub mod check;
 pub mod condensation_basis;
 pub mod condensed_newton;
 pub mod contact;
 pub mod dense;
+pub mod driven_boundary;
 pub mod error;
 pub mod floquet;
 pub mod fourier;

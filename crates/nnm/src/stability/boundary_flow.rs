@@ -34,6 +34,7 @@ use faer::{Mat, MatRef, Side};
 
 use crate::NnmError;
 use nlmodes_hb::dense::generalized_eigen;
+use nlmodes_hb::driven_boundary::DrivenBoundary;
 
 /// Scan points per shortest period of a piece when looking for a switch.
 const SCAN_PER_PERIOD: f64 = 16.0;
@@ -54,6 +55,23 @@ pub(crate) struct BoundaryModel {
     pub flexibility: Mat<f64>,
     /// g0 (m).
     pub gaps: Vec<f64>,
+}
+
+impl BoundaryModel {
+    /// The same model as a [`DrivenBoundary`] without damping or drive (for the RK4 check;
+    /// `period` only sets its nominal frequency).
+    pub fn undriven(&self, period: f64) -> DrivenBoundary {
+        let r = self.omega2.len();
+        DrivenBoundary {
+            omega2: self.omega2.clone(),
+            damping: Mat::zeros(r, r),
+            contact_modal: self.contact_modal.clone(),
+            flexibility: self.flexibility.clone(),
+            gaps: self.gaps.clone(),
+            drive: Vec::new(),
+            omega: 2.0 * std::f64::consts::PI / period,
+        }
+    }
 }
 
 /// The state (q, q') in the kept modal coordinates.
@@ -109,7 +127,7 @@ impl Piece {
         (z, zd)
     }
 
-    fn from_modal(&self, z: &[f64], zd: &[f64]) -> FlowState {
+    fn state_of(&self, z: &[f64], zd: &[f64]) -> FlowState {
         let r = z.len();
         let q = (0..r)
             .map(|k| self.equilibrium[k] + (0..r).map(|i| self.vecs[(k, i)] * z[i]).sum::<f64>())
@@ -223,7 +241,7 @@ impl<'m> BoundaryFlow<'m> {
             if let Some(m) = transition.as_deref_mut() {
                 *m = piece.transition(dt) * &*m;
             }
-            *state = piece.from_modal(&z, &zd);
+            *state = piece.state_of(&z, &zd);
             let accel = piece.acceleration(&z);
             left -= dt;
             match event {
@@ -339,7 +357,7 @@ fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, NnmError
     let f_a = b_a.transpose() * &l_vec;
     let identity = Mat::<f64>::identity(r, r);
     let eig = generalized_eigen(k_a.as_ref(), identity.as_ref(), "I")?;
-    if eig.values.iter().any(|&s2| !(s2 > 0.0)) {
+    if eig.values.iter().any(|&s2| s2.is_nan() || s2 <= 0.0) {
         return Err(NnmError::NotPositiveDefinite {
             name: "K_a",
             detail: "the massless boundary's stiffness on a contact set is not positive definite"

@@ -15,6 +15,7 @@ use faer::{Mat, Side};
 
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
 use crate::NnmError;
+use nlmodes_hb::boundary_rk4::{self, Rk4State};
 
 /// Newton stops when |q'(T/2)| < this x w |q0| (the scaled residual).
 const NEWTON_TOLERANCE: f64 = 1e-10;
@@ -78,7 +79,7 @@ pub(crate) fn shoot(
     let r = q0.len();
     let mut flow = BoundaryFlow::new(model);
     let (q_scale, t_scale) = (norm(&q0), period);
-    if !(q_scale > 0.0 && period > 0.0) {
+    if q_scale.is_nan() || q_scale <= 0.0 || period.is_nan() || period <= 0.0 {
         return Ok(None);
     }
     let v_scale = q_scale * 2.0 * std::f64::consts::PI / period;
@@ -184,7 +185,7 @@ pub(crate) fn boundary_model(
     let shifted = Mat::from_fn(c, c, |i, j| {
         flexibility[(i, j)] - if i == j { 1e-10 * scale } else { 0.0 }
     });
-    if !(scale > 0.0) || shifted.llt(Side::Lower).is_err() {
+    if scale.is_nan() || scale <= 0.0 || shifted.llt(Side::Lower).is_err() {
         return None;
     }
     Some(BoundaryModel {
@@ -203,8 +204,14 @@ pub(crate) fn modal_coordinates(modal: &ModalData<'_>, u: &[f64], r: usize) -> V
         .collect()
 }
 
-/// The multipliers (as exponents, 1/s) of a shot orbit's monodromy.
-pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Vec<faer::c64>, NnmError> {
+/// The multipliers (as exponents, 1/s) of a shot orbit's monodromy; `None` when the monodromy
+/// or a multiplier is not a finite nonzero number, or its determinant is not 1 within 1e-6 (the
+/// flow is Hamiltonian: a monodromy that is not symplectic to that accuracy is not trusted).
+pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, NnmError> {
+    let m = &orbit.monodromy;
+    if m.col_iter().any(|col| col.iter().any(|v| !v.is_finite())) {
+        return Ok(None);
+    }
     let values = orbit
         .monodromy
         .eigenvalues()
@@ -213,10 +220,16 @@ pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Vec<faer::c64>, NnmError
             detail: format!("{e:?}"),
         })?;
     let t = orbit.period;
-    Ok(values
-        .iter()
-        .map(|mu| faer::c64::new(mu.norm().ln() / t, mu.arg() / t))
-        .collect())
+    let log_det: f64 = values.iter().map(|mu| mu.norm().ln()).sum();
+    if !(log_det.is_finite() && log_det.abs() <= 1e-6) {
+        return Ok(None);
+    }
+    Ok(Some(
+        values
+            .iter()
+            .map(|mu| faer::c64::new(mu.norm().ln() / t, mu.arg() / t))
+            .collect(),
+    ))
 }
 
 /// The independent RK4 check of a shot orbit (`boundary_rk4`): one period from its start.
@@ -225,12 +238,13 @@ pub(crate) fn check_by_rk4(
     orbit: &ShotOrbit,
 ) -> Result<super::ShootingCheck, NnmError> {
     let r = orbit.q0.len();
-    let start = FlowState {
+    let start = Rk4State {
         q: orbit.q0.clone(),
         v: vec![0.0; r],
     };
-    let steps = super::boundary_rk4::rk4_steps(model, orbit.period)?;
-    let (end, monodromy) = super::boundary_rk4::integrate(model, &start, orbit.period, steps)?;
+    let driven = model.undriven(orbit.period);
+    let steps = boundary_rk4::rk4_steps(&driven, orbit.period)?;
+    let (end, monodromy) = boundary_rk4::integrate(&driven, &start, orbit.period, steps)?;
     let q_scale = norm(&orbit.q0);
     let v_scale = q_scale * 2.0 * std::f64::consts::PI / orbit.period;
     let periodicity = (0..r)
@@ -281,7 +295,6 @@ fn nontrivial(mut values: Vec<faer::c64>) -> Vec<faer::c64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stability::boundary_rk4;
 
     /// One mode (w = 1) on one row of flexibility `flex`, gap 1: a bilinear oscillator.
     fn bilinear(flex: f64) -> BoundaryModel {
@@ -324,7 +337,7 @@ mod tests {
                 );
                 // One contact phase: two switches per period.
                 assert_eq!(orbit.switches, 2);
-                let exponents = exponents_of(&orbit).expect("multipliers");
+                let exponents = exponents_of(&orbit).expect("multipliers").expect("finite");
                 for s in exponents {
                     let mu = (s * orbit.period).exp();
                     assert!((mu - faer::c64::new(1.0, 0.0)).norm() < 1e-4, "{mu:?}");
@@ -368,8 +381,12 @@ mod tests {
             flow.advance(&mut end, &mut active, 7.0, Some(&mut transition))
                 .expect("flow");
             let switches = flow.switches - before;
+            let rk_start = Rk4State {
+                q: start.q.clone(),
+                v: start.v.clone(),
+            };
             let (rk, rk_transition) =
-                boundary_rk4::integrate(&model, &start, 7.0, 20_000).expect("rk4");
+                boundary_rk4::integrate(&model.undriven(7.0), &rk_start, 7.0, 20_000).expect("rk4");
             let state_error = (0..3)
                 .map(|i| (end.q[i] - rk.q[i]).abs().max((end.v[i] - rk.v[i]).abs()))
                 .fold(0.0, f64::max);

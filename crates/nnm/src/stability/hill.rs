@@ -220,7 +220,10 @@ impl<'s> FloquetAnalysis<'s> {
             );
             return Ok(None);
         };
-        let exponents = exponents_of(&orbit)?;
+        let Some(exponents) = exponents_of(&orbit)? else {
+            tracing::debug!(w = point.omega, "massless-boundary monodromy not finite");
+            return Ok(None);
+        };
         let mut out = stability_from_exponents(&exponents, orbit.period, self.settings.tolerance);
         out.method = StabilityMethod::Shooting;
         out.selection_mean_harmonic_max = 0.0;

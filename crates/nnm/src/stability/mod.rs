@@ -80,7 +80,6 @@
 
 mod bifurcation;
 mod boundary_flow;
-mod boundary_rk4;
 mod boundary_shooting;
 mod hill;
 mod impact;

@@ -1,7 +1,8 @@
-//! An independent integration of the massless-boundary model, the check of the shooting
-//! verdicts (docs/STABILITY.md, Sec. 9; `[stability] verify_every`).
+//! An independent integration of the massless-boundary model (free or driven), the check of the
+//! shooting verdicts (docs/STABILITY.md, Sec. 9; `[stability] verify_every`).
 //!
-//! Classical RK4 on (q, q') and the variational matrix Y (2r x 2r, Y(0) = I), with the contact
+//! Classical RK4 on (q, q') and the variational matrix Y (2r x 2r, Y(0) = I) of
+//! q'' + C_q q' + W^2 q = P(t) - B^T lambda, u_c = B q + D(t) - R lambda, with the contact
 //! force of every stage from the linear complementarity problem solved afresh at that stage's q
 //! (Murty's least-index pivoting on dense Cholesky solves, warm-started from the last stage's
 //! set): no pieces, no eigenvectors. A step whose stages see two active sets is cut at the
@@ -13,26 +14,60 @@ use std::collections::HashMap;
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
-use super::boundary_flow::{BoundaryModel, FlowState};
-use crate::NnmError;
-use nlmodes_hb::dense::generalized_eigen;
+use crate::dense::generalized_eigen;
+use crate::driven_boundary::DrivenBoundary;
+use crate::error::HbError;
 
 /// RK4 steps per period of the fastest motion of the model (all rows closed): h s_max = 2 pi /
 /// this, about 0.03, local error ~ 1e-9 per step on the smooth stretches.
 const STEPS_PER_FAST_PERIOD: f64 = 200.0;
 
-/// The active set and the contact forces lambda >= 0 (N) at displacement q: the solution of
-/// lambda_a = R_aa^-1 (B_a q - g_a) >= 0, p_f = B_f q - R_fa lambda_a - g_f <= 0.
+/// A state (q, q') of the kept modes.
+#[derive(Clone, Debug)]
+pub struct Rk4State {
+    pub q: Vec<f64>,
+    pub v: Vec<f64>,
+}
+
+/// The drive at time t: P(t) on the kept modes and D(t) on the contact rows.
+struct DriveAt {
+    modal: Vec<f64>,
+    contact: Vec<f64>,
+}
+
+fn drive_at(model: &DrivenBoundary, t: f64) -> DriveAt {
+    let (r, c) = (model.omega2.len(), model.gaps.len());
+    let mut out = DriveAt {
+        modal: vec![0.0; r],
+        contact: vec![0.0; c],
+    };
+    for d in &model.drive {
+        let (s, co) = (d.harmonic as f64 * model.omega * t).sin_cos();
+        for (i, m) in out.modal.iter_mut().enumerate() {
+            *m += co * d.modal[0][i] + s * d.modal[1][i];
+        }
+        for (j, m) in out.contact.iter_mut().enumerate() {
+            *m += co * d.contact[0][j] + s * d.contact[1][j];
+        }
+    }
+    out
+}
+
+/// The active set and the contact forces lambda >= 0 (N) at displacement q and time t: the
+/// solution of lambda_a = R_aa^-1 (B_a q + D_a(t) - g_a) >= 0,
+/// p_f = B_f q + D_f(t) - R_fa lambda_a - g_f <= 0.
 /// Murty's least-index principal pivoting terminates from any starting set for a P-matrix
 /// (R is positive definite), so `start` (the last stage's set) only saves pivots.
-pub(crate) fn contact_solution(
-    model: &BoundaryModel,
+pub fn contact_solution(
+    model: &DrivenBoundary,
+    t: f64,
     q: &[f64],
     start: Vec<usize>,
-) -> Result<(Vec<usize>, Vec<f64>), NnmError> {
+) -> Result<(Vec<usize>, Vec<f64>), HbError> {
     let c = model.gaps.len();
+    let drive = drive_at(model, t);
     let free_gap: Vec<f64> = (0..c)
-        .map(|j| row_dot(&model.contact_modal, j, q) - model.gaps[j])
+        .map(|j| row_dot(&model.contact_modal, j, q) + drive.contact[j] - model.gaps[j])
         .collect();
     let scale = model.gaps.iter().fold(0.0_f64, |a, &g| a.max(g)) * 1e-13;
     let mut active = start;
@@ -61,7 +96,7 @@ pub(crate) fn contact_solution(
             },
         }
     }
-    Err(NnmError::StabilityInput {
+    Err(HbError::StabilityInput {
         detail: "the contact problem of the massless boundary did not settle (RK4 check)"
             .to_string(),
     })
@@ -71,19 +106,19 @@ fn row_dot(m: &Mat<f64>, j: usize, x: &[f64]) -> f64 {
     (0..x.len()).map(|k| m[(j, k)] * x[k]).sum()
 }
 
-/// lambda_a = R_aa^-1 (B_a q - g_a) given b_a = B_a q - g_a on every row.
+/// lambda_a = R_aa^-1 (B_a q + D_a - g_a) given that free gap on every row.
 fn solve_on(
-    model: &BoundaryModel,
+    model: &DrivenBoundary,
     active: &[usize],
     free_gap: &[f64],
-) -> Result<Vec<f64>, NnmError> {
+) -> Result<Vec<f64>, HbError> {
     let na = active.len();
     if na == 0 {
         return Ok(Vec::new());
     }
     let r_aa = Mat::from_fn(na, na, |i, k| model.flexibility[(active[i], active[k])]);
     let rhs = Mat::from_fn(na, 1, |i, _| free_gap[active[i]]);
-    let llt = r_aa.llt(Side::Lower).map_err(|e| NnmError::Decomposition {
+    let llt = r_aa.llt(Side::Lower).map_err(|e| HbError::Decomposition {
         what: "Cholesky of the massless boundary's flexibility (RK4 check)",
         detail: format!("{e:?}"),
     })?;
@@ -92,14 +127,14 @@ fn solve_on(
 }
 
 /// The stiffness W^2 + B_a^T R_aa^-1 B_a of the active set `active` (r x r).
-fn stiffness_on(model: &BoundaryModel, active: &[usize]) -> Result<Mat<f64>, NnmError> {
+fn stiffness_on(model: &DrivenBoundary, active: &[usize]) -> Result<Mat<f64>, HbError> {
     let r = model.omega2.len();
     let na = active.len();
     let mut k = Mat::from_fn(r, r, |i, j| if i == j { model.omega2[i] } else { 0.0 });
     if na > 0 {
         let r_aa = Mat::from_fn(na, na, |i, l| model.flexibility[(active[i], active[l])]);
         let b_a = Mat::from_fn(na, r, |i, l| model.contact_modal[(active[i], l)]);
-        let llt = r_aa.llt(Side::Lower).map_err(|e| NnmError::Decomposition {
+        let llt = r_aa.llt(Side::Lower).map_err(|e| HbError::Decomposition {
             what: "Cholesky of the massless boundary's flexibility (RK4 check)",
             detail: format!("{e:?}"),
         })?;
@@ -115,20 +150,28 @@ type Derivative = (Vec<usize>, Vec<f64>, Vec<f64>, Mat<f64>);
 /// The integrator's state across stages: the last active set (the next LCP's start) and the
 /// stiffness of every set met.
 struct Rk4<'m> {
-    model: &'m BoundaryModel,
+    model: &'m DrivenBoundary,
     last_set: Vec<usize>,
     stiffness: HashMap<Vec<usize>, Mat<f64>>,
 }
 
 impl Rk4<'_> {
-    fn derivative(&mut self, q: &[f64], v: &[f64], y: &Mat<f64>) -> Result<Derivative, NnmError> {
+    fn derivative(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        y: &Mat<f64>,
+    ) -> Result<Derivative, HbError> {
         let model = self.model;
         let r = q.len();
-        let (active, lambda) = contact_solution(model, q, self.last_set.clone())?;
+        let (active, lambda) = contact_solution(model, t, q, self.last_set.clone())?;
         self.last_set.clone_from(&active);
+        let drive = drive_at(model, t);
         let accel: Vec<f64> = (0..r)
             .map(|k| {
-                -model.omega2[k] * q[k]
+                -model.omega2[k] * q[k] + drive.modal[k]
+                    - (0..r).map(|l| model.damping[(k, l)] * v[l]).sum::<f64>()
                     - (0..active.len())
                         .map(|i| model.contact_modal[(active[i], k)] * lambda[i])
                         .sum::<f64>()
@@ -144,31 +187,34 @@ impl Rk4<'_> {
         for col in 0..n {
             for i in 0..r {
                 dy[(i, col)] = y[(r + i, col)];
-                dy[(r + i, col)] = -(0..r).map(|l| k_a[(i, l)] * y[(l, col)]).sum::<f64>();
+                dy[(r + i, col)] = -(0..r)
+                    .map(|l| k_a[(i, l)] * y[(l, col)] + model.damping[(i, l)] * y[(r + l, col)])
+                    .sum::<f64>();
             }
         }
         Ok((active, v.to_vec(), accel, dy))
     }
     fn rk4_step(
         &mut self,
+        t: f64,
         q: &[f64],
         v: &[f64],
         y: &Mat<f64>,
         h: f64,
-    ) -> Result<Rk4Step, NnmError> {
+    ) -> Result<Rk4Step, HbError> {
         let axpy = |x: &[f64], a: f64, d: &[f64]| -> Vec<f64> {
             x.iter().zip(d).map(|(xi, di)| xi + a * di).collect()
         };
-        let (s1, k1q, k1v, k1y) = self.derivative(q, v, y)?;
+        let (s1, k1q, k1v, k1y) = self.derivative(t, q, v, y)?;
         let y2 = y + faer::Scale(0.5 * h) * &k1y;
         let (q2, v2) = (axpy(q, 0.5 * h, &k1q), axpy(v, 0.5 * h, &k1v));
-        let (s2, k2q, k2v, k2y) = self.derivative(&q2, &v2, &y2)?;
+        let (s2, k2q, k2v, k2y) = self.derivative(t + 0.5 * h, &q2, &v2, &y2)?;
         let y3 = y + faer::Scale(0.5 * h) * &k2y;
         let (q3, v3) = (axpy(q, 0.5 * h, &k2q), axpy(v, 0.5 * h, &k2v));
-        let (s3, k3q, k3v, k3y) = self.derivative(&q3, &v3, &y3)?;
+        let (s3, k3q, k3v, k3y) = self.derivative(t + 0.5 * h, &q3, &v3, &y3)?;
         let y4 = y + faer::Scale(h) * &k3y;
         let (q4, v4) = (axpy(q, h, &k3q), axpy(v, h, &k3v));
-        let (s4, k4q, k4v, k4y) = self.derivative(&q4, &v4, &y4)?;
+        let (s4, k4q, k4v, k4y) = self.derivative(t + h, &q4, &v4, &y4)?;
         let combine = |x: &[f64], a: &[f64], b: &[f64], c: &[f64], d: &[f64]| -> Vec<f64> {
             (0..x.len())
                 .map(|i| x[i] + h / 6.0 * (a[i] + 2.0 * b[i] + 2.0 * c[i] + d[i]))
@@ -187,7 +233,7 @@ impl Rk4<'_> {
 
 /// Number of RK4 steps for `duration` (s): STEPS_PER_FAST_PERIOD per period of the fastest
 /// frequency of the model with every row closed.
-pub(crate) fn rk4_steps(model: &BoundaryModel, duration: f64) -> Result<usize, NnmError> {
+pub fn rk4_steps(model: &DrivenBoundary, duration: f64) -> Result<usize, HbError> {
     let all: Vec<usize> = (0..model.gaps.len()).collect();
     let k = stiffness_on(model, &all)?;
     let r = k.nrows();
@@ -215,12 +261,12 @@ struct Rk4Step {
 /// at the change: one step on the old set up to it and one of h / 2^50 across it, so no step
 /// mixes two linear pieces by more than that and the scheme keeps its order on each piece (the
 /// field is continuous at a switch: nothing else happens there).
-pub(crate) fn integrate(
-    model: &BoundaryModel,
-    start: &FlowState,
+pub fn integrate(
+    model: &DrivenBoundary,
+    start: &Rk4State,
     duration: f64,
     steps: usize,
-) -> Result<(FlowState, Mat<f64>), NnmError> {
+) -> Result<(Rk4State, Mat<f64>), HbError> {
     let r = start.q.len();
     let mut rk4 = Rk4 {
         model,
@@ -233,13 +279,13 @@ pub(crate) fn integrate(
     let mut t = 0.0;
     while t < duration {
         let h = h_max.min(duration - t);
-        let mut step = rk4.rk4_step(&q, &v, &y, h)?;
+        let mut step = rk4.rk4_step(t, &q, &v, &y, h)?;
         let mut taken = h;
         if !step.one_set {
             let (mut lo, mut hi) = (0.0, h);
             for _ in 0..SWITCH_BISECTIONS {
                 let mid = 0.5 * (lo + hi);
-                if rk4.rk4_step(&q, &v, &y, mid)?.one_set {
+                if rk4.rk4_step(t, &q, &v, &y, mid)?.one_set {
                     lo = mid;
                 } else {
                     hi = mid;
@@ -249,14 +295,15 @@ pub(crate) fn integrate(
             // variational equation's coefficient jumps there, and a stage evaluated past the
             // switch must not weigh on a long step.
             if lo > 0.0 {
-                let before = rk4.rk4_step(&q, &v, &y, lo)?;
+                let before = rk4.rk4_step(t, &q, &v, &y, lo)?;
                 (q, v, y) = (before.q, before.v, before.y);
+                t += lo;
             }
-            taken = hi;
-            step = rk4.rk4_step(&q, &v, &y, hi - lo)?;
+            taken = hi - lo;
+            step = rk4.rk4_step(t, &q, &v, &y, hi - lo)?;
         }
         (q, v, y) = (step.q, step.v, step.y);
         t += taken;
     }
-    Ok((FlowState { q, v }, y))
+    Ok((Rk4State { q, v }, y))
 }
