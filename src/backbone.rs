@@ -162,7 +162,8 @@ pub fn truncation(
     Ok(())
 }
 
-/// Floquet stability of every point (Hill's method, docs/STABILITY.md), when `settings.enabled`:
+/// Floquet stability of every point (the massless contact boundary for points in contact, Hill's
+/// method or the event-based monodromy otherwise; docs/STABILITY.md), when `settings.enabled`:
 /// its own progress bar and stage timing, so the extra time shows.
 pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection) -> Result<()> {
     if !settings.enabled {
@@ -178,7 +179,7 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
     bar.finish_and_clear();
     if failed > 0 {
         tracing::warn!(
-            "{failed} of {} points have no stability (Hill's method failed there)",
+            "{failed} of {} points have no stability (the analysis failed there)",
             b.points.len()
         );
     }
@@ -191,15 +192,37 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
     };
     let bifurcations = b.points.iter().filter(|p| p.bifurcation.is_some()).count();
     stage.done(&format!(
-        "{} points analysed: {} stable, {} unstable, {} undetermined (the method's error, read \
-         from its trivial pair, cannot back a verdict: docs/STABILITY.md), {bifurcations} \
-         bifurcations",
+        "{} points analysed: {} stable, {} unstable, {} undetermined (the method's own error \
+         cannot back a verdict: docs/STABILITY.md), {bifurcations} bifurcations{}",
         b.points.len() - failed,
         count("stable"),
         count("unstable"),
         count("undetermined"),
+        checks_text(b),
     ));
     Ok(())
+}
+
+/// ", k of k RK4 checks agree" for the points whose shooting verdict was checked
+/// (`[stability] verify_every`), empty when none was.
+fn checks_text(b: &Backbone) -> String {
+    let checks: Vec<&nlmodes_nnm::ShootingCheck> = b
+        .points
+        .iter()
+        .filter_map(|p| p.stability.as_ref()?.check.as_ref())
+        .collect();
+    if checks.is_empty() {
+        return String::new();
+    }
+    let agree = checks.iter().filter(|c| c.agrees()).count();
+    let worst = checks
+        .iter()
+        .map(|c| c.max_multiplier_change)
+        .fold(0.0, f64::max);
+    format!(
+        "; RK4 check of the massless boundary: {agree} of {} agree (largest |mu| to {worst:.1e})",
+        checks.len()
+    )
 }
 
 /// Columns of `backbone.csv` (units in the names).

@@ -179,12 +179,15 @@ fn section(st: &ForcedStudy) -> String {
     let _ = writeln!(
         s,
         "\n![forced response](forced/frf.png)\n![max amplitude](forced/frf_max.png)\n\nSolid: \
-         stable, dashed: unstable, dotted: undetermined. Stability: Floquet multipliers of the \
-         variational equation along each orbit (switches located in time); a verdict is given \
-         only where one period of independent time integration of the penalty equation returns \
-         the orbit to its start within 1e-3 (`period_residual` in frf.csv): where it does not, \
-         the harmonic-balance orbit is not a periodic solution of the equation (contact \
-         dynamics beyond N harmonics) and the point is undetermined. Black: the backbone of the \
+         stable, dashed: unstable, dotted: undetermined. Stability of a point in contact: the \
+         exact monodromy of the periodic orbit of the massless contact boundary next to it (the \
+         modes up to (N + 1) W dynamic, the others static on the contact rows, the contact \
+         displacements without mass; docs/STABILITY.md, Sec. 9), found by shooting with W free; \
+         undetermined where that orbit lies more than 1e-2 (scaled) from the point \
+         (`boundary_shift` in frf.csv) or |mu| is within 1e-3 + the Liouville error of 1. Out of \
+         contact: the Floquet multipliers of the variational equation along the orbit, given \
+         where one period of independent time integration returns the orbit to its start within \
+         1e-3 (`period_residual`). Black: the backbone of the \
          same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
     );
     s + &crate::level_sweep::report_section(st)

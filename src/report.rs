@@ -162,8 +162,13 @@ fn backbone(r: &ReportInputs<'_>) -> String {
          ![frequency-energy](frequency_energy.png)\n\n\
          The linear segment and the main branch are drawn in blue (dashed where unstable, \
          dotted where the stability is undetermined: the trivial Floquet pair is off 1 by more \
-         than 0.05 or by more than the unstable multiplier is off the unit circle; the \
-         `stability` column of the CSV), internal-resonance tongues (branches where harmonic n of the orbit drives another linear \
+         than 0.05 or by more than the unstable multiplier is off the unit circle, or the \
+         shot orbit of the massless contact boundary lies more than 1e-2 in w from the point, \
+         or its RK4 check disagrees; the `stability` column of the CSV). Points in contact get \
+         their multipliers on the massless contact boundary: the modes up to (N + 1) w dynamic, \
+         the others static on the contact rows, the contact displacements without mass, the \
+         periodic orbit next to the point found by shooting and its monodromy computed exactly \
+         (docs/STABILITY.md, Sec. 9). Internal-resonance tongues (branches where harmonic n of the orbit drives another linear \
          mode k, n w near w_k) in light blue; `backbone/backbone.csv` gives every point with its \
          `branch` and `branch_kind`.\n"
     );

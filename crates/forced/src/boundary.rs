@@ -4,10 +4,12 @@
 //! the exact monodromy of that model's periodic orbit next to the harmonic-balance orbit
 //! (`nlmodes_hb::driven_boundary`).
 
-use faer::{Mat, MatRef, Side};
+use faer::{Mat, MatRef};
 
 use crate::load::Load;
-use nlmodes_hb::driven_boundary::{shoot_driven, BoundaryDrive, DrivenBoundary};
+use nlmodes_hb::driven_boundary::{
+    residual_flexibility, shoot_driven, BoundaryDrive, DrivenBoundary,
+};
 use nlmodes_hb::floquet::{multipliers_of, SampledMonodromy};
 use nlmodes_hb::full_basis::FullBasis;
 use nlmodes_hb::system::System;
@@ -127,21 +129,8 @@ fn driven_model(inputs: &BoundaryInputs<'_>, omega: f64) -> Option<DrivenBoundar
     let phi = system.modes();
     let b_all = system.contact_rows() * phi;
     let c = b_all.nrows();
-    let mut flexibility = Mat::from_fn(c, c, |i, j| {
-        (r..n)
-            .map(|k| b_all[(i, k)] * b_all[(j, k)] / lambda[k])
-            .sum::<f64>()
-    });
-    if let Some(kc) = inputs.penalty {
-        (0..c).for_each(|j| flexibility[(j, j)] += 1.0 / kc);
-    }
-    let scale = (0..c).fold(0.0_f64, |a, j| a.max(flexibility[(j, j)]));
-    let shifted = Mat::from_fn(c, c, |i, j| {
-        flexibility[(i, j)] - if i == j { 1e-10 * scale } else { 0.0 }
-    });
-    if scale.is_nan() || scale <= 0.0 || shifted.llt(Side::Lower).is_err() {
-        return None;
-    }
+    let penalty = inputs.penalty.map(|kc| vec![kc; c]);
+    let flexibility = residual_flexibility(b_all.as_ref(), lambda, r, penalty.as_deref())?;
     let phi_k = phi.subcols(0, r);
     let damping = phi_k.transpose() * inputs.damping * phi_k;
     let drive = inputs

@@ -44,6 +44,40 @@ const SHOOTING_TOLERANCE: f64 = 1e-10;
 /// Newton iterations before giving up.
 const SHOOTING_ITERATIONS: usize = 20;
 
+/// The residual flexibility of the modes r.. on the contact rows, R = sum_{k >= r} b_k b_k^T /
+/// w_k^2 (c x c, m/N; `contact_modal` = A Phi, c x n, `eigenvalues` = w_k^2 ascending), plus
+/// 1 / kc on the diagonal of a penalty law's rows (`penalty`: one kc per row, N/m). `None` unless
+/// it is positive definite with a margin of 1e-10 of its largest diagonal entry: a row the
+/// discarded modes barely reach would make a near-rigid contact of a near-massive coordinate
+/// (an impact), not a massless boundary.
+pub fn residual_flexibility(
+    contact_modal: MatRef<'_, f64>,
+    eigenvalues: &[f64],
+    r: usize,
+    penalty: Option<&[f64]>,
+) -> Option<Mat<f64>> {
+    let c = contact_modal.nrows();
+    let b = contact_modal;
+    let mut flexibility = Mat::from_fn(c, c, |i, j| {
+        (r..eigenvalues.len())
+            .map(|k| b[(i, k)] * b[(j, k)] / eigenvalues[k])
+            .sum::<f64>()
+    });
+    if let Some(kc) = penalty {
+        for (j, k) in kc.iter().enumerate() {
+            flexibility[(j, j)] += 1.0 / k;
+        }
+    }
+    let scale = (0..c).fold(0.0_f64, |a, j| a.max(flexibility[(j, j)]));
+    let shifted = Mat::from_fn(c, c, |i, j| {
+        flexibility[(i, j)] - if i == j { 1e-10 * scale } else { 0.0 }
+    });
+    if scale.is_nan() || scale <= 0.0 || shifted.llt(Side::Lower).is_err() {
+        return None;
+    }
+    Some(flexibility)
+}
+
 /// One harmonic of the drive in the boundary model's terms.
 #[derive(Clone, Debug)]
 pub struct BoundaryDrive {

@@ -16,6 +16,7 @@ use faer::{Mat, Side};
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
 use crate::NnmError;
 use nlmodes_hb::boundary_rk4::{self, Rk4State};
+use nlmodes_hb::driven_boundary::residual_flexibility;
 
 /// Newton stops when |q'(T/2)| < this x w |q0| (the scaled residual).
 const NEWTON_TOLERANCE: f64 = 1e-10;
@@ -169,25 +170,8 @@ pub(crate) fn boundary_model(
     let c = gaps.len();
     let b = modal.contact_modal;
     let omega = modal.omega;
-    let mut flexibility = Mat::from_fn(c, c, |i, j| {
-        (r..omega.len())
-            .map(|k| b[(i, k)] * b[(j, k)] / (omega[k] * omega[k]))
-            .sum::<f64>()
-    });
-    if let Some(kc) = penalty {
-        for (j, k) in kc.iter().enumerate() {
-            flexibility[(j, j)] += 1.0 / k;
-        }
-    }
-    // Positive definite with some margin: a row the discarded modes barely reach would make a
-    // near-rigid, near-massive contact (an impact) of the boundary.
-    let scale = (0..c).fold(0.0_f64, |a, j| a.max(flexibility[(j, j)]));
-    let shifted = Mat::from_fn(c, c, |i, j| {
-        flexibility[(i, j)] - if i == j { 1e-10 * scale } else { 0.0 }
-    });
-    if scale.is_nan() || scale <= 0.0 || shifted.llt(Side::Lower).is_err() {
-        return None;
-    }
+    let eigenvalues: Vec<f64> = omega.iter().map(|w| w * w).collect();
+    let flexibility = residual_flexibility(b, &eigenvalues, r, penalty)?;
     Some(BoundaryModel {
         omega2: omega[..r].iter().map(|w| w * w).collect(),
         contact_modal: Mat::from_fn(c, r, |i, k| b[(i, k)]),
