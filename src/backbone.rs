@@ -226,7 +226,7 @@ fn checks_text(b: &Backbone) -> String {
 }
 
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 34] = [
+pub const CSV_COLUMNS: [&str; 36] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -261,6 +261,8 @@ pub const CSV_COLUMNS: [&str; 34] = [
     "truncation_share_change",
     "truncation_same_orbit",
     "stability",
+    "boundary_omega_change",
+    "boundary_contact_share",
 ];
 
 /// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
@@ -316,6 +318,17 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
         // stable / unstable / undetermined (the trivial pair's confidence, issue 24).
         row.push(text(stab.map(|s| {
             nlmodes_nnm::verdict_word(&nlmodes_nnm::VerdictInputs::of(s)).to_string()
+        })));
+        // The massless boundary's exact orbit (shooting method only): |w_hb / w - 1| and the
+        // largest share of the period a contact row is closed.
+        let shot = stab.filter(|s| s.method == nlmodes_nnm::StabilityMethod::Shooting);
+        row.push(text(shot.map(|s| s.orbit_shift.to_string())));
+        row.push(text(shot.map(|s| {
+            s.contact_shares
+                .iter()
+                .copied()
+                .fold(0.0, f64::max)
+                .to_string()
         })));
         table
             .push_row(row)

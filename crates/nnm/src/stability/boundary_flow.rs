@@ -180,6 +180,8 @@ pub(crate) struct BoundaryFlow<'m> {
     threshold: f64,
     /// Switches made since construction.
     pub switches: usize,
+    /// Time each row has spent closed since construction (s).
+    pub closed_time: Vec<f64>,
 }
 
 impl<'m> BoundaryFlow<'m> {
@@ -190,6 +192,7 @@ impl<'m> BoundaryFlow<'m> {
             pieces: HashMap::new(),
             threshold: EVENT_THRESHOLD * gmax,
             switches: 0,
+            closed_time: vec![0.0; model.gaps.len()],
         }
     }
 
@@ -243,6 +246,9 @@ impl<'m> BoundaryFlow<'m> {
             }
             *state = piece.state_of(&z, &zd);
             let accel = piece.acceleration(&z);
+            for (j, _) in active.iter().enumerate().filter(|(_, &a)| a) {
+                self.closed_time[j] += dt;
+            }
             left -= dt;
             match event {
                 None => return Ok(accel),

@@ -35,6 +35,8 @@ pub(crate) struct ShotOrbit {
     pub monodromy: Mat<f64>,
     /// Contact switches over the period.
     pub switches: usize,
+    /// Share of the period each contact row is closed (exact: from the switch instants).
+    pub contact_shares: Vec<f64>,
 }
 
 /// Residual q'(T/2) of a start q0 and period T, with its Jacobian blocks.
@@ -139,12 +141,20 @@ pub(crate) fn shoot(
     };
     let mut monodromy = Mat::<f64>::identity(2 * r, 2 * r);
     let before = flow.switches;
+    let closed_before = flow.closed_time.clone();
     flow.advance(&mut state, &mut active, t, Some(&mut monodromy))?;
+    let contact_shares = flow
+        .closed_time
+        .iter()
+        .zip(&closed_before)
+        .map(|(after, before)| (after - before) / t)
+        .collect();
     Ok(Some(ShotOrbit {
         q0: q,
         period: t,
         monodromy,
         switches: flow.switches - before,
+        contact_shares,
     }))
 }
 

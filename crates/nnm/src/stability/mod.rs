@@ -388,6 +388,10 @@ pub struct Stability {
     /// |w_shot - w| / w: how far the shot periodic orbit of the massless boundary lies from the
     /// harmonic-balance orbit (shooting method; 0 for the others).
     pub orbit_shift: f64,
+    /// Shooting method: the share of the period each contact row of the shot orbit is closed,
+    /// exact (from its switch instants); empty for the other methods.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub contact_shares: Vec<f64>,
     /// The RK4 check of a shooting verdict, where it was made (`verify_every`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub check: Option<ShootingCheck>,
