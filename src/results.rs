@@ -85,6 +85,9 @@ pub struct StabilityRecord {
     /// The RK4 check of a shooting verdict, where one was made.
     #[serde(default)]
     pub check: Option<nlmodes_nnm::ShootingCheck>,
+    /// The shot orbit's per-row contact shares (shooting method only).
+    #[serde(default)]
+    pub contact_shares: Vec<f64>,
 }
 
 impl Orbit {
