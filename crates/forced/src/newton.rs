@@ -322,7 +322,12 @@ impl InnerNewton<'_> {
                 .collect(),
             None => vec![0.0; l],
         };
-        let is_active = |i: usize| active.binary_search(&(i / t)).is_ok();
+        // Which coefficients belong to an active row, and the others in ascending order (looked
+        // up, not searched, in the O(L La) loops below).
+        let mut row_active = vec![false; self.g0.len()];
+        active.iter().for_each(|&j| row_active[j] = true);
+        let is_active = |i: usize| row_active[i / t];
+        let inactive: Vec<usize> = (0..l).filter(|&i| !is_active(i)).collect();
         let global = |col: usize| active[col / t] * t + col % t;
         let la = active.len() * t;
         let dim = la + usize::from(arc.is_some());
@@ -342,14 +347,20 @@ impl InnerNewton<'_> {
             }
             if let Some(arc) = arc {
                 let tv = |i: usize| arc.tangent_y[i] / arc.y_scale;
-                let inactive = || (0..l).filter(|&i| !is_active(i));
+                let tv_inactive: Vec<f64> = inactive.iter().map(|&i| tv(i)).collect();
+                let against = |v: &dyn Fn(usize) -> f64| -> f64 {
+                    inactive
+                        .iter()
+                        .zip(&tv_inactive)
+                        .map(|(&i, w)| w * v(i))
+                        .sum::<f64>()
+                };
                 for col in 0..la {
-                    a[(la, col)] =
-                        tv(global(col)) - inactive().map(|i| tv(i) * gj[(i, col)]).sum::<f64>();
+                    let column = gj.col(col);
+                    a[(la, col)] = tv(global(col)) - against(&|i| column[i]);
                 }
-                a[(la, la)] = arc.tangent_parameter / arc.parameter_scale
-                    - inactive().map(|i| tv(i) * rate[i]).sum::<f64>();
-                rhs[la] = -arc.residual(s) + inactive().map(|i| tv(i) * r[i]).sum::<f64>();
+                a[(la, la)] = arc.tangent_parameter / arc.parameter_scale - against(&|i| rate[i]);
+                rhs[la] = -arc.residual(s) + against(&|i| r[i]);
             }
         }
         if dim > 0 {
@@ -366,12 +377,11 @@ impl InnerNewton<'_> {
         }
         let dw = if arc.is_some() { rhs[la] } else { 0.0 };
         let mut dy = vec![0.0; l];
-        for i in 0..l {
-            dy[i] = if is_active(i) {
-                rhs[active.binary_search(&(i / t)).expect("active") * t + i % t]
-            } else {
-                -r[i] - (0..la).map(|col| gj[(i, col)] * rhs[col]).sum::<f64>() - rate[i] * dw
-            };
+        for (ai, &j) in active.iter().enumerate() {
+            dy[j * t..(j + 1) * t].copy_from_slice(&rhs[ai * t..(ai + 1) * t]);
+        }
+        for &i in &inactive {
+            dy[i] = -r[i] - (0..la).map(|col| gj[(i, col)] * rhs[col]).sum::<f64>() - rate[i] * dw;
         }
         Ok((dy, dw))
     }
