@@ -44,6 +44,18 @@ const SHOOTING_TOLERANCE: f64 = 1e-10;
 /// Newton iterations before giving up.
 const SHOOTING_ITERATIONS: usize = 20;
 
+/// sum_{k >= r} b_k b_k^T / w_k^2 (c x c, m/N): the static flexibility of the modes r.. on the
+/// contact rows (`contact_modal` = A Phi, c x n; `eigenvalues` = w_k^2). Zero when r = n.
+pub fn residual_sum(contact_modal: MatRef<'_, f64>, eigenvalues: &[f64], r: usize) -> Mat<f64> {
+    let c = contact_modal.nrows();
+    let b = contact_modal;
+    Mat::from_fn(c, c, |i, j| {
+        (r..eigenvalues.len())
+            .map(|k| b[(i, k)] * b[(j, k)] / eigenvalues[k])
+            .sum::<f64>()
+    })
+}
+
 /// The residual flexibility of the modes r.. on the contact rows, R = sum_{k >= r} b_k b_k^T /
 /// w_k^2 (c x c, m/N; `contact_modal` = A Phi, c x n, `eigenvalues` = w_k^2 ascending), plus
 /// 1 / kc on the diagonal of a penalty law's rows (`penalty`: one kc per row, N/m). `None` unless
@@ -57,12 +69,7 @@ pub fn residual_flexibility(
     penalty: Option<&[f64]>,
 ) -> Option<Mat<f64>> {
     let c = contact_modal.nrows();
-    let b = contact_modal;
-    let mut flexibility = Mat::from_fn(c, c, |i, j| {
-        (r..eigenvalues.len())
-            .map(|k| b[(i, k)] * b[(j, k)] / eigenvalues[k])
-            .sum::<f64>()
-    });
+    let mut flexibility = residual_sum(contact_modal, eigenvalues, r);
     if let Some(kc) = penalty {
         for (j, k) in kc.iter().enumerate() {
             flexibility[(j, j)] += 1.0 / k;

@@ -16,6 +16,7 @@ use super::{
 use crate::point::BackbonePoint;
 use crate::NnmError;
 use nlmodes_hb::dense::generalized_eigen;
+use nlmodes_hb::driven_boundary::residual_sum;
 use nlmodes_hb::system::System;
 
 /// Precomputed modal data of a system for Hill's method; reuse it for every point of a backbone.
@@ -296,17 +297,12 @@ impl<'s> FloquetAnalysis<'s> {
     /// Residual flexibility of the modes r.. on the contact rows (c x c), zero when all are kept
     /// or the static correction is off.
     fn residual_flexibility(&self, r: usize) -> Mat<f64> {
-        let c = self.system.n_contacts();
-        let b = &self.contact_modal;
-        let keep = !self.settings.static_correction;
-        Mat::from_fn(c, c, |i, j| {
-            if keep {
-                return 0.0;
-            }
-            (r..self.omega.len())
-                .map(|k| b[(i, k)] * b[(j, k)] / (self.omega[k] * self.omega[k]))
-                .sum()
-        })
+        if !self.settings.static_correction {
+            let c = self.system.n_contacts();
+            return Mat::zeros(c, c);
+        }
+        let omega2: Vec<f64> = self.omega.iter().map(|w| w * w).collect();
+        residual_sum(self.contact_modal.as_ref(), &omega2, r)
     }
 
     /// Moments of P = B_S^T D_eff B_S (B = A Phi_r, S the active set) over the period: the sample
