@@ -6,9 +6,11 @@ use anyhow::{Context, Result};
 use faer::Mat;
 use indicatif::ProgressBar;
 use nlmodes_forced::{
-    modal_ratios, response_curve, synthesize, ForcedSettings, ForcedSolver, FreeOrbit,
-    FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, Sweep, SynthesizedPoint,
+    modal_ratios, response_curve, synthesize, BoundaryCurve, ForcedSettings, ForcedSolver,
+    FreeOrbit, FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, Sweep,
+    SynthesizedPoint,
 };
+use nlmodes_hb::driven_curve::DrivenCurveEnd;
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
 use rayon::prelude::*;
 
@@ -27,6 +29,9 @@ pub struct ForcedCurve {
     pub response: FrequencyResponse,
     /// The backbone's single-mode synthesis under this load (empty without a backbone).
     pub synthesis: Vec<SynthesizedPoint>,
+    /// The exact curve on the massless contact boundary (`[forced] exact_curve`; `None` when
+    /// not asked for or the model does not apply).
+    pub exact: Option<BoundaryCurve>,
 }
 
 /// The study's result.
@@ -235,7 +240,13 @@ pub fn run(
         .map(|&level| {
             let force = force_of(system, s, &pattern, ratios[s.mode], level)?;
             let load = pattern.scaled(force);
-            let curve = trace_level(system, &c, &load, settings.clone(), &frf, &bar, level)?;
+            let solver = ForcedSolver::new(system, &c, &load, settings.clone())?;
+            let curve = trace_level(&solver, &frf, &bar, level)?;
+            let exact = if s.exact_curve {
+                exact_level(&solver, &curve, &frf, level)?
+            } else {
+                None
+            };
             let synthesis = backbone.map_or_else(Vec::new, |b| synthesis_of(system, &c, &load, b));
             bar.inc(1);
             Ok(ForcedCurve {
@@ -243,6 +254,7 @@ pub fn run(
                 force,
                 response: curve,
                 synthesis,
+                exact,
             })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -319,6 +331,7 @@ impl LevelSweeps<'_> {
                     force: unit,
                     response,
                     synthesis: Vec::new(),
+                    exact: None,
                 })
             })
             .collect::<Result<Vec<_>>>();
@@ -337,16 +350,12 @@ pub fn sweep_frequency(c: &ForcedCurve) -> f64 {
 
 /// One level's frequency continuation, its progress on the shared bar.
 fn trace_level(
-    system: &System,
-    c: &Mat<f64>,
-    load: &Load,
-    settings: ForcedSettings,
+    solver: &ForcedSolver<'_>,
     frf: &FrfSettings,
     bar: &ProgressBar,
     level: f64,
 ) -> Result<FrequencyResponse> {
-    let solver = ForcedSolver::new(system, c, load, settings)?;
-    let curve = response_curve(&solver, frf, |p| {
+    let curve = response_curve(solver, frf, |p| {
         bar.set_message(format!("level {level}: W = {:.1} rad/s", p.omega));
     })?;
     tracing::info!(
@@ -356,6 +365,40 @@ fn trace_level(
         curve.end_text()
     );
     Ok(curve)
+}
+
+/// One level's exact curve on the massless contact boundary, from the harmonic-balance curve's
+/// first point over the same range.
+fn exact_level(
+    solver: &ForcedSolver<'_>,
+    curve: &FrequencyResponse,
+    frf: &FrfSettings,
+    level: f64,
+) -> Result<Option<BoundaryCurve>> {
+    // The exact curve is a second method beside the harmonic balance: its failure is reported,
+    // it does not take the level's results with it.
+    let exact = match solver.boundary_curve(curve, frf.end, frf.stability_margin) {
+        Ok(exact) => exact,
+        Err(e) => {
+            tracing::warn!("forced level {level}: no exact curve on the massless boundary: {e}");
+            None
+        }
+    };
+    match &exact {
+        Some(e) => tracing::info!(
+            "forced level {level}: exact curve on the massless boundary ({} modes dynamic): {} \
+             points, {} folds, {}",
+            e.modes,
+            e.points.len(),
+            e.points.iter().filter(|p| p.fold).count(),
+            e.end.text()
+        ),
+        None => tracing::info!(
+            "forced level {level}: no exact curve (exact contact on a model whose modes are all \
+             resolved, or its first orbit did not converge)"
+        ),
+    }
+    Ok(exact)
 }
 
 /// The single-nonlinear-mode synthesis of the backbone's main-branch points under `load`.
@@ -387,7 +430,15 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
         .curves
         .iter()
         .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
-        .map(|c| format!("level {}: {}", c.level, c.response.end_text()))
+        .map(|c| {
+            let exact = match &c.exact {
+                Some(e) if e.end == DrivenCurveEnd::Complete => {
+                    "; its exact curve on the massless boundary is complete, in frf_boundary.csv"
+                }
+                _ => "",
+            };
+            format!("level {}: {}{exact}", c.level, c.response.end_text())
+        })
         .chain(
             st.level_sweeps
                 .iter()

@@ -198,6 +198,8 @@ struct CurveRecord<'a> {
     jump_frequencies_rad_s: Vec<f64>,
     synthesis: Vec<[f64; 4]>,
     orbits: Vec<OrbitRecord>,
+    /// The exact curve on the massless contact boundary (`[forced] exact_curve`).
+    exact_curve: Option<crate::forced_exact::ExactCurveRecord>,
 }
 
 #[derive(Serialize)]
@@ -268,6 +270,7 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
             })
             .collect(),
         orbits,
+        exact_curve: c.exact.as_ref().map(crate::forced_exact::record),
     }
 }
 
@@ -276,6 +279,14 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
 pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     frf_csv(st)?.write(&dir.join("frf.csv"))?;
+    let exact_path = dir.join("frf_boundary.csv");
+    match crate::forced_exact::csv(st)? {
+        Some(table) => table.write(&exact_path)?,
+        // No stale exact curves from an earlier run beside this run's frf.csv.
+        None if exact_path.exists() => std::fs::remove_file(&exact_path)
+            .with_context(|| format!("cannot remove {}", exact_path.display()))?,
+        None => {}
+    }
     let record = StudyRecord {
         omega_mode_rad_s: st.omega_mode,
         gap_reference_m: st.gap_reference,
@@ -392,6 +403,11 @@ fn frf_figure(
             }
         }
     }
+    for (k, c) in st.curves.iter().enumerate() {
+        for series in crate::forced_exact::series(c, st, max_abs, k == 0) {
+            plot = plot.with_series(series);
+        }
+    }
     if let (Some(b), false) = (backbone, max_abs) {
         // The main branch over the swept range only.
         let top = st.settings.range[1];
@@ -477,5 +493,5 @@ pub fn summary(st: &ForcedStudy) -> String {
             );
         }
     }
-    out
+    out + &crate::forced_exact::summary(st)
 }

@@ -132,6 +132,9 @@ pub struct ForcedSection {
     pub penalty_factor: f64,
     /// Floquet stability of every point.
     pub stability: bool,
+    /// Each level's exact response curve on the massless contact boundary, by shooting
+    /// (`forced/frf_boundary.csv`, drawn on the FRF figures; docs/STABILITY.md Sec. 9.2).
+    pub exact_curve: bool,
     /// Write each level's peak orbit (largest first-harmonic amplitude of the master) as a
     /// ParaView series (`forced/orbits/`).
     pub keep_peaks: bool,
@@ -167,6 +170,7 @@ impl Default for ForcedSection {
             contact: ForcedContact::Penalty,
             penalty_factor: 1e3,
             stability: true,
+            exact_curve: true,
             keep_peaks: true,
             keep: Vec::new(),
             frames: 24,

@@ -190,5 +190,5 @@ fn section(st: &ForcedStudy) -> String {
          1e-3 (`period_residual`). Black: the backbone of the \
          same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
     );
-    s + &crate::level_sweep::report_section(st)
+    s + &crate::forced_exact::report_paragraph(st) + &crate::level_sweep::report_section(st)
 }

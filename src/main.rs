@@ -11,6 +11,7 @@ mod exit;
 mod fe_model;
 mod figures;
 mod forced;
+mod forced_exact;
 mod forced_output;
 mod forced_paraview;
 mod forced_settings;

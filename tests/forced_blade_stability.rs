@@ -387,6 +387,65 @@ fn stability_verdicts_of_the_blade_agree_with_time_integration() {
         checked.0, checked.1, checked.2, checked.3
     );
     assert!(checked.0 >= 2 && checked.3 >= 4, "{checked:?}");
+    exact_curve_crowns_the_harmonic_balance(&json);
+}
+
+/// The level's exact curve on the massless boundary (`exact_curve` in frf.json, by shooting)
+/// turns exactly twice, and the harmonic balance's outermost folds (its jump-down and jump-up
+/// frequencies, between the small folds of its sampled problem) lie on the exact ones within
+/// 5e-3 w: N = 8 harmonics of the massive model against the untruncated boundary model
+/// (measured 2.6e-3..2.8e-3 at the jump-down, 1e-4..4.6e-4 at the jump-up on the meshes gmsh
+/// writes from a shell and under `cargo test`; 28 folds of the harmonic balance against the
+/// exact 2).
+fn exact_curve_crowns_the_harmonic_balance(json: &serde_json::Value) {
+    let w = json["omega_mode_rad_s"].as_f64().unwrap();
+    let curve = &json["curves"][0];
+    let exact = &curve["exact_curve"];
+    assert_eq!(exact["end"], "complete", "{}", exact["end"]);
+    let points = exact["points"].as_array().unwrap();
+    let exact_folds: Vec<f64> = points
+        .iter()
+        .filter(|p| p["fold"].as_bool().unwrap())
+        .map(|p| p["omega"].as_f64().unwrap() / w)
+        .collect();
+    assert_eq!(exact_folds.len(), 2, "{exact_folds:?}");
+    let hb_folds: Vec<(f64, String)> = curve["folds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            (
+                f[1].as_f64().unwrap() / w,
+                f[2].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    let jump_down = hb_folds
+        .iter()
+        .filter(|f| f.1 == "TurnsBack")
+        .map(|f| f.0)
+        .fold(0.0, f64::max);
+    let jump_up = hb_folds
+        .iter()
+        .filter(|f| f.1 == "TurnsForward")
+        .map(|f| f.0)
+        .fold(f64::INFINITY, f64::min);
+    eprintln!(
+        "jump-down W/w: harmonic balance {jump_down:.5}, exact {:.5}; jump-up: {jump_up:.5}, \
+         exact {:.5}",
+        exact_folds[0], exact_folds[1]
+    );
+    assert!((jump_down - exact_folds[0]).abs() < 5e-3);
+    assert!((jump_up - exact_folds[1]).abs() < 5e-3);
+    // The exact middle branch between the folds is unstable, the outer branches stable.
+    let verdict_at = |i: usize| points[i]["stability"].as_str().unwrap().to_string();
+    let fold_index: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i]["fold"].as_bool().unwrap())
+        .collect();
+    let middle = (fold_index[0] + fold_index[1]) / 2;
+    assert_eq!(verdict_at(middle), "unstable");
+    assert_eq!(verdict_at(fold_index[0] - 3), "stable");
+    assert_eq!(verdict_at(fold_index[1] + 3), "stable");
 }
 
 /// The command's verdict of a point in contact against RK4 on the massless boundary.
@@ -408,6 +467,7 @@ fn boundary_point(
         load,
         penalty: Some(kc),
         harmonics: 8,
+        keep_all: false,
     };
     let coefficients = Mat::from_fn(coeff.len(), coeff[0].len(), |i, k| coeff[i][k]);
     let b = nlmodes_forced::boundary_monodromy(&inputs, &coefficients, omega)

@@ -9,55 +9,11 @@
 //! `crates/forced/tests/pwl_exact.rs` makes the same check at fine steps to 1.2e-5 and against
 //! exact orbits.
 
-use std::fmt::Write as _;
-use std::path::Path;
+mod common;
+
 use std::process::Command;
 
-fn write_symmetric(path: &Path, a: &[[f64; 4]; 4]) {
-    let mut s = String::from("%%MatrixMarket matrix coordinate real symmetric\n4 4 10\n");
-    for j in 0..4 {
-        for (i, row) in a.iter().enumerate().skip(j) {
-            let _ = writeln!(s, "{} {} {:.17e}", i + 1, j + 1, row[j]);
-        }
-    }
-    std::fs::write(path, s).unwrap();
-}
-
-/// The chain's reduced-model directory: DOFs 0, 1 the chain, 2, 3 the pads.
-fn chain_model(dir: &Path) {
-    std::fs::create_dir_all(dir).unwrap();
-    let pad = 25.0;
-    let mass = [
-        [1.0, 0.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ];
-    let stiffness = [
-        [2.0, -1.0, 0.0, 0.0],
-        [-1.0, 2.0, 0.0, 0.0],
-        [0.0, 0.0, pad, 0.0],
-        [0.0, 0.0, 0.0, pad],
-    ];
-    write_symmetric(&dir.join("M.mtx"), &mass);
-    write_symmetric(&dir.join("K.mtx"), &stiffness);
-    let hz: Vec<f64> = [1.0, 3f64.sqrt(), 5.0, 5.0]
-        .iter()
-        .map(|w| w / (2.0 * std::f64::consts::PI))
-        .collect();
-    let model = serde_json::json!({
-        "format": "nlmodes-reduced-model",
-        "format_version": 1,
-        "units": "SI: m, kg, s; K in N/m, M in kg",
-        "n": 4,
-        "contact_nodes": [{"dofs": [1, 2, 3], "position": [1.0, 0.0, 0.0],
-                           "radial": [1.0, 0.0, 0.0], "gap": 1.0}],
-        "rotor_axis": {"point": [0.0, 0.0, 0.0], "direction": [0.0, 0.0, 1.0]},
-        "master": {"dof": 0, "description": "the first mass"},
-        "linear_frequencies_hz": hz,
-    });
-    std::fs::write(dir.join("model.json"), model.to_string()).unwrap();
-}
+use common::chain_model;
 
 /// (x column, q1_over_g0) of the rows of a CSV with frf.csv's columns.
 fn curve(csv: &str, x: &str) -> Vec<(f64, f64)> {

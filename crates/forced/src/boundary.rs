@@ -47,11 +47,16 @@ pub struct BoundaryInputs<'a> {
     pub penalty: Option<f64>,
     /// Harmonics N of the orbit.
     pub harmonics: usize,
+    /// Whether a penalty model whose modes are all below the cutoff is kept whole (the penalty
+    /// equation itself, solved exactly); otherwise the boundary needs a discarded mode.
+    pub keep_all: bool,
 }
 
 /// The multipliers of the forced orbit `coefficients` (n x (2N + 1)) at W = `omega` on the
-/// massless boundary, or `None` when the model has no mode above the cutoff, its residual
-/// flexibility is not positive definite, or shooting does not converge.
+/// massless boundary, or `None` when the model has no mode above the cutoff (unless
+/// `keep_all` under a penalty law: the boundary is then the penalty spring alone and the shot
+/// orbit the exact periodic solution of the penalty equation), the residual flexibility is not
+/// positive definite, or shooting does not converge.
 pub fn boundary_monodromy(
     inputs: &BoundaryInputs<'_>,
     coefficients: &Mat<f64>,
@@ -95,7 +100,12 @@ pub fn boundary_monodromy(
 }
 
 /// (q, q') at t = 0 of the harmonic-balance orbit in the first r modes.
-fn modal_start(system: &System, coefficients: &Mat<f64>, omega: f64, r: usize) -> Vec<f64> {
+pub(crate) fn modal_start(
+    system: &System,
+    coefficients: &Mat<f64>,
+    omega: f64,
+    r: usize,
+) -> Vec<f64> {
     let n = coefficients.nrows();
     let series = |i: usize| -> Vec<f64> {
         (0..coefficients.ncols())
@@ -117,15 +127,19 @@ fn modal_start(system: &System, coefficients: &Mat<f64>, omega: f64, r: usize) -
 }
 
 /// The driven boundary model at W, `None` when it does not apply (module docs).
-fn driven_model(inputs: &BoundaryInputs<'_>, omega: f64) -> Option<DrivenBoundary> {
+pub(crate) fn driven_model(inputs: &BoundaryInputs<'_>, omega: f64) -> Option<DrivenBoundary> {
     let system = inputs.system;
     let lambda = system.eigenvalues();
     let n = lambda.len();
     let limit = BOUNDARY_CUTOFF * (inputs.harmonics as f64 + 1.0) * omega;
-    let r = lambda.iter().filter(|l| l.sqrt() <= limit).count().max(1);
-    if r >= n {
+    let resolved = lambda.iter().filter(|l| l.sqrt() <= limit).count().max(1);
+    // With every mode resolved, exact contact leaves no flexibility between the massive
+    // coordinates and the obstacle (an impact, not this model); a penalty law keeps its spring
+    // 1 / kc, and the model is then the penalty equation itself, solved exactly.
+    if resolved >= n && !(inputs.keep_all && inputs.penalty.is_some()) {
         return None;
     }
+    let r = resolved.min(n);
     let phi = system.modes();
     let b_all = system.contact_rows() * phi;
     let c = b_all.nrows();

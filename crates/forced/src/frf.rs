@@ -649,16 +649,26 @@ impl<'a, 's> FrfTrace<'a, 's> {
         let assessed: Vec<Result<PointStability, ForcedError>> = self.curve.points[from..]
             .par_iter()
             .map(|point| {
-                if point.contact_force.iter().any(|&f| f > 0.0) {
-                    if let Some(b) = solver.boundary_monodromy(point)? {
+                let touching = point.contact_force.iter().any(|&f| f > 0.0);
+                if touching {
+                    if let Some(b) = solver.boundary_monodromy(point, false)? {
                         return Ok(PointStability::on_boundary(&b, settings.stability_margin));
                     }
                 }
                 let residual = solver.period_residual(point);
                 let mut st = if residual.is_some_and(|r| r > settings.period_tolerance) {
-                    // Not a periodic solution of the equation the monodromy linearizes: no
-                    // verdict to compute.
-                    PointStability::unchecked()
+                    // Not a periodic solution of the equation the monodromy linearizes. Under a
+                    // penalty law on a model whose modes are all resolved, the exact periodic
+                    // orbit of that equation next to the point answers (its verdict, unless
+                    // farther than the shift limit); otherwise no verdict to compute.
+                    let exact = if touching {
+                        solver.boundary_monodromy(point, true)?
+                    } else {
+                        None
+                    };
+                    exact.map_or_else(PointStability::unchecked, |b| {
+                        PointStability::on_boundary(&b, settings.stability_margin)
+                    })
                 } else {
                     let mono = solver.monodromy(point)?;
                     PointStability::of(&mono, settings.stability_margin)

@@ -17,6 +17,7 @@
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod boundary;
+mod boundary_curve;
 mod damping;
 mod dynamics;
 mod error;
@@ -30,6 +31,7 @@ mod synthesis;
 pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
+pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
 pub use damping::{modal_ratios, Damping};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;

@@ -222,10 +222,12 @@ impl<'s> ForcedSolver<'s> {
     }
 
     /// The multipliers of the point on the massless contact boundary (`boundary`), `None` where
-    /// that model does not apply or shooting does not converge.
+    /// that model does not apply or shooting does not converge. `keep_all`: a penalty model
+    /// whose modes are all resolved is kept whole (the penalty equation, shot exactly).
     pub fn boundary_monodromy(
         &self,
         point: &ForcedPoint,
+        keep_all: bool,
     ) -> Result<Option<crate::boundary::BoundaryMonodromy>, ForcedError> {
         let penalty = match self.settings.algorithm.method {
             ContactMethod::Penalty { stiffness } => Some(stiffness),
@@ -238,11 +240,40 @@ impl<'s> ForcedSolver<'s> {
             load: &load,
             penalty,
             harmonics: self.basis.harmonics(),
+            keep_all,
         };
         Ok(crate::boundary::boundary_monodromy(
             &inputs,
             &point.coefficients,
             point.omega,
+        )?)
+    }
+
+    /// The exact response curve of the massless boundary (`boundary_curve`) at the level of the
+    /// harmonic-balance curve `hb`, from its first point to W = `end` (rad/s); `None` where that
+    /// model does not apply.
+    pub fn boundary_curve(
+        &self,
+        hb: &crate::frf::FrequencyResponse,
+        end: f64,
+        margin: f64,
+    ) -> Result<Option<crate::boundary_curve::BoundaryCurve>, ForcedError> {
+        let penalty = match self.settings.algorithm.method {
+            ContactMethod::Penalty { stiffness } => Some(stiffness),
+            ContactMethod::AugmentedLagrangian => None,
+        };
+        let level = hb.points.first().map_or(1.0, |p| p.level);
+        let load = self.load.scaled(level);
+        let inputs = crate::boundary::BoundaryInputs {
+            system: self.system,
+            damping: self.damping.as_ref(),
+            load: &load,
+            penalty,
+            harmonics: self.basis.harmonics(),
+            keep_all: true,
+        };
+        Ok(crate::boundary_curve::boundary_curve(
+            &inputs, hb, end, margin,
         )?)
     }
 

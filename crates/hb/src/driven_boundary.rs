@@ -116,7 +116,7 @@ pub struct DrivenBoundary {
 }
 
 impl DrivenBoundary {
-    fn r(&self) -> usize {
+    pub(crate) fn r(&self) -> usize {
         self.omega2.len()
     }
 
@@ -250,6 +250,23 @@ impl<'m> DrivenFlow<'m> {
                 "the contact set of the massless boundary chattered ({MAX_SWITCHES} switches)"
             ),
         })
+    }
+
+    /// The contact forces lambda (c, N) at augmented state x on the active set `active`:
+    /// lambda_j = -(event function of closed row j) / R_jj, 0 on open rows.
+    pub fn contact_force(&mut self, x: &[f64], active: &[bool]) -> Result<Vec<f64>, HbError> {
+        let model = self.model;
+        let piece = self.piece(active)?;
+        let w0 = solve_in(piece, x);
+        Ok((0..model.gaps.len())
+            .map(|j| {
+                if active[j] {
+                    -piece.event(j, &w0, 0.0) / model.flexibility[(j, j)]
+                } else {
+                    0.0
+                }
+            })
+            .collect())
     }
 
     fn piece(&mut self, active: &[bool]) -> Result<&Piece, HbError> {
@@ -463,6 +480,43 @@ pub struct DrivenOrbit {
     pub shift: f64,
 }
 
+/// The state of an orbit at one instant.
+#[derive(Clone, Debug)]
+pub struct OrbitSample {
+    /// Time from the orbit's start (s).
+    pub time: f64,
+    /// Modal coordinates q.
+    pub q: Vec<f64>,
+    /// Contact forces lambda (c, N).
+    pub lambda: Vec<f64>,
+}
+
+/// The orbit from (q, q') = `start` at t = 0 at `samples` equally spaced instants of its period
+/// 2 pi / `model.omega` (the first at t = 0), by the exact flow.
+pub fn sample_orbit(
+    model: &DrivenBoundary,
+    start: &[f64],
+    samples: usize,
+) -> Result<Vec<OrbitSample>, HbError> {
+    let r = model.r();
+    let mut flow = DrivenFlow::new(model);
+    let mut x = model.augmented(&start[..r], &start[r..], 0.0);
+    let mut active = flow.active_set_at(&x)?;
+    let dt = 2.0 * std::f64::consts::PI / model.omega / samples as f64;
+    let mut out = Vec::with_capacity(samples);
+    for s in 0..samples {
+        if s > 0 {
+            flow.advance(&mut x, &mut active, dt, None)?;
+        }
+        out.push(OrbitSample {
+            time: s as f64 * dt,
+            q: x[..r].to_vec(),
+            lambda: flow.contact_force(&x, &active)?,
+        });
+    }
+    Ok(out)
+}
+
 /// x(T) - x(0) at (x0, W) in the scaled state, and the monodromy.
 fn period_map(
     model: &DrivenBoundary,
@@ -490,6 +544,89 @@ fn period_map(
 /// Relative step of W for the finite-difference column d(x(T) - x0) / dW.
 const OMEGA_STEP: f64 = 1e-7;
 
+/// The shooting equations of a driven boundary in scaled unknowns z = (q / s, q' / (s W_ref),
+/// W / W_ref) (2r + 1 of them; s = `q_scale` in the modal coordinates' units, W_ref in rad/s)
+/// and scaled equations x(T) - x(0) (q part / s, q' part / (s W); 2r of them). Shared by the
+/// shooting next to a harmonic-balance orbit and the continuation of the exact response curve
+/// (`crate::driven_curve`).
+pub(crate) struct ShootingEquations<'m> {
+    pub model: &'m DrivenBoundary,
+    pub q_scale: f64,
+    pub w_ref: f64,
+}
+
+impl ShootingEquations<'_> {
+    fn scale(&self, i: usize) -> f64 {
+        if i < self.model.r() {
+            self.q_scale
+        } else {
+            self.q_scale * self.w_ref
+        }
+    }
+
+    /// z from (q, q') and W.
+    pub fn unknowns(&self, x0: &[f64], omega: f64) -> Vec<f64> {
+        let mut z: Vec<f64> = x0
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v / self.scale(i))
+            .collect();
+        z.push(omega / self.w_ref);
+        z
+    }
+
+    /// ((q, q'), W) from z.
+    pub fn state(&self, z: &[f64]) -> (Vec<f64>, f64) {
+        let n = z.len() - 1;
+        let x0 = (0..n).map(|i| z[i] * self.scale(i)).collect();
+        (x0, z[n] * self.w_ref)
+    }
+
+    fn at(&self, omega: f64) -> DrivenBoundary {
+        let mut m = self.model.clone();
+        m.omega = omega;
+        m
+    }
+
+    /// The scaled residual at z and the monodromy (2r x 2r).
+    pub fn residual(&self, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>), HbError> {
+        let (x0, omega) = self.state(z);
+        period_map(&self.at(omega), &x0, self.q_scale)
+    }
+
+    /// The Jacobian (2r x (2r + 1)) at z, from its residual and monodromy: the exact monodromy
+    /// for the x0 columns, a finite difference of relative step `OMEGA_STEP` for the W column.
+    pub fn jacobian(
+        &self,
+        z: &[f64],
+        residual: &[f64],
+        phi: &Mat<f64>,
+    ) -> Result<Mat<f64>, HbError> {
+        let r = self.model.r();
+        let (x0, omega) = self.state(z);
+        let (res_w, _) = period_map(&self.at(omega * (1.0 + OMEGA_STEP)), &x0, self.q_scale)?;
+        // The residual's velocity part is scaled by the current W, the unknowns by W_ref.
+        let vel = |i: usize| if i < r { 1.0 } else { self.w_ref / omega };
+        Ok(Mat::from_fn(2 * r, 2 * r + 1, |i, j| {
+            if j < 2 * r {
+                (phi[(i, j)] - if i == j { 1.0 } else { 0.0 }) * self.scale(j) / self.scale(i)
+                    * vel(i)
+            } else {
+                (res_w[i] - residual[i]) / (OMEGA_STEP * omega / self.w_ref)
+            }
+        }))
+    }
+}
+
+/// The minimum-norm solution of J d = -F (J of full row rank), `None` when not finite.
+pub(crate) fn min_norm_step(jac: &Mat<f64>, residual: &[f64]) -> Option<Vec<f64>> {
+    let rhs = Mat::from_fn(jac.nrows(), 1, |i, _| -residual[i]);
+    let jjt = jac * jac.transpose();
+    let step = jac.transpose() * jjt.partial_piv_lu().solve(&rhs);
+    let step: Vec<f64> = (0..jac.ncols()).map(|i| step[(i, 0)]).collect();
+    step.iter().all(|v| v.is_finite()).then_some(step)
+}
+
 /// The periodic orbit of the driven boundary nearest the guess (q, q') at t = 0 and W =
 /// `model.omega`. The forced periodic orbits form a curve in (x0, W), so W is an unknown too and
 /// the minimum-norm Newton step (scaled unknowns q / |q|, q' / (W |q|), W / W_guess; the exact
@@ -503,21 +640,26 @@ pub fn shoot_driven(model: &DrivenBoundary, guess: &[f64]) -> Result<Option<Driv
     if q_scale.is_nan() || q_scale <= 0.0 {
         return Ok(None);
     }
-    let w_guess = model.omega;
-    let mut current = model.clone();
-    let mut x0 = guess.to_vec();
+    let equations = ShootingEquations {
+        model,
+        q_scale,
+        w_ref: model.omega,
+    };
+    let z_guess = equations.unknowns(guess, model.omega);
+    let mut z = z_guess.clone();
     for iteration in 0..=SHOOTING_ITERATIONS {
-        let scale = |i: usize| if i < r { q_scale } else { q_scale * w_guess };
-        let (residual, phi) = period_map(&current, &x0, q_scale)?;
+        let (residual, phi) = equations.residual(&z)?;
         let norm = residual.iter().map(|v| v * v).sum::<f64>().sqrt();
         if norm < SHOOTING_TOLERANCE {
-            let shift = (0..2 * r)
-                .map(|i| ((x0[i] - guess[i]) / scale(i)).powi(2))
-                .sum::<f64>()
-                + (current.omega / w_guess - 1.0).powi(2);
+            let shift = z
+                .iter()
+                .zip(&z_guess)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>();
+            let (start, omega) = equations.state(&z);
             return Ok(Some(DrivenOrbit {
-                start: x0,
-                omega: current.omega,
+                start,
+                omega,
                 monodromy: phi,
                 iterations: iteration,
                 shift: shift.sqrt(),
@@ -526,29 +668,11 @@ pub fn shoot_driven(model: &DrivenBoundary, guess: &[f64]) -> Result<Option<Driv
         if iteration == SHOOTING_ITERATIONS || !norm.is_finite() {
             break;
         }
-        let mut shifted = current.clone();
-        shifted.omega = current.omega * (1.0 + OMEGA_STEP);
-        let (res_w, _) = period_map(&shifted, &x0, q_scale)?;
-        // J = [(Phi - I) scaled | dF / d(W / W_guess)] (2r x (2r + 1)); the residual's velocity
-        // part is scaled by the current W, the unknowns by W_guess.
-        let vel = |i: usize| if i < r { 1.0 } else { w_guess / current.omega };
-        let jac = Mat::from_fn(2 * r, 2 * r + 1, |i, j| {
-            if j < 2 * r {
-                (phi[(i, j)] - if i == j { 1.0 } else { 0.0 }) * scale(j) / scale(i) * vel(i)
-            } else {
-                (res_w[i] - residual[i]) / (OMEGA_STEP * current.omega / w_guess)
-            }
-        });
-        let rhs = Mat::from_fn(2 * r, 1, |i, _| -residual[i]);
-        let jjt = &jac * jac.transpose();
-        let step = jac.transpose() * jjt.partial_piv_lu().solve(&rhs);
-        if (0..=2 * r).any(|i| !step[(i, 0)].is_finite()) {
+        let jac = equations.jacobian(&z, &residual, &phi)?;
+        let Some(step) = min_norm_step(&jac, &residual) else {
             break;
-        }
-        for i in 0..2 * r {
-            x0[i] += step[(i, 0)] * scale(i);
-        }
-        current.omega += step[(2 * r, 0)] * w_guess;
+        };
+        z.iter_mut().zip(&step).for_each(|(v, d)| *v += d);
     }
     Ok(None)
 }

@@ -39,6 +39,7 @@ pub mod condensed_newton;
 pub mod contact;
 pub mod dense;
 pub mod driven_boundary;
+pub mod driven_curve;
 pub mod error;
 pub mod floquet;
 pub mod fourier;

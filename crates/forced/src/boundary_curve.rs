@@ -1,0 +1,189 @@
+//! The exact response curve on the massless contact boundary (docs/STABILITY.md Sec. 9.2;
+//! DESIGN §10.6): the model of `boundary` (the modes up to (N + 1) W at the start of the range
+//! dynamic, the others static on the contact rows, a penalty law's spring in series; under a
+//! penalty law a model whose modes are all resolved is the penalty equation itself) continued
+//! over the range by shooting (`nlmodes_hb::driven_curve`). No harmonic is truncated, every
+//! orbit is exact to the shooting tolerance and its multipliers are those of its own exact
+//! monodromy: the second method beside the harmonic-balance curve, which shows where N
+//! harmonics of the massive model hold and gives a verdict where the harmonic balance cannot.
+//!
+//! The master's displacement on the boundary is u_m(t) = sum_{k < r} phi_mk q_k(t) +
+//! sum_{k >= r} phi_mk (p_k(t) - b_k . lambda(t)) / w_k^2 (p = Phi^T f, b_k the contact rows of
+//! mode k): the kept modes, and the discarded modes' static response to the load and the
+//! contact forces. Its first harmonic and its largest value come from `MASTER_SAMPLES` instants
+//! of the exact flow.
+
+use crate::boundary::{driven_model, modal_start, BoundaryInputs};
+use crate::frf::FrequencyResponse;
+use nlmodes_hb::driven_boundary::{sample_orbit, DrivenBoundary};
+use nlmodes_hb::driven_curve::{trace_driven_curve, DrivenCurveEnd, DrivenCurveSettings};
+use nlmodes_hb::floquet::{multipliers_of, Verdict};
+use nlmodes_hb::HbError;
+
+/// Instants per period at which the master's displacement is sampled (its first harmonic by
+/// the trapezoid rule, exact for a smooth periodic function up to aliasing from harmonics
+/// 127 and 129).
+const MASTER_SAMPLES: usize = 128;
+
+/// One exact orbit of the boundary's curve.
+#[derive(Clone, Debug)]
+pub struct BoundaryCurvePoint {
+    /// Excitation frequency W (rad/s).
+    pub omega: f64,
+    /// First-harmonic amplitude of the master (m).
+    pub master_amplitude: f64,
+    /// Largest |u_master| over the period (m).
+    pub master_max: f64,
+    /// Largest contact force over the period (N).
+    pub max_contact_force: f64,
+    /// Largest multiplier modulus of the exact monodromy.
+    pub largest_multiplier: f64,
+    /// Stable or unstable (the margin plus the Liouville error decide; undetermined inside it).
+    pub verdict: Verdict,
+    /// W turned between the previous point and this one.
+    pub fold: bool,
+}
+
+/// The exact response curve of one load level on the boundary.
+#[derive(Clone, Debug)]
+pub struct BoundaryCurve {
+    pub points: Vec<BoundaryCurvePoint>,
+    /// Modes kept dynamic.
+    pub modes: usize,
+    /// Why it ended.
+    pub end: DrivenCurveEnd,
+}
+
+/// The master's displacement on the boundary from q and lambda (module docs).
+struct MasterRow {
+    kept: Vec<f64>,
+    contact: Vec<f64>,
+    /// Per load harmonic: (h, cos part, sin part) of the discarded modes' static response.
+    drive: Vec<(usize, f64, f64)>,
+}
+
+impl MasterRow {
+    fn new(inputs: &BoundaryInputs<'_>, r: usize) -> Self {
+        let system = inputs.system;
+        let (phi, lambda) = (system.modes(), system.eigenvalues());
+        let (n, m) = (lambda.len(), system.master());
+        let b = system.contact_rows() * phi;
+        let modal = |f: &[f64], k: usize| (0..n).map(|i| phi[(i, k)] * f[i]).sum::<f64>();
+        let discarded = |value: &dyn Fn(usize) -> f64| {
+            (r..n)
+                .map(|k| phi[(m, k)] * value(k) / lambda[k])
+                .sum::<f64>()
+        };
+        Self {
+            kept: (0..r).map(|k| phi[(m, k)]).collect(),
+            contact: (0..b.nrows()).map(|j| discarded(&|k| b[(j, k)])).collect(),
+            drive: inputs
+                .load
+                .harmonics
+                .iter()
+                .map(|h| {
+                    (
+                        h.harmonic,
+                        discarded(&|k| modal(&h.cos, k)),
+                        discarded(&|k| modal(&h.sin, k)),
+                    )
+                })
+                .collect(),
+        }
+    }
+
+    fn at(&self, q: &[f64], lambda: &[f64], omega: f64, t: f64) -> f64 {
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let drive: f64 = self
+            .drive
+            .iter()
+            .map(|&(h, c, s)| {
+                let (sn, cs) = (h as f64 * omega * t).sin_cos();
+                c * cs + s * sn
+            })
+            .sum();
+        dot(&self.kept, q) + drive - dot(&self.contact, lambda)
+    }
+}
+
+/// The exact curve of the level of `inputs` from the first point of the harmonic-balance curve
+/// `hb` (the linear orbit at the start of the range) to W = `end` (rad/s); `margin` as
+/// `FrfSettings::stability_margin`. `None` where the boundary model does not apply (exact
+/// contact on a model with every mode resolved) or its first orbit does not converge.
+pub fn boundary_curve(
+    inputs: &BoundaryInputs<'_>,
+    hb: &FrequencyResponse,
+    end: f64,
+    margin: f64,
+) -> Result<Option<BoundaryCurve>, HbError> {
+    let Some(first) = hb.points.first() else {
+        return Ok(None);
+    };
+    let Some(model) = driven_model(inputs, first.omega) else {
+        return Ok(None);
+    };
+    let r = model.omega2.len();
+    let norm = |p: &crate::solver::ForcedPoint| {
+        let x = modal_start(inputs.system, &p.coefficients, p.omega, r);
+        x[..r].iter().map(|v| v * v).sum::<f64>().sqrt()
+    };
+    // The modal coordinates' size near the resonance: the largest harmonic-balance orbit's.
+    let q_scale = hb.points.iter().map(norm).fold(0.0, f64::max);
+    if q_scale.is_nan() || q_scale <= 0.0 {
+        return Ok(None);
+    }
+    let start = modal_start(inputs.system, &first.coefficients, first.omega, r);
+    let settings = DrivenCurveSettings::new(first.omega, end);
+    let Some(curve) = trace_driven_curve(&model, &start, q_scale, &settings)? else {
+        return Ok(None);
+    };
+    let row = MasterRow::new(inputs, r);
+    let trace: f64 = (0..r).map(|i| model.damping[(i, i)]).sum();
+    let points = curve
+        .points
+        .iter()
+        .map(|p| {
+            let mut at = model.clone();
+            at.omega = p.omega;
+            let period = 2.0 * std::f64::consts::PI / p.omega;
+            let mono = multipliers_of(p.monodromy.clone(), trace, period)?;
+            let (master_amplitude, master_max, max_contact_force) =
+                master_measures(&at, &row, &p.start)?;
+            Ok(BoundaryCurvePoint {
+                omega: p.omega,
+                master_amplitude,
+                master_max,
+                max_contact_force,
+                largest_multiplier: mono.largest(),
+                verdict: mono.verdict(margin),
+                fold: p.fold,
+            })
+        })
+        .collect::<Result<Vec<_>, HbError>>()?;
+    Ok(Some(BoundaryCurve {
+        points,
+        modes: r,
+        end: curve.end,
+    }))
+}
+
+/// (first-harmonic amplitude of the master, its largest |value|, the largest contact force)
+/// over the orbit from `start` (module docs).
+fn master_measures(
+    model: &DrivenBoundary,
+    row: &MasterRow,
+    start: &[f64],
+) -> Result<(f64, f64, f64), HbError> {
+    let samples = sample_orbit(model, start, MASTER_SAMPLES)?;
+    let (mut a, mut b, mut largest, mut force) = (0.0, 0.0, 0.0_f64, 0.0_f64);
+    for s in &samples {
+        let u = row.at(&s.q, &s.lambda, model.omega, s.time);
+        let (sn, cs) = (model.omega * s.time).sin_cos();
+        a += u * cs;
+        b += u * sn;
+        largest = largest.max(u.abs());
+        force = s.lambda.iter().fold(force, |f, &l| f.max(l));
+    }
+    let scale = 2.0 / MASTER_SAMPLES as f64;
+    Ok(((a * scale).hypot(b * scale), largest, force))
+}
