@@ -7,7 +7,8 @@
 //! swept from 0.9 to 1.5 w1 with N = 10 and the default samples; METHOD `al` (Algorithm 1,
 //! default) or a penalty stiffness in N/m. Prints the median time of RUNS runs (default 3).
 //! STABILITY=0 leaves out the Floquet multipliers; VERBOSE=1 prints every point (W, inner
-//! solves, Newton iterations, Powell's measure, seconds).
+//! solves, Newton iterations, Powell's measure, seconds); EXACT=1 also traces the exact curve on
+//! the massless contact boundary (`[forced] exact_curve`), timed inside the run and apart.
 
 use std::path::Path;
 use std::time::Instant;
@@ -68,7 +69,9 @@ fn main() {
         stability,
         ..FrfSettings::new(0.9 * w1, 1.5 * w1)
     };
+    let exact = std::env::var("EXACT").is_ok_and(|v| v == "1");
     let mut times = Vec::new();
+    let mut exact_times = Vec::new();
     for run in 0..runs {
         let t0 = Instant::now();
         let verbose = std::env::var("VERBOSE").is_ok_and(|v| v == "1");
@@ -87,6 +90,27 @@ fn main() {
             }
         })
         .expect("curve");
+        if exact {
+            let t1 = Instant::now();
+            let e = solver
+                .boundary_curve(&curve, frf.end, frf.stability_margin)
+                .expect("exact curve");
+            exact_times.push(t1.elapsed().as_secs_f64());
+            if let (0, Some(e)) = (run, e) {
+                let folds: Vec<f64> = e
+                    .points
+                    .iter()
+                    .filter(|p| p.fold)
+                    .map(|p| p.omega / w1)
+                    .collect();
+                println!(
+                    "exact curve: {} points, {} modes dynamic, folds at W/w1 {folds:.5?}, {}",
+                    e.points.len(),
+                    e.modes,
+                    e.end.text()
+                );
+            }
+        }
         times.push(t0.elapsed().as_secs_f64());
         if run == 0 {
             let amp = |p: &nlmodes_forced::ForcedPoint| {
@@ -136,4 +160,11 @@ fn main() {
     }
     times.sort_by(f64::total_cmp);
     println!("median of {runs}: {:.2} s", times[runs / 2]);
+    if exact {
+        exact_times.sort_by(f64::total_cmp);
+        println!(
+            "of which the exact curve, median of {runs}: {:.2} s",
+            exact_times[runs / 2]
+        );
+    }
 }
