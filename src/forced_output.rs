@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use nlmodes_forced::{ForcedPoint, FrequencyResponse, FrfTermination, PointStability, Verdict};
 use nlmodes_hb::FullBasis;
-use nlmodes_output::plot::{Color, LinePlot, LineStyle, Series, PALETTE};
+use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, Series, PALETTE};
 use nlmodes_output::{CsvTable, CsvValue};
 use serde::Serialize;
 
@@ -425,7 +425,11 @@ fn frf_figure(
         );
     }
     let name = if max_abs { "frf_max" } else { "frf" };
-    let plot = plot.with_x_range(st.settings.range[0], st.settings.range[1]);
+    // Contact hardens: the peaks lean right, toward the top right corner, and the top left is
+    // free (below the resonance the amplitudes are small).
+    let plot = plot
+        .with_x_range(st.settings.range[0], st.settings.range[1])
+        .with_legend(LegendPosition::TopLeft);
     plot.write_svg_and_png(&dir.join(name))?;
     Ok(())
 }

@@ -661,7 +661,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
                     // penalty law on a model whose modes are all resolved, the exact periodic
                     // orbit of that equation next to the point answers (its verdict, unless
                     // farther than the shift limit); otherwise no verdict to compute.
-                    let exact = if touching {
+                    let exact = if touching && solver.every_mode_resolved(point.omega) {
                         solver.boundary_monodromy(point, true)?
                     } else {
                         None

@@ -277,6 +277,14 @@ impl<'s> ForcedSolver<'s> {
         )?)
     }
 
+    /// Whether every linear mode lies below the boundary's cutoff (N + 1) W at W = `omega`
+    /// (rad/s): the boundary then has no discarded mode (`boundary`).
+    pub fn every_mode_resolved(&self, omega: f64) -> bool {
+        let limit =
+            crate::boundary::BOUNDARY_CUTOFF * (self.basis.harmonics() as f64 + 1.0) * omega;
+        self.system.eigenvalues().iter().all(|l| l.sqrt() <= limit)
+    }
+
     /// One period of time integration of the penalty equation from the point's start, its
     /// relative distance to the start (`period_check`); `None` for exact contact, and for an
     /// orbit whose gaps stay open (then the equation is linear and its harmonic balance exact:
