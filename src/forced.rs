@@ -7,8 +7,7 @@ use faer::Mat;
 use indicatif::ProgressBar;
 use nlmodes_forced::{
     modal_ratios, response_curve, synthesize, BoundaryCurve, ForcedSettings, ForcedSolver,
-    FreeOrbit, FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, Sweep,
-    SynthesizedPoint,
+    FreeOrbit, FrequencyResponse, FrfSettings, HarmonicLoad, Load, Sweep, SynthesizedPoint,
 };
 use nlmodes_hb::driven_curve::DrivenCurveEnd;
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
@@ -429,7 +428,7 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
     let stopped: Vec<String> = st
         .curves
         .iter()
-        .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
+        .filter(|c| !c.response.termination.covers_range())
         .map(|c| {
             let exact = match &c.exact {
                 Some(e) if e.end == DrivenCurveEnd::Complete => {
@@ -442,7 +441,7 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
         .chain(
             st.level_sweeps
                 .iter()
-                .filter(|c| !matches!(c.response.termination, FrfTermination::Complete))
+                .filter(|c| !c.response.termination.covers_range())
                 .map(|c| {
                     let at = sweep_frequency(c) / w;
                     format!("level sweep at W/w = {at}: {}", c.response.end_text())

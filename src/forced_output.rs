@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use nlmodes_forced::{ForcedPoint, FrequencyResponse, FrfTermination, PointStability, Verdict};
+use nlmodes_forced::{ForcedPoint, FrequencyResponse, PointStability, Verdict};
 use nlmodes_hb::FullBasis;
 use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, Series, PALETTE};
 use nlmodes_output::{CsvTable, CsvValue};
@@ -92,6 +92,7 @@ fn header(n: usize) -> Vec<String> {
         "bifurcation",
         "fold",
         "hop",
+        "piece",
     ] {
         h.push(s.to_string());
     }
@@ -155,6 +156,7 @@ pub(crate) fn push_curve(
             CsvValue::Text(bif),
             CsvValue::Text(fold.map_or(String::new(), |f| format!("{:?}", f.kind))),
             CsvValue::Int(i64::from(r.hops.contains(&i))),
+            CsvValue::Int(piece_of(r, i) as i64),
         ]);
         table.push_row(row)?;
     }
@@ -304,17 +306,26 @@ pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> R
     frf_figure(st, backbone, dir, true)
 }
 
-/// Runs of consecutive points with the same verdict, as (verdict, indices).
+/// The piece (1, or 2 for the trace from the end of the range) point `i` belongs to.
+pub(crate) fn piece_of(r: &FrequencyResponse, i: usize) -> usize {
+    r.pieces.iter().filter(|&&k| k <= i).count()
+}
+
+/// Runs of consecutive points with the same verdict, as (verdict, indices); a new piece of the
+/// curve starts a new run.
 pub(crate) fn verdict_runs(c: &ForcedCurve) -> Vec<(Option<Verdict>, Vec<usize>)> {
     let mut runs: Vec<(Option<Verdict>, Vec<usize>)> = Vec::new();
-    for i in 0..c.response.points.len() {
-        let v = c.response.stability.get(i).map(|s| s.verdict);
+    let r = &c.response;
+    for i in 0..r.points.len() {
+        let v = r.stability.get(i).map(|s| s.verdict);
+        let new_piece = i > 0 && r.pieces.contains(&i);
         match runs.last_mut() {
-            Some((last, idx)) if *last == v => idx.push(i),
+            Some((last, idx)) if *last == v && !new_piece => idx.push(i),
             _ => {
-                // Overlap one point so the pieces join.
+                // Overlap one point so the runs of a piece join.
                 let mut idx = runs
                     .last()
+                    .filter(|_| !new_piece)
                     .map_or_else(Vec::new, |(_, r)| vec![*r.last().expect("run")]);
                 idx.push(i);
                 runs.push((v, idx));
@@ -453,7 +464,7 @@ pub fn peak_point(c: &ForcedCurve, master: usize) -> Option<usize> {
 /// A warning when the peak is the last point of a curve: the range ends before the resonance
 /// does, and the "peak" is only the end of the range.
 pub fn peak_note(c: &ForcedCurve, peak: usize) -> &'static str {
-    let complete = matches!(c.response.termination, FrfTermination::Complete);
+    let complete = c.response.termination.covers_range();
     if complete && peak + 1 == c.response.points.len() && c.response.points.len() > 2 {
         " (the last point: the range ends before the peak, widen forced.range)"
     } else {

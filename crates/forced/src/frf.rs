@@ -214,6 +214,26 @@ pub enum FrfTermination {
         /// The parameter at the last point kept (W in rad/s, or the load scale).
         at: f64,
     },
+    /// The trace from the start of the range stopped (`stopped`: why), and a second trace from
+    /// the end of the range down met it at W = `met` (rad/s): the two pieces cover the range
+    /// (`FrequencyResponse::pieces`).
+    Joined {
+        /// Why the first piece stopped (as `end_text` words).
+        stopped: String,
+        /// The lowest W the second piece reached (rad/s): where it met the first piece, the
+        /// start of the range, or (`meets` false) the low end of the W it covers.
+        met: f64,
+        /// Whether the second piece met the first; otherwise the two overlap in W without
+        /// meeting (two branches of the sampled problem) and together cover the range.
+        meets: bool,
+    },
+}
+
+impl FrfTermination {
+    /// Whether the curve covers its whole range (complete, or two pieces that meet).
+    pub fn covers_range(&self) -> bool {
+        matches!(self, Self::Complete | Self::Joined { .. })
+    }
 }
 
 /// What a change of stability between two points is, from the multiplier that crossed the unit
@@ -329,6 +349,13 @@ pub struct FrequencyResponse {
     pub stability: Vec<PointStability>,
     /// Why it stopped.
     pub termination: FrfTermination,
+    /// Index of the first point of each piece: [0], or [0, k] when the trace from the start of
+    /// the range stopped and a second one from its end (points k.., in the order traced, W
+    /// falling first) met it or also stopped.
+    pub pieces: Vec<usize>,
+    /// How the trace from the end of the range ended, when there is one and it did not meet
+    /// the first piece (`end_text` words).
+    pub second_piece: Option<String>,
 }
 
 impl FrequencyResponse {
@@ -342,6 +369,16 @@ impl FrequencyResponse {
 
     /// Why the curve ended, as a sentence naming the parameter with its unit.
     pub fn end_text(&self) -> String {
+        match &self.second_piece {
+            Some(second) => format!(
+                "{}; traced again from the end of the range: {second}",
+                self.first_end_text()
+            ),
+            None => self.first_end_text(),
+        }
+    }
+
+    fn first_end_text(&self) -> String {
         let at = |v: f64| match self.sweep {
             Sweep::Frequency => format!("W = {v:.6e} rad/s"),
             Sweep::Level { .. } => format!("load scale {v:.6e}"),
@@ -357,6 +394,22 @@ impl FrequencyResponse {
                 "the curve turned back below the start of the range after {}",
                 at(*v)
             ),
+            FrfTermination::Joined {
+                stopped,
+                met,
+                meets: true,
+            } => format!(
+                "complete in two pieces: the trace from the start of the range {stopped}; the \
+                 trace from its end went down to {}, where it met the first piece or the start \
+                 of the range",
+                at(*met)
+            ),
+            FrfTermination::Joined { stopped, met, .. } => format!(
+                "covered by two pieces that do not meet: the trace from the start of the range \
+                 {stopped}; the trace from its end covers {} up to the end (the two overlap in W \
+                 on different branches of the sampled problem)",
+                at(*met)
+            ),
         }
     }
 }
@@ -371,6 +424,11 @@ struct FrfTrace<'a, 's> {
     step: f64,
     /// Direction of travel in W (+1 or -1) and the index of the running extremum of W.
     travel: (f64, usize),
+    /// +1 for the trace from the start of the range, -1 for the one from its end.
+    direction: f64,
+    /// The first piece's points in the scaled space, which the trace from the end stops on
+    /// meeting.
+    meet: Vec<Vec<f64>>,
     curve: FrequencyResponse,
 }
 
@@ -535,7 +593,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
         let row = self.phase_row(&last);
         let (lag, amplitude) = (self.phase(&last, row), self.amplitude(&last, row));
         for dphi in [1e-4, 3e-4, 1e-3, 3e-3, 1e-2] {
-            let arc = self.phase_row_arc(&last, row, lag + dphi, amplitude);
+            let arc = self.phase_row_arc(&last, row, lag + self.direction * dphi, amplitude);
             let start = ForcedStart {
                 state: arc.predicted.clone(),
                 multipliers: last.multipliers.clone(),
@@ -544,7 +602,7 @@ impl<'a, 's> FrfTrace<'a, 's> {
                 let turn = wrap_angle(self.phase(p, row) - lag);
                 let distance = self.distance(p, &last);
                 tracing::debug!(omega = p.omega, dphi, turn, distance, "phase hop landed");
-                turn > 0.0 && distance <= PHASE_HOP_REACH
+                turn * self.direction > 0.0 && distance <= PHASE_HOP_REACH
             });
             if let Some(p) = landed {
                 tracing::debug!(omega = p.omega, dphi, "forced response: hop at fixed phase");
@@ -679,9 +737,16 @@ impl<'a, 's> FrfTrace<'a, 's> {
             .collect();
         for st in assessed {
             let mut st = st?;
-            let determined = self
+            // A change of stability is between points of one piece.
+            let piece = self
                 .curve
-                .stability
+                .pieces
+                .iter()
+                .copied()
+                .filter(|&k| k <= self.curve.stability.len())
+                .max()
+                .unwrap_or(0);
+            let determined = self.curve.stability[piece..]
                 .iter()
                 .rev()
                 .find(|p| p.verdict != Verdict::Undetermined);
@@ -769,59 +834,106 @@ fn wrap_angle(angle: f64) -> f64 {
     PI - (PI - angle).rem_euclid(TAU)
 }
 
+/// How close (scaled distance) the trace from the end of the range must come to a point of the
+/// first piece to have met it: half the largest step.
+const MEET_REACH: f64 = 0.01;
+
 /// Traces the response curve of `solver` over the settings' range, in W or in the load scale
-/// (see module docs); `progress` sees every accepted point.
+/// (see module docs); `progress` sees every accepted point. A frequency sweep whose trace from
+/// the start of the range stops or turns back (a corner of the sampled problem it cannot pass)
+/// is traced again from the end of the range, W falling, until it meets the first piece
+/// (`FrfTermination::Joined`, two `pieces`) or stops too.
 pub fn response_curve(
     solver: &ForcedSolver<'_>,
     settings: &FrfSettings,
     mut progress: impl FnMut(&ForcedPoint),
 ) -> Result<FrequencyResponse, ForcedError> {
     settings.validate()?;
-    let system = solver.system();
-    let (omega, level, p_scale) = match settings.sweep {
-        Sweep::Frequency => (settings.start, 1.0, system.linear_frequencies()[0]),
-        Sweep::Level { omega } => (omega, settings.start, settings.end),
-    };
-    let first = solver.solve(solver.linear_start(omega, level)?, None)?;
-    progress(&first);
-    let mut start = ForcedSolver::start_from(&first);
-    let parameter = settings.sweep.parameter();
-    start
-        .state
-        .set_parameter(parameter, settings.start + settings.step * p_scale);
-    let second = solver.solve(start, None)?;
-    progress(&second);
-    let mut trace = FrfTrace {
-        solver,
-        settings,
-        y_scale: system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt(),
-        p_scale,
-        step: settings.step,
-        travel: (1.0, 1),
-        curve: FrequencyResponse {
-            sweep: settings.sweep,
-            points: vec![first, second],
-            folds: Vec::new(),
-            hops: Vec::new(),
-            stability: Vec::new(),
-            termination: FrfTermination::Complete,
-        },
-    };
-    trace.run(progress)?;
+    let mut trace = FrfTrace::begin(solver, settings, 1.0, Vec::new(), &mut progress)?;
+    trace.run(&mut progress)?;
+    let stopped = matches!(
+        trace.curve.termination,
+        FrfTermination::StepTooSmall { .. } | FrfTermination::LeftRange { .. }
+    );
+    if stopped && settings.sweep == Sweep::Frequency {
+        let meet = trace.curve.points.iter().map(|p| trace.scaled(p)).collect();
+        match FrfTrace::begin(solver, settings, -1.0, meet, &mut progress) {
+            Ok(mut back) => {
+                back.run(&mut progress)?;
+                trace.append(back.curve);
+            }
+            Err(e) => tracing::debug!("forced response: no trace from the end of the range: {e}"),
+        }
+    }
     trace.assess_stability()?;
     Ok(trace.curve)
 }
 
-impl FrfTrace<'_, '_> {
-    /// Steps until the end of the range, the point limit, a failed step or a turn below the
-    /// start.
-    fn run(&mut self, mut progress: impl FnMut(&ForcedPoint)) -> Result<(), ForcedError> {
-        let (start, end) = (self.settings.start, self.settings.end);
+impl<'a, 's> FrfTrace<'a, 's> {
+    /// The first two points from the linear solution at the start of the range (`direction`
+    /// +1) or at its end (-1, W falling; for a frequency sweep only).
+    fn begin(
+        solver: &'a ForcedSolver<'s>,
+        settings: &'a FrfSettings,
+        direction: f64,
+        meet: Vec<Vec<f64>>,
+        progress: &mut impl FnMut(&ForcedPoint),
+    ) -> Result<Self, ForcedError> {
+        let system = solver.system();
+        let from = if direction > 0.0 {
+            settings.start
+        } else {
+            settings.end
+        };
+        let (omega, level, p_scale) = match settings.sweep {
+            Sweep::Frequency => (from, 1.0, system.linear_frequencies()[0]),
+            Sweep::Level { omega } => (omega, settings.start, settings.end),
+        };
+        let first = solver.solve(solver.linear_start(omega, level)?, None)?;
+        progress(&first);
+        let mut start = ForcedSolver::start_from(&first);
+        let parameter = settings.sweep.parameter();
+        start
+            .state
+            .set_parameter(parameter, from + direction * settings.step * p_scale);
+        let second = solver.solve(start, None)?;
+        progress(&second);
+        Ok(Self {
+            solver,
+            settings,
+            y_scale: system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt(),
+            p_scale,
+            step: settings.step,
+            travel: (direction, 1),
+            direction,
+            meet,
+            curve: FrequencyResponse {
+                sweep: settings.sweep,
+                points: vec![first, second],
+                folds: Vec::new(),
+                hops: Vec::new(),
+                stability: Vec::new(),
+                termination: FrfTermination::Complete,
+                pieces: vec![0],
+                second_piece: None,
+            },
+        })
+    }
+
+    /// Steps until the far end of the range, the point limit, a failed step, a turn back past
+    /// the near end, or (the trace from the end) a point that meets the first piece.
+    fn run(&mut self, progress: &mut impl FnMut(&ForcedPoint)) -> Result<(), ForcedError> {
+        let d = self.direction;
+        let (near, far) = if d > 0.0 {
+            (self.settings.start, self.settings.end)
+        } else {
+            (self.settings.end, self.settings.start)
+        };
         loop {
             let last = self
                 .curve
                 .parameter(self.curve.points.last().expect("points"));
-            if last >= end {
+            if d * (last - far) >= 0.0 {
                 return Ok(());
             }
             if self.curve.points.len() >= self.settings.max_points {
@@ -832,11 +944,8 @@ impl FrfTrace<'_, '_> {
                 self.curve.termination = FrfTermination::StepTooSmall { at: last, reason };
                 return Ok(());
             }
-            if self
-                .curve
-                .parameter(self.curve.points.last().expect("just pushed"))
-                < start
-            {
+            let newest = self.curve.points.last().expect("just pushed");
+            if d * (self.curve.parameter(newest) - near) < 0.0 {
                 self.curve.points.pop();
                 let n = self.curve.points.len();
                 self.curve.hops.retain(|&h| h < n);
@@ -844,7 +953,87 @@ impl FrfTrace<'_, '_> {
                 self.curve.termination = FrfTermination::LeftRange { at: last };
                 return Ok(());
             }
-            progress(self.curve.points.last().expect("just pushed"));
+            progress(newest);
+            let x = self.scaled(newest);
+            let met = self.meet.iter().any(|m| {
+                m.iter()
+                    .zip(&x)
+                    .map(|(a, b)| (a - b).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    <= MEET_REACH
+            });
+            if met {
+                let at = self.curve.parameter(newest);
+                self.curve.termination = FrfTermination::Joined {
+                    stopped: String::new(),
+                    met: at,
+                    meets: true,
+                };
+                return Ok(());
+            }
         }
+    }
+
+    /// Appends the trace from the end of the range (`back`) as the second piece; the curve is
+    /// joined when that trace met this one.
+    fn append(&mut self, back: FrequencyResponse) {
+        let offset = self.curve.points.len();
+        let w = |r: &FrequencyResponse, pick: fn(f64, f64) -> f64, from: f64| {
+            r.points.iter().map(|p| r.parameter(p)).fold(from, pick)
+        };
+        let (first_top, second_low) = (
+            w(&self.curve, f64::max, f64::NEG_INFINITY),
+            w(&back, f64::min, f64::INFINITY),
+        );
+        let stopped = self.curve.end_text();
+        match back.termination {
+            // It met the first piece, or crossed the whole range down to its start.
+            FrfTermination::Joined { met, .. } => {
+                self.curve.termination = FrfTermination::Joined {
+                    stopped,
+                    met,
+                    meets: true,
+                };
+            }
+            FrfTermination::Complete => {
+                self.curve.termination = FrfTermination::Joined {
+                    stopped,
+                    met: second_low,
+                    meets: true,
+                };
+            }
+            // Between them the two pieces reach every W of the range.
+            _ if second_low <= first_top => {
+                self.curve.termination = FrfTermination::Joined {
+                    stopped,
+                    met: second_low,
+                    meets: false,
+                };
+                self.curve.second_piece = Some(match back.termination {
+                    FrfTermination::LeftRange { at } => {
+                        format!("it turned back past the end of the range after W = {at:.6e} rad/s")
+                    }
+                    _ => back.end_text(),
+                });
+            }
+            FrfTermination::LeftRange { at } => {
+                self.curve.second_piece = Some(format!(
+                    "it turned back past the end of the range after W = {at:.6e} rad/s"
+                ));
+            }
+            _ => self.curve.second_piece = Some(back.end_text()),
+        }
+        self.curve.pieces.push(offset);
+        self.curve
+            .folds
+            .extend(back.folds.into_iter().map(|f| Fold {
+                point: f.point + offset,
+                ..f
+            }));
+        self.curve
+            .hops
+            .extend(back.hops.into_iter().map(|h| h + offset));
+        self.curve.points.extend(back.points);
     }
 }

@@ -25,8 +25,13 @@ const CORRECTOR_TOLERANCE: f64 = 1e-10;
 /// Gauss-Newton iterations before a step is declared failed.
 const CORRECTOR_ITERATIONS: usize = 8;
 /// How far (in steps) the corrector may land from the prediction: on a smooth curve it lands
-/// within O(h^2); farther, it has jumped to another piece of the curve.
-const CORRECTOR_REACH: f64 = 2.0;
+/// within O(h^2); at a kink of the curve (contact setting in) at h / cos(angle); farther, it has
+/// jumped to another piece of the curve. Four accepts kinks up to 75 degrees.
+const CORRECTOR_REACH: f64 = 4.0;
+/// Scaled step below which a failing arc-length step gives way to a hop at fixed W.
+const CORNER_STEP: f64 = 1e-3;
+/// How far (as a multiple of the hop's dW / W_ref) a hop may land from the last orbit.
+const HOP_REACH: f64 = 20.0;
 
 /// Settings of one exact curve.
 #[derive(Clone, Debug, PartialEq)]
@@ -175,9 +180,44 @@ impl CurveTrace<'_, '_> {
         Ok(None)
     }
 
+    /// A kink of the curve the arc-length step cannot pass (contact setting in, where the
+    /// curve turns by nearly a right angle in the scaled unknowns): the orbit at fixed W =
+    /// W_k + s dW from the last one, s the sign of the tangent's W component, for dW = 1e-4,
+    /// 1e-3, 5e-3 (x W_ref); the first that lands within `HOP_REACH` dW is the next point, with
+    /// the secant projected onto its null space as the tangent. Whether one did.
+    fn hop(&mut self) -> Result<bool, HbError> {
+        let n = self.tangent.len() - 1;
+        let sign = self.tangent[n].signum();
+        for dw in [1e-4, 1e-3, 5e-3] {
+            let mut z = self.last.z.clone();
+            z[n] += sign * dw;
+            let Some(z) = self.correct_at_fixed_omega(z).ok().flatten() else {
+                continue;
+            };
+            if distance(&z, &self.last.z) > HOP_REACH * dw {
+                continue;
+            }
+            let Some(solved) = self.correct(z).ok().flatten() else {
+                continue;
+            };
+            let secant = sub(&solved.z, &self.last.z);
+            let tangent = null_tangent(&solved.jacobian, &secant);
+            let fold = tangent[n] * self.tangent[n] < 0.0;
+            self.push(&solved, fold);
+            self.tangent = tangent;
+            self.last = solved;
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
     /// One accepted step, or `false` once the step fell below `min_step`.
     fn advance(&mut self) -> Result<bool, HbError> {
         while self.step >= self.settings.min_step {
+            if self.step < CORNER_STEP && self.hop()? {
+                self.step = CORNER_STEP;
+                return Ok(true);
+            }
             let h = self.step;
             let predicted: Vec<f64> = (self.last.z.iter().zip(&self.tangent))
                 .map(|(z, t)| z + h * t)
