@@ -93,7 +93,7 @@ fn main() {
         if exact {
             let t1 = Instant::now();
             let e = solver
-                .boundary_curve(&curve, frf.end, frf.stability_margin)
+                .boundary_curve(&curve.points, frf.end, frf.stability_margin)
                 .expect("exact curve");
             exact_times.push(t1.elapsed().as_secs_f64());
             if let (0, Some(e)) = (run, e) {

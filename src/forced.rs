@@ -376,7 +376,7 @@ fn exact_level(
 ) -> Result<Option<BoundaryCurve>> {
     // The exact curve is a second method beside the harmonic balance: its failure is reported,
     // it does not take the level's results with it.
-    let exact = match solver.boundary_curve(curve, frf.end, frf.stability_margin) {
+    let exact = match solver.boundary_curve(&curve.points, frf.end, frf.stability_margin) {
         Ok(exact) => exact,
         Err(e) => {
             tracing::warn!("forced level {level}: no exact curve on the massless boundary: {e}");

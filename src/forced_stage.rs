@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use crate::forced_output::verdict_counts;
 use anyhow::Result;
+use nlmodes_forced::Verdict;
 
 use crate::case::Case;
 use crate::forced::ForcedStudy;
@@ -190,5 +191,62 @@ fn section(st: &ForcedStudy) -> String {
          1e-3 (`period_residual`). Black: the backbone of the \
          same model; thin dotted: the single-nonlinear-mode synthesis from it.\n"
     );
-    s + &crate::forced_exact::report_paragraph(st) + &crate::level_sweep::report_section(st)
+    s + &exact_paragraph(st) + &crate::level_sweep::report_section(st)
+}
+
+/// The report's paragraph on the exact curves (empty without any).
+fn exact_paragraph(st: &ForcedStudy) -> String {
+    let mut s = String::new();
+    if st.curves.iter().all(|c| c.exact.is_none()) {
+        return s;
+    }
+    let (g, w) = (st.gap_reference, st.omega_mode);
+    let _ = writeln!(
+        s,
+        "Grey lines: each level's exact response curve on the massless contact boundary (the \
+         modes up to (N + 1) W at the start of the range dynamic, the others static on the \
+         contact rows, a penalty law's spring in series; a model whose modes are all resolved \
+         is then the penalty equation itself), continued by shooting with no harmonic \
+         truncated (`forced/frf_boundary.csv`; docs/STABILITY.md Sec. 9.2). Every point of it \
+         has the verdict of its own exact monodromy. Against the harmonic-balance curve:\n\n\
+         | level | peak q/g0 (HB / exact) | at W/w (HB / exact) | folds of the exact curve (W/w) \
+         | exact points stable / unstable / undetermined | end |\n|---|---|---|---|---|---|"
+    );
+    for c in &st.curves {
+        let (Some(e), Some(i)) = (&c.exact, crate::forced_output::peak_point(c, st.master)) else {
+            continue;
+        };
+        let Some(p) = crate::forced_exact::peak(e) else {
+            continue;
+        };
+        let hb = &c.response.points[i];
+        let hb_amp = hb.coefficients[(st.master, 1)].hypot(hb.coefficients[(st.master, 2)]);
+        let folds: Vec<String> = e
+            .points
+            .iter()
+            .filter(|p| p.fold)
+            .map(|p| format!("{:.4}", p.omega / w))
+            .collect();
+        let count = |v: Verdict| e.points.iter().filter(|p| p.verdict == v).count();
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} / {:.4} | {:.5} / {:.5} | {} | {} / {} / {} | {} |",
+            c.level,
+            hb_amp / g,
+            p.master_amplitude / g,
+            hb.omega / w,
+            p.omega / w,
+            if folds.is_empty() {
+                "none".to_string()
+            } else {
+                folds.join(", ")
+            },
+            count(Verdict::Stable),
+            count(Verdict::Unstable),
+            count(Verdict::Undetermined),
+            e.end.text()
+        );
+    }
+    s.push('\n');
+    s
 }

@@ -18,27 +18,31 @@ mod common;
 
 use common::{chain_model, nlmodes};
 
-/// The rows of frf_boundary.csv as (omega_ratio, q1_over_g0, stability, force_N).
-fn exact_rows(csv: &str) -> Vec<(f64, f64, String, f64)> {
+/// The named columns of a CSV, one `Vec<String>` per row.
+fn columns(csv: &str, names: &[&str]) -> Vec<Vec<String>> {
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let at = |name: &str| header.iter().position(|h| *h == name).expect(name);
-    let (iw, iq, is, i_f) = (
-        at("omega_ratio"),
-        at("q1_over_g0"),
-        at("stability"),
-        at("force_N"),
-    );
+    let at: Vec<usize> = names
+        .iter()
+        .map(|n| header.iter().position(|h| h == n).expect(n))
+        .collect();
     lines
         .map(|l| {
             let v: Vec<&str> = l.split(',').collect();
-            (
-                v[iw].parse().unwrap(),
-                v[iq].parse().unwrap(),
-                v[is].to_string(),
-                v[i_f].parse().unwrap(),
-            )
+            at.iter().map(|&i| v[i].to_string()).collect()
         })
+        .collect()
+}
+
+fn num(s: &str) -> f64 {
+    s.parse().expect("a number")
+}
+
+/// The rows of frf_boundary.csv as (omega_ratio, q1_over_g0, stability, force_N).
+fn exact_rows(csv: &str) -> Vec<(f64, f64, String, f64)> {
+    columns(csv, &["omega_ratio", "q1_over_g0", "stability", "force_N"])
+        .into_iter()
+        .map(|r| (num(&r[0]), num(&r[1]), r[2].clone(), num(&r[3])))
         .collect()
 }
 
@@ -154,26 +158,13 @@ fn the_exact_curve_of_the_penalty_chain_is_the_time_integrated_response() {
 
 /// (omega_ratio, q1_over_g0, piece, contact_fraction) of frf.csv's rows.
 fn hb_rows(csv: &str) -> Vec<(f64, f64, usize, f64)> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let at = |name: &str| header.iter().position(|h| *h == name).expect(name);
-    let (iw, iq, ip, ic) = (
-        at("omega_ratio"),
-        at("q1_over_g0"),
-        at("piece"),
-        at("contact_fraction"),
-    );
-    lines
-        .map(|l| {
-            let v: Vec<&str> = l.split(',').collect();
-            (
-                v[iw].parse().unwrap(),
-                v[iq].parse().unwrap(),
-                v[ip].parse().unwrap(),
-                v[ic].parse().unwrap(),
-            )
-        })
-        .collect()
+    columns(
+        csv,
+        &["omega_ratio", "q1_over_g0", "piece", "contact_fraction"],
+    )
+    .into_iter()
+    .map(|r| (num(&r[0]), num(&r[1]), r[2].parse().unwrap(), num(&r[3])))
+    .collect()
 }
 
 /// The light chain at every `[forced]` default (0.3 %, level 2 x grazing, N = 10, kc = 1000 x

@@ -13,8 +13,9 @@
 //! contact forces. Its first harmonic and its largest value come from `MASTER_SAMPLES` instants
 //! of the exact flow.
 
+use faer::Mat;
+
 use crate::boundary::{driven_model, modal_start, BoundaryInputs};
-use crate::frf::FrequencyResponse;
 use nlmodes_hb::driven_boundary::{sample_orbit, DrivenBoundary};
 use nlmodes_hb::driven_curve::{trace_driven_curve, DrivenCurveEnd, DrivenCurveSettings};
 use nlmodes_hb::floquet::{multipliers_of, Verdict};
@@ -106,34 +107,35 @@ impl MasterRow {
     }
 }
 
-/// The exact curve of the level of `inputs` from the first point of the harmonic-balance curve
-/// `hb` (the linear orbit at the start of the range) to W = `end` (rad/s); `margin` as
-/// `FrfSettings::stability_margin`. `None` where the boundary model does not apply (exact
-/// contact on a model with every mode resolved) or its first orbit does not converge.
+/// The exact curve of the level of `inputs` from the first of the harmonic-balance orbits
+/// `orbits` ((coefficients n x (2N + 1), W in rad/s); the first the linear orbit at the start of
+/// the range) to W = `end` (rad/s), its modal coordinates scaled by the largest of those orbits';
+/// `margin` as `FrfSettings::stability_margin`. `None` where the boundary model does not apply
+/// (exact contact on a model with every mode resolved) or its first orbit does not converge.
 pub fn boundary_curve(
     inputs: &BoundaryInputs<'_>,
-    hb: &FrequencyResponse,
+    orbits: &[(&Mat<f64>, f64)],
     end: f64,
     margin: f64,
 ) -> Result<Option<BoundaryCurve>, HbError> {
-    let Some(first) = hb.points.first() else {
+    let Some(&(coefficients, omega)) = orbits.first() else {
         return Ok(None);
     };
-    let Some(model) = driven_model(inputs, first.omega) else {
+    let Some(model) = driven_model(inputs, omega) else {
         return Ok(None);
     };
     let r = model.omega2.len();
-    let norm = |p: &crate::solver::ForcedPoint| {
-        let x = modal_start(inputs.system, &p.coefficients, p.omega, r);
+    let norm = |&(c, w): &(&Mat<f64>, f64)| {
+        let x = modal_start(inputs.system, c, w, r);
         x[..r].iter().map(|v| v * v).sum::<f64>().sqrt()
     };
     // The modal coordinates' size near the resonance: the largest harmonic-balance orbit's.
-    let q_scale = hb.points.iter().map(norm).fold(0.0, f64::max);
+    let q_scale = orbits.iter().map(norm).fold(0.0, f64::max);
     if q_scale.is_nan() || q_scale <= 0.0 {
         return Ok(None);
     }
-    let start = modal_start(inputs.system, &first.coefficients, first.omega, r);
-    let settings = DrivenCurveSettings::new(first.omega, end);
+    let start = modal_start(inputs.system, coefficients, omega, r);
+    let settings = DrivenCurveSettings::new(omega, end);
     let Some(curve) = trace_driven_curve(&model, &start, q_scale, &settings)? else {
         return Ok(None);
     };

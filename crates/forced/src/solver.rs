@@ -221,6 +221,25 @@ impl<'s> ForcedSolver<'s> {
         )?)
     }
 
+    /// What the massless contact boundary of this problem is built from, under `load`.
+    fn boundary_inputs<'a>(
+        &'a self,
+        load: &'a Load,
+        keep_all: bool,
+    ) -> crate::boundary::BoundaryInputs<'a> {
+        crate::boundary::BoundaryInputs {
+            system: self.system,
+            damping: self.damping.as_ref(),
+            load,
+            penalty: match self.settings.algorithm.method {
+                ContactMethod::Penalty { stiffness } => Some(stiffness),
+                ContactMethod::AugmentedLagrangian => None,
+            },
+            harmonics: self.basis.harmonics(),
+            keep_all,
+        }
+    }
+
     /// The multipliers of the point on the massless contact boundary (`boundary`), `None` where
     /// that model does not apply or shooting does not converge. `keep_all`: a penalty model
     /// whose modes are all resolved is kept whole (the penalty equation, shot exactly).
@@ -229,51 +248,35 @@ impl<'s> ForcedSolver<'s> {
         point: &ForcedPoint,
         keep_all: bool,
     ) -> Result<Option<crate::boundary::BoundaryMonodromy>, ForcedError> {
-        let penalty = match self.settings.algorithm.method {
-            ContactMethod::Penalty { stiffness } => Some(stiffness),
-            ContactMethod::AugmentedLagrangian => None,
-        };
         let load = self.load.scaled(point.level);
-        let inputs = crate::boundary::BoundaryInputs {
-            system: self.system,
-            damping: self.damping.as_ref(),
-            load: &load,
-            penalty,
-            harmonics: self.basis.harmonics(),
-            keep_all,
-        };
         Ok(crate::boundary::boundary_monodromy(
-            &inputs,
+            &self.boundary_inputs(&load, keep_all),
             &point.coefficients,
             point.omega,
         )?)
     }
 
     /// The exact response curve of the massless boundary (`boundary_curve`) at the level of the
-    /// harmonic-balance curve `hb`, from its first point to W = `end` (rad/s); `None` where that
-    /// model does not apply.
+    /// harmonic-balance curve's `points`, from the first (the linear orbit at the start of the
+    /// range) to W = `end` (rad/s), its modal coordinates scaled by the largest of those
+    /// orbits'; `None` where that model does not apply.
     pub fn boundary_curve(
         &self,
-        hb: &crate::frf::FrequencyResponse,
+        points: &[ForcedPoint],
         end: f64,
         margin: f64,
     ) -> Result<Option<crate::boundary_curve::BoundaryCurve>, ForcedError> {
-        let penalty = match self.settings.algorithm.method {
-            ContactMethod::Penalty { stiffness } => Some(stiffness),
-            ContactMethod::AugmentedLagrangian => None,
+        let Some(first) = points.first() else {
+            return Ok(None);
         };
-        let level = hb.points.first().map_or(1.0, |p| p.level);
-        let load = self.load.scaled(level);
-        let inputs = crate::boundary::BoundaryInputs {
-            system: self.system,
-            damping: self.damping.as_ref(),
-            load: &load,
-            penalty,
-            harmonics: self.basis.harmonics(),
-            keep_all: true,
-        };
+        let load = self.load.scaled(first.level);
+        let orbits: Vec<(&Mat<f64>, f64)> =
+            points.iter().map(|p| (&p.coefficients, p.omega)).collect();
         Ok(crate::boundary_curve::boundary_curve(
-            &inputs, hb, end, margin,
+            &self.boundary_inputs(&load, true),
+            &orbits,
+            end,
+            margin,
         )?)
     }
 
