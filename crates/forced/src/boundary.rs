@@ -118,7 +118,8 @@ pub(crate) fn modal_start(
     let v: Vec<f64> = (0..n)
         .map(|i| FullBasis::rate_at(&series(i), omega, 0.0))
         .collect();
-    let projection = system.modes().transpose() * system.mass();
+    // Phi_k^T M on the r kept modes only (r x n: not the n x n product).
+    let projection = system.modes().subcols(0, r).transpose() * system.mass();
     let project = |x: &[f64], k: usize| (0..n).map(|i| projection[(k, i)] * x[i]).sum::<f64>();
     (0..r)
         .map(|k| project(&u, k))
