@@ -155,6 +155,16 @@ impl Piece {
             .sum()
     }
 
+    /// Every row's event function at tau (one exponential per eigenvalue, shared by the rows).
+    fn events_at(&self, w0: &[c64], tau: f64) -> Vec<f64> {
+        let e: Vec<c64> = (0..w0.len())
+            .map(|k| (self.values[k] * tau).exp() * w0[k])
+            .collect();
+        (0..self.events.nrows())
+            .map(|j| (0..e.len()).map(|k| (self.events[(j, k)] * e[k]).re).sum())
+            .collect()
+    }
+
     fn state_at(&self, w0: &[c64], tau: f64) -> Vec<f64> {
         let m = w0.len();
         let e: Vec<c64> = (0..m)
@@ -308,8 +318,9 @@ fn next_switch(
     let mut t0 = 0.0;
     while t0 < horizon {
         let t1 = (t0 + step).min(horizon);
+        let events = piece.events_at(w0, t1);
         let crossing = (0..c)
-            .filter(|&j| piece.event(j, w0, t1) > tol)
+            .filter(|&j| events[j] > tol)
             .map(|j| (bisect(piece, w0, j, t0, t1), j))
             .min_by(|a, b| a.0.total_cmp(&b.0));
         if crossing.is_some() {
