@@ -166,6 +166,20 @@ pub(crate) fn peak(e: &BoundaryCurve) -> Option<&BoundaryCurvePoint> {
         .max_by(|a, b| a.master_amplitude.total_cmp(&b.master_amplitude))
 }
 
+/// The W / w_mode of the exact curve's folds, each with `digits` decimals.
+pub(crate) fn fold_ratios(e: &BoundaryCurve, omega_mode: f64, digits: usize) -> Vec<String> {
+    e.points
+        .iter()
+        .filter(|p| p.fold)
+        .map(|p| format!("{:.*}", digits, p.omega / omega_mode))
+        .collect()
+}
+
+/// How many points of the exact curve have verdict `v`.
+pub(crate) fn count(e: &BoundaryCurve, v: Verdict) -> usize {
+    e.points.iter().filter(|p| p.verdict == v).count()
+}
+
 /// One line per level with an exact curve: its peak, folds and verdicts.
 pub fn summary(st: &ForcedStudy) -> String {
     let (g, w) = (st.gap_reference, st.omega_mode);
@@ -173,17 +187,8 @@ pub fn summary(st: &ForcedStudy) -> String {
     for c in &st.curves {
         let Some(e) = &c.exact else { continue };
         let Some(p) = peak(e) else { continue };
-        let folds: Vec<String> = e
-            .points
-            .iter()
-            .filter(|p| p.fold)
-            .map(|p| format!("{:.5}", p.omega / w))
-            .collect();
-        let unstable = e
-            .points
-            .iter()
-            .filter(|p| p.verdict == Verdict::Unstable)
-            .count();
+        let folds = fold_ratios(e, w, 5);
+        let unstable = count(e, Verdict::Unstable);
         let _ = writeln!(
             out,
             "  level {:>8} exact on the massless boundary ({} modes dynamic): peak q/g0 = {:.4} at \

@@ -220,14 +220,9 @@ fn exact_paragraph(st: &ForcedStudy) -> String {
             continue;
         };
         let hb = &c.response.points[i];
-        let hb_amp = hb.coefficients[(st.master, 1)].hypot(hb.coefficients[(st.master, 2)]);
-        let folds: Vec<String> = e
-            .points
-            .iter()
-            .filter(|p| p.fold)
-            .map(|p| format!("{:.4}", p.omega / w))
-            .collect();
-        let count = |v: Verdict| e.points.iter().filter(|p| p.verdict == v).count();
+        let hb_amp = crate::forced_output::master_amplitude(hb, st.master);
+        let folds = crate::forced_exact::fold_ratios(e, w, 4);
+        let count = |v: Verdict| crate::forced_exact::count(e, v);
         let _ = writeln!(
             s,
             "| {} | {:.4} / {:.4} | {:.5} / {:.5} | {} | {} / {} / {} | {} |",
