@@ -107,7 +107,7 @@ fn main() {
                     "exact curve: {} points, {} modes dynamic, folds at W/w1 {folds:.5?}, {}",
                     e.points.len(),
                     e.modes,
-                    e.end.text()
+                    nlmodes_hb::driven_curve::driven_end_text(&e.end)
                 );
             }
         }

@@ -8,6 +8,7 @@ use anyhow::Result;
 use std::path::PathBuf;
 
 use crate::backbone;
+use crate::backbone_exact;
 use crate::case::Case;
 use crate::layout::Layout;
 use crate::stage::{json, Only, Stage};
@@ -82,6 +83,7 @@ impl Stage for BackboneStage<'_> {
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
         let mut b = backbone::trace(&system, hs, &case.algorithm, cont)?;
         backbone::stability(&system, &mut b, &case.stability)?;
+        let exact = backbone_exact::exact_backbone(&system, &b, &case.stability, cont.q_max)?;
         let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
         backbone::truncation(
             &system,
@@ -93,6 +95,7 @@ impl Stage for BackboneStage<'_> {
             case.nnm.truncation_tolerance,
         )?;
         backbone::write(&b, &out)?;
+        backbone_exact::write(exact.as_ref(), &b, &out)?;
         nlmodes_output::write_json(&out.join("kept.json"), &kept)?;
         crate::ui::say(&backbone::summary(&b, &case.algorithm));
         backbone::stopped_early(&b, &out)

@@ -6,6 +6,7 @@ use nlmodes_output::{HeatMap, LegendPosition, LinePlot, LineStyle, RefLine, Seri
 use std::path::Path;
 
 use crate::results::{BackboneFile, Orbit};
+use nlmodes_nnm::BoundaryBackbone;
 
 /// One closed orbit of Fig. 3b: q / g0 and (master displacement, master velocity, contact-node
 /// radial displacement) samples, all normalized.
@@ -208,9 +209,54 @@ fn family_plot(
     plot.with_ref_line(RefLine::horizontal(1.0, "linear"))
 }
 
+/// The exact backbone's pieces as thin grey lines against q / g0 (stable solid, unstable
+/// dashed, undetermined dotted), the first labelled.
+fn exact_series(e: &BoundaryBackbone, g0: f64, w1: f64) -> Vec<Series> {
+    let style = |v: &str| match v {
+        "unstable" => LineStyle::Dashed,
+        "stable" => LineStyle::Solid,
+        _ => LineStyle::Dotted,
+    };
+    let mut out = Vec::new();
+    for piece in &e.pieces {
+        let pts = &piece.points;
+        let mut start = 0;
+        for i in 1..=pts.len() {
+            if i < pts.len() && pts[i].verdict == pts[start].verdict {
+                continue;
+            }
+            // A run of one verdict, joined to the next run's first point.
+            let run = &pts[start..(i + 1).min(pts.len())];
+            if run.len() >= 2 {
+                let name = if out.is_empty() {
+                    "exact orbits, massless contact boundary"
+                } else {
+                    ""
+                };
+                out.push(
+                    Series::new(
+                        name,
+                        run.iter().map(|p| p.q.abs() / g0).collect::<Vec<f64>>(),
+                        run.iter().map(|p| p.omega / w1).collect::<Vec<f64>>(),
+                    )
+                    .color(Color(110, 110, 110))
+                    .width(0.9)
+                    .style(style(&run[0].verdict)),
+                );
+            }
+            start = i;
+        }
+    }
+    out
+}
+
 /// Fig. 3a: w / w1 against q / g0, grazing amplitude marked, tongues in a lighter colour, folds
-/// and jumps as markers.
-pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
+/// and jumps as markers; the exact backbone of the massless contact boundary in grey when given.
+pub fn backbone_figure(
+    b: &BackboneFile,
+    exact: Option<&BoundaryBackbone>,
+    out: &Path,
+) -> Result<()> {
     let g0 = b.gap_reference;
     let mut plot = family_plot(
         b,
@@ -218,6 +264,9 @@ pub fn backbone_figure(b: &BackboneFile, out: &Path) -> Result<()> {
         "modal amplitude q / g0",
         |p| p.q / g0,
     );
+    for series in exact.map_or_else(Vec::new, |e| exact_series(e, g0, b.omega_linear)) {
+        plot = plot.with_series(series);
+    }
     if let Some(q) = b.grazing_amplitude {
         plot = plot.with_ref_line(RefLine::vertical(q / g0, "grazing"));
     }

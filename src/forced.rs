@@ -9,7 +9,7 @@ use nlmodes_forced::{
     modal_ratios, response_curve, synthesize, BoundaryCurve, ForcedSettings, ForcedSolver,
     FreeOrbit, FrequencyResponse, FrfSettings, HarmonicLoad, Load, Sweep, SynthesizedPoint,
 };
-use nlmodes_hb::driven_curve::DrivenCurveEnd;
+use nlmodes_hb::arc_length::CurveEnd;
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
 use rayon::prelude::*;
 
@@ -390,7 +390,7 @@ fn exact_level(
             e.modes,
             e.points.len(),
             e.points.iter().filter(|p| p.fold).count(),
-            e.end.text()
+            nlmodes_hb::driven_curve::driven_end_text(&e.end)
         ),
         None => tracing::info!(
             "forced level {level}: no exact curve (exact contact on a model whose modes are all \
@@ -431,7 +431,7 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
         .filter(|c| !c.response.termination.covers_range())
         .map(|c| {
             let exact = match &c.exact {
-                Some(e) if e.end == DrivenCurveEnd::Complete => {
+                Some(e) if e.end == CurveEnd::Complete => {
                     "; its exact curve on the massless boundary is complete, in frf_boundary.csv"
                 }
                 _ => "",

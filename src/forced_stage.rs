@@ -239,7 +239,7 @@ fn exact_paragraph(st: &ForcedStudy) -> String {
             count(Verdict::Stable),
             count(Verdict::Unstable),
             count(Verdict::Undetermined),
-            e.end.text()
+            nlmodes_hb::driven_curve::driven_end_text(&e.end)
         );
     }
     s.push('\n');

@@ -2,6 +2,7 @@
 //! after Laxalde, Legrand & Pierre (2009). Units: SI throughout (m, kg, s, Pa, Hz).
 
 mod backbone;
+mod backbone_exact;
 mod backbone_stage;
 mod campbell;
 mod campbell_stage;
@@ -437,7 +438,9 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
     let mut b = backbone::trace(&system, hs, &params, &cont)?;
     backbone::stability(&system, &mut b, &stab)?;
+    let exact = backbone_exact::exact_backbone(&system, &b, &stab, cont.q_max)?;
     backbone::write(&b, &a.out)?;
+    backbone_exact::write(exact.as_ref(), &b, &a.out)?;
     ui::say(&backbone::summary(&b, &params));
     backbone::stopped_early(&b, &a.out)
 }

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use crate::case::Case;
 use crate::layout::{amplitude_tag, Layout};
 use crate::render::{self, Snapshot, Surface};
-use crate::results::{read_json, BackboneFile, Orbit};
+use crate::results::{read_boundary_backbone, read_json, BackboneFile, Orbit};
 use crate::{figures, ui};
 use rayon::prelude::*;
 
@@ -40,7 +40,8 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     let out = &layout.root;
     let g0 = b.gap_reference;
 
-    figures::backbone_figure(&b, out)?;
+    let exact = read_boundary_backbone(&layout.backbone())?;
+    figures::backbone_figure(&b, exact.as_ref(), out)?;
     figures::frequency_energy_figure(&b, out)?;
     let nonlinear = manifold_coordinate(&b);
     manifold(&model, &b, nonlinear, out)?;
@@ -88,6 +89,7 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
         backbone: &b,
         kept: &written,
         linear_modes_picture: modes_picture.as_deref(),
+        exact: exact.as_ref(),
     })?;
     stage.done(&format!(
         "figures, tables and {} ParaView series in {}",

@@ -61,6 +61,8 @@ pub struct ReportInputs<'a> {
     pub backbone: &'a BackboneFile,
     pub kept: &'a [KeptOutputs],
     pub linear_modes_picture: Option<&'a Path>,
+    /// The exact backbone of the massless contact boundary, where the backbone stage made one.
+    pub exact: Option<&'a nlmodes_nnm::BoundaryBackbone>,
 }
 
 /// One section of `report.md`: its text from the inputs (empty when it has nothing to say).
@@ -182,6 +184,14 @@ fn backbone(r: &ReportInputs<'_>) -> String {
     );
     internal_resonances(&mut s, b);
     boundary_comparison(&mut s, b);
+    if let Some(e) = r.exact {
+        s.push_str(&crate::backbone_exact::report_paragraph(
+            b,
+            e,
+            r.case.nnm.truncation_tolerance,
+        ));
+        s.push('\n');
+    }
     backbone_table(&mut s, b);
     let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
     truncation_table(&mut s, b, r.kept, g0);

@@ -218,3 +218,13 @@ pub fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     serde_json::from_slice(&bytes).with_context(|| format!("invalid JSON in {}", path.display()))
 }
+
+/// The exact backbone of the massless contact boundary in `dir` (`backbone_boundary.json`), or
+/// `None` where the backbone stage wrote none.
+pub fn read_boundary_backbone(dir: &Path) -> Result<Option<nlmodes_nnm::BoundaryBackbone>> {
+    let path = dir.join("backbone_boundary.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    read_json(&path).map(Some)
+}

@@ -16,8 +16,9 @@
 use faer::Mat;
 
 use crate::boundary::{driven_model, modal_start, BoundaryInputs};
+use nlmodes_hb::arc_length::{CurveEnd, CurveSettings};
 use nlmodes_hb::driven_boundary::{sample_orbit, DrivenBoundary};
-use nlmodes_hb::driven_curve::{trace_driven_curve, DrivenCurveEnd, DrivenCurveSettings};
+use nlmodes_hb::driven_curve::trace_driven_curve;
 use nlmodes_hb::floquet::{multipliers_of, Verdict};
 use nlmodes_hb::HbError;
 
@@ -52,7 +53,7 @@ pub struct BoundaryCurve {
     /// Modes kept dynamic.
     pub modes: usize,
     /// Why it ended.
-    pub end: DrivenCurveEnd,
+    pub end: CurveEnd,
 }
 
 /// The master's displacement on the boundary from q and lambda (module docs).
@@ -135,7 +136,7 @@ pub fn boundary_curve(
         return Ok(None);
     }
     let start = modal_start(inputs.system, coefficients, omega, r);
-    let settings = DrivenCurveSettings::new(omega, end);
+    let settings = CurveSettings::new(omega, end);
     let Some(curve) = trace_driven_curve(&model, &start, q_scale, &settings)? else {
         return Ok(None);
     };

@@ -27,6 +27,7 @@ use std::collections::HashMap;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef, Side};
 
+use crate::arc_length::min_norm_step;
 use crate::error::HbError;
 
 /// Scan points per shortest period of a piece when looking for a switch.
@@ -627,15 +628,6 @@ impl ShootingEquations<'_> {
             }
         }))
     }
-}
-
-/// The minimum-norm solution of J d = -F (J of full row rank), `None` when not finite.
-pub(crate) fn min_norm_step(jac: &Mat<f64>, residual: &[f64]) -> Option<Vec<f64>> {
-    let rhs = Mat::from_fn(jac.nrows(), 1, |i, _| -residual[i]);
-    let jjt = jac * jac.transpose();
-    let step = jac.transpose() * jjt.partial_piv_lu().solve(&rhs);
-    let step: Vec<f64> = (0..jac.ncols()).map(|i| step[(i, 0)]).collect();
-    step.iter().all(|v| v.is_finite()).then_some(step)
 }
 
 /// The periodic orbit of the driven boundary nearest the guess (q, q') at t = 0 and W =

@@ -31,6 +31,7 @@
 //! validation model), `floquet` (multipliers from the sampled slopes), `augmented_lagrangian` (Algorithm 1), `solver_settings`, `dense` (faer
 //! helpers), `check` (parameter checks), `error`.
 
+pub mod arc_length;
 pub mod augmented_lagrangian;
 pub mod boundary_rk4;
 pub mod check;

@@ -268,6 +268,28 @@ impl<'m> BoundaryFlow<'m> {
         }
     }
 
+    /// The contact forces lambda (N, one per row) of `state` on the active set `active`: a
+    /// closed row's event function is -R_jj lambda_j, an open row carries none.
+    pub fn contact_force(
+        &mut self,
+        state: &FlowState,
+        active: &[bool],
+    ) -> Result<Vec<f64>, NnmError> {
+        let model = self.model;
+        let flex = model.flexibility.as_ref();
+        let piece = self.piece(active)?;
+        let (z, _) = piece.to_modal(state);
+        Ok((0..active.len())
+            .map(|j| {
+                if active[j] {
+                    -piece.event(j, &z) / flex[(j, j)]
+                } else {
+                    0.0
+                }
+            })
+            .collect())
+    }
+
     fn piece(&mut self, active: &[bool]) -> Result<&Piece, NnmError> {
         if !self.pieces.contains_key(active) {
             let piece = build_piece(self.model, active)?;

@@ -40,15 +40,16 @@ pub(crate) struct ShotOrbit {
 }
 
 /// Residual q'(T/2) of a start q0 and period T, with its Jacobian blocks.
-struct HalfPeriod {
-    velocity: Vec<f64>,
+pub(super) struct HalfPeriod {
+    pub velocity: Vec<f64>,
     /// d q'(T/2) / d q0 (r x r).
-    d_q0: Mat<f64>,
+    pub d_q0: Mat<f64>,
     /// d q'(T/2) / dT (r).
-    d_period: Vec<f64>,
+    pub d_period: Vec<f64>,
 }
 
-fn half_period(
+/// The velocity at T / 2 of the motion released at rest from q0, and its derivatives.
+pub(super) fn half_period(
     flow: &mut BoundaryFlow<'_>,
     q0: &[f64],
     period: f64,

@@ -29,6 +29,8 @@ pub struct FloquetAnalysis<'s> {
     contact_modal: Mat<f64>,
     /// Phi^T M (n x n): modal coordinates of a displacement (event-based monodromy).
     modal_projection: Mat<f64>,
+    /// The master's row of Phi (n): its displacement per unit modal coordinate.
+    master_modal: Vec<f64>,
 }
 
 /// Cosine and sine moments of the projected contact stiffness, p = 0..=2N (r x r each):
@@ -90,13 +92,36 @@ impl<'s> FloquetAnalysis<'s> {
         let eig = generalized_eigen(system.stiffness(), system.mass(), "M")?;
         let contact_modal = system.contact_rows() * &eig.vectors;
         let modal_projection = eig.vectors.transpose() * system.mass();
+        let master_modal = (0..eig.vectors.ncols())
+            .map(|k| eig.vectors[(system.master(), k)])
+            .collect();
         Ok(Self {
             system,
             settings,
             omega: eig.values.iter().map(|v| v.max(0.0).sqrt()).collect(),
             contact_modal,
             modal_projection,
+            master_modal,
         })
+    }
+
+    /// The linear modes' data the massless-boundary models are built from.
+    pub(super) fn modal_data(&self) -> ModalData<'_> {
+        ModalData {
+            omega: &self.omega,
+            contact_modal: self.contact_modal.as_ref(),
+            projection: self.modal_projection.as_ref(),
+        }
+    }
+
+    /// The master's row of Phi (n).
+    pub(super) fn master_modal(&self) -> &[f64] {
+        &self.master_modal
+    }
+
+    /// The system analyzed.
+    pub(super) fn system(&self) -> &System {
+        self.system
     }
 
     /// The settings in use.
@@ -204,11 +229,7 @@ impl<'s> FloquetAnalysis<'s> {
         if !self.settings.shooting || !in_contact || r == self.omega.len() {
             return Ok(None);
         }
-        let modal = ModalData {
-            omega: &self.omega,
-            contact_modal: self.contact_modal.as_ref(),
-            projection: self.modal_projection.as_ref(),
-        };
+        let modal = self.modal_data();
         let penalty = penalty_of(point);
         let Some(model) = boundary_model(&modal, self.system.gaps(), r, penalty.as_deref()) else {
             return Ok(None);
@@ -740,7 +761,7 @@ pub(crate) fn stability_with_trivial(
 
 /// The penalty stiffness of each row of a penalty orbit (theta = 0 everywhere: the largest kappa
 /// of the row's samples), `None` for an augmented-Lagrangian (rigid-contact) orbit.
-fn penalty_of(point: &BackbonePoint) -> Option<Vec<f64>> {
+pub(super) fn penalty_of(point: &BackbonePoint) -> Option<Vec<f64>> {
     let mult = &point.multipliers;
     if mult.theta.iter().any(|&t| t != 0.0) || mult.samples == 0 {
         return None;

@@ -79,6 +79,7 @@
 //! approximated beyond N and m.
 
 mod bifurcation;
+mod boundary_backbone;
 mod boundary_flow;
 mod boundary_shooting;
 mod hill;
@@ -87,6 +88,9 @@ mod monodromy;
 mod saltation;
 
 pub use bifurcation::{classify, Bifurcation};
+pub use boundary_backbone::{
+    boundary_backbone, BoundaryBackbone, BoundaryBackbonePoint, BoundaryPiece,
+};
 pub use hill::FloquetAnalysis;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
 

@@ -1,0 +1,314 @@
+//! The exact backbone of the massless contact boundary beside the harmonic balance
+//! (docs/STABILITY.md Sec. 9.3): computed after the stability stage when shooting is on,
+//! written as `backbone/backbone_boundary.csv` and `backbone_boundary.json`, and the
+//! harmonic-balance points of the main branch whose w it does not confirm named.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+
+use nlmodes_nnm::{Backbone, BoundaryBackbone, BranchKind, System};
+use nlmodes_output::{CsvTable, CsvValue};
+
+use crate::case::StabilitySection;
+use crate::results::{BackboneFile, Orbit};
+use crate::ui;
+
+/// The columns of `backbone_boundary.csv`.
+const HEADER: [&str; 13] = [
+    "piece",
+    "point",
+    "q_over_g0",
+    "q_m",
+    "omega_rad_s",
+    "frequency_hz",
+    "omega_ratio",
+    "master_max_over_g0",
+    "max_contact_share",
+    "switches",
+    "stability",
+    "max_multiplier_abs",
+    "fold",
+];
+
+/// The exact backbone of `b`'s main branch up to q/g0 = `q_max`, when the stability stage shoots
+/// (`[stability] enabled` and `shooting`); `None` otherwise, or where the boundary model does
+/// not apply. A failure is logged and gives `None`: it never takes the backbone with it.
+pub fn exact_backbone(
+    system: &System,
+    b: &Backbone,
+    settings: &StabilitySection,
+    q_max: f64,
+) -> Result<Option<BoundaryBackbone>> {
+    let analysis = settings.analysis();
+    if !settings.enabled || !analysis.shooting {
+        return Ok(None);
+    }
+    let stage = ui::Stage::start("exact backbone");
+    let floquet = nlmodes_nnm::FloquetAnalysis::new(system, analysis)
+        .context("the modes of the massless contact boundary")?;
+    let exact = match nlmodes_nnm::boundary_backbone(&floquet, b, q_max * b.gap_reference) {
+        Ok(e) => e,
+        Err(e) => {
+            tracing::warn!(error = %e, "the exact backbone of the massless boundary failed");
+            None
+        }
+    };
+    let g = b.gap_reference;
+    match &exact {
+        Some(e) => stage.done(&format!(
+            "{} pieces, {} orbits, {} modes dynamic: {}",
+            e.pieces.len(),
+            e.pieces.iter().map(|p| p.points.len()).sum::<usize>(),
+            e.modes,
+            pieces_text(e, g)
+        )),
+        None => stage.done("not computed (no point in contact, or every mode resolved)"),
+    }
+    Ok(exact)
+}
+
+/// "q/g0 a-b (lower end; upper end), ..." of every piece.
+pub fn pieces_text(e: &BoundaryBackbone, g: f64) -> String {
+    e.pieces
+        .iter()
+        .map(|p| {
+            let q =
+                |f: fn(f64, f64) -> f64, init| p.points.iter().map(|x| x.q.abs() / g).fold(init, f);
+            format!(
+                "q/g0 {:.3}-{:.3} ({}; {})",
+                q(f64::min, f64::INFINITY),
+                q(f64::max, 0.0),
+                end_text(&p.lower_end, g),
+                end_text(&p.upper_end, g)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn end_text(end: &nlmodes_hb::arc_length::CurveEnd, g: f64) -> String {
+    use nlmodes_hb::arc_length::CurveEnd;
+    match end {
+        CurveEnd::Complete => "q_max reached".into(),
+        CurveEnd::LeftRange => "met the piece below".into(),
+        CurveEnd::LeftFamily => "turns into a tongue".into(),
+        other => other.text(|q| format!("q/g0 = {:.3}", q / g)),
+    }
+}
+
+/// `backbone_boundary.csv`: one row per exact orbit.
+pub fn csv(e: &BoundaryBackbone, b: &Backbone) -> Result<CsvTable> {
+    let (g, w1) = (b.gap_reference, b.omega_linear);
+    let mut table = CsvTable::new(&HEADER);
+    for (k, piece) in e.pieces.iter().enumerate() {
+        for (i, p) in piece.points.iter().enumerate() {
+            let share = p.contact_shares.iter().copied().fold(0.0, f64::max);
+            table.push_row(vec![
+                CsvValue::Int(k as i64),
+                CsvValue::Int(i as i64),
+                (p.q.abs() / g).into(),
+                p.q.abs().into(),
+                p.omega.into(),
+                (p.omega / (2.0 * std::f64::consts::PI)).into(),
+                (p.omega / w1).into(),
+                (p.master_max / g).into(),
+                share.into(),
+                p.switches.into(),
+                CsvValue::Text(p.verdict.clone()),
+                p.max_multiplier_abs
+                    .map_or(CsvValue::Text(String::new()), |m| m.into()),
+                CsvValue::Int(i64::from(p.fold)),
+            ])?;
+        }
+    }
+    Ok(table)
+}
+
+/// Writes `backbone_boundary.csv` and `backbone_boundary.json` into `dir` (or removes stale ones
+/// when there is no exact backbone).
+pub fn write(e: Option<&BoundaryBackbone>, b: &Backbone, dir: &Path) -> Result<()> {
+    let (csv_path, json_path) = (
+        dir.join("backbone_boundary.csv"),
+        dir.join("backbone_boundary.json"),
+    );
+    let Some(e) = e else {
+        for p in [&csv_path, &json_path] {
+            if p.exists() {
+                std::fs::remove_file(p)
+                    .with_context(|| format!("cannot remove {}", p.display()))?;
+            }
+        }
+        return Ok(());
+    };
+    csv(e, b)?.write(&csv_path)?;
+    nlmodes_output::write_json_compact(&json_path, e)?;
+    Ok(())
+}
+
+/// The q ranges (m) the pieces cover, merged, ascending.
+fn covered(e: &BoundaryBackbone) -> Vec<(f64, f64)> {
+    let mut ranges: Vec<(f64, f64)> = e
+        .pieces
+        .iter()
+        .filter(|p| !p.points.is_empty())
+        .map(|p| {
+            let q = p.points.iter().map(|x| x.q.abs());
+            (
+                q.clone().fold(f64::INFINITY, f64::min),
+                q.fold(0.0, f64::max),
+            )
+        })
+        .collect();
+    ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut merged: Vec<(f64, f64)> = Vec::new();
+    for (lo, hi) in ranges {
+        match merged.last_mut() {
+            Some(last) if lo <= last.1 => last.1 = last.1.max(hi),
+            _ => merged.push((lo, hi)),
+        }
+    }
+    merged
+}
+
+/// The parts of [a, b] (m) no piece covers.
+fn gaps_in(ranges: &[(f64, f64)], a: f64, b: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut from = a;
+    for &(lo, hi) in ranges {
+        if lo > from && from < b {
+            out.push((from, lo.min(b)));
+        }
+        from = from.max(hi);
+    }
+    if from < b {
+        out.push((from, b));
+    }
+    out
+}
+
+fn intervals_text(gaps: &[(f64, f64)], g: f64) -> String {
+    gaps.iter()
+        .map(|(a, b)| format!("{:.3}-{:.3}", a / g, b / g))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The report's paragraph on the exact backbone: its pieces, the q it covers (and the holes of
+/// the harmonic balance's main branch it fills), and the main-branch points whose w the exact
+/// orbit next to them does not confirm to `tolerance` (relative), named.
+pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) -> String {
+    let (g, w1) = (b.gap_reference, b.omega_linear);
+    let mut s = String::new();
+    let orbits: usize = e.pieces.iter().map(|p| p.points.len()).sum();
+    let _ = writeln!(
+        s,
+        "Exact backbone of the massless contact boundary (grey in Fig. 3a, \
+         `backbone/backbone_boundary.csv`; docs/STABILITY.md Sec. 9.3): the same model as the \
+         stability's with the first {} modes dynamic, its symmetric periodic orbits continued \
+         in amplitude by shooting, no harmonic truncated: {} pieces, {orbits} orbits. A piece \
+         ends where the curve turns back in q by 5 % (into an internal-resonance tongue, which \
+         the exact model meets at every harmonic n, not only n <= N); the next starts from the \
+         first harmonic-balance point above it and is traced both ways.\n",
+        e.modes,
+        e.pieces.len()
+    );
+    let _ = writeln!(
+        s,
+        "| piece | q/g0 | w/w1 | lower end | upper end |\n|---|---|---|---|---|"
+    );
+    for (k, p) in e.pieces.iter().enumerate() {
+        let range = |f: &dyn Fn(&nlmodes_nnm::BoundaryBackbonePoint) -> f64| {
+            let v = p.points.iter().map(f);
+            let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            });
+            format!("{lo:.3}-{hi:.3}")
+        };
+        let _ = writeln!(
+            s,
+            "| {k} | {} | {} | {} | {} |",
+            range(&|x| x.q.abs() / g),
+            range(&|x| x.omega / w1),
+            end_text(&p.lower_end, g),
+            end_text(&p.upper_end, g)
+        );
+    }
+    let ranges = covered(e);
+    let main: Vec<&Orbit> = b.points.iter().filter(|p| on_main(b, p)).collect();
+    let q_hi = main.iter().map(|p| p.q).fold(0.0, f64::max);
+    let q_lo = b.grazing_amplitude.unwrap_or(q_hi);
+    let gaps = gaps_in(&ranges, q_lo, q_hi);
+    let _ = writeln!(
+        s,
+        "\nFrom grazing to q_max the exact pieces give w(q) {}.",
+        if gaps.is_empty() {
+            "for every q".to_string()
+        } else {
+            format!(
+                "for every q/g0 but {} (between a piece that turns into a tongue and the next)",
+                intervals_text(&gaps, g)
+            )
+        }
+    );
+    for r in &b.internal_resonances {
+        let Some([a, c]) = r.unjoined else { continue };
+        let left = gaps_in(&ranges, a, c);
+        let _ = writeln!(
+            s,
+            "The harmonic balance's main branch is not traced for q/g0 {:.3}-{:.3}: the exact \
+             pieces cover it{}.",
+            a / g,
+            c / g,
+            if left.is_empty() {
+                String::new()
+            } else {
+                format!(" but for {}", intervals_text(&left, g))
+            }
+        );
+    }
+    s.push_str(&confirmation(&main, g, tolerance));
+    s
+}
+
+fn on_main(b: &BackboneFile, p: &Orbit) -> bool {
+    matches!(
+        b.branches.get(p.branch).map(|x| &x.kind),
+        Some(BranchKind::Main)
+    )
+}
+
+/// The main-branch points in contact whose exact orbit (the stability's shot orbit next to
+/// each) has w within `tolerance`, and the others named.
+fn confirmation(main: &[&Orbit], g: f64, tolerance: f64) -> String {
+    let shot: Vec<(&Orbit, f64)> = main
+        .iter()
+        .filter_map(|p| {
+            let st = p.stability.as_ref()?;
+            (st.method == nlmodes_nnm::StabilityMethod::Shooting).then_some((*p, st.orbit_shift))
+        })
+        .collect();
+    let off: Vec<&(&Orbit, f64)> = shot.iter().filter(|(_, d)| *d > tolerance).collect();
+    let mut s = format!(
+        "\nOf the {} main-branch points in contact with an exact orbit next to them, {} have w \
+         within `truncation_tolerance` = {tolerance:.0e} of it (`boundary_omega_change` in the \
+         CSV).",
+        shot.len(),
+        shot.len() - off.len()
+    );
+    if !off.is_empty() {
+        let _ = write!(
+            s,
+            " The others, where N harmonics of the model with massive contact coordinates do not \
+             reach the exact w to that tolerance (their impacts converge as 1/N; \
+             docs/STABILITY.md Sec. 9.3), at q/g0 (w/w1, change): {}.",
+            off.iter()
+                .map(|(p, d)| format!("{:.3} ({:.4}, {d:.1e})", p.q / g, p.omega_ratio))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    s.push('\n');
+    s
+}
