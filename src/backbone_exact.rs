@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 
-use nlmodes_nnm::{Backbone, BoundaryBackbone, BranchKind, System};
+use nlmodes_nnm::{Backbone, BackbonePoint, BoundaryBackbone, BoundaryHistory, BranchKind, System};
 use nlmodes_output::{CsvTable, CsvValue};
 
 use crate::case::StabilitySection;
@@ -32,41 +32,65 @@ const HEADER: [&str; 13] = [
     "fold",
 ];
 
-/// The exact backbone of `b`'s main branch up to q/g0 = `q_max`, when the stability stage shoots
-/// (`[stability] enabled` and `shooting`); `None` otherwise, or where the boundary model does
-/// not apply. A failure is logged and gives `None`: it never takes the backbone with it.
-pub fn exact_backbone(
+/// What the massless contact boundary adds to a backbone: its exact backbone and, for each
+/// kept point, the exact orbit next to it (Fig. 4 from converged orbits).
+pub struct ExactOutputs {
+    pub backbone: Option<BoundaryBackbone>,
+    /// One per kept point, in their order (`None` out of contact or where it did not converge).
+    pub kept: Vec<Option<BoundaryHistory>>,
+}
+
+/// Time samples per period of a kept point's exact contact history (Fig. 4 draws 200).
+const HISTORY_SAMPLES: usize = 200;
+
+/// The exact backbone of `b`'s main branch up to q/g0 = `q_max` and the exact orbits next to
+/// the kept points, when the stability stage shoots (`[stability] enabled` and `shooting`);
+/// nothing otherwise, or where the boundary model does not apply. A failure is logged and
+/// gives nothing: it never takes the backbone with it.
+pub fn exact_outputs(
     system: &System,
     b: &Backbone,
+    kept: &[BackbonePoint],
     settings: &StabilitySection,
     q_max: f64,
-) -> Result<Option<BoundaryBackbone>> {
+) -> Result<ExactOutputs> {
     let analysis = settings.analysis();
+    let mut out = ExactOutputs {
+        backbone: None,
+        kept: vec![None; kept.len()],
+    };
     if !settings.enabled || !analysis.shooting {
-        return Ok(None);
+        return Ok(out);
     }
     let stage = ui::Stage::start("exact backbone");
     let floquet = nlmodes_nnm::FloquetAnalysis::new(system, analysis)
         .context("the modes of the massless contact boundary")?;
-    let exact = match nlmodes_nnm::boundary_backbone(&floquet, b, q_max * b.gap_reference) {
-        Ok(e) => e,
-        Err(e) => {
+    out.backbone = nlmodes_nnm::boundary_backbone(&floquet, b, q_max * b.gap_reference)
+        .unwrap_or_else(|e| {
             tracing::warn!(error = %e, "the exact backbone of the massless boundary failed");
             None
-        }
-    };
+        });
+    for (slot, p) in out.kept.iter_mut().zip(kept) {
+        *slot = nlmodes_nnm::boundary_history(&floquet, p, HISTORY_SAMPLES).unwrap_or_else(|e| {
+            tracing::warn!(q = p.q, error = %e, "the exact orbit next to a kept point failed");
+            None
+        });
+    }
     let g = b.gap_reference;
-    match &exact {
+    let histories = out.kept.iter().flatten().count();
+    match &out.backbone {
         Some(e) => stage.done(&format!(
-            "{} pieces, {} orbits, {} modes dynamic: {}",
+            "{} pieces, {} orbits, {} modes dynamic: {}; {histories} of {} kept points with their \
+             exact orbit",
             e.pieces.len(),
             e.pieces.iter().map(|p| p.points.len()).sum::<usize>(),
             e.modes,
-            pieces_text(e, g)
+            pieces_text(e, g),
+            kept.len()
         )),
         None => stage.done("not computed (no point in contact, or every mode resolved)"),
     }
-    Ok(exact)
+    Ok(out)
 }
 
 /// "q/g0 a-b (lower end; upper end), ..." of every piece.
@@ -126,14 +150,22 @@ pub fn csv(e: &BoundaryBackbone, b: &Backbone) -> Result<CsvTable> {
     Ok(table)
 }
 
-/// Writes `backbone_boundary.csv` and `backbone_boundary.json` into `dir` (or removes stale ones
-/// when there is no exact backbone).
-pub fn write(e: Option<&BoundaryBackbone>, b: &Backbone, dir: &Path) -> Result<()> {
-    let (csv_path, json_path) = (
+/// Writes `backbone_boundary.csv`, `backbone_boundary.json` and `kept_boundary.json` (the kept
+/// points' exact orbits, `null` where none) into `dir`, or removes stale ones when there is no
+/// exact backbone.
+pub fn write(x: &ExactOutputs, b: &Backbone, dir: &Path) -> Result<()> {
+    let (csv_path, json_path, kept_path) = (
         dir.join("backbone_boundary.csv"),
         dir.join("backbone_boundary.json"),
+        dir.join("kept_boundary.json"),
     );
-    let Some(e) = e else {
+    if x.kept.iter().any(Option::is_some) {
+        nlmodes_output::write_json(&kept_path, &x.kept)?;
+    } else if kept_path.exists() {
+        std::fs::remove_file(&kept_path)
+            .with_context(|| format!("cannot remove {}", kept_path.display()))?;
+    }
+    let Some(e) = &x.backbone else {
         for p in [&csv_path, &json_path] {
             if p.exists() {
                 std::fs::remove_file(p)
@@ -255,16 +287,31 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
     for r in &b.internal_resonances {
         let Some([a, c]) = r.unjoined else { continue };
         let left = gaps_in(&ranges, a, c);
+        let inside: Vec<(f64, f64)> = ranges
+            .iter()
+            .map(|&(lo, hi)| (lo.max(a), hi.min(c)))
+            .filter(|(lo, hi)| hi > lo)
+            .collect();
+        let covered_text = if inside.is_empty() {
+            "no exact piece reaches into it".to_string()
+        } else {
+            format!(
+                "the exact pieces give w(q) for {}",
+                intervals_text(&inside, g)
+            )
+        };
         let _ = writeln!(
             s,
-            "The harmonic balance's main branch is not traced for q/g0 {:.3}-{:.3}: the exact \
-             pieces cover it{}.",
+            "The harmonic balance's main branch is not traced for q/g0 {:.3}-{:.3}: {covered_text}{}.",
             a / g,
             c / g,
             if left.is_empty() {
                 String::new()
             } else {
-                format!(" but for {}", intervals_text(&left, g))
+                format!(
+                    "; {} is left, where the exact curve turns into the tongue too",
+                    intervals_text(&left, g)
+                )
             }
         );
     }

@@ -83,8 +83,8 @@ impl Stage for BackboneStage<'_> {
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
         let mut b = backbone::trace(&system, hs, &case.algorithm, cont)?;
         backbone::stability(&system, &mut b, &case.stability)?;
-        let exact = backbone_exact::exact_backbone(&system, &b, &case.stability, cont.q_max)?;
         let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
+        let exact = backbone_exact::exact_outputs(&system, &b, &kept, &case.stability, cont.q_max)?;
         backbone::truncation(
             &system,
             hs,
@@ -95,7 +95,7 @@ impl Stage for BackboneStage<'_> {
             case.nnm.truncation_tolerance,
         )?;
         backbone::write(&b, &out)?;
-        backbone_exact::write(exact.as_ref(), &b, &out)?;
+        backbone_exact::write(&exact, &b, &out)?;
         nlmodes_output::write_json(&out.join("kept.json"), &kept)?;
         crate::ui::say(&backbone::summary(&b, &case.algorithm));
         backbone::stopped_early(&b, &out)

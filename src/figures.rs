@@ -344,13 +344,9 @@ pub fn manifold_figure(orbits: &[ManifoldOrbit], node: usize, out: &Path) -> Res
 }
 
 /// Fig. 4: radial displacement / g0 of every contact node over one period; contact at 1.
-pub fn radial_figure(series: &[Vec<(f64, f64)>], q: f64, dir: &Path, tag: &str) -> Result<()> {
-    let mut plot = LinePlot::new(
-        format!("Radial displacement of the contact nodes, q/g0 = {q:.2}"),
-        "time t / T",
-        "radial displacement / g0",
-    )
-    .with_legend(LegendPosition::Hidden);
+pub fn radial_figure(series: &[Vec<(f64, f64)>], title: &str, file: &Path) -> Result<()> {
+    let mut plot = LinePlot::new(title, "time t / T", "radial displacement / g0")
+        .with_legend(LegendPosition::Hidden);
     let c = series.len();
     for (j, s) in series.iter().enumerate() {
         // Leading edge blue to trailing edge red.
@@ -370,7 +366,7 @@ pub fn radial_figure(series: &[Vec<(f64, f64)>], q: f64, dir: &Path, tag: &str) 
         );
     }
     plot = plot.with_ref_line(RefLine::horizontal(1.0, "contact"));
-    plot.write_svg_and_png(&dir.join(format!("radial_{tag}")))?;
+    plot.write_svg_and_png(file)?;
     Ok(())
 }
 

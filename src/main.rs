@@ -438,9 +438,9 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
     let mut b = backbone::trace(&system, hs, &params, &cont)?;
     backbone::stability(&system, &mut b, &stab)?;
-    let exact = backbone_exact::exact_backbone(&system, &b, &stab, cont.q_max)?;
+    let exact = backbone_exact::exact_outputs(&system, &b, &[], &stab, cont.q_max)?;
     backbone::write(&b, &a.out)?;
-    backbone_exact::write(exact.as_ref(), &b, &a.out)?;
+    backbone_exact::write(&exact, &b, &a.out)?;
     ui::say(&backbone::summary(&b, &params));
     backbone::stopped_early(&b, &a.out)
 }

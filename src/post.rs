@@ -13,8 +13,9 @@ use std::path::{Path, PathBuf};
 use crate::case::Case;
 use crate::layout::{amplitude_tag, Layout};
 use crate::render::{self, Snapshot, Surface};
-use crate::results::{read_boundary_backbone, read_json, BackboneFile, Orbit};
+use crate::results::{read_boundary_backbone, read_json, read_kept_boundary, BackboneFile, Orbit};
 use crate::{figures, ui};
+use nlmodes_nnm::BoundaryHistory;
 use rayon::prelude::*;
 
 /// Radial displacement (m) of every contact node, A u.
@@ -41,6 +42,7 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     let g0 = b.gap_reference;
 
     let exact = read_boundary_backbone(&layout.backbone())?;
+    let histories = read_kept_boundary(&layout.backbone(), kept.len())?;
     figures::backbone_figure(&b, exact.as_ref(), out)?;
     figures::frequency_energy_figure(&b, out)?;
     let nonlinear = manifold_coordinate(&b);
@@ -55,12 +57,15 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
     let (dirs, pictures) = rayon::join(
         || -> Result<Vec<PathBuf>> {
             let mut dirs = Vec::new();
-            for orbit in &kept {
+            for (i, orbit) in kept.iter().enumerate() {
                 let tag = amplitude_tag(orbit.q / g0);
                 let dir = layout.amplitude(&tag);
                 std::fs::create_dir_all(&dir)
                     .with_context(|| format!("cannot create {}", dir.display()))?;
                 radial_history(&model, orbit, g0, &dir, &tag)?;
+                if let Some(h) = histories.get(i).and_then(Option::as_ref) {
+                    radial_boundary(h, g0, b.omega_linear, &dir, &tag)?;
+                }
                 contact_map(orbit, &dir, &tag)?;
                 if let Some(full) = &full {
                     xdmf_series(case, &model, full, orbit, g0, &dir, &tag)?;
@@ -76,11 +81,15 @@ pub fn post(case: &Case, layout: &Layout) -> Result<()> {
         .iter()
         .zip(dirs)
         .zip(shapes)
-        .map(|((orbit, dir), shapes)| crate::report::KeptOutputs {
-            orbit: orbit.clone(),
-            dir,
-            shapes,
-        })
+        .zip(histories)
+        .map(
+            |(((orbit, dir), shapes), boundary)| crate::report::KeptOutputs {
+                orbit: orbit.clone(),
+                dir,
+                shapes,
+                boundary,
+            },
+        )
         .collect();
     crate::report::write_report(&crate::report::ReportInputs {
         case,
@@ -230,26 +239,64 @@ fn manifold(model: &ReducedModel, b: &BackboneFile, j: usize, out: &Path) -> Res
     figures::manifold_figure(&orbits, j, out)
 }
 
-/// Fig. 4: radial displacement / g0 of every contact node over one period.
+/// Fig. 4: radial displacement / g0 of every contact node over one period
+/// (`radial_<tag>.csv` and figure).
 fn radial_history(model: &ReducedModel, o: &Orbit, g0: f64, dir: &Path, tag: &str) -> Result<()> {
-    let c = model.contact_nodes.len();
     let samples = 200;
+    let series: Vec<Vec<(f64, f64)>> = {
+        let frames: Vec<Vec<f64>> = (0..=samples)
+            .map(|k| radial(model, &o.at_phase(2.0 * PI * k as f64 / samples as f64)))
+            .collect();
+        (0..model.contact_nodes.len())
+            .map(|j| {
+                let t = |k: usize| k as f64 / samples as f64;
+                (0..=samples).map(|k| (t(k), frames[k][j] / g0)).collect()
+            })
+            .collect()
+    };
+    radial_table(&series)?.write(&dir.join(format!("radial_{tag}.csv")))?;
+    let title = format!(
+        "Radial displacement of the contact nodes, q/g0 = {:.2}",
+        o.q / g0
+    );
+    figures::radial_figure(&series, &title, &dir.join(format!("radial_{tag}")))
+}
+
+/// Fig. 4 from the exact orbit of the massless contact boundary next to the kept point
+/// (`radial_boundary_<tag>.csv` and figure): the contact phases with their exact durations.
+fn radial_boundary(h: &BoundaryHistory, g0: f64, w1: f64, dir: &Path, tag: &str) -> Result<()> {
+    let series: Vec<Vec<(f64, f64)>> = h
+        .contact_displacement
+        .iter()
+        .map(|row| {
+            let m = row.len().saturating_sub(1).max(1) as f64;
+            row.iter()
+                .enumerate()
+                .map(|(k, u)| (k as f64 / m, u / g0))
+                .collect()
+        })
+        .collect();
+    radial_table(&series)?.write(&dir.join(format!("radial_boundary_{tag}.csv")))?;
+    let title = format!(
+        "Exact orbit of the massless contact boundary, q/g0 = {:.2} (w/w1 = {:.4})",
+        h.q / g0,
+        h.omega / w1
+    );
+    figures::radial_figure(&series, &title, &dir.join(format!("radial_boundary_{tag}")))
+}
+
+/// The table of Fig. 4: t/T and one column per contact node.
+fn radial_table(series: &[Vec<(f64, f64)>]) -> Result<CsvTable> {
     let mut header = vec!["t_over_T".to_string()];
-    header.extend((1..=c).map(|j| format!("node_{j:02}")));
+    header.extend((1..=series.len()).map(|j| format!("node_{j:02}")));
     let mut table = CsvTable::new(&header);
-    let mut series = vec![Vec::with_capacity(samples + 1); c];
-    for k in 0..=samples {
-        let t = k as f64 / samples as f64;
-        let r = radial(model, &o.at_phase(2.0 * PI * t));
-        let mut row = vec![t];
-        for j in 0..c {
-            row.push(r[j] / g0);
-            series[j].push((t, r[j] / g0));
-        }
+    let rows = series.first().map_or(0, Vec::len);
+    for k in 0..rows {
+        let mut row = vec![series[0][k].0];
+        row.extend(series.iter().map(|s| s[k].1));
         table.push_numbers(&row)?;
     }
-    table.write(&dir.join(format!("radial_{tag}.csv")))?;
-    figures::radial_figure(&series, o.q / g0, dir, tag)
+    Ok(table)
 }
 
 /// The contact map: contact force / its maximum for every node (row) and time sample (column).

@@ -18,6 +18,8 @@ pub struct KeptOutputs {
     pub dir: PathBuf,
     /// The mode-shape picture (Fig. 5), when the model has a mesh.
     pub shapes: Option<PathBuf>,
+    /// The exact orbit of the massless contact boundary next to it, where there is one.
+    pub boundary: Option<nlmodes_nnm::BoundaryHistory>,
 }
 
 fn rel(root: &Path, p: &Path) -> String {
@@ -373,8 +375,51 @@ fn kept_amplitudes(r: &ReportInputs<'_>) -> String {
              one period; warp factor from the data).\n",
             root.display()
         );
+        if let Some(h) = &k.boundary {
+            s.push_str(&boundary_history_text(
+                h,
+                g0,
+                r.backbone.omega_linear,
+                &d,
+                &tag,
+            ));
+        }
     }
     s
+}
+
+/// Fig. 4 from the exact orbit of the massless contact boundary next to a kept point, and the
+/// contact durations it gives.
+fn boundary_history_text(
+    h: &nlmodes_nnm::BoundaryHistory,
+    g0: f64,
+    w1: f64,
+    d: &str,
+    tag: &str,
+) -> String {
+    let shares: Vec<String> = h
+        .contact_shares
+        .iter()
+        .enumerate()
+        .filter(|(_, &f)| f > 0.0)
+        .map(|(j, f)| format!("{} ({:.0} %)", j + 1, 100.0 * f))
+        .collect();
+    format!(
+        "The exact orbit of the massless contact boundary next to it ({} modes dynamic, no \
+         harmonic truncated; docs/STABILITY.md Sec. 9.3): w/w1 = {:.5} at q/g0 = {:.2}; nodes \
+         in contact (exact share of the period, from the switch instants): {}. Its contact \
+         phases sit on the stop for their whole duration, where the harmonic balance of the \
+         massive contact coordinates rounds them off \
+         (`{d}/radial_boundary_{tag}.csv`).\n\n![radial, exact]({d}/radial_boundary_{tag}.png)\n",
+        h.modes,
+        h.omega / w1,
+        h.q / g0,
+        if shares.is_empty() {
+            "none".to_string()
+        } else {
+            shares.join(", ")
+        }
+    )
 }
 
 /// The sections written by the stages that run before post (forced; speed and campbell for a

@@ -228,3 +228,22 @@ pub fn read_boundary_backbone(dir: &Path) -> Result<Option<nlmodes_nnm::Boundary
     }
     read_json(&path).map(Some)
 }
+
+/// The kept points' exact orbits on the massless contact boundary (`kept_boundary.json`, one
+/// entry per kept point, `None` where there is none), or `kept` `None`s where the backbone
+/// stage wrote none or wrote them for another set of kept points.
+pub fn read_kept_boundary(
+    dir: &Path,
+    kept: usize,
+) -> Result<Vec<Option<nlmodes_nnm::BoundaryHistory>>> {
+    let path = dir.join("kept_boundary.json");
+    if !path.exists() {
+        return Ok(vec![None; kept]);
+    }
+    let histories: Vec<Option<nlmodes_nnm::BoundaryHistory>> = read_json(&path)?;
+    Ok(if histories.len() == kept {
+        histories
+    } else {
+        vec![None; kept]
+    })
+}

@@ -4,8 +4,9 @@
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
 
+use super::boundary_flow::BoundaryModel;
 use super::boundary_shooting::{
-    boundary_model, check_by_rk4, exponents_of, modal_coordinates, shoot, ModalData,
+    boundary_model, check_by_rk4, exponents_of, modal_coordinates, shoot, ModalData, ShotOrbit,
 };
 use super::impact::impact_equivalent_pieces;
 use super::monodromy::constant_pieces;
@@ -214,13 +215,15 @@ impl<'s> FloquetAnalysis<'s> {
         Ok(Some(out))
     }
 
-    /// The massless-boundary shooting (`boundary_shooting`) when it applies and converges.
-    fn analyze_by_shooting(
+    /// The massless-boundary model of `point` (the modes up to `shooting_cutoff` (N + 1) w
+    /// dynamic, `point`'s contact law) and its periodic orbit next to `point`, by shooting; `None`
+    /// where the model does not apply (shooting off, no contact, every mode resolved, R not
+    /// positive definite) or Newton does not converge.
+    pub(super) fn shot_orbit(
         &self,
         point: &BackbonePoint,
         harmonics: usize,
-        verify: bool,
-    ) -> Result<Option<Stability>, NnmError> {
+    ) -> Result<Option<(BoundaryModel, ShotOrbit)>, NnmError> {
         let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * point.omega;
         let r = (self.omega.iter().filter(|&&w| w <= limit).count())
             .max(self.settings.min_modes)
@@ -235,11 +238,26 @@ impl<'s> FloquetAnalysis<'s> {
             return Ok(None);
         };
         let q0 = modal_coordinates(&modal, &point.displacement_at(0.0), r);
-        let Some(orbit) = shoot(&model, q0, point.period())? else {
-            tracing::debug!(
-                w = point.omega,
-                "massless-boundary shooting did not converge"
-            );
+        match shoot(&model, q0, point.period())? {
+            Some(orbit) => Ok(Some((model, orbit))),
+            None => {
+                tracing::debug!(
+                    w = point.omega,
+                    "massless-boundary shooting did not converge"
+                );
+                Ok(None)
+            }
+        }
+    }
+
+    /// The massless-boundary shooting (`boundary_shooting`) when it applies and converges.
+    fn analyze_by_shooting(
+        &self,
+        point: &BackbonePoint,
+        harmonics: usize,
+        verify: bool,
+    ) -> Result<Option<Stability>, NnmError> {
+        let Some((model, orbit)) = self.shot_orbit(point, harmonics)? else {
             return Ok(None);
         };
         let Some(exponents) = exponents_of(&orbit)? else {
@@ -250,7 +268,7 @@ impl<'s> FloquetAnalysis<'s> {
         out.method = StabilityMethod::Shooting;
         out.selection_mean_harmonic_max = 0.0;
         out.rejection_mean_harmonic_min = 0.0;
-        out.modes_kept = r;
+        out.modes_kept = model.omega2.len();
         out.harmonics = harmonics;
         out.impacts = orbit.switches;
         out.orbit_shift = (point.period() / orbit.period - 1.0).abs();

@@ -81,6 +81,7 @@
 mod bifurcation;
 mod boundary_backbone;
 mod boundary_flow;
+mod boundary_history;
 mod boundary_shooting;
 mod hill;
 mod impact;
@@ -91,6 +92,7 @@ pub use bifurcation::{classify, Bifurcation};
 pub use boundary_backbone::{
     boundary_backbone, BoundaryBackbone, BoundaryBackbonePoint, BoundaryPiece,
 };
+pub use boundary_history::{boundary_history, BoundaryHistory};
 pub use hill::FloquetAnalysis;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
 

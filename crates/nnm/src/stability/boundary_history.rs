@@ -1,0 +1,73 @@
+//! Fig. 4 on the massless contact boundary (docs/STABILITY.md Sec. 9.3): the contact rows'
+//! displacement over one period of the exact periodic orbit next to a harmonic-balance point,
+//! with no harmonic truncated, so that the contact phases show with their exact durations.
+
+use serde::{Deserialize, Serialize};
+
+use super::boundary_flow::{BoundaryFlow, FlowState};
+use super::hill::penalty_of;
+use super::FloquetAnalysis;
+use crate::point::BackbonePoint;
+use crate::NnmError;
+
+/// One period of the exact orbit next to a point, sampled.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BoundaryHistory {
+    /// Master amplitude of the harmonic-balance point it was shot from (m).
+    pub q: f64,
+    /// Its circular frequency (rad/s).
+    pub omega: f64,
+    /// Modes kept dynamic.
+    pub modes: usize,
+    /// Share of the period each contact row is closed (from the exact switch instants).
+    pub contact_shares: Vec<f64>,
+    /// Contact-row displacement u_c (m) at t_k = k T / samples, k = 0..=samples, one vector per
+    /// row: B q - R lambda plus a penalty law's penetration lambda / kc.
+    pub contact_displacement: Vec<Vec<f64>>,
+}
+
+/// The exact orbit of the massless boundary next to `point` sampled at `samples` + 1 instants
+/// over its period; `None` where the stability stage would not shoot it (no contact, every mode
+/// resolved, shooting off) or the shooting does not converge.
+pub fn boundary_history(
+    analysis: &FloquetAnalysis<'_>,
+    point: &BackbonePoint,
+    samples: usize,
+) -> Result<Option<BoundaryHistory>, NnmError> {
+    let harmonics = point.coefficients.len().saturating_sub(1);
+    if harmonics == 0 || samples == 0 {
+        return Ok(None);
+    }
+    let Some((model, orbit)) = analysis.shot_orbit(point, harmonics)? else {
+        return Ok(None);
+    };
+    let penalty = penalty_of(point);
+    let r = model.omega2.len();
+    let c = model.gaps.len();
+    let mut flow = BoundaryFlow::new(&model);
+    let mut active = flow.active_set_at(&orbit.q0)?;
+    let mut state = FlowState {
+        q: orbit.q0.clone(),
+        v: vec![0.0; r],
+    };
+    let mut rows = vec![Vec::with_capacity(samples + 1); c];
+    let dt = orbit.period / samples as f64;
+    for k in 0..=samples {
+        let lambda = flow.contact_force(&state, &active)?;
+        let stop_side = flow.stop_side_displacement(&state, &active)?;
+        for j in 0..c {
+            let penetration = penalty.as_ref().map_or(0.0, |kc| lambda[j] / kc[j]);
+            rows[j].push(stop_side[j] + penetration);
+        }
+        if k < samples {
+            flow.advance(&mut state, &mut active, dt, None)?;
+        }
+    }
+    Ok(Some(BoundaryHistory {
+        q: point.q,
+        omega: 2.0 * std::f64::consts::PI / orbit.period,
+        modes: r,
+        contact_shares: orbit.contact_shares,
+        contact_displacement: rows,
+    }))
+}
