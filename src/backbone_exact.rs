@@ -104,18 +104,20 @@ pub fn pieces_text(e: &BoundaryBackbone, g: f64) -> String {
                 "q/g0 {:.3}-{:.3} ({}; {})",
                 q(f64::min, f64::INFINITY),
                 q(f64::max, 0.0),
-                end_text(&p.lower_end, g),
-                end_text(&p.upper_end, g)
+                end_text(&p.lower_end, g, std::ptr::eq(p, &e.pieces[0])),
+                end_text(&p.upper_end, g, false)
             )
         })
         .collect::<Vec<_>>()
         .join(", ")
 }
 
-fn end_text(end: &nlmodes_hb::arc_length::CurveEnd, g: f64) -> String {
+/// Why a piece's end ended, in words; `first` for the first piece (whose lower end is q_start).
+fn end_text(end: &nlmodes_hb::arc_length::CurveEnd, g: f64, first: bool) -> String {
     use nlmodes_hb::arc_length::CurveEnd;
     match end {
         CurveEnd::Complete => "q_max reached".into(),
+        CurveEnd::LeftRange if first => "q_start".into(),
         CurveEnd::LeftRange => "met the piece below".into(),
         CurveEnd::LeftFamily => "turns into a tongue".into(),
         other => other.text(|q| format!("q/g0 = {:.3}", q / g)),
@@ -263,8 +265,8 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
             "| {k} | {} | {} | {} | {} |",
             range(&|x| x.q.abs() / g),
             range(&|x| x.omega / w1),
-            end_text(&p.lower_end, g),
-            end_text(&p.upper_end, g)
+            end_text(&p.lower_end, g, k == 0),
+            end_text(&p.upper_end, g, false)
         );
     }
     let ranges = covered(e);

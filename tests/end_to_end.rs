@@ -236,6 +236,22 @@ fn coarse_blade_study_end_to_end() {
     ] {
         assert!(kept.join(f).is_file(), "missing {f}");
     }
+    // Fig. 4 from the exact orbit of the massless contact boundary next to the kept point: the
+    // rigid stop holds every contact node at or below g0 (to round-off), and some node sits on
+    // it; the exact backbone beside the harmonic balance's.
+    assert!(res.join("backbone/backbone_boundary.csv").is_file());
+    let exact = std::fs::read_to_string(kept.join("radial_boundary_q12.0.csv"))
+        .expect("radial_boundary_q12.0.csv");
+    let highest = exact
+        .lines()
+        .skip(1)
+        .flat_map(|l| l.split(',').skip(1).map(|v| v.parse::<f64>().unwrap()))
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(
+        (highest - 1.0).abs() < 1e-9,
+        "the exact orbit's contact nodes reach {highest} g0, not the stop at 1"
+    );
+    assert!(report.contains("radial_boundary_q12.0.png"));
     // The ParaView files through an independent reader (meshio): cell type, VTK edge-node order,
     // fields (the XDMF series: every frame).
     for args in [

@@ -360,3 +360,56 @@ pub fn chain_model(dir: &Path) {
     });
     std::fs::write(dir.join("model.json"), model.to_string()).unwrap();
 }
+
+/// A one-mode oscillator whose contact coordinate is nearly massless: the master x_0 (unit mass,
+/// spring 1 to the ground) holds the contact coordinate x_1 (mass `eps`) by a spring `ks`; the
+/// stop is on x_1 at gap 1 m; DOFs 2, 3 are two uncoupled unit pads at 5 rad/s that make x_1 a
+/// 3-coordinate contact node. M = diag(1, eps, 1, 1), K = [[1 + ks, -ks], [-ks, ks]] + pads.
+/// Its second mode, sqrt(ks / eps)-ish, lies far above the harmonics of the first: on the
+/// massless contact boundary the first mode alone is dynamic and the model is a bilinear
+/// oscillator (tests/backbone_exact_cli.rs).
+pub fn light_contact_model(dir: &Path, eps: f64, ks: f64) {
+    std::fs::create_dir_all(dir).unwrap();
+    let pad = 25.0;
+    let mass = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, eps, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let stiffness = [
+        [1.0 + ks, -ks, 0.0, 0.0],
+        [-ks, ks, 0.0, 0.0],
+        [0.0, 0.0, pad, 0.0],
+        [0.0, 0.0, 0.0, pad],
+    ];
+    write_symmetric4(&dir.join("M.mtx"), &mass);
+    write_symmetric4(&dir.join("K.mtx"), &stiffness);
+    let (w1, w2) = two_dof_frequencies(eps, ks);
+    let hz: Vec<f64> = [w1, 5.0, 5.0, w2]
+        .iter()
+        .map(|w| w / (2.0 * std::f64::consts::PI))
+        .collect();
+    let model = serde_json::json!({
+        "format": "nlmodes-reduced-model",
+        "format_version": 1,
+        "units": "SI: m, kg, s; K in N/m, M in kg",
+        "n": 4,
+        "contact_nodes": [{"dofs": [1, 2, 3], "position": [1.0, 0.0, 0.0],
+                           "radial": [1.0, 0.0, 0.0], "gap": 1.0}],
+        "rotor_axis": {"point": [0.0, 0.0, 0.0], "direction": [0.0, 0.0, 1.0]},
+        "master": {"dof": 0, "description": "the master mass"},
+        "linear_frequencies_hz": hz,
+    });
+    std::fs::write(dir.join("model.json"), model.to_string()).unwrap();
+}
+
+/// The two circular frequencies (rad/s, ascending) of `light_contact_model`'s (x_0, x_1) block:
+/// det(K - w^2 M) = 0 with M = diag(1, eps), K = [[1 + ks, -ks], [-ks, ks]].
+pub fn two_dof_frequencies(eps: f64, ks: f64) -> (f64, f64) {
+    // eps l^2 - (eps (1 + ks) + ks) l + ks = 0.
+    let b = eps * (1.0 + ks) + ks;
+    let disc = (b * b - 4.0 * eps * ks).sqrt();
+    let (l1, l2) = ((b - disc) / (2.0 * eps), (b + disc) / (2.0 * eps));
+    (l1.sqrt(), l2.sqrt())
+}

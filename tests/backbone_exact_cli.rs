@@ -1,0 +1,131 @@
+//! The exact backbone of the massless contact boundary (`backbone/backbone_boundary.csv` and
+//! `.json`; docs/STABILITY.md Sec. 9.3) through `nlmodes backbone`, against a closed form.
+//!
+//! The system (`common::light_contact_model`, eps = 1e-3, ks = 1): a unit master mass on a unit
+//! spring holds the contact coordinate (mass eps) by a spring ks; the stop is on the contact
+//! coordinate at gap g = 1. Its second mode (31.6 rad/s) is far above (N + 1) w of the first,
+//! so on the massless boundary the first mode q alone is dynamic (the two pads are decoupled
+//! from the contact row), behind the residual flexibility R = (K^-1)_11 - b^2 / w1^2 of the
+//! discarded mode, b = phi_1 at the contact coordinate. With y = b q / g the boundary model is
+//! the bilinear oscillator y'' + w1^2 y = -(b^2 / R) (y - 1)_+, whose period released at rest
+//! from y0 > 1 is known in closed form: the contact phase (frequency sqrt(w1^2 + b^2 / R)) down
+//! to y = 1, the free arc to the other turning point and back, twice. The test computes w1, b
+//! and R from M and K itself (no eigensolver shared with the program) and compares every exact
+//! orbit's period (from its q0 in backbone_boundary.json) with the closed form.
+//!
+//! Tolerance 1e-8 relative: the orbits are exact to the shooting tolerance (1e-10 on the
+//! scaled half-period velocity) and the modes to the dense eigensolver's round-off; the closed
+//! form uses w1, b and R from the quadratic formula (round-off 1e-15 relative).
+
+mod common;
+
+use common::{light_contact_model, nlmodes, two_dof_frequencies};
+use std::f64::consts::PI;
+
+const EPS: f64 = 1e-3;
+const KS: f64 = 1.0;
+
+/// w1, b and R of the model (module docs).
+fn bilinear_data() -> (f64, f64, f64) {
+    let (w1, _) = two_dof_frequencies(EPS, KS);
+    let l1 = w1 * w1;
+    // (K - l1 M) phi = 0, first row: (1 + ks - l1) phi_0 = ks phi_1; phi^T M phi = 1.
+    let ratio = (1.0 + KS - l1) / KS;
+    let phi0 = 1.0 / (1.0 + EPS * ratio * ratio).sqrt();
+    let b = ratio * phi0;
+    // (K^-1)_11 of [[1 + ks, -ks], [-ks, ks]] (det = ks).
+    let r = (1.0 + KS) / KS - b * b / l1;
+    (w1, b, r)
+}
+
+/// The period of y'' + w^2 y = -(k / 1) (y - 1)_+ released at rest from y0 (module docs).
+fn bilinear_period(w: f64, k: f64, y0: f64) -> f64 {
+    if y0 <= 1.0 {
+        return 2.0 * PI / w;
+    }
+    let s = (w * w + k).sqrt();
+    let y_eq = k / (s * s);
+    let t1 = ((1.0 - y_eq) / (y0 - y_eq)).acos() / s;
+    let v1 = (y0 - y_eq) * s * (s * t1).sin();
+    // The free arc from y = 1 at speed v1 to its turning point: y = A cos(w t + phi).
+    let phi = (v1 / w).atan2(1.0);
+    2.0 * (t1 + (PI - phi) / w)
+}
+
+#[test]
+fn every_exact_backbone_orbit_has_the_closed_form_period_of_its_bilinear_oscillator() {
+    let dir = tempfile::tempdir().unwrap();
+    let (model, out) = (dir.path().join("model"), dir.path().join("out"));
+    light_contact_model(&model, EPS, KS);
+    let run = nlmodes(&[
+        "backbone",
+        model.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--q-max",
+        "5",
+    ]);
+    assert!(
+        run.status.success(),
+        "nlmodes backbone failed:\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(out.join("backbone_boundary.csv").is_file());
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("backbone_boundary.json")).unwrap())
+            .unwrap();
+    let (w1, b, r) = bilinear_data();
+    let k = b * b / r;
+    let pieces = json["pieces"].as_array().expect("pieces");
+    // No internal resonance (the pads are decoupled): one piece from q_start to q_max.
+    assert_eq!(pieces.len(), 1, "{json}");
+    assert_eq!(pieces[0]["upper_end"]["kind"], "complete");
+    let points = pieces[0]["points"].as_array().expect("points");
+    let (mut worst, mut in_contact, mut q_top) = (0.0_f64, 0, 0.0_f64);
+    for p in points {
+        let omega = p["omega"].as_f64().unwrap();
+        let y0 = (b * p["q0"][0].as_f64().unwrap()).abs();
+        let exact = bilinear_period(w1, k, y0);
+        worst = worst.max((2.0 * PI / omega / exact - 1.0).abs());
+        in_contact += usize::from(y0 > 1.0);
+        q_top = q_top.max(p["q"].as_f64().unwrap().abs());
+        // One mode on one row (and two decoupled pads): only the trivial pair and the pads'
+        // multipliers on the unit circle: every orbit is stable.
+        assert_eq!(p["verdict"], "stable", "{p}");
+    }
+    println!(
+        "{} orbits ({in_contact} in contact) up to q/g0 = {q_top:.3}: worst period error \
+         {worst:.1e} (w1 = {w1:.6}, b = {b:.6}, R = {r:.6})",
+        points.len()
+    );
+    assert!(in_contact > 20, "the curve must run in contact");
+    assert!(q_top >= 5.0, "up to q_max: {q_top}");
+    assert!(worst < 1e-8, "{worst}");
+}
+
+#[test]
+fn no_exact_backbone_without_shooting() {
+    let dir = tempfile::tempdir().unwrap();
+    let (model, out) = (dir.path().join("model"), dir.path().join("out"));
+    light_contact_model(&model, EPS, KS);
+    let settings = dir.path().join("s.toml");
+    std::fs::write(&settings, "[stability.hill]\nshooting = false\n").unwrap();
+    let run = nlmodes(&[
+        "backbone",
+        model.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--q-max",
+        "3",
+        "--settings",
+        settings.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(out.join("backbone.csv").is_file());
+    assert!(!out.join("backbone_boundary.csv").exists());
+    assert!(!out.join("backbone_boundary.json").exists());
+}
