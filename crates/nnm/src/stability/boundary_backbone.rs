@@ -362,46 +362,21 @@ pub fn boundary_backbone(
     backbone: &Backbone,
     q_end: f64,
 ) -> Result<Option<BoundaryBackbone>, NnmError> {
-    let on_main = |p: &&BackbonePoint| {
-        backbone
-            .branches
-            .get(p.branch)
-            .is_none_or(|b| matches!(b.kind, BranchKind::Main | BranchKind::Linear))
-    };
-    let main: Vec<&BackbonePoint> = backbone.points.iter().filter(on_main).collect();
-    let in_contact: Vec<&BackbonePoint> = main
+    let main: Vec<&BackbonePoint> = backbone
+        .points
         .iter()
-        .filter(|p| p.contact_force.iter().flatten().any(|&f| f > 0.0))
-        .copied()
+        .filter(|p| {
+            backbone
+                .branches
+                .get(p.branch)
+                .is_none_or(|b| matches!(b.kind, BranchKind::Main | BranchKind::Linear))
+        })
         .collect();
-    let Some(deepest) = in_contact
-        .iter()
-        .max_by(|a, b| a.q.abs().total_cmp(&b.q.abs()))
-    else {
+    let Some(model) = backbone_model(analysis, &main) else {
         return Ok(None);
     };
-    let harmonics = main[0].coefficients.len().saturating_sub(1);
-    let w_max = main.iter().map(|p| p.omega).fold(0.0, f64::max);
-    let settings = analysis.settings();
+    let r = model.omega2.len();
     let modal = analysis.modal_data();
-    let limit = settings.shooting_cutoff * (harmonics as f64 + 1.0) * w_max;
-    let r = (modal.omega.iter().filter(|&&w| w <= limit).count())
-        .max(settings.min_modes)
-        .min(modal.omega.len());
-    if r == modal.omega.len() {
-        return Ok(None);
-    }
-    // A penalty law's orbits all carry their spring and no multiplier; an augmented-Lagrangian
-    // orbit that barely touches may carry none yet either, so the law is read from them all.
-    let penalty = if in_contact.iter().all(|p| penalty_of(p).is_some()) {
-        penalty_of(deepest)
-    } else {
-        None
-    };
-    let gaps = analysis.system().gaps();
-    let Some(model) = boundary_model(&modal, gaps, r, penalty.as_deref()) else {
-        return Ok(None);
-    };
     let start = |p: &BackbonePoint| modal_coordinates(&modal, &p.displacement_at(0.0), r);
     let q_scale = main.iter().map(|p| norm(&start(p))).fold(0.0, f64::max);
     let t_ref = main[0].period();
@@ -414,26 +389,72 @@ pub fn boundary_backbone(
         master: MasterRow::new(analysis, r),
         q_scale,
         t_ref,
-        tolerance: settings.tolerance,
+        tolerance: analysis.settings().tolerance,
         mode: main[0].mode,
         growing: Cell::new(true),
         extreme: Cell::new(0.0),
     };
-    let q_start = main[0].q.abs();
-    let seed_of = |p: &BackbonePoint| {
-        let z: Vec<f64> = start(p).iter().map(|v| v / q_scale).collect();
-        (z, p.period() / t_ref, p.q.abs())
+    let seed_of = |p: &BackbonePoint| Seed {
+        z_q0: start(p).iter().map(|v| v / q_scale).collect(),
+        period: p.period() / t_ref,
+        q: p.q.abs(),
     };
+    let pieces = trace_pieces(&equations, &main, &seed_of, q_end)?;
+    Ok((!pieces.is_empty()).then_some(BoundaryBackbone { pieces, modes: r }))
+}
+
+/// The boundary model of the main branch `main` (module docs): the modes up to
+/// `shooting_cutoff` (N + 1) w_max dynamic, the harmonic balance's contact law. `None` where it
+/// does not apply.
+fn backbone_model(
+    analysis: &FloquetAnalysis<'_>,
+    main: &[&BackbonePoint],
+) -> Option<BoundaryModel> {
+    let in_contact: Vec<&BackbonePoint> = main
+        .iter()
+        .filter(|p| p.contact_force.iter().flatten().any(|&f| f > 0.0))
+        .copied()
+        .collect();
+    let deepest = in_contact
+        .iter()
+        .max_by(|a, b| a.q.abs().total_cmp(&b.q.abs()))?;
+    let harmonics = main[0].coefficients.len().saturating_sub(1);
+    let w_max = main.iter().map(|p| p.omega).fold(0.0, f64::max);
+    let settings = analysis.settings();
+    let modal = analysis.modal_data();
+    let limit = settings.shooting_cutoff * (harmonics as f64 + 1.0) * w_max;
+    let r = (modal.omega.iter().filter(|&&w| w <= limit).count())
+        .max(settings.min_modes)
+        .min(modal.omega.len());
+    if r == modal.omega.len() {
+        return None;
+    }
+    // A penalty law's orbits all carry their spring and no multiplier; an augmented-Lagrangian
+    // orbit that barely touches may carry none yet either, so the law is read from them all.
+    let penalty = if in_contact.iter().all(|p| penalty_of(p).is_some()) {
+        penalty_of(deepest)
+    } else {
+        None
+    };
+    boundary_model(&modal, analysis.system().gaps(), r, penalty.as_deref())
+}
+
+/// The pieces from the main branch's first point (not traced below it) up to `q_end`, each
+/// seeded from the first main-branch point above the q reached so far (module docs).
+fn trace_pieces(
+    equations: &BackboneEquations<'_>,
+    main: &[&BackbonePoint],
+    seed_of: &dyn Fn(&BackbonePoint) -> Seed,
+    q_end: f64,
+) -> Result<Vec<BoundaryPiece>, NnmError> {
+    let q_start = main[0].q.abs();
     let mut pieces: Vec<BoundaryPiece> = Vec::new();
     let mut covered = q_start;
     let mut seed = Some(main[0]);
     while let Some(p) = seed.filter(|_| pieces.len() < MAX_PIECES) {
-        let floor = if pieces.is_empty() {
-            0.5 * q_start
-        } else {
-            covered
-        };
-        let piece = trace_piece(&equations, seed_of(p), (0.5 * q_start, floor), q_end)?;
+        // The first piece starts at q_start; the others go down to the q reached so far.
+        let floors = (0.5 * q_start, covered);
+        let piece = trace_piece(equations, seed_of(p), floors, q_end)?;
         let top = piece.iter().flat_map(|x| &x.points).map(|x| x.q.abs());
         covered = top.fold(covered.max(p.q.abs()), f64::max);
         // A seed whose orbit is already in a tongue gives one orbit and no curve.
@@ -441,9 +462,9 @@ pub fn boundary_backbone(
         if covered >= q_end {
             break;
         }
-        seed = next_seed(&main, covered);
+        seed = next_seed(main, covered);
     }
-    Ok((!pieces.is_empty()).then_some(BoundaryBackbone { pieces, modes: r }))
+    Ok(pieces)
 }
 
 /// The main-branch point of smallest q above `covered` (by 0.1 %), where the next piece starts.
@@ -454,12 +475,26 @@ fn next_seed<'b>(main: &[&'b BackbonePoint], covered: f64) -> Option<&'b Backbon
         .copied()
 }
 
-/// One piece from the seed (z_q0, T / T_ref, q): toward larger q up to `q_end` (not below
-/// `floors.0`, half of q_start), and toward smaller q down to `floors.1` (the top of the last
-/// piece, or half of q_start). `None` when the seed has no orbit of the boundary nearby.
+/// Where a piece starts: a harmonic-balance point's scaled modal start and period, and its q.
+struct Seed {
+    /// q0 / s of the point's displacement at t = 0 (kept modes).
+    z_q0: Vec<f64>,
+    /// T / T_ref.
+    period: f64,
+    /// Its master amplitude |q| (m).
+    q: f64,
+}
+
+/// One piece from `seed`: toward larger q up to `q_end` (not below `floors.0`, half of
+/// q_start), and toward smaller q down to `floors.1` (the q reached so far). `None` when the
+/// seed has no orbit of the boundary nearby.
 fn trace_piece(
     equations: &BackboneEquations<'_>,
-    (z_q0, period, seed_q): (Vec<f64>, f64, f64),
+    Seed {
+        z_q0,
+        period,
+        q: seed_q,
+    }: Seed,
     floors: (f64, f64),
     q_end: f64,
 ) -> Result<Option<BoundaryPiece>, NnmError> {
