@@ -21,6 +21,7 @@ mod common;
 
 use common::{light_contact_model, nlmodes, two_dof_frequencies};
 use std::f64::consts::PI;
+use std::path::PathBuf;
 
 const EPS: f64 = 1e-3;
 const KS: f64 = 1.0;
@@ -52,24 +53,40 @@ fn bilinear_period(w: f64, k: f64, y0: f64) -> f64 {
     2.0 * (t1 + (PI - phi) / w)
 }
 
-#[test]
-fn every_exact_backbone_orbit_has_the_closed_form_period_of_its_bilinear_oscillator() {
+/// `nlmodes backbone MODEL -o OUT ARGS...` on the light-contact model in a fresh directory; the
+/// directory (kept alive) and OUT. Fails the test unless the command succeeds.
+fn backbone(args: &[&str], settings: Option<&str>) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let (model, out) = (dir.path().join("model"), dir.path().join("out"));
     light_contact_model(&model, EPS, KS);
-    let run = nlmodes(&[
-        "backbone",
-        model.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--q-max",
-        "5",
-    ]);
+    let settings_file = dir.path().join("settings.toml");
+    let mut all = vec![
+        "backbone".to_string(),
+        model.display().to_string(),
+        "-o".to_string(),
+        out.display().to_string(),
+    ];
+    all.extend(args.iter().map(|a| a.to_string()));
+    if let Some(text) = settings {
+        std::fs::write(&settings_file, text).unwrap();
+        all.extend([
+            "--settings".to_string(),
+            settings_file.display().to_string(),
+        ]);
+    }
+    let all: Vec<&str> = all.iter().map(String::as_str).collect();
+    let run = nlmodes(&all);
     assert!(
         run.status.success(),
-        "nlmodes backbone failed:\n{}",
+        "nlmodes {all:?} failed:\n{}",
         String::from_utf8_lossy(&run.stderr)
     );
+    (dir, out)
+}
+
+#[test]
+fn every_exact_backbone_orbit_has_the_closed_form_period_of_its_bilinear_oscillator() {
+    let (_dir, out) = backbone(&["--q-max", "5"], None);
     assert!(out.join("backbone_boundary.csv").is_file());
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("backbone_boundary.json")).unwrap())
@@ -105,25 +122,9 @@ fn every_exact_backbone_orbit_has_the_closed_form_period_of_its_bilinear_oscilla
 
 #[test]
 fn no_exact_backbone_without_shooting() {
-    let dir = tempfile::tempdir().unwrap();
-    let (model, out) = (dir.path().join("model"), dir.path().join("out"));
-    light_contact_model(&model, EPS, KS);
-    let settings = dir.path().join("s.toml");
-    std::fs::write(&settings, "[stability.hill]\nshooting = false\n").unwrap();
-    let run = nlmodes(&[
-        "backbone",
-        model.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--q-max",
-        "3",
-        "--settings",
-        settings.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let (_dir, out) = backbone(
+        &["--q-max", "3"],
+        Some("[stability.hill]\nshooting = false\n"),
     );
     assert!(out.join("backbone.csv").is_file());
     assert!(!out.join("backbone_boundary.csv").exists());

@@ -343,7 +343,13 @@ pub fn chain_model(dir: &Path) {
     ];
     write_symmetric4(&dir.join("M.mtx"), &mass);
     write_symmetric4(&dir.join("K.mtx"), &stiffness);
-    let hz: Vec<f64> = [1.0, 3f64.sqrt(), 5.0, 5.0]
+    write_chain_json(dir, &[1.0, 3f64.sqrt(), 5.0, 5.0], "the first mass");
+}
+
+/// model.json of a 4-coordinate model whose contact node is DOFs 1, 2, 3 (radial x, gap 1 m),
+/// master DOF 0, with the linear circular frequencies `omega` (rad/s).
+fn write_chain_json(dir: &Path, omega: &[f64], master: &str) {
+    let hz: Vec<f64> = omega
         .iter()
         .map(|w| w / (2.0 * std::f64::consts::PI))
         .collect();
@@ -355,7 +361,7 @@ pub fn chain_model(dir: &Path) {
         "contact_nodes": [{"dofs": [1, 2, 3], "position": [1.0, 0.0, 0.0],
                            "radial": [1.0, 0.0, 0.0], "gap": 1.0}],
         "rotor_axis": {"point": [0.0, 0.0, 0.0], "direction": [0.0, 0.0, 1.0]},
-        "master": {"dof": 0, "description": "the first mass"},
+        "master": {"dof": 0, "description": master},
         "linear_frequencies_hz": hz,
     });
     std::fs::write(dir.join("model.json"), model.to_string()).unwrap();
@@ -386,22 +392,7 @@ pub fn light_contact_model(dir: &Path, eps: f64, ks: f64) {
     write_symmetric4(&dir.join("M.mtx"), &mass);
     write_symmetric4(&dir.join("K.mtx"), &stiffness);
     let (w1, w2) = two_dof_frequencies(eps, ks);
-    let hz: Vec<f64> = [w1, 5.0, 5.0, w2]
-        .iter()
-        .map(|w| w / (2.0 * std::f64::consts::PI))
-        .collect();
-    let model = serde_json::json!({
-        "format": "nlmodes-reduced-model",
-        "format_version": 1,
-        "units": "SI: m, kg, s; K in N/m, M in kg",
-        "n": 4,
-        "contact_nodes": [{"dofs": [1, 2, 3], "position": [1.0, 0.0, 0.0],
-                           "radial": [1.0, 0.0, 0.0], "gap": 1.0}],
-        "rotor_axis": {"point": [0.0, 0.0, 0.0], "direction": [0.0, 0.0, 1.0]},
-        "master": {"dof": 0, "description": "the master mass"},
-        "linear_frequencies_hz": hz,
-    });
-    std::fs::write(dir.join("model.json"), model.to_string()).unwrap();
+    write_chain_json(dir, &[w1, 5.0, 5.0, w2], "the master mass");
 }
 
 /// The two circular frequencies (rad/s, ascending) of `light_contact_model`'s (x_0, x_1) block:

@@ -87,6 +87,8 @@ mod hill;
 mod impact;
 mod monodromy;
 mod saltation;
+#[cfg(test)]
+mod test_models;
 
 pub use bifurcation::{classify, Bifurcation};
 pub use boundary_backbone::{
