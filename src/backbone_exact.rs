@@ -339,7 +339,9 @@ fn confirmation(main: &[&Orbit], g: f64, tolerance: f64) -> String {
         })
         .collect();
     let off: Vec<&(&Orbit, f64)> = shot.iter().filter(|(_, d)| *d > tolerance).collect();
-    let harmonics = main.first().map_or(0, |p| p.coefficients.len().saturating_sub(1));
+    let harmonics = main
+        .first()
+        .map_or(0, |p| p.coefficients.len().saturating_sub(1));
     let mut s = format!(
         "\nOf the {} main-branch points in contact with an exact orbit next to them, {} have w \
          within `truncation_tolerance` = {tolerance:.0e} of it (`boundary_omega_change` in the \
