@@ -104,18 +104,20 @@ pub fn pieces_text(e: &BoundaryBackbone, g: f64) -> String {
                 "q/g0 {:.3}-{:.3} ({}; {})",
                 q(f64::min, f64::INFINITY),
                 q(f64::max, 0.0),
-                end_text(&p.lower_end, g, std::ptr::eq(p, &e.pieces[0])),
-                end_text(&p.upper_end, g, false)
+                end_text(&p.lower_end, g, std::ptr::eq(p, &e.pieces[0]), p.gap),
+                end_text(&p.upper_end, g, false, p.gap)
             )
         })
         .collect::<Vec<_>>()
         .join(", ")
 }
 
-/// Why a piece's end ended, in words; `first` for the first piece (whose lower end is q_start).
-fn end_text(end: &nlmodes_hb::arc_length::CurveEnd, g: f64, first: bool) -> String {
+/// Why a piece's end ended, in words; `first` for the first piece (whose lower end is q_start),
+/// `gap` for a piece seeded in a gap (whose upper range ends at the piece above).
+fn end_text(end: &nlmodes_hb::arc_length::CurveEnd, g: f64, first: bool, gap: bool) -> String {
     use nlmodes_hb::arc_length::CurveEnd;
     match end {
+        CurveEnd::Complete if gap => "met the piece above".into(),
         CurveEnd::Complete => "q_max reached".into(),
         CurveEnd::LeftRange if first => "q_start".into(),
         CurveEnd::LeftRange => "met the piece below".into(),
@@ -181,31 +183,6 @@ pub fn write(x: &ExactOutputs, b: &Backbone, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The q ranges (m) the pieces cover, merged, ascending.
-fn covered(e: &BoundaryBackbone) -> Vec<(f64, f64)> {
-    let mut ranges: Vec<(f64, f64)> = e
-        .pieces
-        .iter()
-        .filter(|p| !p.points.is_empty())
-        .map(|p| {
-            let q = p.points.iter().map(|x| x.q.abs());
-            (
-                q.clone().fold(f64::INFINITY, f64::min),
-                q.fold(0.0, f64::max),
-            )
-        })
-        .collect();
-    ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut merged: Vec<(f64, f64)> = Vec::new();
-    for (lo, hi) in ranges {
-        match merged.last_mut() {
-            Some(last) if lo <= last.1 => last.1 = last.1.max(hi),
-            _ => merged.push((lo, hi)),
-        }
-    }
-    merged
-}
-
 /// The parts of [a, b] (m) no piece covers.
 fn gaps_in(ranges: &[(f64, f64)], a: f64, b: f64) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
@@ -265,11 +242,11 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
             "| {k} | {} | {} | {} | {} |",
             range(&|x| x.q.abs() / g),
             range(&|x| x.omega / w1),
-            end_text(&p.lower_end, g, k == 0),
-            end_text(&p.upper_end, g, false)
+            end_text(&p.lower_end, g, k == 0, p.gap),
+            end_text(&p.upper_end, g, false, p.gap)
         );
     }
-    let ranges = covered(e);
+    let ranges = e.covered();
     let main: Vec<&Orbit> = b.points.iter().filter(|p| on_main(b, p)).collect();
     let q_hi = main.iter().map(|p| p.q).fold(0.0, f64::max);
     let q_lo = b.grazing_amplitude.unwrap_or(q_hi);

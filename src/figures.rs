@@ -136,8 +136,8 @@ fn family_plot(
     xlabel: &str,
     x_of: impl Fn(&Orbit) -> f64,
 ) -> LinePlot {
-    let mut plot =
-        LinePlot::new(title, xlabel, "frequency ratio w / w1").with_legend(LegendPosition::TopLeft);
+    let mut plot = LinePlot::new(title, xlabel, "frequency ratio w / w1")
+        .with_legend(LegendPosition::BottomRight);
     let mut labelled = Labelled::default();
     for (id, pts) in branches_of(b) {
         let tongue = b.on_tongue(pts[0]);

@@ -77,8 +77,12 @@ pub struct BoundaryPiece {
     pub seed_q: f64,
     /// Why its lower end (traced toward smaller q) ended.
     pub lower_end: CurveEnd,
-    /// Why its upper end ended.
+    /// Why its upper end ended (`Complete`: q_max, or for a gap piece the piece above).
     pub upper_end: CurveEnd,
+    /// Seeded inside a gap between the pieces of the first pass (between the harmonic-balance
+    /// points on either side), not from a harmonic-balance point.
+    #[serde(default)]
+    pub gap: bool,
 }
 
 /// The exact backbone of the massless contact boundary (module docs).
@@ -87,6 +91,13 @@ pub struct BoundaryBackbone {
     pub pieces: Vec<BoundaryPiece>,
     /// Modes kept dynamic.
     pub modes: usize,
+}
+
+impl BoundaryBackbone {
+    /// The q ranges (system length unit) its pieces cover, merged, ascending.
+    pub fn covered(&self) -> Vec<(f64, f64)> {
+        covered_ranges(&self.pieces)
+    }
 }
 
 /// The master's displacement on the boundary from q and lambda (module docs).
@@ -453,8 +464,12 @@ fn trace_pieces(
     let mut seed = Some(main[0]);
     while let Some(p) = seed.filter(|_| pieces.len() < MAX_PIECES) {
         // The first piece starts at q_start; the others go down to the q reached so far.
-        let floors = (0.5 * q_start, covered);
-        let piece = trace_piece(equations, seed_of(p), floors, q_end)?;
+        let range = PieceRange {
+            floor_up: 0.5 * q_start,
+            floor_down: covered,
+            ceiling: q_end,
+        };
+        let piece = trace_piece(equations, seed_of(p), &range)?;
         let top = piece.iter().flat_map(|x| &x.points).map(|x| x.q.abs());
         covered = top.fold(covered.max(p.q.abs()), f64::max);
         // A seed whose orbit is already in a tongue gives one orbit and no curve.
@@ -464,7 +479,134 @@ fn trace_pieces(
         }
         seed = next_seed(main, covered);
     }
+    // Each pass may leave smaller gaps between its pieces and the others: a few more passes.
+    for _ in 0..GAP_PASSES {
+        let before = pieces.len();
+        fill_gaps(equations, main, seed_of, &mut pieces)?;
+        if pieces.len() == before {
+            break;
+        }
+    }
     Ok(pieces)
+}
+
+/// Seeds per gap between pieces, at these fractions of the way from the harmonic-balance point
+/// below the gap to the one above it.
+const GAP_SEEDS: [f64; 5] = [1.0 / 6.0, 2.0 / 6.0, 3.0 / 6.0, 4.0 / 6.0, 5.0 / 6.0];
+/// Passes over the gaps (each may leave smaller ones).
+const GAP_PASSES: usize = 3;
+
+/// Pieces inside the gaps the first pass left (module docs): seeds interpolated in (q0, T)
+/// between the main-branch points on either side, each traced down to the piece below and up to
+/// the piece above unless it turns into a tongue first. The main branch of the untruncated
+/// model can lie between tongues there, out of reach of a continuation from either side.
+fn fill_gaps(
+    equations: &BackboneEquations<'_>,
+    main: &[&BackbonePoint],
+    seed_of: &dyn Fn(&BackbonePoint) -> Seed,
+    pieces: &mut Vec<BoundaryPiece>,
+) -> Result<(), NnmError> {
+    let q_start = main[0].q.abs();
+    let ranges = covered_ranges(pieces);
+    for pair in ranges.windows(2) {
+        let (lo, hi) = (pair[0].1, pair[1].0);
+        let below = main
+            .iter()
+            .filter(|p| p.q.abs() <= lo)
+            .max_by(|a, b| a.q.abs().total_cmp(&b.q.abs()));
+        let above = main
+            .iter()
+            .filter(|p| p.q.abs() >= hi)
+            .min_by(|a, b| a.q.abs().total_cmp(&b.q.abs()));
+        let (Some(below), Some(above)) = (below, above) else {
+            continue;
+        };
+        let (a, b) = (seed_of(below), seed_of(above));
+        for s in GAP_SEEDS {
+            let q = a.q + s * (b.q - a.q);
+            let filled = covered_ranges(pieces).iter().any(|r| r.0 <= q && q <= r.1);
+            if filled || pieces.len() >= MAX_PIECES {
+                continue;
+            }
+            let seed = Seed {
+                z_q0: a
+                    .z_q0
+                    .iter()
+                    .zip(&b.z_q0)
+                    .map(|(x, y)| x + s * (y - x))
+                    .collect(),
+                period: a.period + s * (b.period - a.period),
+                q,
+            };
+            let range = PieceRange {
+                floor_up: 0.5 * q_start,
+                floor_down: lo,
+                ceiling: hi,
+            };
+            let piece = trace_piece(equations, seed, &range)?;
+            // Two seeds (or passes) may land on the same piece: kept once.
+            let new = |x: &BoundaryPiece| !pieces.iter().any(|y| same_piece(x, y));
+            if let Some(mut x) = piece.filter(|x| x.points.len() > 1 && new(x)) {
+                x.gap = true;
+                pieces.push(x);
+            }
+        }
+    }
+    pieces.sort_by(|x, y| lowest(x).total_cmp(&lowest(y)));
+    Ok(())
+}
+
+/// Whether two pieces span the same q range to 1e-6 (relative): the same curve.
+fn same_piece(a: &BoundaryPiece, b: &BoundaryPiece) -> bool {
+    let span = |p: &BoundaryPiece| {
+        let q = p.points.iter().map(|x| x.q.abs());
+        (
+            q.clone().fold(f64::INFINITY, f64::min),
+            q.fold(0.0, f64::max),
+        )
+    };
+    let ((a0, a1), (b0, b1)) = (span(a), span(b));
+    (a0 - b0).abs() <= 1e-6 * a1 && (a1 - b1).abs() <= 1e-6 * a1
+}
+
+fn lowest(piece: &BoundaryPiece) -> f64 {
+    piece
+        .points
+        .iter()
+        .map(|p| p.q.abs())
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The q ranges (system length unit) the pieces cover, merged, ascending.
+fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
+    let mut ranges: Vec<(f64, f64)> = pieces
+        .iter()
+        .filter(|p| !p.points.is_empty())
+        .map(|p| {
+            let q = p.points.iter().map(|x| x.q.abs());
+            (
+                q.clone().fold(f64::INFINITY, f64::min),
+                q.fold(0.0, f64::max),
+            )
+        })
+        .collect();
+    ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut merged: Vec<(f64, f64)> = Vec::new();
+    for (lo, hi) in ranges {
+        match merged.last_mut() {
+            Some(last) if lo <= last.1 => last.1 = last.1.max(hi),
+            _ => merged.push((lo, hi)),
+        }
+    }
+    merged
+}
+
+/// Where one piece may run (system length unit): toward larger q not below `floor_up` and up to
+/// `ceiling`, toward smaller q down to `floor_down`.
+struct PieceRange {
+    floor_up: f64,
+    floor_down: f64,
+    ceiling: f64,
 }
 
 /// The main-branch point of smallest q above `covered` (by 0.1 %), where the next piece starts.
@@ -485,9 +627,8 @@ struct Seed {
     q: f64,
 }
 
-/// One piece from `seed`: toward larger q up to `q_end` (not below `floors.0`, half of
-/// q_start), and toward smaller q down to `floors.1` (the q reached so far). `None` when the
-/// seed has no orbit of the boundary nearby.
+/// One piece from `seed`, both ways within `range`. `None` when the seed has no orbit of the
+/// boundary nearby.
 fn trace_piece(
     equations: &BackboneEquations<'_>,
     Seed {
@@ -495,8 +636,7 @@ fn trace_piece(
         period,
         q: seed_q,
     }: Seed,
-    floors: (f64, f64),
-    q_end: f64,
+    range: &PieceRange,
 ) -> Result<Option<BoundaryPiece>, NnmError> {
     let n = norm(&z_q0);
     let growing: Vec<f64> = z_q0.iter().map(|v| v / n).chain([0.0]).collect();
@@ -505,11 +645,11 @@ fn trace_piece(
     let settings = |floor| CurveSettings {
         max_points: MAX_PIECE_POINTS,
         max_step: MAX_STEP,
-        ..CurveSettings::new(floor, q_end)
+        ..CurveSettings::new(floor, range.ceiling)
     };
     equations.growing.set(true);
     equations.extreme.set(seed_q);
-    let Some(up) = trace_curve(equations, z0.clone(), &growing, &settings(floors.0))? else {
+    let Some(up) = trace_curve(equations, z0.clone(), &growing, &settings(range.floor_up))? else {
         tracing::debug!(
             q = seed_q,
             "exact backbone: no orbit of the boundary at this seed"
@@ -518,7 +658,7 @@ fn trace_piece(
     };
     equations.growing.set(false);
     equations.extreme.set(seed_q);
-    let down = trace_curve(equations, z0, &shrinking, &settings(floors.1))?;
+    let down = trace_curve(equations, z0, &shrinking, &settings(range.floor_down))?;
     let (mut points, lower_end) = match down {
         Some(d) => (d.points.into_iter().skip(1).rev().collect(), d.end),
         None => (Vec::new(), CurveEnd::StepTooSmall { at: seed_q }),
@@ -529,6 +669,7 @@ fn trace_piece(
         seed_q,
         lower_end,
         upper_end: up.end,
+        gap: false,
     }))
 }
 
