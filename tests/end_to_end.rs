@@ -240,6 +240,31 @@ fn coarse_blade_study_end_to_end() {
     // rigid stop holds every contact node at or below g0 (to round-off), and some node sits on
     // it; the exact backbone beside the harmonic balance's.
     assert!(res.join("backbone/backbone_boundary.csv").is_file());
+    // Its pieces stay on the traced mode: inside a piece (its two ends are where it turns into a
+    // tongue) the starting mode's fundamental holds more of the energy than any other component,
+    // and no piece is listed twice.
+    let exact_json: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(res.join("backbone/backbone_boundary.json")).unwrap(),
+    )
+    .unwrap();
+    let mut spans = Vec::new();
+    for piece in exact_json["pieces"].as_array().expect("pieces") {
+        let pts = piece["points"].as_array().expect("points");
+        let share = |p: &serde_json::Value, k: &str| p[k].as_f64().unwrap();
+        for p in &pts[1..pts.len() - 1] {
+            assert!(
+                share(p, "primary_share") >= share(p, "secondary_share"),
+                "an exact orbit inside a piece is off the traced mode: {p}"
+            );
+        }
+        let q: Vec<f64> = pts.iter().map(|p| p["q"].as_f64().unwrap().abs()).collect();
+        let span = (
+            q.iter().copied().fold(f64::INFINITY, f64::min),
+            q.iter().copied().fold(0.0, f64::max),
+        );
+        assert!(!spans.contains(&span), "piece listed twice: {span:?}");
+        spans.push(span);
+    }
     let exact = std::fs::read_to_string(kept.join("radial_boundary_q12.0.csv"))
         .expect("radial_boundary_q12.0.csv");
     let highest = exact
