@@ -210,7 +210,7 @@ fn intervals_text(gaps: &[(f64, f64)], g: f64) -> String {
 /// the harmonic balance's main branch it fills), and the main-branch points whose w the exact
 /// orbit next to them does not confirm to `tolerance` (relative), named.
 pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) -> String {
-    let (g, w1) = (b.gap_reference, b.omega_linear);
+    let g = b.gap_reference;
     let mut s = String::new();
     let orbits: usize = e.pieces.iter().map(|p| p.points.len()).sum();
     let _ = writeln!(
@@ -219,16 +219,25 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
          `backbone/backbone_boundary.csv`; docs/STABILITY.md Sec. 9.3): the same model as the \
          stability's with the first {} modes dynamic, its symmetric periodic orbits continued \
          in amplitude by shooting, no harmonic truncated: {} pieces, {orbits} orbits. A piece \
-         ends where the curve turns back in q by 5 % (into an internal-resonance tongue, which \
-         the exact model meets at every harmonic n, not only n <= N); the next starts from the \
-         first harmonic-balance point above it and is traced both ways.\n",
+         ends where it turns into an internal-resonance tongue (another mode's harmonic holds \
+         more energy than the fundamental, or q turns back by 5 %: the exact model meets tongues \
+         at every harmonic n, not only n <= N); the next starts from the first \
+         harmonic-balance point above it, and the gaps left are seeded from inside (between the \
+         harmonic-balance points on either side); each piece is traced both ways.\n",
         e.modes,
         e.pieces.len()
     );
-    let _ = writeln!(
-        s,
-        "| piece | q/g0 | w/w1 | lower end | upper end |\n|---|---|---|---|---|"
-    );
+    s.push_str(&pieces_table(e, g, b.omega_linear));
+    let main: Vec<&Orbit> = b.points.iter().filter(|p| on_main(b, p)).collect();
+    s.push_str(&coverage_text(b, e, &main));
+    s.push_str(&confirmation(&main, g, tolerance));
+    s
+}
+
+/// One row per piece: its q/g0 and w/w1 ranges and why its ends ended.
+fn pieces_table(e: &BoundaryBackbone, g: f64, w1: f64) -> String {
+    let mut s =
+        String::from("| piece | q/g0 | w/w1 | lower end | upper end |\n|---|---|---|---|---|\n");
     for (k, p) in e.pieces.iter().enumerate() {
         let range = |f: &dyn Fn(&nlmodes_nnm::BoundaryBackbonePoint) -> f64| {
             let v = p.points.iter().map(f);
@@ -246,19 +255,24 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
             end_text(&p.upper_end, g, false, p.gap)
         );
     }
+    s
+}
+
+/// The q from grazing to q_max the pieces leave, and what they give in each hole of the
+/// harmonic balance's main branch.
+fn coverage_text(b: &BackboneFile, e: &BoundaryBackbone, main: &[&Orbit]) -> String {
+    let g = b.gap_reference;
     let ranges = e.covered();
-    let main: Vec<&Orbit> = b.points.iter().filter(|p| on_main(b, p)).collect();
     let q_hi = main.iter().map(|p| p.q).fold(0.0, f64::max);
     let q_lo = b.grazing_amplitude.unwrap_or(q_hi);
     let gaps = gaps_in(&ranges, q_lo, q_hi);
-    let _ = writeln!(
-        s,
-        "\nFrom grazing to q_max the exact pieces give w(q) {}.",
+    let mut s = format!(
+        "\nFrom grazing to q_max the exact pieces give w(q) {}.\n",
         if gaps.is_empty() {
             "for every q".to_string()
         } else {
             format!(
-                "for every q/g0 but {} (between a piece that turns into a tongue and the next)",
+                "for every q/g0 but {} (between pieces that turn into tongues)",
                 intervals_text(&gaps, g)
             )
         }
@@ -279,22 +293,22 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
                 intervals_text(&inside, g)
             )
         };
+        let left_text = if left.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} is left, where the exact curves turn into tongues too",
+                intervals_text(&left, g)
+            )
+        };
         let _ = writeln!(
             s,
-            "The harmonic balance's main branch is not traced for q/g0 {:.3}-{:.3}: {covered_text}{}.",
+            "The harmonic balance's main branch is not traced for q/g0 {:.3}-{:.3}: \
+             {covered_text}{left_text}.",
             a / g,
-            c / g,
-            if left.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "; {} is left, where the exact curve turns into the tongue too",
-                    intervals_text(&left, g)
-                )
-            }
+            c / g
         );
     }
-    s.push_str(&confirmation(&main, g, tolerance));
     s
 }
 
