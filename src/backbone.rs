@@ -164,8 +164,16 @@ pub fn truncation(
 
 /// Floquet stability of every point (the massless contact boundary for points in contact, Hill's
 /// method or the event-based monodromy otherwise; docs/STABILITY.md), when `settings.enabled`:
-/// its own progress bar and stage timing, so the extra time shows.
-pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection) -> Result<()> {
+/// its own progress bar and stage timing, so the extra time shows. A point shot on the boundary
+/// gets its "N too small" flag (`truncation_warning`) from the exact orbit next to it: set where
+/// its w is more than `tolerance` (relative) from that orbit's, the converged w
+/// (docs/STABILITY.md Sec. 9.3), cleared otherwise.
+pub fn stability(
+    system: &System,
+    b: &mut Backbone,
+    settings: &StabilitySection,
+    tolerance: f64,
+) -> Result<()> {
     if !settings.enabled {
         tracing::info!("stability: off ([stability] enabled = false)");
         return Ok(());
@@ -177,6 +185,13 @@ pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection)
     })
     .context("Floquet analysis of the backbone")?;
     bar.finish_and_clear();
+    for p in &mut b.points {
+        if let Some(st) = p.stability.as_ref() {
+            if st.method == nlmodes_nnm::StabilityMethod::Shooting {
+                p.truncation_warning = st.orbit_shift > tolerance;
+            }
+        }
+    }
     if failed > 0 {
         tracing::warn!(
             "{failed} of {} points have no stability (the analysis failed there)",

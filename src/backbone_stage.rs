@@ -82,7 +82,12 @@ impl Stage for BackboneStage<'_> {
         backbone::check_reaches_contact(&system, cont)?;
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
         let mut b = backbone::trace(&system, hs, &case.algorithm, cont)?;
-        backbone::stability(&system, &mut b, &case.stability)?;
+        backbone::stability(
+            &system,
+            &mut b,
+            &case.stability,
+            case.nnm.truncation_tolerance,
+        )?;
         let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
         let exact = backbone_exact::exact_outputs(&system, &b, &kept, &case.stability, cont.q_max)?;
         backbone::truncation(

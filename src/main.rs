@@ -437,7 +437,9 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     backbone::check_reaches_contact(&system, &cont)?;
     let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
     let mut b = backbone::trace(&system, hs, &params, &cont)?;
-    backbone::stability(&system, &mut b, &stab)?;
+    // The "N too small" tolerance: the case default of `[nnm] truncation_tolerance`.
+    let tolerance = crate::case::NnmSection::default().truncation_tolerance;
+    backbone::stability(&system, &mut b, &stab, tolerance)?;
     let exact = backbone_exact::exact_outputs(&system, &b, &[], &stab, cont.q_max)?;
     backbone::write(&b, &a.out)?;
     backbone_exact::write(&exact, &b, &a.out)?;

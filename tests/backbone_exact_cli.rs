@@ -152,6 +152,20 @@ fn every_exact_backbone_orbit_has_the_closed_form_period_of_its_bilinear_oscilla
     println!("harmonic balance against the exact curve at {compared} points: {largest:.1e}");
     assert!(compared >= 20, "{compared}");
     assert!(largest < 1e-3, "{largest}");
+    // The "N too small" flag of a point shot on the boundary is the exact orbit's verdict on its
+    // w (truncation_tolerance 1e-3), not the former harmonic-share indicator, which flagged
+    // every point in contact here.
+    let (it, ib) = (col("truncation_warning"), col("boundary_omega_change"));
+    let mut flagged = 0;
+    for line in csv.lines().skip(1) {
+        let v: Vec<&str> = line.split(',').collect();
+        let Ok(shift) = v[ib].parse::<f64>() else {
+            continue;
+        };
+        flagged += 1;
+        assert_eq!(v[it] == "1", shift > 1e-3, "{line}");
+    }
+    assert!(flagged >= 20, "{flagged}");
 }
 
 #[test]
