@@ -279,6 +279,13 @@ fn backbone_table(s: &mut String, b: &BackboneFile) {
     let g0 = b.gap_reference;
     let _ = writeln!(
         s,
+        "Flag \"N too small\": a point in contact whose w is more than `truncation_tolerance` from \
+         the exact orbit of the massless contact boundary next to it (the converged w, \
+         docs/STABILITY.md Sec. 9.3); for a point not shot there, its highest harmonic holds more \
+         than `truncation_warning` of the contact motion.\n"
+    );
+    let _ = writeln!(
+        s,
         "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | stability (max abs mu, trivial-pair error) | flags |\n|---|---|---|---|---|---|---|---|---|"
     );
     let stride = (b.points.len() / 25).max(1);
