@@ -11,6 +11,14 @@
 //! shooting tolerance, its contact shares come from the exact switch instants and its verdict
 //! from its own exact monodromy (Liouville-checked).
 //!
+//! The untruncated model meets an internal resonance at every harmonic of every dynamic mode,
+//! and its symmetric family turns into the strong ones, so the backbone comes in pieces. A piece
+//! ends where another (mode, harmonic) holds more of the kept modes' energy than the starting
+//! mode's fundamental, or where q falls back by `TURN_BACK` (`leaves`). The next piece starts
+//! from the first harmonic-balance main-branch point above the q reached so far; then the gaps
+//! between pieces are seeded from inside, by guesses interpolated between the harmonic-balance
+//! points on either side (`fill_gaps`). Every piece is traced both ways from its seed.
+//!
 //! The master's displacement is u_m(t) = sum_{k < r} phi_mk q_k(t) - sum_j c_j lambda_j(t),
 //! c_j = sum_{k >= r} phi_mk b_jk / w_k^2: the kept modes and the discarded modes' static
 //! response to the contact forces. Its first harmonic (the backbone's amplitude q, as the
