@@ -101,6 +101,17 @@ pub struct BoundaryBackbone {
     pub modes: usize,
 }
 
+impl BoundaryPiece {
+    /// The smallest and largest |q| of its orbits (system length unit).
+    pub fn span(&self) -> (f64, f64) {
+        let q = self.points.iter().map(|x| x.q.abs());
+        (
+            q.clone().fold(f64::INFINITY, f64::min),
+            q.fold(0.0, f64::max),
+        )
+    }
+}
+
 impl BoundaryBackbone {
     /// The q ranges (system length unit) its pieces cover, merged, ascending.
     pub fn covered(&self) -> Vec<(f64, f64)> {
@@ -439,12 +450,8 @@ fn backbone_model(
         .max_by(|a, b| a.q.abs().total_cmp(&b.q.abs()))?;
     let harmonics = main[0].coefficients.len().saturating_sub(1);
     let w_max = main.iter().map(|p| p.omega).fold(0.0, f64::max);
-    let settings = analysis.settings();
     let modal = analysis.modal_data();
-    let limit = settings.shooting_cutoff * (harmonics as f64 + 1.0) * w_max;
-    let r = (modal.omega.iter().filter(|&&w| w <= limit).count())
-        .max(settings.min_modes)
-        .min(modal.omega.len());
+    let r = analysis.shooting_modes(w_max, harmonics);
     if r == modal.omega.len() {
         return None;
     }
@@ -560,29 +567,14 @@ fn fill_gaps(
             }
         }
     }
-    pieces.sort_by(|x, y| lowest(x).total_cmp(&lowest(y)));
+    pieces.sort_by(|x, y| x.span().0.total_cmp(&y.span().0));
     Ok(())
 }
 
 /// Whether two pieces span the same q range to 1e-6 (relative): the same curve.
 fn same_piece(a: &BoundaryPiece, b: &BoundaryPiece) -> bool {
-    let span = |p: &BoundaryPiece| {
-        let q = p.points.iter().map(|x| x.q.abs());
-        (
-            q.clone().fold(f64::INFINITY, f64::min),
-            q.fold(0.0, f64::max),
-        )
-    };
-    let ((a0, a1), (b0, b1)) = (span(a), span(b));
+    let ((a0, a1), (b0, b1)) = (a.span(), b.span());
     (a0 - b0).abs() <= 1e-6 * a1 && (a1 - b1).abs() <= 1e-6 * a1
-}
-
-fn lowest(piece: &BoundaryPiece) -> f64 {
-    piece
-        .points
-        .iter()
-        .map(|p| p.q.abs())
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// The q ranges (system length unit) the pieces cover, merged, ascending.
@@ -590,13 +582,7 @@ fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
     let mut ranges: Vec<(f64, f64)> = pieces
         .iter()
         .filter(|p| !p.points.is_empty())
-        .map(|p| {
-            let q = p.points.iter().map(|x| x.q.abs());
-            (
-                q.clone().fold(f64::INFINITY, f64::min),
-                q.fold(0.0, f64::max),
-            )
-        })
+        .map(BoundaryPiece::span)
         .collect();
     ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut merged: Vec<(f64, f64)> = Vec::new();

@@ -290,22 +290,18 @@ impl<'m> BoundaryFlow<'m> {
             .collect())
     }
 
-    /// B q - R lambda (m) of every row: the contact displacement, at the stop (g0) on a closed
-    /// row (for a penalty law, R holds 1 / kc: the stop side of the penalty spring).
-    pub fn stop_side_displacement(
-        &mut self,
-        state: &FlowState,
-        active: &[bool],
-    ) -> Result<Vec<f64>, NnmError> {
-        let lambda = self.contact_force(state, active)?;
+    /// B q - R lambda (m) of every row for the contact forces `lambda` of `state`
+    /// ([`Self::contact_force`]): the contact displacement, at the stop (g0) on a closed row (for
+    /// a penalty law, R holds 1 / kc: the stop side of the penalty spring).
+    pub fn stop_side_displacement(&self, state: &FlowState, lambda: &[f64]) -> Vec<f64> {
         let (b, flex) = (&self.model.contact_modal, &self.model.flexibility);
-        Ok((0..lambda.len())
+        (0..lambda.len())
             .map(|j| {
                 let bq: f64 = (0..state.q.len()).map(|k| b[(j, k)] * state.q[k]).sum();
                 let rl: f64 = (0..lambda.len()).map(|i| flex[(j, i)] * lambda[i]).sum();
                 bq - rl
             })
-            .collect())
+            .collect()
     }
 
     fn piece(&mut self, active: &[bool]) -> Result<&Piece, NnmError> {

@@ -54,7 +54,7 @@ pub fn boundary_history(
     let dt = orbit.period / samples as f64;
     for k in 0..=samples {
         let lambda = flow.contact_force(&state, &active)?;
-        let stop_side = flow.stop_side_displacement(&state, &active)?;
+        let stop_side = flow.stop_side_displacement(&state, &lambda);
         for j in 0..c {
             let penetration = penalty.as_ref().map_or(0.0, |kc| lambda[j] / kc[j]);
             rows[j].push(stop_side[j] + penetration);

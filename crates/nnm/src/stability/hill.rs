@@ -215,6 +215,14 @@ impl<'s> FloquetAnalysis<'s> {
         Ok(Some(out))
     }
 
+    /// Modes kept dynamic on the massless boundary at circular frequency `omega` with
+    /// `harmonics` harmonics: w_k <= `shooting_cutoff` (N + 1) w, at least `min_modes`.
+    pub(super) fn shooting_modes(&self, omega: f64, harmonics: usize) -> usize {
+        let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * omega;
+        let r = self.omega.iter().filter(|&&w| w <= limit).count();
+        r.max(self.settings.min_modes).min(self.omega.len())
+    }
+
     /// The massless-boundary model of `point` (the modes up to `shooting_cutoff` (N + 1) w
     /// dynamic, `point`'s contact law) and its periodic orbit next to `point`, by shooting; `None`
     /// where the model does not apply (shooting off, no contact, every mode resolved, R not
@@ -224,10 +232,7 @@ impl<'s> FloquetAnalysis<'s> {
         point: &BackbonePoint,
         harmonics: usize,
     ) -> Result<Option<(BoundaryModel, ShotOrbit)>, NnmError> {
-        let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * point.omega;
-        let r = (self.omega.iter().filter(|&&w| w <= limit).count())
-            .max(self.settings.min_modes)
-            .min(self.omega.len());
+        let r = self.shooting_modes(point.omega, harmonics);
         let in_contact = point.contact_force.iter().flatten().any(|&f| f > 0.0);
         if !self.settings.shooting || !in_contact || r == self.omega.len() {
             return Ok(None);
