@@ -104,14 +104,10 @@ pub fn truncation(
     tolerance: f64,
 ) -> Result<()> {
     let stage = ui::Stage::start("truncation");
-    let on_main = |b: &Backbone, i: usize| {
-        !matches!(
-            b.branches.get(b.points[i].branch).map(|br| &br.kind),
-            Some(BranchKind::Tongue { .. })
-        )
-    };
     let chosen: Vec<usize> = (0..b.points.len())
-        .filter(|&i| every > 0 && on_main(b, i) && (i % every == 0 || i + 1 == b.points.len()))
+        .filter(|&i| {
+            every > 0 && on_main_branch(b, i) && (i % every == 0 || i + 1 == b.points.len())
+        })
         .collect();
     let estimate = |p: &nlmodes_nnm::BackbonePoint| {
         nlmodes_nnm::truncation_estimate(system, harmonics, params, p)
@@ -162,18 +158,19 @@ pub fn truncation(
     Ok(())
 }
 
+/// Whether point `i` lies on the linear segment or the main branch (not on a tongue).
+pub fn on_main_branch(b: &Backbone, i: usize) -> bool {
+    !matches!(
+        b.branches.get(b.points[i].branch).map(|br| &br.kind),
+        Some(BranchKind::Tongue { .. })
+    )
+}
+
 /// Floquet stability of every point (the massless contact boundary for points in contact, Hill's
 /// method or the event-based monodromy otherwise; docs/STABILITY.md), when `settings.enabled`:
-/// its own progress bar and stage timing, so the extra time shows. A point shot on the boundary
-/// gets its "N too small" flag (`truncation_warning`) from the exact orbit next to it: set where
-/// its w is more than `tolerance` (relative) from that orbit's, the converged w
-/// (docs/STABILITY.md Sec. 9.3), cleared otherwise.
-pub fn stability(
-    system: &System,
-    b: &mut Backbone,
-    settings: &StabilitySection,
-    tolerance: f64,
-) -> Result<()> {
+/// its own progress bar and stage timing, so the extra time shows. The "N too small" flag of a
+/// point in contact is set afterwards by `converged::converge`, against its converged orbit.
+pub fn stability(system: &System, b: &mut Backbone, settings: &StabilitySection) -> Result<()> {
     if !settings.enabled {
         tracing::info!("stability: off ([stability] enabled = false)");
         return Ok(());
@@ -185,13 +182,6 @@ pub fn stability(
     })
     .context("Floquet analysis of the backbone")?;
     bar.finish_and_clear();
-    for p in &mut b.points {
-        if let Some(st) = p.stability.as_ref() {
-            if st.method == nlmodes_nnm::StabilityMethod::Shooting {
-                p.truncation_warning = st.orbit_shift > tolerance;
-            }
-        }
-    }
     if failed > 0 {
         tracing::warn!(
             "{failed} of {} points have no stability (the analysis failed there)",
@@ -241,7 +231,7 @@ fn checks_text(b: &Backbone) -> String {
 }
 
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 36] = [
+pub const CSV_COLUMNS: [&str; 44] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -278,6 +268,14 @@ pub const CSV_COLUMNS: [&str; 36] = [
     "stability",
     "boundary_omega_change",
     "boundary_contact_share",
+    "converged_omega_ratio",
+    "converged_harmonics",
+    "converged_modes",
+    "converged_max_contact_share",
+    "converged_omega_change",
+    "converged_share_change",
+    "convergence",
+    "omega_error_to_converged",
 ];
 
 /// `backbone.csv`: one row per point, in continuation order (non-finite values are refused).
@@ -345,11 +343,36 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
                 .fold(0.0, f64::max)
                 .to_string()
         })));
+        row.extend(converged_cells(p, b.omega_linear));
         table
             .push_row(row)
             .with_context(|| format!("backbone point {i}"))?;
     }
     Ok(table)
+}
+
+/// The converged orbit's cells of a row (docs/STABILITY.md Sec. 9.4; empty where there is none).
+fn converged_cells(p: &nlmodes_nnm::BackbonePoint, omega_linear: f64) -> Vec<CsvValue> {
+    let Some(c) = p.converged.as_ref() else {
+        return vec![CsvValue::Text(String::new()); 8];
+    };
+    let o = c.orbit();
+    let opt = |v: Option<f64>| v.map_or(CsvValue::Text(String::new()), CsvValue::from);
+    let stop = match c.stop {
+        nlmodes_nnm::ConvergenceStop::Converged => "converged",
+        nlmodes_nnm::ConvergenceStop::MaxHarmonics => "max_harmonics",
+        nlmodes_nnm::ConvergenceStop::SolveFailed => "solve_failed",
+    };
+    vec![
+        (o.omega / omega_linear).into(),
+        CsvValue::Int(o.harmonics as i64),
+        CsvValue::Int(o.modes as i64),
+        o.contact_shares.iter().copied().fold(0.0, f64::max).into(),
+        opt(c.omega_change),
+        opt(c.share_change),
+        CsvValue::Text(stop.into()),
+        crate::converged::omega_error(p, c).into(),
+    ]
 }
 
 /// The CSV name of a bifurcation.

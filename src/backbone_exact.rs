@@ -209,7 +209,7 @@ fn intervals_text(gaps: &[(f64, f64)], g: f64) -> String {
 /// The report's paragraph on the exact backbone: its pieces, the q it covers (and the holes of
 /// the harmonic balance's main branch it fills), and the main-branch points whose w the exact
 /// orbit next to them does not confirm to `tolerance` (relative), named.
-pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) -> String {
+pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone) -> String {
     let g = b.gap_reference;
     let mut s = String::new();
     let orbits: usize = e.pieces.iter().map(|p| p.points.len()).sum();
@@ -230,7 +230,6 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone, tolerance: f64) 
     s.push_str(&pieces_table(e, g, b.omega_linear));
     let main: Vec<&Orbit> = b.points.iter().filter(|p| on_main(b, p)).collect();
     s.push_str(&coverage_text(b, e, &main));
-    s.push_str(&confirmation(&main, g, tolerance));
     s
 }
 
@@ -317,44 +316,4 @@ fn on_main(b: &BackboneFile, p: &Orbit) -> bool {
         b.branches.get(p.branch).map(|x| &x.kind),
         Some(BranchKind::Main)
     )
-}
-
-/// The main-branch points in contact whose exact orbit (the stability's shot orbit next to
-/// each) has w within `tolerance`, and the others named.
-fn confirmation(main: &[&Orbit], g: f64, tolerance: f64) -> String {
-    let shot: Vec<(&Orbit, f64)> = main
-        .iter()
-        .filter_map(|p| {
-            let st = p.stability.as_ref()?;
-            (st.method == nlmodes_nnm::StabilityMethod::Shooting).then_some((*p, st.orbit_shift))
-        })
-        .collect();
-    let off: Vec<&(&Orbit, f64)> = shot.iter().filter(|(_, d)| *d > tolerance).collect();
-    let harmonics = main
-        .first()
-        .map_or(0, |p| p.coefficients.len().saturating_sub(1));
-    let mut s = format!(
-        "\nOf the {} main-branch points in contact with an exact orbit next to them, {} have w \
-         within `truncation_tolerance` = {tolerance:.0e} of it (`boundary_omega_change` in the \
-         CSV).",
-        shot.len(),
-        shot.len() - off.len()
-    );
-    if !off.is_empty() {
-        let _ = write!(
-            s,
-            " The others, where N = {} harmonics are not converged to that tolerance (the \
-             harmonic balance approaches the exact orbit as N grows: on the default blade N = 20 \
-             and 40 reach it to 3e-4 away from the tongues, where N = 10 is off by up to 4e-3; \
-             docs/STABILITY.md Sec. 9.3; the exact w is the converged one), at q/g0 (w/w1, \
-             change): {}.",
-            harmonics,
-            off.iter()
-                .map(|(p, d)| format!("{:.3} ({:.4}, {d:.1e})", p.q / g, p.omega_ratio))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-    }
-    s.push('\n');
-    s
 }

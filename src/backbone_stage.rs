@@ -1,5 +1,6 @@
 //! The `backbone` stage of `nlmodes run` for one mode on one reduced model (at rest, or at a
-//! speed of `[rotation]`): trace, stability, kept orbits, truncation estimates, files in
+//! speed of `[rotation]`): trace, stability, converged orbits, kept
+//! orbits, truncation estimates, files in
 //! `<layout>/backbone/`. Reruns when the reduced model (the hash of the stage that wrote it) or
 //! `[nnm]`, `[continuation]`, `[algorithm]`, `[stability]` change. A backbone stopped before
 //! q_max keeps its results but no stamp (exit code 3).
@@ -10,6 +11,7 @@ use std::path::PathBuf;
 use crate::backbone;
 use crate::backbone_exact;
 use crate::case::Case;
+use crate::converged;
 use crate::layout::Layout;
 use crate::stage::{json, Only, Stage};
 use crate::stage_hash::fnv1a;
@@ -82,12 +84,8 @@ impl Stage for BackboneStage<'_> {
         backbone::check_reaches_contact(&system, cont)?;
         let hs = nlmodes_nnm::HarmonicSettings::new(case.nnm.harmonics, case.nnm.samples)?;
         let mut b = backbone::trace(&system, hs, &case.algorithm, cont)?;
-        backbone::stability(
-            &system,
-            &mut b,
-            &case.stability,
-            case.nnm.truncation_tolerance,
-        )?;
+        backbone::stability(&system, &mut b, &case.stability)?;
+        converged::converge(&system, &mut b, &case.stability, &case.nnm.convergence())?;
         let mut kept = backbone::kept_points(&system, hs, &case.algorithm, &b, &case.nnm.keep)?;
         let exact = backbone_exact::exact_outputs(&system, &b, &kept, &case.stability, cont.q_max)?;
         backbone::truncation(

@@ -144,8 +144,28 @@ pub struct NnmSection {
     /// the kept amplitudes).
     pub truncation_every: usize,
     /// A point is trusted when doubling N moves w by at most this (relative) and its contact share
-    /// by at most max(this, 2 / m).
+    /// by at most max(this, 2 / m). Also the converged orbits' tolerance on the change of w when
+    /// N is doubled, and the largest distance of a point's w from its converged orbit's before
+    /// it is flagged "N too small" (docs/STABILITY.md Sec. 9.4).
     pub truncation_tolerance: f64,
+    /// Converged orbits: largest change of a contact row's share of the period in contact when N
+    /// is doubled (a fraction of the period).
+    pub share_tolerance: f64,
+    /// Converged orbits: the largest N whose modes (w_k <= shooting_cutoff (N + 1) w) are kept
+    /// dynamic; N, 2N, 4N, ... are tried up to it. Default (absent): 2 x `harmonics`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_harmonics: Option<usize>,
+}
+
+impl NnmSection {
+    /// The converged orbits' settings (docs/STABILITY.md Sec. 9.4).
+    pub fn convergence(&self) -> nlmodes_nnm::ConvergenceSettings {
+        nlmodes_nnm::ConvergenceSettings {
+            omega_tolerance: self.truncation_tolerance,
+            share_tolerance: self.share_tolerance,
+            max_harmonics: self.max_harmonics.unwrap_or(2 * self.harmonics),
+        }
+    }
 }
 
 impl Default for Case {
@@ -214,6 +234,8 @@ impl Default for NnmSection {
             frames: 24,
             truncation_every: 10,
             truncation_tolerance: 1e-3,
+            share_tolerance: 0.02,
+            max_harmonics: None,
         }
     }
 }

@@ -251,7 +251,8 @@ fn exact_series(e: &BoundaryBackbone, g0: f64, w1: f64) -> Vec<Series> {
 }
 
 /// Fig. 3a: w / w1 against q / g0, grazing amplitude marked, tongues in a lighter colour, folds
-/// and jumps as markers; the exact backbone of the massless contact boundary in grey when given.
+/// and jumps as markers; the exact backbone of the massless contact boundary in grey when given,
+/// and the converged orbits of the main-branch points in contact as black dots.
 pub fn backbone_figure(
     b: &BackboneFile,
     exact: Option<&BoundaryBackbone>,
@@ -266,6 +267,23 @@ pub fn backbone_figure(
     );
     for series in exact.map_or_else(Vec::new, |e| exact_series(e, g0, b.omega_linear)) {
         plot = plot.with_series(series);
+    }
+    let converged: Vec<(f64, f64)> = b
+        .points
+        .iter()
+        .filter_map(|p| {
+            let c = p.converged.as_ref()?;
+            Some((p.q / g0, c.orbit().omega / b.omega_linear))
+        })
+        .collect();
+    if !converged.is_empty() {
+        let (x, y): (Vec<f64>, Vec<f64>) = converged.into_iter().unzip();
+        plot = plot.with_series(
+            Series::new("converged orbit at each q (docs/STABILITY.md 9.4)", x, y)
+                .color(Color(0, 0, 0))
+                .style(LineStyle::None)
+                .markers(true),
+        );
     }
     if let Some(q) = b.grazing_amplitude {
         plot = plot.with_ref_line(RefLine::vertical(q / g0, "grazing"));

@@ -8,6 +8,7 @@ mod campbell;
 mod campbell_stage;
 mod case;
 mod child;
+mod converged;
 mod exit;
 mod fe_model;
 mod figures;
@@ -177,6 +178,10 @@ struct BackboneArgs {
     /// Time samples per period m (>= 2N + 1).
     #[arg(long, default_value_t = NnmSection::default().samples)]
     samples: usize,
+    /// Converged orbits of the main-branch points in contact: the largest N whose modes are kept
+    /// dynamic (docs/STABILITY.md Sec. 9.4) [default: 2 x harmonics].
+    #[arg(long)]
+    max_harmonics: Option<usize>,
     /// Master coordinate (reduced DOF index); default: the model's.
     #[arg(long)]
     master: Option<usize>,
@@ -400,9 +405,15 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     let mut problems = validate::Problems::new(move |key| match key {
         "nnm.harmonics" => "--harmonics".to_string(),
         "nnm.samples" => "--samples".to_string(),
+        "nnm.max_harmonics" => "--max-harmonics".to_string(),
         other => format!("{label} (with --q-max/--q-start): {other}"),
     });
     validate::check_nnm(a.harmonics, a.samples, &mut problems);
+    let convergence = nlmodes_nnm::ConvergenceSettings {
+        max_harmonics: a.max_harmonics.unwrap_or(2 * a.harmonics),
+        ..NnmSection::default().convergence()
+    };
+    validate::check_convergence(&convergence, a.harmonics, &mut problems);
     validate::check_settings(&params, &cont, &mut problems);
     if !(cont.modes.is_empty() || cont.modes == [cont.mode]) {
         problems.check(
@@ -437,9 +448,8 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     backbone::check_reaches_contact(&system, &cont)?;
     let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
     let mut b = backbone::trace(&system, hs, &params, &cont)?;
-    // The "N too small" tolerance: the case default of `[nnm] truncation_tolerance`.
-    let tolerance = crate::case::NnmSection::default().truncation_tolerance;
-    backbone::stability(&system, &mut b, &stab, tolerance)?;
+    backbone::stability(&system, &mut b, &stab)?;
+    converged::converge(&system, &mut b, &stab, &convergence)?;
     let exact = backbone_exact::exact_outputs(&system, &b, &[], &stab, cont.q_max)?;
     backbone::write(&b, &a.out)?;
     backbone_exact::write(&exact, &b, &a.out)?;

@@ -187,13 +187,13 @@ fn backbone(r: &ReportInputs<'_>) -> String {
     internal_resonances(&mut s, b);
     boundary_comparison(&mut s, b);
     if let Some(e) = r.exact {
-        s.push_str(&crate::backbone_exact::report_paragraph(
-            b,
-            e,
-            r.case.nnm.truncation_tolerance,
-        ));
+        s.push_str(&crate::backbone_exact::report_paragraph(b, e));
         s.push('\n');
     }
+    s.push_str(&crate::converged::report_paragraph(
+        b,
+        &r.case.nnm.convergence(),
+    ));
     backbone_table(&mut s, b);
     let _ = writeln!(s, "\nFull table: `backbone/backbone.csv`; every orbit's Fourier coefficients: `backbone/backbone.json`.\n");
     truncation_table(&mut s, b, r.kept, g0);
@@ -279,14 +279,15 @@ fn backbone_table(s: &mut String, b: &BackboneFile) {
     let g0 = b.gap_reference;
     let _ = writeln!(
         s,
-        "Flag \"N too small\": a point in contact whose w is more than `truncation_tolerance` from \
-         the exact orbit of the massless contact boundary next to it (the converged w, \
-         docs/STABILITY.md Sec. 9.3); for a point not shot there, its highest harmonic holds more \
-         than `truncation_warning` of the contact motion.\n"
+        "Flag \"N too small\": a main-branch point in contact whose w is more than \
+         `truncation_tolerance` from its converged orbit's (the exact orbit of the massless \
+         contact boundary at the same q, docs/STABILITY.md Sec. 9.4; its w/w1 and the N of its \
+         modes in the column \"converged w/w1 (N)\"), or that has none; for another point, its \
+         highest harmonic holds more than `truncation_warning` of the contact motion.\n"
     );
     let _ = writeln!(
         s,
-        "| q/g0 | w/w1 | f [Hz] | nodes touching | max contact share | G | Newton its | stability (max abs mu, trivial-pair error) | flags |\n|---|---|---|---|---|---|---|---|---|"
+        "| q/g0 | w/w1 | converged w/w1 (N) | f [Hz] | nodes touching | max contact share (converged) | G | Newton its | stability (max abs mu, trivial-pair error) | flags |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     let stride = (b.points.len() / 25).max(1);
     for (i, p) in b.points.iter().enumerate() {
@@ -324,14 +325,24 @@ fn backbone_table(s: &mut String, b: &BackboneFile) {
         .chain(bifurcation)
         .collect::<Vec<_>>()
         .join(", ");
+        let converged = p.converged.as_ref().map(|c| c.orbit());
+        let converged_w = converged.map_or("-".to_string(), |c| {
+            format!("{:.6} ({})", c.omega / b.omega_linear, c.harmonics)
+        });
+        let share = match converged {
+            Some(c) => format!(
+                "{share:.3} ({:.3})",
+                c.contact_shares.iter().copied().fold(0.0, f64::max)
+            ),
+            None => format!("{share:.3}"),
+        };
         let _ = writeln!(
             s,
-            "| {:.3} | {:.6} | {:.3} | {} | {:.3} | {:.1e} | {} | {stability} | {} |",
+            "| {:.3} | {:.6} | {converged_w} | {:.3} | {} | {share} | {:.1e} | {} | {stability} | {} |",
             p.q / g0,
             p.omega_ratio,
             p.frequency_hz,
             p.touching(),
-            share,
             p.powell_measure,
             p.newton_iterations,
             flags

@@ -46,6 +46,9 @@ pub struct Orbit {
     /// The harmonic-truncation estimate (2N re-solve), where it was made.
     #[serde(default)]
     pub truncation: Option<TruncationRecord>,
+    /// The converged orbit at this q (main-branch points in contact; docs/STABILITY.md Sec. 9.4).
+    #[serde(default)]
+    pub converged: Option<nlmodes_nnm::ConvergedOrbit>,
     /// u_n, n = 0..N (reduced coordinates, m).
     pub coefficients: Vec<Vec<f64>>,
     /// lambda_{j,k} (N) at t_k = k T / m, one vector of m samples per contact row.

@@ -61,6 +61,7 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
         tol,
         "a relative change in (0, 1)",
     );
+    check_convergence(&case.nnm.convergence(), case.nnm.harmonics, &mut p);
     if let Err(e) = case.stability.hill.validate() {
         p.note("stability.hill", &e.to_string());
     }
@@ -303,6 +304,24 @@ pub fn check_output_file(out: &Path, what: &str) -> Result<()> {
     }
     let parent = out.parent().unwrap_or(Path::new("."));
     check_output_dir(parent, what)
+}
+
+/// The converged orbits' settings (`nnm.share_tolerance`, `nnm.max_harmonics`; the command line
+/// names them through `p`'s labels).
+pub fn check_convergence(r: &nlmodes_nnm::ConvergenceSettings, harmonics: usize, p: &mut Problems) {
+    let tol = r.share_tolerance;
+    p.check(
+        tol.is_finite() && (0.0..1.0).contains(&tol),
+        "nnm.share_tolerance",
+        tol,
+        "a fraction of the period in [0, 1)",
+    );
+    p.check(
+        r.max_harmonics >= harmonics && r.max_harmonics <= 1000,
+        "nnm.max_harmonics",
+        r.max_harmonics,
+        &format!("an N from harmonics = {harmonics} up to 1000 (each refinement doubles N)"),
+    );
 }
 
 #[cfg(test)]

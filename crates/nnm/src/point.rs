@@ -78,6 +78,11 @@ pub struct BackbonePoint {
     /// computed, see [`crate::truncation_estimate`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub truncation: Option<crate::TruncationEstimate>,
+    /// The converged orbit at this q: the exact orbit of the massless contact boundary with its
+    /// dynamic modes chosen by accuracy (None when not computed, see
+    /// [`crate::FloquetAnalysis::converged_orbit`]; docs/STABILITY.md Sec. 9.4).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub converged: Option<crate::ConvergedOrbit>,
     /// Floquet stability by Hill's method ([`crate::analyze_backbone`]; None when not computed).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stability: Option<crate::Stability>,

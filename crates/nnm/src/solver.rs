@@ -305,6 +305,7 @@ impl<'s> Solver<'s> {
             branch: 0,
             pre_fold: false,
             truncation: None,
+            converged: None,
             stability: None,
             bifurcation: None,
             truncation_share,

@@ -42,7 +42,7 @@ use nlmodes_hb::arc_length::{trace_curve, CurveEnd, CurveEquations, CurveSetting
 /// Instants per period at which the master's displacement is sampled (its first harmonic by
 /// the trapezoid rule, exact for a smooth periodic function up to aliasing from harmonics 127
 /// and 129).
-const MASTER_SAMPLES: usize = 128;
+pub(super) const MASTER_SAMPLES: usize = 128;
 
 /// One exact orbit of the boundary's backbone.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -120,13 +120,13 @@ impl BoundaryBackbone {
 }
 
 /// The master's displacement on the boundary from q and lambda (module docs).
-struct MasterRow {
-    kept: Vec<f64>,
-    contact: Vec<f64>,
+pub(super) struct MasterRow {
+    pub(super) kept: Vec<f64>,
+    pub(super) contact: Vec<f64>,
 }
 
 impl MasterRow {
-    fn new(analysis: &FloquetAnalysis<'_>, r: usize) -> Self {
+    pub(super) fn new(analysis: &FloquetAnalysis<'_>, r: usize) -> Self {
         let modal = analysis.modal_data();
         let phi_m = analysis.master_modal();
         let b = modal.contact_modal;
@@ -143,7 +143,7 @@ impl MasterRow {
         }
     }
 
-    fn at(&self, q: &[f64], lambda: &[f64]) -> f64 {
+    pub(super) fn at(&self, q: &[f64], lambda: &[f64]) -> f64 {
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         dot(&self.kept, q) - dot(&self.contact, lambda)
     }

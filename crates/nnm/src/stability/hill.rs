@@ -277,6 +277,7 @@ impl<'s> FloquetAnalysis<'s> {
         out.harmonics = harmonics;
         out.impacts = orbit.switches;
         out.orbit_shift = (point.period() / orbit.period - 1.0).abs();
+        out.orbit_omega = 2.0 * std::f64::consts::PI / orbit.period;
         out.contact_shares = orbit.contact_shares.clone();
         if verify {
             out.check = Some(check_by_rk4(&model, &orbit)?);
@@ -777,6 +778,7 @@ pub(crate) fn stability_with_trivial(
         method: StabilityMethod::Hill,
         impacts: 0,
         orbit_shift: 0.0,
+        orbit_omega: 0.0,
         contact_shares: Vec::new(),
         check: None,
     }

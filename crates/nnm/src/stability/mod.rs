@@ -79,6 +79,7 @@
 //! approximated beyond N and m.
 
 mod bifurcation;
+mod boundary_at_q;
 mod boundary_backbone;
 mod boundary_flow;
 mod boundary_history;
@@ -91,6 +92,7 @@ mod saltation;
 mod test_models;
 
 pub use bifurcation::{classify, Bifurcation};
+pub use boundary_at_q::{ConvergedOrbit, ConvergenceSettings, ConvergenceStop, ExactOrbitAtQ};
 pub use boundary_backbone::{
     boundary_backbone, BoundaryBackbone, BoundaryBackbonePoint, BoundaryPiece,
 };
@@ -396,6 +398,9 @@ pub struct Stability {
     /// |w_shot - w| / w: how far the shot periodic orbit of the massless boundary lies from the
     /// harmonic-balance orbit (shooting method; 0 for the others).
     pub orbit_shift: f64,
+    /// w of the shot periodic orbit (rad/s; shooting method, 0 for the others): the converged
+    /// reference of the harmonic refinement (docs/STABILITY.md Sec. 9.4).
+    pub orbit_omega: f64,
     /// Shooting method: the share of the period each contact row of the shot orbit is closed,
     /// exact (from its switch instants); empty for the other methods.
     #[serde(skip_serializing_if = "Vec::is_empty")]
