@@ -191,7 +191,7 @@ pub fn report_paragraph(b: &BackboneFile, settings: &ConvergenceSettings) -> Str
 fn why(b: &BackboneFile, p: &Orbit, c: Option<&ConvergedOrbit>, s: &ConvergenceSettings) -> String {
     let g = b.gap_reference;
     let reason = match c.map(|c| c.stop) {
-        None => "no exact orbit of the boundary at this q from the point's state".to_string(),
+        None => "no exact orbit of the boundary at this q within 1 % of the point's w".to_string(),
         Some(ConvergenceStop::SolveFailed) => "the orbit with the modes of 2N was not found".into(),
         Some(ConvergenceStop::MaxHarmonics) => {
             let moving = |v: Option<f64>, tol: f64| v.is_some_and(|x| x > tol);

@@ -277,6 +277,31 @@ fn coarse_blade_study_end_to_end() {
         "the exact orbit's contact nodes reach {highest} g0, not the stop at 1"
     );
     assert!(report.contains("radial_boundary_q12.0.png"));
+    // Converged orbits (docs/STABILITY.md Sec. 9.4): every main-branch point in contact has
+    // one or is named in the report; each converged one was checked at 2N (two levels, or one
+    // where 2N adds no mode, its change then 0) and its last change is within the tolerances.
+    let bj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(res.join("backbone/backbone.json")).unwrap())
+            .unwrap();
+    let mut with_orbit = 0;
+    for p in bj["points"].as_array().unwrap() {
+        let Some(c) = p.get("converged") else {
+            continue;
+        };
+        with_orbit += 1;
+        if c["stop"] == "converged" {
+            let levels = c["levels"].as_array().unwrap();
+            let dw = c["omega_change"].as_f64().unwrap();
+            let ds = c["share_change"].as_f64().unwrap();
+            assert!(dw <= 1e-3 && ds <= 0.02, "{c}");
+            assert!(levels.len() == 2 || (dw == 0.0 && ds == 0.0), "{c}");
+        }
+    }
+    assert!(with_orbit > 0, "no converged orbit computed");
+    assert!(
+        report.contains("Converged orbits"),
+        "report: no converged-orbit paragraph"
+    );
     // The ParaView files through an independent reader (meshio): cell type, VTK edge-node order,
     // fields (the XDMF series: every frame).
     for args in [

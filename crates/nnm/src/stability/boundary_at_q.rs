@@ -32,7 +32,7 @@ use super::boundary_backbone::{MasterRow, MASTER_SAMPLES};
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
 use super::boundary_shooting::{boundary_model, modal_coordinates};
 use super::hill::penalty_of;
-use super::FloquetAnalysis;
+use super::{FloquetAnalysis, SHOOTING_SHIFT_LIMIT};
 use crate::point::BackbonePoint;
 use crate::NnmError;
 
@@ -142,6 +142,11 @@ impl FloquetAnalysis<'_> {
                 None => return Ok(None),
             },
         };
+        // An orbit of the same q farther in w than the stability trusts a shot orbit to be from
+        // its point is another member of the family (a tongue's), not this point's.
+        if (first.omega / point.omega - 1.0).abs() > SHOOTING_SHIFT_LIMIT {
+            return Ok(None);
+        }
         let mut out = ConvergedOrbit {
             levels: vec![first],
             omega_change: None,
