@@ -140,8 +140,9 @@ pub struct NnmSection {
     /// VTU frames over one period for each kept amplitude.
     pub frames: usize,
     /// The harmonic-truncation estimate (each point re-solved with 2N harmonics) is computed at
-    /// the kept amplitudes and at every `truncation_every`-th point of the main branch (0: only at
-    /// the kept amplitudes).
+    /// the kept amplitudes and at every `truncation_every`-th point of the main branch (0, the
+    /// default: only at the kept amplitudes; the main-branch points in contact are held to
+    /// their converged orbits instead, docs/STABILITY.md Sec. 9.4).
     pub truncation_every: usize,
     /// A point is trusted when doubling N moves w by at most this (relative) and its contact share
     /// by at most max(this, 2 / m). Also the converged orbits' tolerance on the change of w when
@@ -232,7 +233,7 @@ impl Default for NnmSection {
             samples: 128,
             keep: vec![5.7, 9.3, 31.3],
             frames: 24,
-            truncation_every: 10,
+            truncation_every: 0,
             truncation_tolerance: 1e-3,
             share_tolerance: 0.02,
             max_harmonics: None,

@@ -139,9 +139,9 @@ pub fn report_paragraph(b: &BackboneFile, settings: &ConvergenceSettings) -> Str
         .count();
     let mut s = format!(
         "\nConverged orbits (docs/STABILITY.md Sec. 9.4; columns `converged_*` of \
-         `backbone/backbone.csv`, black dots in Fig. 3a): each main-branch point in contact has \
-         the exact periodic orbit of the massless contact boundary at its own q, no harmonic \
-         truncated in time; N only sets the modes kept dynamic (w_k <= shooting_cutoff (N + 1) \
+         `backbone/backbone.csv`, black dots in Fig. 3a): each main-branch point in contact is \
+         given the exact periodic orbit of the massless contact boundary at its own q where one \
+         is found within 1 % of its w, no harmonic truncated in time; N only sets the modes kept dynamic (w_k <= shooting_cutoff (N + 1) \
          w) and is doubled up to N = {} until w changes by at most {:.0e} and every contact \
          share by at most {} of the period. {converged} of the {} points in contact converged; \
          the harmonic-balance w is within {:.0e} of its converged w at {close} of the {} points \
