@@ -226,11 +226,13 @@ impl FloquetAnalysis<'_> {
             q_scale: norm(&q0),
             t_ref: point.period(),
         };
-        let Some((q0, period)) = equations.solve(q0, period)? else {
+        // One flow for the Newton iterations and the shares: its contact sets' pieces are cached.
+        let mut flow = BoundaryFlow::new(&model);
+        let Some((q0, period)) = equations.solve(&mut flow, q0, period)? else {
             tracing::debug!(q = point.q, harmonics, "exact orbit at q: no convergence");
             return Ok(None);
         };
-        let (shares, switches) = equations.shares(&q0, period)?;
+        let (shares, switches) = equations.shares(&mut flow, &q0, period)?;
         Ok(Some(ExactOrbitAtQ {
             harmonics,
             modes: r,
@@ -275,15 +277,19 @@ impl AtQ<'_> {
     }
 
     /// Newton with a line search on the residual's norm, from (q0, T).
-    fn solve(&self, q0: Vec<f64>, period: f64) -> Result<Option<(Vec<f64>, f64)>, NnmError> {
+    fn solve(
+        &self,
+        flow: &mut BoundaryFlow<'_>,
+        q0: Vec<f64>,
+        period: f64,
+    ) -> Result<Option<(Vec<f64>, f64)>, NnmError> {
         let r = self.r();
         if !(self.q_scale > 0.0 && self.q_scale.is_finite() && period > 0.0) {
             return Ok(None);
         }
-        let mut flow = BoundaryFlow::new(self.model);
         let mut z: Vec<f64> = q0.iter().map(|v| v / self.q_scale).collect();
         z.push(period / self.t_ref);
-        let mut at = self.residual(&mut flow, &z)?;
+        let mut at = self.residual(flow, &z)?;
         let mut res = norm(&at.value);
         for _ in 0..NEWTON_ITERATIONS {
             if res < NEWTON_TOLERANCE {
@@ -300,7 +306,7 @@ impl AtQ<'_> {
             for _ in 0..=LINE_SEARCH_HALVINGS {
                 let trial_z: Vec<f64> = (0..=r).map(|i| z[i] + factor * step[(i, 0)]).collect();
                 if trial_z[r] > 0.0 {
-                    let trial = self.residual(&mut flow, &trial_z)?;
+                    let trial = self.residual(flow, &trial_z)?;
                     let trial_res = norm(&trial.value);
                     if trial_res < res {
                         (z, at, res) = (trial_z, trial, trial_res);
@@ -403,16 +409,23 @@ impl AtQ<'_> {
     }
 
     /// The exact contact shares and switches of the orbit from rest at q0 over one period.
-    fn shares(&self, q0: &[f64], period: f64) -> Result<(Vec<f64>, usize), NnmError> {
-        let mut flow = BoundaryFlow::new(self.model);
+    fn shares(
+        &self,
+        flow: &mut BoundaryFlow<'_>,
+        q0: &[f64],
+        period: f64,
+    ) -> Result<(Vec<f64>, usize), NnmError> {
         let mut active = flow.active_set_at(q0)?;
         let mut state = FlowState {
             q: q0.to_vec(),
             v: vec![0.0; q0.len()],
         };
+        let (closed, switches) = (flow.closed_time.clone(), flow.switches);
         flow.advance(&mut state, &mut active, period, None)?;
-        let shares = flow.closed_time.iter().map(|t| t / period).collect();
-        Ok((shares, flow.switches))
+        let shares = (flow.closed_time.iter().zip(&closed))
+            .map(|(after, before)| (after - before) / period)
+            .collect();
+        Ok((shares, flow.switches - switches))
     }
 }
 
@@ -460,7 +473,11 @@ mod tests {
             q_scale: norm(&q0),
             t_ref: t,
         };
-        equations.solve(q0, t).expect("solve").expect("converged")
+        let mut flow = BoundaryFlow::new(model);
+        equations
+            .solve(&mut flow, q0, t)
+            .expect("solve")
+            .expect("converged")
     }
 
     #[test]
