@@ -371,7 +371,7 @@ fn converged_cells(p: &nlmodes_nnm::BackbonePoint, omega_linear: f64) -> Vec<Csv
         opt(c.omega_change),
         opt(c.share_change),
         CsvValue::Text(stop.into()),
-        crate::converged::omega_error(p, c).into(),
+        c.omega_error(p.omega).into(),
     ]
 }
 

@@ -63,7 +63,7 @@ pub fn converge(
         let p = &mut b.points[i];
         p.truncation_warning = c
             .as_ref()
-            .is_none_or(|c| omega_error(p, c) > settings.omega_tolerance);
+            .is_none_or(|c| c.omega_error(p.omega) > settings.omega_tolerance);
         p.converged = c;
     }
     stage.done(&summary(b, &chosen, settings));
@@ -73,12 +73,6 @@ pub fn converge(
 /// Whether any contact force of the point is positive.
 fn in_contact(p: &BackbonePoint) -> bool {
     p.contact_force.iter().flatten().any(|&f| f > 0.0)
-}
-
-/// |w - w_converged| / w_converged of a harmonic-balance point.
-pub fn omega_error(p: &BackbonePoint, c: &ConvergedOrbit) -> f64 {
-    let w = c.orbit().omega;
-    (p.omega - w).abs() / w
 }
 
 /// "k of n converged (a at N = 10, b at N = 20, ...); c not (why); d harmonic-balance points
@@ -135,7 +129,7 @@ pub fn report_paragraph(b: &BackboneFile, settings: &ConvergenceSettings) -> Str
     let converged = with.iter().filter(|(_, c)| c.converged()).count();
     let close = with
         .iter()
-        .filter(|(p, c)| (p.omega / c.orbit().omega - 1.0).abs() <= settings.omega_tolerance)
+        .filter(|(p, c)| c.omega_error(p.omega) <= settings.omega_tolerance)
         .count();
     let mut s = format!(
         "\nConverged orbits (docs/STABILITY.md Sec. 9.4; columns `converged_*` of \

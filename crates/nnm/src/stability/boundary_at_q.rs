@@ -101,6 +101,13 @@ impl ConvergedOrbit {
     pub fn converged(&self) -> bool {
         self.stop == ConvergenceStop::Converged
     }
+
+    /// |w - w_converged| / w_converged of a frequency w (rad/s), such as the harmonic-balance
+    /// point's: what the "N too small" flag reads.
+    pub fn omega_error(&self, omega: f64) -> f64 {
+        let w = self.orbit().omega;
+        (omega - w).abs() / w
+    }
 }
 
 /// Tolerances and the largest N of [`FloquetAnalysis::converged_orbit`].
@@ -132,15 +139,12 @@ impl FloquetAnalysis<'_> {
             .as_ref()
             .filter(|s| s.orbit_omega > 0.0)
             .map(|s| 2.0 * std::f64::consts::PI / s.orbit_omega);
-        let first = match self.exact_orbit_at_q(point, harmonics, None)? {
-            Some(first) => first,
-            None => match shot_period {
-                Some(t) => match self.exact_orbit_at_q(point, harmonics, Some(Start::Period(t)))? {
-                    Some(first) => first,
-                    None => return Ok(None),
-                },
-                None => return Ok(None),
-            },
+        let mut first = self.exact_orbit_at_q(point, harmonics, None)?;
+        if let (None, Some(t)) = (&first, shot_period) {
+            first = self.exact_orbit_at_q(point, harmonics, Some(Start::Period(t)))?;
+        }
+        let Some(first) = first else {
+            return Ok(None);
         };
         // An orbit of the same q farther in w than the stability trusts a shot orbit to be from
         // its point is another member of the family (a tongue's), not this point's.
