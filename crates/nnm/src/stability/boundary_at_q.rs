@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 use super::boundary_backbone::{MasterRow, MASTER_SAMPLES};
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
-use super::boundary_shooting::{boundary_model, modal_coordinates};
+use super::boundary_shooting::{boundary_model, modal_coordinates, norm};
 use super::hill::penalty_of;
 use super::{FloquetAnalysis, SHOOTING_SHIFT_LIMIT};
 use crate::point::BackbonePoint;
@@ -431,10 +431,6 @@ impl AtQ<'_> {
             .collect();
         Ok((shares, flow.switches - switches))
     }
-}
-
-fn norm(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 #[cfg(test)]

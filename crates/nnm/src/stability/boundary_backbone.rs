@@ -31,7 +31,9 @@ use serde::{Deserialize, Serialize};
 
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
 use super::boundary_shooting::ShotOrbit;
-use super::boundary_shooting::{boundary_model, exponents_of, half_period, modal_coordinates};
+use super::boundary_shooting::{
+    boundary_model, exponents_of, half_period, modal_coordinates, norm,
+};
 use super::hill::{penalty_of, stability_from_exponents};
 use super::{verdict_word, FloquetAnalysis, StabilityMethod, VerdictInputs};
 use crate::continuation::{Backbone, BranchKind};
@@ -665,10 +667,6 @@ fn trace_piece(
         upper_end: up.end,
         gap: false,
     }))
-}
-
-fn norm(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 #[cfg(test)]

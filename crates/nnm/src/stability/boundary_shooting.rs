@@ -69,7 +69,8 @@ pub(super) fn half_period(
     })
 }
 
-fn norm(x: &[f64]) -> f64 {
+/// Euclidean norm (shared by the boundary modules).
+pub(super) fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
