@@ -56,3 +56,26 @@ pub fn without_aslr(cmd: &mut Command) -> &mut Command {
     }
     cmd
 }
+
+/// Runs `cmd`'s child at a lower scheduling priority (nice +`NICE_BESIDE`, as `nice -n` does):
+/// for work that runs beside the stages on the critical path (the modes stage beside the
+/// backbone) and has time to spare, so that it takes the cores they leave idle instead of
+/// sharing theirs. Best effort: where the call is refused the child runs at normal priority.
+pub fn at_lower_priority(cmd: &mut Command) -> &mut Command {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: the closure runs in the forked child before exec and calls only the
+        // async-signal-safe setpriority, allocating nothing.
+        unsafe {
+            cmd.pre_exec(|| {
+                libc::setpriority(libc::PRIO_PROCESS, 0, NICE_BESIDE);
+                Ok(())
+            });
+        }
+    }
+    cmd
+}
+
+/// The niceness of a child that runs beside the critical path (`at_lower_priority`).
+const NICE_BESIDE: libc::c_int = 10;

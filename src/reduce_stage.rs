@@ -333,6 +333,7 @@ impl ModesChild {
             "stage modes: {} clamped modes of the full model, in a child process beside the stages that follow",
             case.model.linear_modes
         );
+        crate::child::at_lower_priority(&mut cmd);
         let child = crate::child::die_with_parent(&mut cmd)
             .spawn()
             .with_context(|| format!("cannot start {} modes", exe.display()))?;

@@ -22,39 +22,14 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 use crate::condensation_basis::CondensedBasis;
 use crate::dense::DenseLu;
 use crate::error::HbError;
+use crate::harmonic_block::{BlockInputs, HarmonicBlock, ReducedRows, NOT_IN};
 use crate::layout::HarmonicLayout;
 use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::modal_tail::ModalTail;
 use crate::system::System;
 
-/// Pivot ratio of a per-harmonic interior block below which the step is redone without it.
-const INTERIOR_PIVOT_RATIO: f64 = 1e-12;
 /// Relative linear residual above which a fast step is redone with the full kept system.
 const STEP_CHECK_TOLERANCE: f64 = 1e-9;
-const NOT_IN: usize = usize::MAX;
-
-#[derive(Default)]
-struct HarmonicBlock {
-    near: Vec<usize>,
-    size: usize,
-    /// Kept block (size x size, column-major).
-    a: Vec<f64>,
-    cw: Vec<f64>,
-    b: Vec<f64>,
-    /// Parameter-row coefficients on the kept coordinates of this harmonic.
-    arc: Vec<f64>,
-    /// 1 / (Lambda_i - s) for eliminated modes, 0 for near ones.
-    wt: Vec<f64>,
-    border: Vec<usize>,
-    interior: Vec<usize>,
-    /// Position of a kept coordinate in `border` (or NOT_IN).
-    border_pos: Vec<usize>,
-    lu: DenseLu,
-    /// A_II^-1 [A_IB | cw_I | b_I] (n_I x (n_B + 2), column-major).
-    xs: Vec<f64>,
-    /// Solved kept-block step.
-    delta: Vec<f64>,
-}
 
 /// Adds the contact coupling between harmonics on the active contact coordinates to the reduced
 /// matrix (the blocks' borders placed at `offsets`).
@@ -78,122 +53,6 @@ fn add_contact_coupling(
     }
 }
 
-/// Where a block's rows go in the reduced system: its border starts at `offset`; `iw` and `iq`
-/// are the w column (and normalization row) and the parameter row.
-#[derive(Clone, Copy)]
-struct ReducedRows {
-    offset: usize,
-    iw: usize,
-    iq: usize,
-}
-
-impl HarmonicBlock {
-    /// Factors the interior block A_II and solves A_II^-1 [A_IB | cw_I | b_I] into `xs`. Returns
-    /// false if A_II is too close to singular.
-    fn eliminate_interior(&mut self) -> bool {
-        let (nb, ni, sz) = (self.border.len(), self.interior.len(), self.size);
-        if ni == 0 {
-            return true;
-        }
-        let a = MatRef::from_column_major_slice(&self.a[..], sz, sz);
-        {
-            let mut aii = self.lu.matrix(ni);
-            for (jj, &jc) in self.interior.iter().enumerate() {
-                for (ii, &ic) in self.interior.iter().enumerate() {
-                    aii[(ii, jj)] = a[(ic, jc)];
-                }
-            }
-        }
-        if !self.lu.factor() || self.lu.min_pivot_ratio < INTERIOR_PIVOT_RATIO {
-            return false;
-        }
-        let ncols = nb + 2;
-        self.xs.clear();
-        self.xs.resize(ni * ncols, 0.0);
-        let mut xs = MatMut::from_column_major_slice_mut(&mut self.xs[..], ni, ncols);
-        for (ii, &ic) in self.interior.iter().enumerate() {
-            for (bb, &bc) in self.border.iter().enumerate() {
-                xs[(ii, bb)] = a[(ic, bc)];
-            }
-            xs[(ii, nb)] = self.cw[ic];
-            xs[(ii, nb + 1)] = self.b[ic];
-        }
-        self.lu.solve_in_place(xs);
-        true
-    }
-
-    /// A_II^-1 [A_IB | cw_I | b_I] (after [`HarmonicBlock::eliminate_interior`]).
-    fn interior_solution(&self) -> MatRef<'_, f64> {
-        let (nb, ni) = (self.border.len(), self.interior.len());
-        MatRef::from_column_major_slice(&self.xs[..ni * (nb + 2)], ni, nb + 2)
-    }
-
-    /// Writes the block's Schur complement on its border (matrix, w column, right-hand side and
-    /// parameter-row entries) into the reduced system, and subtracts the interior's fill of the
-    /// parameter row's w entry and right-hand side from `arc_fill`.
-    fn add_to_reduced(
-        &self,
-        rows: ReducedRows,
-        mut red: MatMut<'_, f64>,
-        reduced_rhs: &mut [f64],
-        arc_fill: &mut [f64; 2],
-    ) {
-        let (nb, sz, off) = (self.border.len(), self.size, rows.offset);
-        let a = MatRef::from_column_major_slice(&self.a[..], sz, sz);
-        let xs = self.interior_solution();
-        for (bb, &br) in self.border.iter().enumerate() {
-            let row = off + bb;
-            for (cc, &bc) in self.border.iter().enumerate() {
-                let mut v = a[(br, bc)];
-                for (ii, &ic) in self.interior.iter().enumerate() {
-                    v -= a[(br, ic)] * xs[(ii, cc)];
-                }
-                red[(row, off + cc)] = v;
-            }
-            let mut vw = self.cw[br];
-            let mut vb = self.b[br];
-            for (ii, &ic) in self.interior.iter().enumerate() {
-                vw -= a[(br, ic)] * xs[(ii, nb)];
-                vb -= a[(br, ic)] * xs[(ii, nb + 1)];
-            }
-            red[(row, rows.iw)] = vw;
-            reduced_rhs[row] = vb;
-        }
-        // Parameter row: border entries, minus the fill from the eliminated interior.
-        for (cc, &bc) in self.border.iter().enumerate() {
-            let mut v = self.arc[bc];
-            for (ii, &ic) in self.interior.iter().enumerate() {
-                v -= self.arc[ic] * xs[(ii, cc)];
-            }
-            red[(rows.iq, off + cc)] = v;
-        }
-        for (ii, &ic) in self.interior.iter().enumerate() {
-            arc_fill[0] -= self.arc[ic] * xs[(ii, nb)];
-            arc_fill[1] -= self.arc[ic] * xs[(ii, nb + 1)];
-        }
-    }
-
-    /// The block's step from the reduced solution: `border_step` (the reduced unknowns from the
-    /// block's offset on) for the border, back-substitution for the interior.
-    fn recover_step(&mut self, border_step: &[f64], dw: f64) {
-        let nb = self.border.len();
-        self.delta.clear();
-        self.delta.resize(self.size, 0.0);
-        for (bb, &bc) in self.border.iter().enumerate() {
-            self.delta[bc] = border_step[bb];
-        }
-        let ni = self.interior.len();
-        let xs = MatRef::from_column_major_slice(&self.xs[..ni * (nb + 2)], ni, nb + 2);
-        for (ii, &ic) in self.interior.iter().enumerate() {
-            let mut v = xs[(ii, nb + 1)] - xs[(ii, nb)] * dw;
-            for bb in 0..nb {
-                v -= xs[(ii, bb)] * border_step[bb];
-            }
-            self.delta[ic] = v;
-        }
-    }
-}
-
 pub struct CondensedModel {
     layout: HarmonicLayout,
     basis: CondensedBasis,
@@ -204,12 +63,6 @@ pub struct CondensedModel {
     reduced: DenseLu,
     reduced_rhs: Vec<f64>,
     offsets: Vec<usize>,
-    dt: Mat<f64>,
-    dw: Mat<f64>,
-    s_mat: Mat<f64>,
-    /// Scratch: [wz, rhs_z] of one harmonic and [cw, b] of its kept block.
-    wzb: Vec<f64>,
-    cwb: Vec<f64>,
     /// Number of steps redone with the full kept system (diagnostics).
     pub fallbacks: usize,
 }
@@ -241,27 +94,28 @@ impl CondensedModel {
             reduced: DenseLu::default(),
             reduced_rhs: Vec::new(),
             offsets: Vec::new(),
-            dt: Mat::zeros(r, n_o),
-            dw: Mat::zeros(r, n_o),
-            s_mat: Mat::zeros(r, r),
-            wzb: Vec::new(),
-            cwb: Vec::new(),
             fallbacks: 0,
         })
     }
 
-    /// Level 1 for every harmonic: kept blocks, w columns and right-hand sides.
+    /// Level 1 for every harmonic: kept blocks, w columns and right-hand sides (each harmonic's
+    /// block from shared inputs only).
     fn build_blocks(&mut self, jac: &JacobianData<'_>, rhs: &[f64]) {
         let (wy, wz) = self.frequency_columns(jac);
         let nh = self.layout.count();
         self.blocks.resize_with(nh, HarmonicBlock::default);
-        for h in 0..nh {
-            let s = (h as f64 * jac.omega).powi(2);
-            let split = self.select_near(h, s);
-            self.schur_complement(h, s, split);
-            self.assemble_kept_block(h, s);
-            self.condense_columns(h, &wy, &wz, rhs);
-            self.parameter_row(h, jac);
+        let inputs = BlockInputs {
+            basis: &self.basis,
+            tail: &self.tail,
+            window: self.window,
+            layout: self.layout,
+            jac,
+            rhs,
+            wy: &wy,
+            wz: &wz,
+        };
+        for (h, blk) in self.blocks.iter_mut().enumerate() {
+            blk.build(&inputs, h);
         }
     }
 
@@ -287,141 +141,6 @@ impl CondensedModel {
             }
         }
         (wy, wz)
-    }
-
-    /// Sorts the other modes of harmonic h at s = (n w)^2 into those near resonance (explicit in
-    /// the block) and the eliminated ones (weight 1 / (Lambda_i - s)). Returns the modal-tail
-    /// split: modes from the cut on are summed by the precomputed series (`modal_tail`).
-    fn select_near(&mut self, h: usize, s: f64) -> (usize, Option<usize>) {
-        let bs = &self.basis;
-        let blk = &mut self.blocks[h];
-        blk.near.clear();
-        blk.wt.resize(bs.n_o, 0.0);
-        let (cut, tail) = self.tail.split(&bs.lambda, s);
-        for i in 0..bs.n_o {
-            let lam_i = bs.lambda[i];
-            if i < cut && (lam_i - s).abs() < self.window * lam_i {
-                blk.near.push(i);
-                blk.wt[i] = 0.0;
-            } else {
-                blk.wt[i] = 1.0 / (lam_i - s);
-            }
-        }
-        (cut, tail)
-    }
-
-    /// Dt = Kt - s Mt, DW = Dt diag(wt) and the Schur complement S = K_kk - s M_kk - DW Dt^T of
-    /// harmonic h's eliminated modes (those past the cut by the series).
-    fn schur_complement(&mut self, h: usize, s: f64, (cut, tail): (usize, Option<usize>)) {
-        let bs = &self.basis;
-        let r = bs.r;
-        let wts = &self.blocks[h].wt;
-        for (jcol, &wt) in wts.iter().enumerate() {
-            let (kt, mt) = (bs.kt.col_as_slice(jcol), bs.mt.col_as_slice(jcol));
-            let dt = self.dt.col_as_slice_mut(jcol);
-            for i in 0..r {
-                dt[i] = kt[i] - s * mt[i];
-            }
-            let dw = self.dw.col_as_slice_mut(jcol);
-            for i in 0..r {
-                dw[i] = (kt[i] - s * mt[i]) * wt;
-            }
-        }
-        for jcol in 0..r {
-            let (kk, mk) = (bs.k_kk.col_as_slice(jcol), bs.m_kk.col_as_slice(jcol));
-            let sm = self.s_mat.col_as_slice_mut(jcol);
-            for i in 0..r {
-                sm[i] = kk[i] - s * mk[i];
-            }
-        }
-        if cut > 0 {
-            matmul(
-                self.s_mat.as_mut(),
-                Accum::Add,
-                self.dw.get(.., ..cut),
-                self.dt.get(.., ..cut).transpose(),
-                -1.0,
-                Par::Seq,
-            );
-        }
-        if let Some(which) = tail {
-            self.tail.subtract(which, s, self.s_mat.as_mut());
-        }
-    }
-
-    /// Harmonic h's kept block [S, Dt_near; Dt_near^T, diag(Lambda_near - s)].
-    fn assemble_kept_block(&mut self, h: usize, s: f64) {
-        let (bs, blk) = (&self.basis, &mut self.blocks[h]);
-        let r = bs.r;
-        let size = r + blk.near.len();
-        blk.size = size;
-        blk.a.clear();
-        blk.a.resize(size * size, 0.0);
-        let mut a = MatMut::from_column_major_slice_mut(&mut blk.a[..], size, size);
-        for jcol in 0..r {
-            for i in 0..r {
-                a[(i, jcol)] = self.s_mat[(i, jcol)];
-            }
-        }
-        for (t, &mode) in blk.near.iter().enumerate() {
-            for i in 0..r {
-                a[(i, r + t)] = self.dt[(i, mode)];
-                a[(r + t, i)] = self.dt[(i, mode)];
-            }
-            a[(r + t, r + t)] = bs.lambda[mode] - s;
-        }
-    }
-
-    /// Harmonic h's condensed w column and right-hand side:
-    /// cw = [wy - DW wz; wz_near], b = [rhs_y - DW rhs_z; rhs_z_near].
-    fn condense_columns(&mut self, h: usize, wy: &Mat<f64>, wz: &Mat<f64>, rhs: &[f64]) {
-        let (bs, l) = (&self.basis, self.layout);
-        let (r, n_o) = (bs.r, bs.n_o);
-        let rz = &l.harmonic(rhs, h)[r..];
-        self.wzb.resize(2 * n_o, 0.0);
-        for i in 0..n_o {
-            self.wzb[i] = wz[(i, h)];
-            self.wzb[n_o + i] = rz[i];
-        }
-        self.cwb.resize(2 * r, 0.0);
-        for i in 0..r {
-            self.cwb[i] = wy[(i, h)];
-            self.cwb[r + i] = rhs[l.at(h, i)];
-        }
-        if n_o > 0 {
-            let rhs2 = MatRef::from_column_major_slice(&self.wzb[..], n_o, 2);
-            let out = MatMut::from_column_major_slice_mut(&mut self.cwb[..], r, 2);
-            matmul(out, Accum::Add, self.dw.as_ref(), rhs2, -1.0, Par::Seq);
-        }
-        let blk = &mut self.blocks[h];
-        blk.cw.clear();
-        blk.b.clear();
-        blk.cw.extend_from_slice(&self.cwb[..r]);
-        blk.b.extend_from_slice(&self.cwb[r..2 * r]);
-        for &mode in &blk.near {
-            blk.cw.push(wz[(mode, h)]);
-            blk.b.push(rz[mode]);
-        }
-    }
-
-    /// The parameter row's coefficients on harmonic h's kept coordinates (the contact
-    /// displacements and the master, through its row in the kept coordinates).
-    fn parameter_row(&mut self, h: usize, jac: &JacobianData<'_>) {
-        let (bs, blk) = (&self.basis, &mut self.blocks[h]);
-        blk.arc.clear();
-        blk.arc.resize(blk.size, 0.0);
-        if jac.arc_y.is_empty() {
-            return;
-        }
-        let kept = self.layout.signals(bs.c + 1);
-        let am = jac.arc_y[kept.at(bs.c, h)];
-        for i in 0..bs.r {
-            let mut v = am * bs.master_row[i];
-            if i < bs.c {
-                v += jac.arc_y[kept.at(i, h)];
-            }
-            blk.arc[i] = v;
-        }
     }
 
     /// Level 2 with the given border choice. Returns false if an interior block is too close to

@@ -208,6 +208,19 @@ pub enum HbError {
         /// Newton iterations performed in total.
         newton_iterations: usize,
     },
+    /// A continuation corrector whose iterate left the neighbourhood of its predictor: an
+    /// iterate of Algorithm 1 farther than the leash from the predictor (q, w), in the scaled
+    /// units of the parameter row (q / g_ref, w / w_lin).
+    #[error(
+        "the corrector left its predictor: an iterate {distance:.3e} away in scaled (q, w), \
+         leash {radius:.3e}"
+    )]
+    LeftPredictor {
+        /// Distance of the iterate from the predictor (scaled).
+        distance: f64,
+        /// The leash (scaled).
+        radius: f64,
+    },
     /// An inner solve of a problem built on the engine failed (its own words).
     #[error("{detail}")]
     InnerSolve {

@@ -46,6 +46,7 @@ pub mod floquet;
 pub mod fourier;
 pub mod full;
 pub mod full_basis;
+mod harmonic_block;
 pub mod layout;
 pub mod linear_model;
 pub mod modal_tail;

@@ -130,7 +130,7 @@ impl<'s> Solver<'s> {
         let guess = self.guess(start, q)?;
         let w_ref = self.linear_frequency(guess.mode)?;
         let row = ParameterRow::fixed_amplitude(q, self.system.gap_reference(), w_ref);
-        self.solve_with_row(row, guess)
+        self.solve_with_row(row, guess, None)
     }
 
     /// Initial guess from a start, scaled to amplitude q for a linear mode.
@@ -185,11 +185,16 @@ impl<'s> Solver<'s> {
         }
     }
 
-    /// Solves with a general parameter row (fixed q or pseudo-arc-length) from a guess.
+    /// Solves with a general parameter row (fixed q or pseudo-arc-length) from a guess. With a
+    /// `leash`, the solve is abandoned ([`NnmError::LeftPredictor`]) as soon as an iterate of
+    /// Algorithm 1 lies farther than the leash from the row's predictor (q_p, w_p), in the row's
+    /// scaled units: a continuation corrector that would be rejected as far from its predictor
+    /// stops early instead of converging there (docs/DESIGN.md §8.2).
     pub(crate) fn solve_with_row(
         &mut self,
         row: ParameterRow,
         guess: Guess,
+        leash: Option<f64>,
     ) -> Result<BackbonePoint, NnmError> {
         let layout = self.model.layout();
         let n = self.system.n_dofs();
@@ -222,6 +227,7 @@ impl<'s> Solver<'s> {
             },
             last_good: None,
             kept: None,
+            leash,
         };
         let report = match self.params.method {
             ContactMethod::Penalty { stiffness } => {
@@ -487,6 +493,8 @@ struct InnerSolve<'a> {
     last_good: Option<(NewtonState, Multipliers)>,
     /// The orbit of Algorithm 1's last accepted iterate and its evaluation.
     kept: Option<(NewtonState, Evaluation)>,
+    /// Largest scaled (q, w) distance of an iterate from the row's predictor (`solve_with_row`).
+    leash: Option<f64>,
 }
 
 impl InnerSolves for InnerSolve<'_> {
@@ -497,6 +505,7 @@ impl InnerSolves for InnerSolve<'_> {
         let result = self.solve_from(mu, &mut state);
         self.state = state;
         let iterations = result?;
+        self.check_leash()?;
         self.last_good = Some((self.state.clone(), mu.clone()));
         gaps.clear();
         gaps.extend_from_slice(&self.work.current.gaps);
@@ -517,6 +526,20 @@ impl InnerSolves for InnerSolve<'_> {
 }
 
 impl InnerSolve<'_> {
+    /// Fails when the current iterate is farther than the leash from the row's predictor.
+    fn check_leash(&self) -> Result<(), NnmError> {
+        let Some(radius) = self.leash else {
+            return Ok(());
+        };
+        let row = self.row;
+        let distance = ((self.state.q - row.q_p) / row.q_scale)
+            .hypot((self.state.omega - row.w_p) / row.w_scale);
+        if distance > radius {
+            return Err(NnmError::LeftPredictor { distance, radius });
+        }
+        Ok(())
+    }
+
     fn solve_from(&mut self, mu: &Multipliers, state: &mut NewtonState) -> Result<usize, NnmError> {
         let start = state.clone();
         let first = match self.attempt(mu, state, true) {
@@ -644,4 +667,44 @@ pub fn solve_point(
     start: Start<'_>,
 ) -> Result<BackbonePoint, NnmError> {
     Solver::new(system, settings, params)?.solve_point(q, start)
+}
+
+#[cfg(test)]
+mod leash_tests {
+    use super::*;
+    use faer::Mat;
+
+    /// x'' + x = 0 against a rigid stop at gap 1 (M = K = A = [1]), solved at master amplitude
+    /// q = 2 (first harmonic) on the row q = 2 whose predictor is (q, w) = (2, w0): the orbit
+    /// stiffens to w / w0 of about 1.68, that much minus 1 from the predictor in scaled units.
+    fn one_dof_point(leash: Option<f64>) -> Result<BackbonePoint, NnmError> {
+        let one = || Mat::from_fn(1, 1, |_, _| 1.0);
+        let system = System::new(one(), one(), one(), vec![1.0], 0).expect("valid system");
+        let settings = HarmonicSettings::new(20, 256).expect("valid settings");
+        let mut solver = Solver::new(&system, settings, AlgorithmParams::default())?;
+        let guess = solver.guess(Start::LinearMode(0), 2.0)?;
+        let row = ParameterRow::fixed_amplitude(2.0, 1.0, 1.0);
+        solver.solve_with_row(row, guess, leash)
+    }
+
+    #[test]
+    fn a_corrector_past_its_leash_stops_and_one_within_converges_unchanged() {
+        let free = one_dof_point(None).expect("converges without a leash");
+        let away = free.omega_ratio - 1.0;
+        assert!(away > 0.5, "w/w0 = {}", free.omega_ratio);
+        // Algorithm 1 stops at its first iterate (0 accepted): from uniform multipliers it lies
+        // at w / w0 = 2.3, 1.3 from the predictor, past the leash.
+        match one_dof_point(Some(0.1)) {
+            Err(NnmError::NotConverged {
+                reason, accepted, ..
+            }) => {
+                assert!(reason.contains("left its predictor"), "{reason}");
+                assert_eq!(accepted, 0);
+            }
+            other => panic!("expected the leash to stop the solve, got {other:?}"),
+        }
+        let within = one_dof_point(Some(2.0)).expect("converges within the leash");
+        assert_eq!(within.omega.to_bits(), free.omega.to_bits());
+        assert_eq!(within.newton_iterations, free.newton_iterations);
+    }
 }

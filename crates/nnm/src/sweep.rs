@@ -172,7 +172,7 @@ impl<'s, 'c> Sweep<'s, 'c> {
         }
         let guess = extrapolate_in_q(&self.history, q);
         let row = ParameterRow::fixed_amplitude(q, self.g_ref, self.w1);
-        self.solver.solve_with_row(row, guess)
+        self.solver.solve_with_row(row, guess, None)
     }
 
     /// Flags a jump of w, grows the sub-step and keeps the point in the history.

@@ -100,7 +100,9 @@ pub use boundary_history::{boundary_history, BoundaryHistory};
 pub use hill::FloquetAnalysis;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::continuation::Backbone;
 use crate::point::BackbonePoint;
@@ -443,26 +445,39 @@ pub struct Stability {
 /// Floquet stability of every point of `backbone` (docs/DESIGN.md §9), stored in
 /// [`BackbonePoint::stability`], and [`BackbonePoint::bifurcation`] set where the stability
 /// changed since the previous point of the same branch (a branch's first point is compared with
-/// the point of its parent it leaves from). `progress(done, total)` is called after each point.
-/// A point whose analysis fails keeps `None` (logged); the others go on. Returns how many failed.
+/// the point of its parent it leaves from). The points are analysed in parallel (each alone:
+/// the same numbers as one by one), then compared in order. `progress(done, total)` is called
+/// after each point. A point whose analysis fails keeps `None` (logged); the others go on.
+/// Returns how many failed.
 pub fn analyze_backbone(
     system: &System,
     backbone: &mut Backbone,
     settings: &FloquetSettings,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl Fn(usize, usize) + Sync,
 ) -> Result<usize, NnmError> {
     let analysis = FloquetAnalysis::new(system, settings.clone())?;
     let total = backbone.points.len();
+    let done = AtomicUsize::new(0);
+    let results: Vec<Result<Stability, NnmError>> = backbone
+        .points
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let verify = settings.verify_every > 0 && i % settings.verify_every == 0;
+            let result = analysis.analyze_checked(p, verify);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            result
+        })
+        .collect();
     let mut last: Vec<Option<Stability>> = vec![None; backbone.branches.len().max(1)];
     let mut failed = 0;
-    for i in 0..total {
+    for (i, result) in results.into_iter().enumerate() {
         let branch = backbone.points[i].branch;
         if last[branch].is_none() {
             let parent = backbone.branches.get(branch).and_then(|b| b.parent);
             last[branch] = parent.and_then(|p| last[p].clone());
         }
-        let verify = settings.verify_every > 0 && i % settings.verify_every == 0;
-        match analysis.analyze_checked(&backbone.points[i], verify) {
+        match result {
             Ok(s) => {
                 let p = &mut backbone.points[i];
                 p.bifurcation = last[branch].as_ref().and_then(|prev| classify(prev, &s));
@@ -478,7 +493,6 @@ pub fn analyze_backbone(
                 );
             }
         }
-        progress(i + 1, total);
     }
     Ok(failed)
 }

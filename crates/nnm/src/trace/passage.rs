@@ -2,6 +2,7 @@
 //! tangent predictors beyond it, fixed-q hops as the last resort, and the fill-back from the
 //! landing point toward the tongue.
 
+use super::step::LEASH;
 use super::{distance, normalize, Advance, Continuation, Trace};
 use crate::continuation::Passage;
 use crate::point::BackbonePoint;
@@ -102,7 +103,7 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             }
             for guess in guesses {
                 let row = self.arc_row(direction, &pred);
-                match self.solver.solve_with_row(row, guess) {
+                match self.solver.solve_with_row(row, guess, Some(LEASH * step)) {
                     Ok(p) => {
                         let xn = self.scaled(&p);
                         let ahead = xn[0] > xl[0] && xn[0] <= self.cont.q_max;

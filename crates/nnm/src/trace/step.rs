@@ -7,6 +7,12 @@ use crate::point::BackbonePoint;
 use crate::solver::Guess;
 use nlmodes_hb::linear_model::ParameterRow;
 
+/// A corrector is abandoned once an iterate of Algorithm 1 is more than `LEASH` times the
+/// acceptance distance from its predictor in (q, w) (scaled): such a corrector is headed for a
+/// point that would be rejected as far from the predictor (or behind it), and converging there
+/// cost the default blade's passages 150-300 Newton iterations a time, for nothing.
+pub(super) const LEASH: f64 = 3.0;
+
 impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
     /// Predictor along the tangent, corrector on the arc-length row (a fixed-q row for the step
     /// that lands on q_max when `to_q_max`), step control.
@@ -38,7 +44,12 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             self.arc_row(&trace.tangent, &pred)
         };
         let shrunk = trace.ds * self.cont.shrink;
-        match self.solver.solve_with_row(row, guess) {
+        // At the smallest step a far point is accepted as a jump, so it must be reached; the
+        // first step from grazing may land O(step) away (below).
+        let first_from_grazing = trace.penetrate && trace.points.len() == 1;
+        let leash = (!final_step && !first_from_grazing && shrunk >= self.cont.min_step)
+            .then_some(LEASH * self.cont.jump_factor * step);
+        match self.solver.solve_with_row(row, guess, leash) {
             Err(e) => {
                 tracing::debug!(step = trace.ds, error = %e, "continuation step failed");
                 trace.ds = shrunk;
@@ -50,7 +61,6 @@ impl<'s, 'c, F: FnMut(&BackbonePoint)> Continuation<'s, 'c, F> {
             }
             Ok(mut p) => {
                 let xn = self.scaled(&p);
-                let first_from_grazing = trace.penetrate && trace.points.len() == 1;
                 if first_from_grazing {
                     // The row w = w_pred crosses the branch transversally (its tangent is not yet
                     // known), so the corrector may land O(step) away; only the trivial orbit
