@@ -80,12 +80,13 @@ pub fn exact_outputs(
     let histories = out.kept.iter().flatten().count();
     match &out.backbone {
         Some(e) => stage.done(&format!(
-            "{} pieces, {} orbits, {} modes dynamic: {}; {histories} of {} kept points with their \
-             exact orbit",
+            "{} pieces, {} orbits, {} modes dynamic: {}; {}{histories} of {} kept points with \
+             their exact orbit",
             e.pieces.len(),
             e.pieces.iter().map(|p| p.points.len()).sum::<usize>(),
             e.modes,
             pieces_text(e, g),
+            crate::backbone_holes::summary(e, g),
             kept.len()
         )),
         None => stage.done("not computed (no point in contact, or every mode resolved)"),
@@ -176,11 +177,11 @@ pub fn write(x: &ExactOutputs, b: &Backbone, dir: &Path) -> Result<()> {
                     .with_context(|| format!("cannot remove {}", p.display()))?;
             }
         }
-        return Ok(());
+        return crate::backbone_holes::write(None, b.gap_reference, b.omega_linear, dir);
     };
     csv(e, b)?.write(&csv_path)?;
     nlmodes_output::write_json_compact(&json_path, e)?;
-    Ok(())
+    crate::backbone_holes::write(Some(e), b.gap_reference, b.omega_linear, dir)
 }
 
 /// The parts of [a, b] (m) no piece covers.
@@ -230,6 +231,7 @@ pub fn report_paragraph(b: &BackboneFile, e: &BoundaryBackbone) -> String {
     s.push_str(&pieces_table(e, g, b.omega_linear));
     let main: Vec<&Orbit> = b.points.iter().filter(|p| on_main(b, p)).collect();
     s.push_str(&coverage_text(b, e, &main));
+    s.push_str(&crate::backbone_holes::report_text(e, g, b.omega_linear));
     s
 }
 

@@ -210,7 +210,8 @@ fn family_plot(
 }
 
 /// The exact backbone's pieces as thin grey lines against q / g0 (stable solid, unstable
-/// dashed, undetermined dotted), the first labelled.
+/// dashed, undetermined dotted), the first labelled; the pieces' ends next to a hole, followed
+/// through their tongues, light grey dotted.
 fn exact_series(e: &BoundaryBackbone, g0: f64, w1: f64) -> Vec<Series> {
     let style = |v: &str| match v {
         "unstable" => LineStyle::Dashed,
@@ -246,6 +247,26 @@ fn exact_series(e: &BoundaryBackbone, g0: f64, w1: f64) -> Vec<Series> {
             }
             start = i;
         }
+    }
+    for (k, f) in e.hole_follows.iter().enumerate() {
+        let name = if k == 0 {
+            "exact orbits past a hole's edge, through its tongue"
+        } else {
+            ""
+        };
+        out.push(
+            Series::new(
+                name,
+                f.points
+                    .iter()
+                    .map(|p| p.q.abs() / g0)
+                    .collect::<Vec<f64>>(),
+                f.points.iter().map(|p| p.omega / w1).collect::<Vec<f64>>(),
+            )
+            .color(Color(175, 175, 175))
+            .width(0.8)
+            .style(LineStyle::Dotted),
+        );
     }
     out
 }

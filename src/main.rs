@@ -3,6 +3,7 @@
 
 mod backbone;
 mod backbone_exact;
+mod backbone_holes;
 mod backbone_stage;
 mod campbell;
 mod campbell_stage;

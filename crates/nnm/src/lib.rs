@@ -100,9 +100,10 @@ pub use stability::{
     analyze_backbone, boundary_backbone, boundary_history, classify, floquet,
     monodromy_by_integration, verdict_word, Bifurcation, BoundaryBackbone, BoundaryBackbonePoint,
     BoundaryHistory, BoundaryPiece, ConvergedOrbit, ConvergenceSettings, ConvergenceStop,
-    ExactOrbitAtQ, FloquetAnalysis, FloquetSettings, JacobianInTime, Monodromy, MonodromySettings,
-    ShootingCheck, Stability, StabilityMethod, UnstableCounts, VerdictInputs,
-    SALTATION_TRIVIAL_LIMIT, SHOOTING_CHECK_LIMIT, SHOOTING_SHIFT_LIMIT, TRIVIAL_PAIR_LIMIT,
+    ExactOrbitAtQ, FloquetAnalysis, FloquetSettings, HoleFollow, HoleFollowEnd, JacobianInTime,
+    Monodromy, MonodromySettings, ShootingCheck, Stability, StabilityMethod, UnstableCounts,
+    VerdictInputs, SALTATION_TRIVIAL_LIMIT, SHOOTING_CHECK_LIMIT, SHOOTING_SHIFT_LIMIT,
+    TRIVIAL_PAIR_LIMIT,
 };
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};

@@ -30,6 +30,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
+use super::boundary_holes::{follow_holes, HoleFollow, OTHER_MODE_SHARE};
 use super::boundary_shooting::ShotOrbit;
 use super::boundary_shooting::{
     boundary_model, exponents_of, half_period, modal_coordinates, norm,
@@ -101,6 +102,10 @@ pub struct BoundaryBackbone {
     pub pieces: Vec<BoundaryPiece>,
     /// Modes kept dynamic.
     pub modes: usize,
+    /// The pieces' ends next to each hole between them, followed through their tongues
+    /// (`boundary_holes`): why the hole stays, or the orbits that cross it.
+    #[serde(default)]
+    pub hole_follows: Vec<HoleFollow>,
 }
 
 impl BoundaryPiece {
@@ -152,7 +157,7 @@ impl MasterRow {
 }
 
 /// The backbone's shooting equations (module docs) and what each accepted point records.
-struct BackboneEquations<'m> {
+pub(super) struct BackboneEquations<'m> {
     model: &'m BoundaryModel,
     flow: RefCell<BoundaryFlow<'m>>,
     master: MasterRow,
@@ -165,11 +170,31 @@ struct BackboneEquations<'m> {
     growing: Cell<bool>,
     /// The largest (growing) or smallest q of the trace so far.
     extreme: Cell<f64>,
+    /// Whether a piece's end is being followed through its tongue (`boundary_holes`): then
+    /// the curve leaves only where the starting mode's fundamental holds less than
+    /// `OTHER_MODE_SHARE` of the energy.
+    pub(super) following: Cell<bool>,
+    /// The largest q traced (system length unit).
+    ceiling: f64,
 }
 
 impl BackboneEquations<'_> {
     fn r(&self) -> usize {
         self.model.omega2.len()
+    }
+
+    /// The largest q traced (system length unit).
+    pub(super) fn q_ceiling(&self) -> f64 {
+        self.ceiling
+    }
+
+    /// The scaled unknowns z = (q0 / s, T / T_ref) of an orbit of the curve.
+    pub(super) fn scaled(&self, p: &BoundaryBackbonePoint) -> Vec<f64> {
+        let period = 2.0 * std::f64::consts::PI / p.omega;
+        p.q0.iter()
+            .map(|v| v / self.q_scale)
+            .chain([period / self.t_ref])
+            .collect()
     }
 
     fn v_scale(&self) -> f64 {
@@ -358,6 +383,9 @@ impl CurveEquations for &BackboneEquations<'_> {
     /// its extreme so far in the direction traced (an internal-resonance tongue, where q falls
     /// while the resonating mode grows; a fold of the main branch turns back by less).
     fn leaves(&self, point: &BoundaryBackbonePoint) -> bool {
+        if self.following.get() {
+            return point.primary_share < OTHER_MODE_SHARE;
+        }
         if point.secondary_share > point.primary_share {
             return true;
         }
@@ -425,6 +453,8 @@ pub fn boundary_backbone(
         mode: main[0].mode,
         growing: Cell::new(true),
         extreme: Cell::new(0.0),
+        following: Cell::new(false),
+        ceiling: q_end,
     };
     let seed_of = |p: &BackbonePoint| Seed {
         z_q0: start(p).iter().map(|v| v / q_scale).collect(),
@@ -432,7 +462,15 @@ pub fn boundary_backbone(
         q: p.q.abs(),
     };
     let pieces = trace_pieces(&equations, &main, &seed_of, q_end)?;
-    Ok((!pieces.is_empty()).then_some(BoundaryBackbone { pieces, modes: r }))
+    if pieces.is_empty() {
+        return Ok(None);
+    }
+    let hole_follows = follow_holes(&equations, &pieces, main[0].q.abs(), q_end)?;
+    Ok(Some(BoundaryBackbone {
+        pieces,
+        modes: r,
+        hole_follows,
+    }))
 }
 
 /// The boundary model of the main branch `main` (module docs): the modes up to
@@ -686,6 +724,8 @@ mod tests {
             mode: 0,
             growing: Cell::new(true),
             extreme: Cell::new(0.0),
+            following: Cell::new(false),
+            ceiling: f64::INFINITY,
         }
     }
 

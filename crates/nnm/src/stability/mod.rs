@@ -83,6 +83,7 @@ mod boundary_at_q;
 mod boundary_backbone;
 mod boundary_flow;
 mod boundary_history;
+mod boundary_holes;
 mod boundary_shooting;
 mod hill;
 mod impact;
@@ -97,6 +98,7 @@ pub use boundary_backbone::{
     boundary_backbone, BoundaryBackbone, BoundaryBackbonePoint, BoundaryPiece,
 };
 pub use boundary_history::{boundary_history, BoundaryHistory};
+pub use boundary_holes::{HoleFollow, HoleFollowEnd};
 pub use hill::FloquetAnalysis;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
 
