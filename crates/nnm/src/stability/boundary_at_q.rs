@@ -28,7 +28,7 @@ use faer::linalg::solvers::Solve;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use super::boundary_backbone::{MasterRow, MASTER_SAMPLES};
+use super::backbone_curve::{MasterRow, MASTER_SAMPLES};
 use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
 use super::boundary_shooting::{boundary_model, modal_coordinates, norm};
 use super::hill::penalty_of;

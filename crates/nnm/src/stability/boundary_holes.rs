@@ -4,11 +4,11 @@
 //! off, by the same arc-length shooting, until
 //! - it comes within `MEET_DISTANCE` of the piece on the other side: the main family crosses the
 //!   hole through the tongue, and the followed orbits give w(q) across it;
-//! - the traced mode's fundamental holds less than `OTHER_MODE_SHARE` of the kept modes' energy
-//!   (or q falls below `SMALL_Q` of the hole's): the curve has become another mode's family,
-//!   harmonic n of mode k holding nearly all the energy (toward q -> 0 the orbit is mode k's own
-//!   motion, counted n times per period), so the main family does not come back across the hole
-//!   that way;
+//! - the traced mode's fundamental holds less than `backbone_curve::OTHER_MODE_SHARE` of the
+//!   kept modes' energy (or q falls below `SMALL_Q` of the hole's): the curve has become another
+//!   mode's family, harmonic n of mode k holding nearly all the energy (toward q -> 0 the orbit
+//!   is mode k's own motion, counted n times per period), so the main family does not come back
+//!   across the hole that way;
 //! - or the trace stops otherwise (point limit, no converged step, q past its ceiling).
 //!
 //! On the default blade both holes left are of the second kind on both sides (report.md,
@@ -16,7 +16,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::boundary_backbone::{BackboneEquations, BoundaryBackbonePoint, BoundaryPiece};
+use super::backbone_curve::{BackboneEquations, BoundaryBackbonePoint, BoundaryPiece};
 use super::boundary_shooting::norm;
 use crate::NnmError;
 use nlmodes_hb::arc_length::{trace_curve, CurveEnd, CurveSettings};
@@ -26,9 +26,6 @@ const FOLLOW_POINTS: usize = 300;
 /// A follow that comes within this relative distance in (q, w) (|dq| / q + |dw| / w) of an orbit
 /// of the piece on the other side of the hole has met it.
 const MEET_DISTANCE: f64 = 0.01;
-/// A follow ends once the starting mode's fundamental holds less than this share of the kept
-/// modes' energy: the orbit is another mode's.
-pub(super) const OTHER_MODE_SHARE: f64 = 0.02;
 /// A follow whose q falls below this fraction of the hole's lower q has left for another mode's
 /// family.
 const SMALL_Q: f64 = 0.1;

@@ -78,6 +78,7 @@
 //! unit circle to the same order). With every mode kept (a large `mode_cutoff`) nothing is
 //! approximated beyond N and m.
 
+mod backbone_curve;
 mod bifurcation;
 mod boundary_at_q;
 mod boundary_backbone;
@@ -92,11 +93,10 @@ mod saltation;
 #[cfg(test)]
 mod test_models;
 
+pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece};
 pub use bifurcation::{classify, Bifurcation};
 pub use boundary_at_q::{ConvergedOrbit, ConvergenceSettings, ConvergenceStop, ExactOrbitAtQ};
-pub use boundary_backbone::{
-    boundary_backbone, BoundaryBackbone, BoundaryBackbonePoint, BoundaryPiece,
-};
+pub use boundary_backbone::{boundary_backbone, BoundaryBackbone};
 pub use boundary_history::{boundary_history, BoundaryHistory};
 pub use boundary_holes::{HoleFollow, HoleFollowEnd};
 pub use hill::FloquetAnalysis;
