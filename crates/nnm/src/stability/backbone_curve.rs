@@ -90,6 +90,7 @@ impl BoundaryPiece {
 }
 
 /// The master's displacement on the boundary from q and lambda (module docs).
+#[derive(Clone)]
 pub(super) struct MasterRow {
     pub(super) kept: Vec<f64>,
     pub(super) contact: Vec<f64>,
@@ -142,6 +143,24 @@ pub(super) struct BackboneEquations<'m> {
 }
 
 impl BackboneEquations<'_> {
+    /// The same equations and trace state with a flow of their own (for a trace on another
+    /// thread).
+    pub(super) fn fork(&self) -> Self {
+        Self {
+            model: self.model,
+            flow: RefCell::new(BoundaryFlow::new(self.model)),
+            master: self.master.clone(),
+            q_scale: self.q_scale,
+            t_ref: self.t_ref,
+            tolerance: self.tolerance,
+            mode: self.mode,
+            growing: Cell::new(self.growing.get()),
+            extreme: Cell::new(self.extreme.get()),
+            following: Cell::new(self.following.get()),
+            ceiling: self.ceiling,
+        }
+    }
+
     fn r(&self) -> usize {
         self.model.omega2.len()
     }

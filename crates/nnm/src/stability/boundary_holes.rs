@@ -14,6 +14,7 @@
 //! On the default blade both holes left are of the second kind on both sides (report.md,
 //! `backbone_boundary_holes.csv`).
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::backbone_curve::{BackboneEquations, BoundaryBackbonePoint, BoundaryPiece};
@@ -61,14 +62,15 @@ pub enum HoleFollowEnd {
 }
 
 /// The holes between `pieces` within [q_lo, q_hi] (system length unit), each side's piece that
-/// turned into a tongue followed on (module docs).
+/// turned into a tongue followed on (module docs), the edges in parallel (each with a flow of its
+/// own: the same orbits as one after the other).
 pub(super) fn follow_holes(
     equations: &BackboneEquations<'_>,
     pieces: &[BoundaryPiece],
     q_lo: f64,
     q_hi: f64,
 ) -> Result<Vec<HoleFollow>, NnmError> {
-    let mut follows = Vec::new();
+    let mut edges = Vec::new();
     for hole in holes(pieces, q_lo, q_hi) {
         let below = pieces.iter().find(|p| {
             p.upper_end == CurveEnd::LeftFamily && p.span().1 == hole[0] && p.points.len() > 1
@@ -78,11 +80,14 @@ pub(super) fn follow_holes(
         });
         for (piece, other, from_below) in [(below, above, true), (above, below, false)] {
             if let Some(piece) = piece {
-                follows.push(follow(equations, piece, other, hole, from_below)?);
+                edges.push((equations.fork(), piece, other, hole, from_below));
             }
         }
     }
-    Ok(follows)
+    edges
+        .into_par_iter()
+        .map(|(eq, piece, other, hole, from_below)| follow(&eq, piece, other, hole, from_below))
+        .collect()
 }
 
 /// The parts of [q_lo, q_hi] no piece covers, as [lower, upper] q.
