@@ -89,6 +89,24 @@ impl BoundaryPiece {
     }
 }
 
+/// The q ranges (system length unit) the pieces cover, merged, ascending.
+pub(super) fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
+    let mut ranges: Vec<(f64, f64)> = pieces
+        .iter()
+        .filter(|p| !p.points.is_empty())
+        .map(BoundaryPiece::span)
+        .collect();
+    ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut merged: Vec<(f64, f64)> = Vec::new();
+    for (lo, hi) in ranges {
+        match merged.last_mut() {
+            Some(last) if lo <= last.1 => last.1 = last.1.max(hi),
+            _ => merged.push((lo, hi)),
+        }
+    }
+    merged
+}
+
 /// The master's displacement on the boundary from q and lambda (module docs).
 #[derive(Clone)]
 pub(super) struct MasterRow {

@@ -28,7 +28,7 @@ use std::cell::{Cell, RefCell};
 
 use serde::{Deserialize, Serialize};
 
-use super::backbone_curve::{BackboneEquations, BoundaryPiece, MasterRow};
+use super::backbone_curve::{covered_ranges, BackboneEquations, BoundaryPiece, MasterRow};
 use super::boundary_flow::{BoundaryFlow, BoundaryModel};
 use super::boundary_holes::{follow_holes, HoleFollow};
 use super::boundary_shooting::{boundary_model, modal_coordinates, norm};
@@ -269,24 +269,6 @@ fn fill_gaps(
 fn same_piece(a: &BoundaryPiece, b: &BoundaryPiece) -> bool {
     let ((a0, a1), (b0, b1)) = (a.span(), b.span());
     (a0 - b0).abs() <= 1e-6 * a1 && (a1 - b1).abs() <= 1e-6 * a1
-}
-
-/// The q ranges (system length unit) the pieces cover, merged, ascending.
-fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
-    let mut ranges: Vec<(f64, f64)> = pieces
-        .iter()
-        .filter(|p| !p.points.is_empty())
-        .map(BoundaryPiece::span)
-        .collect();
-    ranges.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut merged: Vec<(f64, f64)> = Vec::new();
-    for (lo, hi) in ranges {
-        match merged.last_mut() {
-            Some(last) if lo <= last.1 => last.1 = last.1.max(hi),
-            _ => merged.push((lo, hi)),
-        }
-    }
-    merged
 }
 
 /// Where one piece may run (system length unit): toward larger q not below `floor_up` and up to

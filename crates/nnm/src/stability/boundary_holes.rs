@@ -17,7 +17,9 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::backbone_curve::{BackboneEquations, BoundaryBackbonePoint, BoundaryPiece};
+use super::backbone_curve::{
+    covered_ranges, BackboneEquations, BoundaryBackbonePoint, BoundaryPiece,
+};
 use super::boundary_shooting::norm;
 use crate::NnmError;
 use nlmodes_hb::arc_length::{trace_curve, CurveEnd, CurveSettings};
@@ -92,16 +94,10 @@ pub(super) fn follow_holes(
 
 /// The parts of [q_lo, q_hi] no piece covers, as [lower, upper] q.
 fn holes(pieces: &[BoundaryPiece], q_lo: f64, q_hi: f64) -> Vec<[f64; 2]> {
-    let mut spans: Vec<(f64, f64)> = pieces
-        .iter()
-        .filter(|p| !p.points.is_empty())
-        .map(BoundaryPiece::span)
-        .collect();
-    spans.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
     let mut reached = q_lo;
-    for (lo, hi) in spans {
-        if lo > reached && reached < q_hi && lo < q_hi {
+    for (lo, hi) in covered_ranges(pieces) {
+        if lo > reached && lo < q_hi {
             out.push([reached, lo]);
         }
         reached = reached.max(hi);
