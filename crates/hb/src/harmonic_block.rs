@@ -22,7 +22,8 @@ pub(crate) const NOT_IN: usize = usize::MAX;
 
 /// One harmonic's share of a condensed Newton step: its kept block and the scratch that builds
 /// it. Each harmonic's block is built and its interior eliminated from shared, read-only inputs
-/// only, so the blocks of one step are independent (and are built in parallel).
+/// only, so the blocks of one step are independent of each other (built one after the other:
+/// in parallel they cost more than they gain, docs/BENCHMARKS.md "Session 16").
 #[derive(Default)]
 pub(crate) struct HarmonicBlock {
     pub near: Vec<usize>,
