@@ -122,6 +122,11 @@ pub struct ContactSamples {
 }
 
 impl ContactSamples {
+    /// Whether any row touches anywhere in the period.
+    pub fn touches(&self, samples: usize) -> bool {
+        (0..self.gaps.len() / samples.max(1)).any(|j| self.row_active(j, samples))
+    }
+
     /// Whether contact row `j` touches anywhere in the period.
     pub fn row_active(&self, j: usize, samples: usize) -> bool {
         match self.blocks.get(j) {

@@ -10,12 +10,13 @@ use nlmodes_hb::{
 
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::ladder::HarmonicCheck;
 use crate::load::Load;
 use crate::newton::{
     contact_samples, ArcRow, ForceIntegration, InnerNewton, InnerTolerance, OrbitState,
 };
-use nlmodes_hb::penalty_integral::ContactPhases;
 use crate::period_check::PeriodCheck;
+use nlmodes_hb::penalty_integral::ContactPhases;
 
 /// Newton iterations one forced point may spend over all of Algorithm 1's inner solves. A
 /// continuation step that needs more is cheaper retried shorter: on the blade a converged point
@@ -74,6 +75,24 @@ pub struct ForcedPoint {
     pub inner_solves: usize,
     /// Newton iterations summed over the inner solves.
     pub newton_iterations: usize,
+    /// N of the basis the point was solved on.
+    pub harmonics: usize,
+    /// Whether the orbit touches (a contact phase anywhere in the period, however short).
+    pub touching: bool,
+    /// What the check of N found (`ladder`; `Unchecked` from a plain solve).
+    pub harmonic_check: HarmonicCheck,
+}
+
+impl ForcedPoint {
+    /// Whether the orbit touches anywhere in the period.
+    pub fn touches(&self) -> bool {
+        self.touching
+    }
+
+    /// First-harmonic amplitude sqrt(a_1^2 + b_1^2) of physical coordinate `i` (length units).
+    pub fn first_harmonic(&self, i: usize) -> f64 {
+        self.coefficients[(i, 1)].hypot(self.coefficients[(i, 2)])
+    }
 }
 
 /// The forced problem for one system, damping and load.
@@ -191,6 +210,20 @@ impl<'s> ForcedSolver<'s> {
             kappa_cap,
             integration,
         })
+    }
+
+    /// The same problem on N = `harmonics` (the time samples grown with N in proportion, at
+    /// least `HarmonicSettings::default_samples`).
+    pub fn with_harmonics(&self, harmonics: usize) -> Result<ForcedSolver<'s>, ForcedError> {
+        let base = self.settings.harmonics;
+        let samples = (base.samples * harmonics)
+            .div_ceil(base.harmonics)
+            .max(HarmonicSettings::default_samples(harmonics));
+        let settings = ForcedSettings {
+            harmonics: HarmonicSettings::new(harmonics, samples)?,
+            ..self.settings.clone()
+        };
+        ForcedSolver::new(self.system, &self.damping, &self.load, settings)
     }
 
     /// The system.
@@ -486,12 +519,15 @@ impl<'s> ForcedSolver<'s> {
             level: state.level,
             coefficients,
             contact: state.y,
+            touching: cs.touches(self.basis.samples()),
             contact_force: cs.force,
             gaps: cs.gaps,
             multipliers,
             powell_measure: measure,
             inner_solves: solves,
             newton_iterations: iterations,
+            harmonics: self.basis.harmonics(),
+            harmonic_check: HarmonicCheck::Unchecked,
         })
     }
 }

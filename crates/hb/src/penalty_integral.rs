@@ -342,7 +342,10 @@ mod tests {
         let contact = phases.above(&y, 0.99);
         assert_eq!(contact.len(), 1, "{contact:?}");
         let (a, b) = contact[0];
-        assert!(a > 0.0 && b < spacing && a < theta0 && b > theta0, "{a} {b}");
+        assert!(
+            a > 0.0 && b < spacing && a < theta0 && b > theta0,
+            "{a} {b}"
+        );
         for th in [a, b] {
             assert!((FullBasis::value_at(&y, th) - 0.99).abs() < 1e-12);
         }
@@ -360,10 +363,7 @@ mod tests {
     fn a_series_always_above_or_below_the_level() {
         let y = vec![1.0, 0.1, 0.0];
         let phases = ContactPhases::new(1, 0);
-        assert_eq!(
-            phases.above(&y, 0.5),
-            vec![(0.0, std::f64::consts::TAU)]
-        );
+        assert_eq!(phases.above(&y, 0.5), vec![(0.0, std::f64::consts::TAU)]);
         assert!(phases.above(&y, 2.0).is_empty());
         // Always in contact: the force is the linear law k (y - g0), coefficient by coefficient.
         let (f, _) = penalty_force(&phases, &y, 0.5, 2.0, None);
