@@ -81,7 +81,7 @@ pub fn check(
 }
 
 /// `mode` and `load_mode` below the model's order n, at most n damping ratios, and a swept mode
-/// that moves a contact row.
+/// that vibrates (not a rigid-body mode, the model's own tolerance) and moves a contact row.
 fn check_indices(system: &System, s: &ForcedSection, source: &str) -> Result<()> {
     let n = system.n_dofs();
     let label = source.to_string();
@@ -101,6 +101,16 @@ fn check_indices(system: &System, s: &ForcedSection, source: &str) -> Result<()>
         );
     }
     p.finish()?;
+    let w = system.linear_frequencies();
+    let largest = w.iter().fold(0.0_f64, |a, v| a.max(*v));
+    let rigid = nlmodes_modal::model_checks::RIGID_MODE_TOLERANCE;
+    if w[s.mode] * w[s.mode] <= rigid * largest * largest {
+        return Err(bad_input(format!(
+            "{source}: forced.mode = {}: a rigid-body mode of the reduced model (w = {:e} rad/s, \
+             w^2 within 1e-12 of the largest): expected a vibration mode (is the model clamped?)",
+            s.mode, w[s.mode]
+        )));
+    }
     if system.grazing_amplitude(s.mode)?.is_none() {
         return Err(bad_input(format!(
             "{source}: forced.mode = {}: no contact row moves in this mode, the forced \
@@ -161,6 +171,18 @@ fn check_grazing(
              whose damped linear resonance grazes, zero without damping; or level_unit = \"N\")",
             damping_source(dir, s),
             s.mode
+        )));
+    }
+    let largest = phi.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    if phi[system.master()].abs() <= UNDRIVEN_LEVEL * largest {
+        return Err(bad_input(format!(
+            "{source}: forced.mode = {}: the swept mode does not move the master coordinate {} \
+             (|phi_master| = {:e}, at most 1e-8 of its largest entry): expected a mode that \
+             moves it with forced.level_unit = \"grazing\" (the grazing amplitude is the \
+             master's; or level_unit = \"N\")",
+            s.mode,
+            system.master(),
+            phi[system.master()].abs()
         )));
     }
     let pattern = crate::forced::pattern(system, s, inputs.file_load.as_ref())?;
@@ -369,6 +391,29 @@ mod tests {
         );
         let same = ForcedSection { mode: 1, ..other };
         assert_eq!(grazing(&same, None), "");
+    }
+
+    /// A mode whose w^2 lies within 1e-12 of the largest is a rigid-body mode: refused.
+    #[test]
+    fn a_rigid_body_mode_is_refused() {
+        let system = System::new(
+            Mat::identity(2, 2),
+            Mat::from_fn(2, 2, |i, j| [[1e-14, 0.0], [0.0, 1.0]][i][j]),
+            Mat::from_fn(1, 2, |_, j| [0.6, 0.8][j]),
+            vec![1e-3],
+            1,
+        )
+        .unwrap();
+        let s = ForcedSection::default();
+        let e = check_indices(&system, &s, "f.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("f.toml: forced.mode = 0: a rigid-body mode of the reduced model"),
+            "{e}"
+        );
+        let vibrating = ForcedSection { mode: 1, ..s };
+        check_indices(&system, &vibrating, "f.toml").unwrap();
     }
 
     fn backbone(n: usize, omega: f64, gap: f64) -> BackboneFile {

@@ -482,7 +482,14 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     };
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = load_model(&a.model)?;
-    let system = backbone::system_of(&reduced, None)?;
+    // System::new refuses only the model's own matrices and contact data (a K that is not
+    // positive definite: a rigid-body mode the loader only warned of).
+    let system = backbone::system_of(&reduced, None).map_err(|e| {
+        e.context(exit::BadInput(format!(
+            "the reduced model {}",
+            a.model.display()
+        )))
+    })?;
     let model = forced_inputs::ForcedModel {
         dir: &a.model,
         reduced: &reduced,

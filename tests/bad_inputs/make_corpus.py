@@ -488,6 +488,21 @@ def forced_inputs(c, model):
     wrong_mode = backbone("backbone_other_mode", n, 3.0 * w1, gap)
     bad("backbone_other_mode", "", r"--backbone .*backbone_other_mode\.json: omega_linear = \S+ rad/s .*expected \S+ rad/s, that of the swept mode .*a backbone of another mode or model",
         extra=["--backbone", wrong_mode])
+    # K - w1^2 M: the first mode becomes a rigid-body mode (the loader only warns of it).
+    _, M = read_mtx(os.path.join(model, "M.mtx"))
+
+    def unclamped(d):
+        write_mtx(os.path.join(d, "K.mtx"), [[K[i][j] - w1 * w1 * M[i][j] for j in range(n)] for i in range(n)])
+        p = os.path.join(d, "model.json")
+        j = json.load(open(p))
+        j["linear_frequencies_hz"][0] = 0.0
+        json.dump(j, open(p, "w"), indent=1)
+    # w1^2 then lies within rounding of 0, on either side: refused as a rigid-body mode, or as a
+    # K that is not positive definite, naming the model.
+    bad("rigid_mode", "level_unit = \"N\"\n",
+        r"(\.toml: forced\.mode = 0: a rigid-body mode of the reduced model .*expected a vibration mode"
+        r"|the reduced model .*rigid_mode: matrix K is not positive definite)",
+        edit=unclamped)
     # The orbits are drawn on the mesh named in model.json: a model moved without it is refused
     # before the curves are traced (not after, with frf.csv written).
     def no_mesh(d):
