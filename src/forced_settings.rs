@@ -448,7 +448,8 @@ pub fn load(path: &std::path::Path) -> anyhow::Result<ForcedSection> {
 }
 
 /// The model's `C.mtx` when `[forced] damping_matrix` asks for it, checked against `system`:
-/// of its order, finite, symmetric and positive semi-definite (`nlmodes_forced::Damping::matrix`).
+/// entries at most 1e30 (the bound of K.mtx and M.mtx), of its order, finite, symmetric and
+/// positive semi-definite (`nlmodes_forced::Damping::matrix`).
 /// A missing, unreadable or refused file is bad input naming it.
 pub fn damping_matrix(
     s: &ForcedSection,
@@ -467,6 +468,16 @@ pub fn damping_matrix(
     };
     let c = nlmodes_modal::matrix_market::read_symmetric_dense(&path)
         .map_err(|e| bad(format!("cannot read it: {e}")))?;
+    let largest = (0..c.nrows())
+        .flat_map(|i| (0..c.ncols()).map(move |j| (i, j)))
+        .fold(0.0_f64, |a, (i, j)| a.max(c[(i, j)].abs()));
+    let (_, high) = nlmodes_modal::model_checks::MAGNITUDE_RANGE;
+    if largest > high {
+        return Err(bad(format!(
+            "the largest entry of C is {largest:e}: expected at most {high:e} N s/m, the bound \
+             K.mtx and M.mtx are held to (check the units or the file)"
+        )));
+    }
     let n = system.n_dofs();
     nlmodes_forced::Damping::Matrix(c.clone())
         .matrix(system)

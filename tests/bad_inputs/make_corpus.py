@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generates the bad-input corpus of issue 14 (run by tests/bad_input_corpus.rs).
+"""Generates the bad-input corpus of issues 14 and 37 (run by tests/bad_input_corpus.rs).
 
 Usage: make_corpus.py --out DIR --mesh COARSE.msh --model MODEL_DIR --geo BLADE.geo
 
@@ -7,7 +7,8 @@ From one good coarse mesh (MSH 4.1 ASCII) and the good reduced model built from 
 copies and bad case / settings files into DIR, and DIR/manifest.json: one entry per case with
 
   name     unique name
-  class    case file | settings file | CLI argument | output path | mesh | reduced model | stopped early
+  class    case file | settings file | forced settings | forced inputs | CLI argument | output path |
+           mesh | reduced model | stopped early
   args     the nlmodes command line (absolute paths)
   code     expected exit code (2 bad input, 3 stopped early; README "Exit codes")
   pattern  a regular expression the message (stdout + stderr) must match
@@ -15,7 +16,8 @@ copies and bad case / settings files into DIR, and DIR/manifest.json: one entry 
   present  paths that must exist afterwards (partial results kept)
 
 Every case but the "stopped early" one must fail before any computation (milliseconds), the
-reduce cases after a coarse assembly (well under a second).
+reduce cases after a coarse assembly (well under a second), the forced inputs after reading the
+coarse model (C.mtx, F.mtx, --backbone, the orbit mesh against it; no frf.csv written).
 """
 
 import argparse
@@ -459,6 +461,8 @@ def forced_inputs(c, model):
     bad("c_general_asymmetric", matrix, r"c_general_asymmetric/C\.mtx: cannot read it: .*symmetric",
         files={"C.mtx": "%%MatrixMarket matrix coordinate real general\n" + f"{n} {n} {n + 1}\n"
                + "".join(f"{i + 1} {i + 1} 1.0\n" for i in range(n)) + "2 1 0.5\n"})
+    bad("c_times_1e280", matrix, r"c_times_1e280/C\.mtx: the largest entry of C is \S+e2\d\d: expected at most 1e30 N s/m",
+        files={"C.mtx": mtx(scaled(K, 1e280))})
     bad("c_missing", matrix, r"forced\.damping_matrix = true: .*c_missing/C\.mtx: cannot read it")
     bad("c_zero_grazing", matrix,
         r"forced\.damping_matrix = true \(.*c_zero_grazing/C\.mtx\): the swept mode \(forced\.mode = 0\) gets no damping .*expected damping on it with forced\.level_unit = \"grazing\"",
