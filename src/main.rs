@@ -15,6 +15,7 @@ mod fe_model;
 mod figures;
 mod forced;
 mod forced_exact;
+mod forced_inputs;
 mod forced_output;
 mod forced_paraview;
 mod forced_settings;
@@ -458,8 +459,8 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     backbone::stopped_early(&b, &a.out)
 }
 
-/// `nlmodes forced`: settings, backbone and output path checked before the model is read, the
-/// mode indices against the model before anything is computed.
+/// `nlmodes forced`: settings, backbone and output path checked before the model is read, then
+/// every input against the model (`forced_inputs`) before anything is computed.
 fn forced_command(a: ForcedArgs) -> Result<()> {
     let (section, source) = match &a.settings {
         Some(p) => (forced_settings::load(p)?, p.display().to_string()),
@@ -481,10 +482,22 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     };
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = load_model(&a.model)?;
-    let system = backbone::system_of(&reduced, None)?;
-    forced::check_against(&system, &section, &source)?;
-    let c = forced_settings::damping_matrix(&section, &a.model)?;
-    let f = forced_settings::file_load(&section, &a.model, system.n_dofs())?;
+    // System::new refuses only the model's own matrices and contact data (a K that is not
+    // positive definite: a rigid-body mode the loader only warned of).
+    let system = backbone::system_of(&reduced, None).map_err(|e| {
+        e.context(exit::BadInput(format!(
+            "the reduced model {}",
+            a.model.display()
+        )))
+    })?;
+    let model = forced_inputs::ForcedModel {
+        dir: &a.model,
+        reduced: &reduced,
+        system: &system,
+    };
+    let given = a.backbone.as_deref().zip(backbone.as_ref());
+    let inputs = forced_inputs::check(&model, &section, &source, given)?;
+    let (c, f) = (inputs.damping_matrix, inputs.file_load);
     let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
     forced_output::write(&study, backbone.as_ref(), &a.out)?;
     level_sweep::write(&study, &a.out)?;

@@ -37,7 +37,7 @@ pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
 pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
-pub use damping::{modal_ratios, Damping};
+pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
 pub use frf::{
@@ -50,5 +50,6 @@ pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 pub use synthesis::{
-    nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit, SynthesizedPoint,
+    check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
+    SynthesizedPoint,
 };
