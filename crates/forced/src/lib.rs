@@ -24,6 +24,7 @@ mod dynamics;
 mod error;
 mod fold;
 mod frf;
+mod grazing;
 mod ladder;
 mod load;
 mod newton;

@@ -206,6 +206,17 @@ pub fn contact_samples_smoothed(
     }
 }
 
+/// The first stiffness of the exactly integrated penalty law's rescue path, as a fraction of
+/// the law's (`InnerNewton::penalty_homotopy`).
+const PENALTY_START: f64 = 1e-3;
+/// The smallest ratio between two stiffnesses of that path before it gives up.
+const PENALTY_RATIO_MIN: f64 = 1.02;
+/// Newton iterations the path may spend.
+const PENALTY_BUDGET: usize = 400;
+
+/// The shortest fraction of a Newton step tried on the exactly integrated law.
+const SHORTEST_STEP: f64 = 1e-6;
+
 /// Newton settings of the inner solve.
 #[derive(Clone, Copy, Debug)]
 pub struct InnerTolerance {
@@ -296,11 +307,17 @@ impl InnerNewton<'_> {
             Ok(it) => return Ok(it),
             Err(e) => e,
         };
-        if let ForceIntegration::ExactPenalty { .. } = self.integration {
-            // The exactly integrated law has a continuous Jacobian: no active set to cycle
-            // between, and no smoothing of it to follow.
-            *state = start;
-            return Err(first);
+        if let ForceIntegration::ExactPenalty { stiffness, phases } = self.integration {
+            state.clone_from(&start);
+            let done = self.penalty_homotopy(state, mu, arc, stiffness, phases);
+            self.integration = ForceIntegration::ExactPenalty { stiffness, phases };
+            return match done {
+                Some(it) => Ok(spent + it),
+                None => {
+                    *state = start;
+                    Err(first)
+                }
+            };
         }
         *state = start;
         for k in 2..=8 {
@@ -314,6 +331,59 @@ impl InnerNewton<'_> {
             Ok(it) => Ok(spent + it),
             Err(_) => Err(first),
         }
+    }
+
+    /// The exactly integrated penalty law's rescue (DESIGN §10.7): its Jacobian is continuous
+    /// but, where a contact phase appears, changes like k sqrt(penetration), and with a stiff law
+    /// on a lightly damped resonance Newton's basin can be narrower than the distance from a
+    /// prediction (or from the orbit at another N) to the orbit. At a soft stiffness
+    /// `PENALTY_START` x k the basin is wide; the stiffness then grows geometrically to k, each
+    /// stage from the last converged orbit, by a ratio that halves (in decades) after a failed
+    /// stage and doubles after a converged one, between `PENALTY_RATIO_MIN` and 10. Returns the
+    /// iterations spent, or `None` (the state is then left anywhere).
+    fn penalty_homotopy(
+        &mut self,
+        state: &mut OrbitState,
+        mu: &Multipliers,
+        arc: Option<&ArcRow>,
+        stiffness: f64,
+        phases: ContactPhases,
+    ) -> Option<usize> {
+        let mut spent = 0;
+        let (mut factor, mut decades) = (PENALTY_START, 1.0_f64);
+        let mut converged = false;
+        let mut last = state.clone();
+        while spent < PENALTY_BUDGET {
+            let trial = if converged {
+                (factor * 10f64.powf(decades)).min(1.0)
+            } else {
+                factor
+            };
+            self.integration = ForceIntegration::ExactPenalty {
+                stiffness: stiffness * trial,
+                phases,
+            };
+            match self.run_once(state, mu, arc) {
+                Ok(it) => {
+                    spent += it;
+                    if trial >= 1.0 {
+                        return Some(spent);
+                    }
+                    (factor, converged) = (trial, true);
+                    last.clone_from(state);
+                    decades = (2.0 * decades).min(1.0);
+                }
+                Err(_) => {
+                    spent += self.settings.max_iterations;
+                    if !converged || decades < PENALTY_RATIO_MIN.log10() {
+                        return None;
+                    }
+                    state.clone_from(&last);
+                    decades *= 0.5;
+                }
+            }
+        }
+        None
     }
 
     /// One Newton run at the current smoothing (see [`Self::run`]).
@@ -336,8 +406,23 @@ impl InnerNewton<'_> {
                 return Ok(it);
             }
             let (dy, dp) = self.direction(state, &r, &cs, arc)?;
+            // The exactly integrated law is continuously differentiable: the Newton direction
+            // decreases every residual for a short enough step, so only a decrease is taken
+            // (down to `SHORTEST_STEP`); the sampled law's kinks may need a step that does not
+            // decrease to leave a cycle between active sets (taken at 1/64).
+            let exact = matches!(self.integration, ForceIntegration::ExactPenalty { .. });
+            let forced_at = if exact { 0.0 } else { 1.0 / 64.0 };
             let mut step = 1.0;
             loop {
+                if exact && step < SHORTEST_STEP {
+                    return Err(ForcedError::NotConverged {
+                        omega: state.omega,
+                        reason: format!(
+                            "inner Newton: no step along the Newton direction decreases the \
+                             residual {merit:.3e} (units of g0)"
+                        ),
+                    });
+                }
                 let mut trial = OrbitState {
                     y: state.y.iter().zip(&dy).map(|(a, d)| a + step * d).collect(),
                     ..state.clone()
@@ -348,7 +433,7 @@ impl InnerNewton<'_> {
                 }
                 let (rt, ct) = self.residual(&trial, mu)?;
                 let mt = self.merit(&rt, arc.map(|a| (a, &trial)));
-                if mt.is_finite() && (mt < merit || step < 1.0 / 64.0) {
+                if mt.is_finite() && (mt < merit || step < forced_at) {
                     (*state, r, cs, merit) = (trial, rt, ct, mt);
                     break;
                 }

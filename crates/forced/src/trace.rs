@@ -41,6 +41,10 @@ const CORNER_REACH: f64 = 4.0;
 /// grows while turns stay below a third of it.
 const MAX_TURN: f64 = 0.35;
 
+/// Scaled step below which a failing step on the exactly integrated law tries the grazing
+/// passage by prescribed penetrations (`grazing`).
+const GRAZING_STEP: f64 = 1e-4;
+
 /// Scaled step below which a failing step on the sampled law gives way to a hop (`corner`).
 pub(crate) const CORNER_STEP: f64 = 1e-3;
 
@@ -229,10 +233,18 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
         let tangent = self.tangent.clone();
         let exact = self.solver().integrates_exactly();
         let mut reason = String::from("no step tried");
+        let mut grazing_tried = false;
         loop {
             if !exact && self.step < CORNER_STEP {
                 if self.hop(tangent[tangent.len() - 1].signum()) || self.phase_hop() {
                     self.step = CORNER_STEP;
+                    return Ok(());
+                }
+            }
+            if exact && self.step < GRAZING_STEP && !grazing_tried {
+                grazing_tried = true;
+                if self.pass_grazing() {
+                    self.step = GRAZING_STEP.max(self.settings.min_step);
                     return Ok(());
                 }
             }
@@ -303,7 +315,7 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
 
     /// Appends an accepted point: checked in N (the level follows), its tangent, a fold when
     /// the parameter's component of the tangent changed sign since the last point.
-    fn accept(&mut self, p: ForcedPoint, arc: &ArcRow, next: Vec<f64>) {
+    pub(crate) fn accept(&mut self, p: ForcedPoint, arc: &ArcRow, next: Vec<f64>) {
         let (p, level) = self.ladder.converge(p, self.level, Some(arc));
         let next = if level == self.level {
             next
