@@ -2,7 +2,9 @@
 //!
 //! * [`LinePlot`]: axes with "nice" ticks, title, axis labels, several [`Series`] (solid, dashed
 //!   or dotted lines, optional markers), a legend, and dashed reference lines ([`RefLine`]) such as
-//!   "contact at 1" or "grazing".
+//!   "contact at 1" or "grazing". Its [`LineLayout`] says where everything is drawn: the legend
+//!   inside the plot area only where it meets no data, else beside or below it; reference-line
+//!   labels outside the area ([`LineLayout::clashes`] lists any overlap).
 //! * [`HeatMap`]: a matrix of values as colored cells with a color bar (the contact map: contact
 //!   node x time).
 //! * [`SurfacePicture`]: a triangulated surface (e.g. a deformed mesh) flat-shaded in an
@@ -16,8 +18,11 @@
 mod color;
 mod frame;
 mod heatmap;
+mod legend;
 mod line;
+mod line_layout;
 mod raster;
+mod rect;
 mod series;
 mod surface;
 mod svg;
@@ -26,8 +31,10 @@ mod ticks;
 pub use color::{Color, Colormap, PALETTE};
 pub use heatmap::HeatMap;
 pub use line::LinePlot;
+pub use line_layout::{LineLayout, RefLabel, Stroke};
 pub use raster::{fonts_available, png_color_share, svg_to_png, PNG_SCALE};
 pub use series::{LegendPosition, LineStyle, Orientation, RefLine, Series};
+pub use rect::Rect;
 pub use surface::{Marker, SurfacePanel, SurfacePicture, View};
 pub use ticks::{nice_ticks, Ticks};
 
@@ -92,5 +99,7 @@ pub(crate) fn prefix(e: OutputError, path: &Path) -> OutputError {
     }
 }
 
+#[cfg(test)]
+mod layout_tests;
 #[cfg(test)]
 mod tests;

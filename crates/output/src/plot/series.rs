@@ -41,7 +41,7 @@ pub struct Series {
     pub style: LineStyle,
     /// Draw a marker at every point.
     pub markers: bool,
-    /// Line width (px).
+    /// Line width (px); markers have 1.6 times its radius (at least 1.6 px).
     pub width: f64,
 }
 
@@ -124,18 +124,27 @@ impl RefLine {
     }
 }
 
-/// Where the legend box goes (inside the plot area).
+/// Where the legend box goes. A legend is never drawn over data: a corner inside the plot area
+/// is used only when the box there, with a margin, meets no curve, marker or reference line;
+/// otherwise the legend goes beside the area ([`LegendPosition::Right`]) and the image widens.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LegendPosition {
-    /// Top right corner.
+    /// The first free corner inside the area (top right, top left, bottom right, bottom
+    /// left); beside the area when none is free.
     #[default]
+    Auto,
+    /// Top right corner if free, else beside the area.
     TopRight,
-    /// Top left corner.
+    /// Top left corner if free, else beside the area.
     TopLeft,
-    /// Bottom right corner.
+    /// Bottom right corner if free, else beside the area.
     BottomRight,
-    /// Bottom left corner.
+    /// Bottom left corner if free, else beside the area.
     BottomLeft,
+    /// Beside the area, right of it, top-aligned (the image widens).
+    Right,
+    /// Below the x axis label, in as many columns as fit the image's width (the image grows).
+    Below,
     /// No legend.
     Hidden,
 }
