@@ -53,8 +53,16 @@ pub fn manifold_figure(orbits: &[ManifoldOrbit], node: usize, out: &Path) -> Res
         ylabel,
     )
     .with_legend(LegendPosition::Auto);
-    for (i, (q, c)) in orbits.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
+    // Colour by amplitude, smallest dark blue to largest yellow: each colour once, in order.
+    let mut order: Vec<usize> = (0..orbits.len()).collect();
+    order.sort_by(|&a, &b| orbits[a].0.total_cmp(&orbits[b].0));
+    let shade = |i: usize| {
+        let rank = order.iter().position(|&k| k == i).unwrap_or(0);
+        Colormap::Viridis.at(rank as f64 / orbits.len().saturating_sub(1).max(1) as f64 * 0.9)
+    };
+    for &i in &order {
+        let (q, c) = &orbits[i];
+        let color = shade(i);
         let label = format!("q/g0 = {q:.2}");
         disp = disp.with_series(
             Series::new(
@@ -175,3 +183,6 @@ pub fn combined_frequency_energy(families: &[(usize, BackboneFile)], out: &Path)
     plot.write_svg_and_png(&out.join("frequency_energy_modes"))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;

@@ -118,12 +118,7 @@ fn stability_runs(
 ) -> Vec<(LineStyle, Vec<f64>, Vec<f64>)> {
     let xy: Vec<(f64, f64)> = piece.iter().map(|p| (x_of(p), p.omega_ratio)).collect();
     let style: Vec<LineStyle> = piece.iter().map(|p| point_style(p)).collect();
-    let mid = |i: usize| {
-        (
-            0.5 * (xy[i].0 + xy[i + 1].0),
-            0.5 * (xy[i].1 + xy[i + 1].1),
-        )
-    };
+    let mid = |i: usize| (0.5 * (xy[i].0 + xy[i + 1].0), 0.5 * (xy[i].1 + xy[i + 1].1));
     let mut runs = Vec::new();
     let mut start = 0;
     for k in 1..=piece.len() {
@@ -188,7 +183,10 @@ fn add_curves(
     for piece in pieces {
         for (style, x, y) in stability_runs(piece, x_of) {
             let label = labels.once(fixed_label.unwrap_or(style_label(style, analysed)));
-            let series = Series::new(label, x, y).color(color).width(width).style(style);
+            let series = Series::new(label, x, y)
+                .color(color)
+                .width(width)
+                .style(style);
             plot = plot.with_series(series);
         }
     }
@@ -349,7 +347,13 @@ pub fn diagnostics_plot(b: &BackboneFile, exact: Option<&BoundaryBackbone>) -> L
     let mut plot = add_curves(plot, &pieces, (BACKBONE, 1.4, Some(hb)), &mut labels, &x_of);
     plot = add_passages(plot, &pieces, &mut labels, &x_of);
     let tongue = "internal-resonance tongues";
-    plot = add_curves(plot, &tongues(b), (TONGUE, 1.2, Some(tongue)), &mut labels, &x_of);
+    plot = add_curves(
+        plot,
+        &tongues(b),
+        (TONGUE, 1.2, Some(tongue)),
+        &mut labels,
+        &x_of,
+    );
     for series in exact.map_or_else(Vec::new, |e| {
         exact_series(e, g0, b.omega_linear, &mut labels)
     }) {
@@ -358,7 +362,12 @@ pub fn diagnostics_plot(b: &BackboneFile, exact: Option<&BoundaryBackbone>) -> L
     let (x, y): (Vec<f64>, Vec<f64>) = b
         .points
         .iter()
-        .filter_map(|p| Some((p.q / g0, p.converged.as_ref()?.orbit().omega / b.omega_linear)))
+        .filter_map(|p| {
+            Some((
+                p.q / g0,
+                p.converged.as_ref()?.orbit().omega / b.omega_linear,
+            ))
+        })
         .unzip();
     if !x.is_empty() {
         plot = plot.with_series(
@@ -372,7 +381,13 @@ pub fn diagnostics_plot(b: &BackboneFile, exact: Option<&BoundaryBackbone>) -> L
     let all: Vec<&Orbit> = b.points.iter().collect();
     let change = ("stability change", BIFURCATION, 1.5);
     plot = add_markers(plot, &all, |p| p.bifurcation.is_some(), change, &x_of);
-    plot = add_markers(plot, &all, |p| p.fold || p.jump, ("fold / jump", FOLD, 1.5), &x_of);
+    plot = add_markers(
+        plot,
+        &all,
+        |p| p.fold || p.jump,
+        ("fold / jump", FOLD, 1.5),
+        &x_of,
+    );
     with_grazing(plot, b)
 }
 
@@ -412,5 +427,11 @@ pub fn frequency_energy_plot(b: &BackboneFile) -> Option<LinePlot> {
         &x_of,
     );
     let all: Vec<&Orbit> = pieces.iter().flatten().copied().collect();
-    Some(add_markers(plot, &all, |p| p.fold, ("fold", FOLD, 2.0), &x_of))
+    Some(add_markers(
+        plot,
+        &all,
+        |p| p.fold,
+        ("fold", FOLD, 2.0),
+        &x_of,
+    ))
 }

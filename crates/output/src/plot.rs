@@ -15,6 +15,8 @@
 //! Both render to an SVG string (`to_svg`) and write `.svg` / `.png` files atomically
 //! (`write_svg`, `write_png`, `write_svg_and_png`). Non-finite data are refused.
 
+mod axis;
+mod clash;
 mod color;
 mod frame;
 mod heatmap;
@@ -33,8 +35,8 @@ pub use heatmap::HeatMap;
 pub use line::LinePlot;
 pub use line_layout::{LineLayout, RefLabel, Stroke};
 pub use raster::{fonts_available, png_color_share, svg_to_png, PNG_SCALE};
-pub use series::{LegendPosition, LineStyle, Orientation, RefLine, Series};
 pub use rect::Rect;
+pub use series::{LegendPosition, LineStyle, Orientation, RefLine, Series};
 pub use surface::{Marker, SurfacePanel, SurfacePicture, View};
 pub use ticks::{nice_ticks, Ticks};
 

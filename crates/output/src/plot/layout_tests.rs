@@ -38,23 +38,42 @@ fn rising() -> LinePlot {
     let w: Vec<f64> = q.iter().map(|&q| 1.0 + 0.01 * q).collect();
     LinePlot::new("Rising", "q / g0", "w / w1")
         .with_series(Series::new("backbone", q.clone(), w))
-        .with_series(Series::new("a point", vec![0.0], vec![1.6]).style(LineStyle::None).markers(true))
+        .with_series(
+            Series::new("a point", vec![0.0], vec![1.6])
+                .style(LineStyle::None)
+                .markers(true),
+        )
         .with_ref_line(RefLine::vertical(4.0, "grazing"))
 }
 
 #[test]
 fn a_legend_over_crowded_data_goes_outside_the_area() {
-    let labels = ["stable", "unstable (dashed)", "fold", "a longer legend entry, with capitals"];
+    let labels = [
+        "stable",
+        "unstable (dashed)",
+        "fold",
+        "a longer legend entry, with capitals",
+    ];
     for pos in POSITIONS {
         let plot = crowded(&labels).with_legend(pos);
         let l = plot.layout().expect("layout");
         assert!(l.clashes().is_empty(), "{pos:?}: {:?}", l.clashes());
         let (legend, _) = l.legend.expect("a legend");
-        assert!(!legend.overlaps(&l.area), "{pos:?}: {legend:?} in {:?}", l.area);
+        assert!(
+            !legend.overlaps(&l.area),
+            "{pos:?}: {legend:?} in {:?}",
+            l.area
+        );
         if pos == LegendPosition::Below {
-            assert!(legend.y > l.area.bottom() && l.height > plot.height, "{legend:?}");
+            assert!(
+                legend.y > l.area.bottom() && l.height > plot.height,
+                "{legend:?}"
+            );
         } else {
-            assert!(legend.x > l.area.right() && l.width > plot.width, "{legend:?}");
+            assert!(
+                legend.x > l.area.right() && l.width > plot.width,
+                "{legend:?}"
+            );
         }
         // Reference-line labels sit outside the area too.
         assert_eq!(l.ref_labels.len(), 2);
@@ -71,8 +90,15 @@ fn a_legend_takes_a_free_corner_only() {
     // sits top left, so a top-left request goes elsewhere.
     assert!(l.area.contains(&legend), "{legend:?} in {:?}", l.area);
     assert!(legend.x > l.area.x + 0.5 * l.area.w && legend.y < l.area.y + 0.5 * l.area.h);
-    assert_eq!((l.width, l.height), (800.0, 520.0), "the image keeps its size");
-    let top_left = rising().with_legend(LegendPosition::TopLeft).layout().expect("layout");
+    assert_eq!(
+        (l.width, l.height),
+        (800.0, 520.0),
+        "the image keeps its size"
+    );
+    let top_left = rising()
+        .with_legend(LegendPosition::TopLeft)
+        .layout()
+        .expect("layout");
     let (legend, _) = top_left.legend.expect("a legend");
     assert!(legend.x > top_left.area.right(), "{legend:?}");
     assert!(top_left.clashes().is_empty(), "{:?}", top_left.clashes());
@@ -115,7 +141,9 @@ fn rendered_boxes(tree: &usvg::Tree, text: &str) -> Vec<Rect> {
         for node in g.children() {
             match node {
                 usvg::Node::Group(g) => walk(g, text, out),
-                usvg::Node::Text(t) if t.chunks().iter().map(|c| c.text()).collect::<String>() == text => {
+                usvg::Node::Text(t)
+                    if t.chunks().iter().map(|c| c.text()).collect::<String>() == text =>
+                {
                     let b = t.abs_bounding_box();
                     out.push(Rect::new(
                         f64::from(b.left()),
@@ -135,13 +163,20 @@ fn rendered_boxes(tree: &usvg::Tree, text: &str) -> Vec<Rect> {
 
 #[test]
 fn the_rendered_text_stays_in_its_boxes() {
-    assert!(fonts_available(), "no system font: install fonts-dejavu-core");
+    assert!(
+        fonts_available(),
+        "no system font: install fonts-dejavu-core"
+    );
     let labels = [
         "converged orbit at each q (docs/STABILITY.md 9.4)",
         "WWW MMM capitals",
         "exact orbits, massless contact boundary",
     ];
-    for pos in [LegendPosition::Right, LegendPosition::Below, LegendPosition::Auto] {
+    for pos in [
+        LegendPosition::Right,
+        LegendPosition::Below,
+        LegendPosition::Auto,
+    ] {
         let plot = crowded(&labels).with_legend(pos);
         let l = plot.layout().expect("layout");
         let tree = parse_with_fonts(&plot.to_svg().expect("svg")).expect("parse");
@@ -149,13 +184,27 @@ fn the_rendered_text_stays_in_its_boxes() {
         for label in labels {
             let boxes = rendered_boxes(&tree, label);
             assert_eq!(boxes.len(), 1, "{label}");
-            assert!(legend.contains(&boxes[0]), "{pos:?}: `{label}` {:?} outside {legend:?}", boxes[0]);
+            assert!(
+                legend.contains(&boxes[0]),
+                "{pos:?}: `{label}` {:?} outside {legend:?}",
+                boxes[0]
+            );
         }
         for r in &l.ref_labels {
             let b = rendered_boxes(&tree, &r.text)[0];
-            assert!(!b.overlaps(&l.area), "`{}` {b:?} over the area {:?}", r.text, l.area);
+            assert!(
+                !b.overlaps(&l.area),
+                "`{}` {b:?} over the area {:?}",
+                r.text,
+                l.area
+            );
             assert!(!b.overlaps(&legend), "`{}` {b:?} over the legend", r.text);
-            assert!(r.rect.inflate(2.0).contains(&b), "`{}`: {b:?} vs {:?}", r.text, r.rect);
+            assert!(
+                r.rect.inflate(2.0).contains(&b),
+                "`{}`: {b:?} vs {:?}",
+                r.text,
+                r.rect
+            );
         }
     }
 }

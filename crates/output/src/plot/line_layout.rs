@@ -5,6 +5,7 @@
 //! right of it for horizontal ones). [`LineLayout::clashes`] checks the result: nothing the
 //! figure labels with is drawn over its data or over other text.
 
+use super::axis::{data_ranges, Axis, Y_PAD};
 use super::color::{Color, PALETTE};
 use super::frame::{self, LABEL_FONT, TICK_FONT, TITLE_FONT};
 use super::legend;
@@ -12,13 +13,8 @@ use super::line::LinePlot;
 use super::rect::Rect;
 use super::series::{LegendPosition, LineStyle, Orientation};
 use super::svg::text_width;
-use super::ticks::{nice_ticks, tick_label};
-use crate::finite::check_finite;
 use crate::OutputError;
 
-/// Margin added above and below the y data range (fraction of the range), as in most plotting
-/// tools: curves do not run along the frame. The x axis spans the data exactly.
-const Y_PAD: f64 = 0.05;
 /// Font size of the reference lines' labels.
 pub(crate) const REF_FONT: f64 = 11.0;
 /// Height of one row of vertical-line labels above the area (px).
@@ -29,72 +25,6 @@ const CLEARANCE: f64 = 4.0;
 const INSET: f64 = 10.0;
 /// Right margin without labels: room for the last x tick label (px).
 const RIGHT: f64 = 24.0;
-
-/// Axis limits and ticks.
-pub(crate) struct Axis {
-    pub lo: f64,
-    pub hi: f64,
-    pub ticks: Vec<f64>,
-    step: f64,
-}
-
-impl Axis {
-    /// Fixed limits if given; otherwise the data range widened by `pad` (fraction of the span) on
-    /// both sides. Ticks are the nice values inside the limits.
-    fn new(
-        what: &str,
-        fixed: Option<(f64, f64)>,
-        data: (f64, f64),
-        pad: f64,
-    ) -> Result<Self, OutputError> {
-        let (data_lo, data_hi) = data;
-        let (lo, hi) = match fixed {
-            Some((lo, hi)) => {
-                check_finite(what, &[lo, hi])?;
-                if lo >= hi {
-                    return Err(OutputError::invalid(
-                        what.to_string(),
-                        format!("range ({lo}, {hi}) is empty; expected lo < hi"),
-                    ));
-                }
-                (lo, hi)
-            }
-            None => {
-                // A flat range is widened the way nice_ticks does it.
-                let t = nice_ticks(data_lo, data_hi, 6);
-                let (lo, hi) = if data_hi - data_lo <= 1e-9 * data_lo.abs().max(data_hi.abs())
-                    || data_hi == data_lo
-                {
-                    (t.lo, t.hi)
-                } else {
-                    (data_lo, data_hi)
-                };
-                let span = hi - lo;
-                (lo - pad * span, hi + pad * span)
-            }
-        };
-        let t = nice_ticks(lo, hi, 6);
-        let eps = 1e-9 * (hi - lo);
-        Ok(Axis {
-            lo,
-            hi,
-            ticks: t
-                .values
-                .into_iter()
-                .filter(|v| *v >= lo - eps && *v <= hi + eps)
-                .collect(),
-            step: t.step,
-        })
-    }
-
-    pub fn label(&self, v: f64) -> String {
-        tick_label(v, self.step, self.lo.abs().max(self.hi.abs()))
-    }
-
-    fn contains(&self, v: f64) -> bool {
-        v >= self.lo && v <= self.hi
-    }
-}
 
 /// A straight piece of a drawn line (px), with half its width.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -163,32 +93,17 @@ impl LineLayout {
             .iter()
             .map(|&v| text_width(&ya.label(v), TICK_FONT))
             .fold(0.0, f64::max);
-        let horizontal: Vec<&str> = plot
-            .ref_lines
-            .iter()
-            .filter(|r| r.orientation == Orientation::Horizontal && ya.contains(r.value))
-            .map(|r| r.label.as_str())
-            .filter(|l| !l.is_empty())
-            .collect();
-        let label_column = horizontal
-            .iter()
-            .map(|l| text_width(l, REF_FONT))
-            .fold(0.0, f64::max);
-        let right = if horizontal.is_empty() {
-            RIGHT
-        } else {
-            RIGHT.max(6.0 + label_column + 10.0)
-        };
+        let right = right_margin(plot, &ya);
         let x0 = frame::left_margin(y_tick_w);
         let x1 = plot.width - right;
         let px = |x: f64| x0 + (x - xa.lo) / (xa.hi - xa.lo) * (x1 - x0);
-        let mut vertical = vertical_labels(plot, &xa, &px, plot.width);
+        let vertical = vertical_labels(plot, &xa, &px, plot.width);
         let rows = vertical.iter().map(|(_, row)| row + 1).max().unwrap_or(0);
         let y0 = frame::top_margin(&plot.title) + REF_ROW * rows as f64;
         let y1 = plot.height - frame::BOTTOM_MARGIN;
         let py = |y: f64| y1 - (y - ya.lo) / (ya.hi - ya.lo) * (y1 - y0);
         let mut ref_labels: Vec<RefLabel> = vertical
-            .drain(..)
+            .into_iter()
             .map(|(mut l, row)| {
                 let base = y0 - 5.0 - REF_ROW * row as f64;
                 l.rect.y = base - 0.8 * REF_FONT;
@@ -196,17 +111,7 @@ impl LineLayout {
                 l
             })
             .collect();
-        for r in plot.ref_lines.iter().filter(|r| {
-            r.orientation == Orientation::Horizontal && ya.contains(r.value) && !r.label.is_empty()
-        }) {
-            let base = py(r.value) + 0.35 * REF_FONT;
-            ref_labels.push(RefLabel {
-                text: r.label.clone(),
-                rect: text_box(x1 + 6.0, base, text_width(&r.label, REF_FONT), REF_FONT),
-                baseline: (x1 + 6.0, base),
-                start_anchored: true,
-            });
-        }
+        ref_labels.extend(horizontal_labels(plot, &ya, &py, x1));
         let area = Rect::new(x0, y0, x1 - x0, y1 - y0);
         let colors: Vec<Color> = plot
             .series
@@ -263,7 +168,11 @@ impl LineLayout {
             });
         }
         for s in &plot.series {
-            let pts: Vec<(f64, f64)> = s.x.iter().zip(&s.y).map(|(&x, &y)| (px(x), py(y))).collect();
+            let pts: Vec<(f64, f64)> =
+                s.x.iter()
+                    .zip(&s.y)
+                    .map(|(&x, &y)| (px(x), py(y)))
+                    .collect();
             if s.style != LineStyle::None {
                 for w in pts.windows(2) {
                     self.strokes.push(Stroke {
@@ -300,8 +209,7 @@ impl LineLayout {
             // Bold text: about 10 % wider than the estimate.
             let w = 1.1 * text_width(&plot.title, TITLE_FONT);
             let base = frame::title_baseline(TITLE_FONT);
-            self.texts
-                .push(text_box(cx - 0.5 * w, base, w, TITLE_FONT));
+            self.texts.push(text_box(cx - 0.5 * w, base, w, TITLE_FONT));
         }
         if !plot.x_label.is_empty() {
             let w = text_width(&plot.x_label, LABEL_FONT);
@@ -310,8 +218,12 @@ impl LineLayout {
         }
         for (x, label) in &self.x_ticks {
             let w = text_width(label, TICK_FONT);
-            self.texts
-                .push(text_box(x - 0.5 * w, a.bottom() + 8.0 + TICK_FONT, w, TICK_FONT));
+            self.texts.push(text_box(
+                x - 0.5 * w,
+                a.bottom() + 8.0 + TICK_FONT,
+                w,
+                TICK_FONT,
+            ));
         }
         for (y, label) in &self.y_ticks {
             let w = text_width(label, TICK_FONT);
@@ -378,58 +290,6 @@ impl LineLayout {
         self.height = self.height.max((rect.bottom() + INSET).ceil());
         self.legend = Some((rect, columns));
     }
-
-    /// Whether `r` meets no drawn stroke or marker (inside the area, where they are drawn).
-    fn clear_of_data(&self, r: &Rect) -> bool {
-        let Some(r) = intersection(r, &self.area) else {
-            return true;
-        };
-        self.strokes
-            .iter()
-            .chain(&self.ref_lines)
-            .all(|s| !stroke_meets(&self.area, s, &r))
-            && self
-                .dots
-                .iter()
-                .all(|&(c, rad)| !Rect::new(c.0 - rad, c.1 - rad, 2.0 * rad, 2.0 * rad).overlaps(&r))
-    }
-
-    /// Everything wrong with the layout: the legend or a reference-line label over drawn data
-    /// (curves, markers, reference lines) or over other text, across the frame, or out of the
-    /// image. Empty for a good layout.
-    pub fn clashes(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        let image = Rect::new(0.0, 0.0, self.width, self.height);
-        let mut boxes: Vec<(String, Rect)> = self
-            .ref_labels
-            .iter()
-            .map(|l| (format!("label `{}`", l.text), l.rect))
-            .collect();
-        if let Some((r, _)) = self.legend {
-            boxes.push(("legend".to_string(), r));
-        }
-        for (k, (name, r)) in boxes.iter().enumerate() {
-            if !image.contains(r) {
-                out.push(format!("{name} {r:?} leaves the {} x {} image", self.width, self.height));
-            }
-            if !self.clear_of_data(r) {
-                out.push(format!("{name} {r:?} lies over drawn data"));
-            }
-            let within = self.area.inflate(-1.0).contains(r);
-            if !within && self.area.inflate(1.0).overlaps(r) {
-                out.push(format!("{name} {r:?} straddles the plot frame {:?}", self.area));
-            }
-            if let Some(t) = self.texts.iter().find(|t| t.overlaps(r)) {
-                out.push(format!("{name} {r:?} covers text at {t:?}"));
-            }
-            for (other, o) in &boxes[k + 1..] {
-                if o.overlaps(r) {
-                    out.push(format!("{name} {r:?} overlaps {other} {o:?}"));
-                }
-            }
-        }
-        out
-    }
 }
 
 /// Marker radius of a series of line width `width` (px): 3.2 px at the default width 2, at
@@ -438,43 +298,42 @@ pub(crate) fn marker_radius(width: f64) -> f64 {
     1.6 * width.max(1.0)
 }
 
-/// The common part of two rectangles, if they share area.
-fn intersection(a: &Rect, b: &Rect) -> Option<Rect> {
-    let (x, y) = (a.x.max(b.x), a.y.max(b.y));
-    let (r, btm) = (a.right().min(b.right()), a.bottom().min(b.bottom()));
-    (r > x && btm > y).then(|| Rect::new(x, y, r - x, btm - y))
+/// Right margin: room for the last x tick label, or for the labels of the horizontal
+/// reference lines in range (px).
+fn right_margin(plot: &LinePlot, ya: &Axis) -> f64 {
+    let widest = plot
+        .ref_lines
+        .iter()
+        .filter(|r| r.orientation == Orientation::Horizontal && ya.contains(r.value))
+        .filter(|r| !r.label.is_empty())
+        .map(|r| text_width(&r.label, REF_FONT))
+        .fold(None, |m: Option<f64>, w| Some(m.map_or(w, |m| m.max(w))));
+    widest.map_or(RIGHT, |w| RIGHT.max(6.0 + w + 10.0))
 }
 
-/// Whether the drawn part of stroke `s` (clipped to `area`) meets `r` (inside `area`).
-fn stroke_meets(area: &Rect, s: &Stroke, r: &Rect) -> bool {
-    // The stroke's width is cut by the clip too, but r lies inside the area: testing the
-    // clipped centre line grown by the half width against r is exact there.
-    area.inflate(s.half_width)
-        .clip_segment(s.a, s.b)
-        .is_some_and(|(a, b)| r.meets_stroke(a, b, s.half_width))
-}
-
-/// Data range (x, y) of the series and reference lines; (0, 1) for an empty axis.
-fn data_ranges(plot: &LinePlot) -> ((f64, f64), (f64, f64)) {
-    let (mut xl, mut xh, mut yl, mut yh) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for s in &plot.series {
-        for (&x, &y) in s.x.iter().zip(&s.y) {
-            (xl, xh, yl, yh) = (xl.min(x), xh.max(x), yl.min(y), yh.max(y));
-        }
-    }
-    for r in &plot.ref_lines {
-        match r.orientation {
-            Orientation::Horizontal => (yl, yh) = (yl.min(r.value), yh.max(r.value)),
-            Orientation::Vertical => (xl, xh) = (xl.min(r.value), xh.max(r.value)),
-        }
-    }
-    let fix = |lo: f64, hi: f64| if lo > hi { (0.0, 1.0) } else { (lo, hi) };
-    (fix(xl, xh), fix(yl, yh))
+/// The labels of the horizontal reference lines in range, right of the area (whose right edge
+/// is `x1`), centred on their lines.
+fn horizontal_labels(
+    plot: &LinePlot,
+    ya: &Axis,
+    py: &dyn Fn(f64) -> f64,
+    x1: f64,
+) -> Vec<RefLabel> {
+    plot.ref_lines
+        .iter()
+        .filter(|r| {
+            r.orientation == Orientation::Horizontal && ya.contains(r.value) && !r.label.is_empty()
+        })
+        .map(|r| {
+            let base = py(r.value) + 0.35 * REF_FONT;
+            RefLabel {
+                text: r.label.clone(),
+                rect: text_box(x1 + 6.0, base, text_width(&r.label, REF_FONT), REF_FONT),
+                baseline: (x1 + 6.0, base),
+                start_anchored: true,
+            }
+        })
+        .collect()
 }
 
 /// The labels of the vertical reference lines in range, centred above their lines (kept inside
@@ -495,9 +354,9 @@ fn vertical_labels(
         let span = (x - 4.0, x + w + 4.0);
         let row = (0..)
             .find(|&row| {
-                !placed.iter().any(|(l, k)| {
-                    *k == row && l.rect.x < span.1 && span.0 < l.rect.right()
-                })
+                !placed
+                    .iter()
+                    .any(|(l, k)| *k == row && l.rect.x < span.1 && span.0 < l.rect.right())
             })
             .unwrap_or(0);
         placed.push((
