@@ -94,7 +94,7 @@ pub fn radial_figure(series: &[Vec<(f64, f64)>], title: &str, file: &Path) -> Re
         .with_legend(LegendPosition::Hidden);
     let c = series.len();
     for (j, s) in series.iter().enumerate() {
-        // Leading edge blue to trailing edge red.
+        // Node 1 (leading edge) dark purple to the last (trailing edge) yellow (viridis).
         let t = if c > 1 {
             j as f64 / (c - 1) as f64
         } else {

@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 /// `stable` (Hill's method, unit multipliers but one of modulus `mu`).
 fn point(q: f64, w: f64, branch: usize, mu: f64, fold: bool) -> Value {
     json!({
-        "q": q * 1e-3, "omega": w * 100.0, "omega_ratio": w, "frequency_hz": w * 100.0 / 6.283,
+        "q": q * 1e-3, "omega": w * 100.0, "omega_ratio": w, "frequency_hz": w * 100.0 / std::f64::consts::TAU,
         "contact_fraction": [], "powell_measure": 0.0, "newton_iterations": 3,
         "fold": fold, "jump": false, "truncation_warning": false, "energy": q * q,
         "branch": branch, "coefficients": [], "contact_force": [],
