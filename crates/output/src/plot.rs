@@ -23,6 +23,7 @@ mod heatmap;
 mod legend;
 mod line;
 mod line_layout;
+mod line_svg;
 mod raster;
 mod rect;
 mod series;

@@ -2,7 +2,6 @@
 //! Where the box goes is decided by [`super::line_layout`], which proves it clear of the data.
 
 use super::color::Color;
-use super::line_layout::marker_radius;
 use super::rect::Rect;
 use super::series::{LineStyle, Series};
 use super::svg::{text_width, Anchor, Svg, TextStyle};
@@ -61,7 +60,7 @@ pub(crate) fn draw(svg: &mut Svg, entries: &[(&Series, Color)], at: Rect, column
             svg.line(x, cy, x + SAMPLE, cy, &hex, s.width, s.style.dash());
         }
         if s.markers {
-            svg.circle(x + 0.5 * SAMPLE, cy, marker_radius(s.width), &hex);
+            svg.circle(x + 0.5 * SAMPLE, cy, s.marker_radius(), &hex);
         }
         svg.text(
             x + SAMPLE + SAMPLE_GAP,

@@ -186,7 +186,7 @@ impl LineLayout {
                 }
             }
             if s.markers {
-                let r = marker_radius(s.width);
+                let r = s.marker_radius();
                 self.dots.extend(pts.iter().map(|&p| (p, r)));
             }
         }
@@ -290,12 +290,6 @@ impl LineLayout {
         self.height = self.height.max((rect.bottom() + INSET).ceil());
         self.legend = Some((rect, columns));
     }
-}
-
-/// Marker radius of a series of line width `width` (px): 3.2 px at the default width 2, at
-/// least 1.6 px.
-pub(crate) fn marker_radius(width: f64) -> f64 {
-    1.6 * width.max(1.0)
 }
 
 /// Right margin: room for the last x tick label, or for the labels of the horizontal

@@ -41,7 +41,7 @@ pub struct Series {
     pub style: LineStyle,
     /// Draw a marker at every point.
     pub markers: bool,
-    /// Line width (px); markers have 1.6 times its radius (at least 1.6 px).
+    /// Line width (px); the markers' radius follows it ([`Series::marker_radius`]).
     pub width: f64,
 }
 
@@ -81,6 +81,12 @@ impl Series {
     pub fn width(mut self, w: f64) -> Self {
         self.width = w;
         self
+    }
+
+    /// Radius of its markers (px): 1.6 times the line width, 3.2 px at the default width 2, at
+    /// least 1.6 px.
+    pub fn marker_radius(&self) -> f64 {
+        1.6 * self.width.max(1.0)
     }
 }
 
