@@ -466,8 +466,8 @@ fn frf_figure(
         );
     }
     let name = if max_abs { "frf_max" } else { "frf" };
-    // Contact hardens: the peaks lean right, toward the top right corner, and the top left is
-    // free (below the resonance the amplitudes are small).
+    // The legend inside the plot only where it covers no curve (the peaks lean right, so the
+    // top left corner is tried first), else beside it.
     let plot = plot
         .with_x_range(st.settings.range[0], st.settings.range[1])
         .with_legend(LegendPosition::TopLeft);
