@@ -252,3 +252,66 @@ fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
     }
     assert!(!out.join("model.json").exists(), "no model after a failure");
 }
+
+/// The eigenvalues of a `frequencies.csv` (column 3, rad^2/s^2).
+fn eigenvalues_csv(path: &Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn mpirun_modes_with_two_ranks_gives_the_serial_frequencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("coarse.msh");
+    let mesh_s = mesh.to_str().unwrap();
+    let geo = common::blade_geo();
+    common::nlmodes_ok(&[
+        "mesh",
+        geo.to_str().unwrap(),
+        "-o",
+        mesh_s,
+        "--set",
+        "mesh_size=0.012",
+    ]);
+    let (serial, mpi) = (dir.path().join("serial"), dir.path().join("mpi"));
+    let args = |out: &Path| {
+        ["modes", mesh_s, "--fix", "root", "--modes", "10", "-o"]
+            .iter()
+            .map(|s| s.to_string())
+            .chain([out.to_str().unwrap().to_string()])
+            .collect::<Vec<_>>()
+    };
+    let serial_args = args(&serial);
+    common::nlmodes_ok(&serial_args.iter().map(String::as_str).collect::<Vec<_>>());
+    let mpi_args = args(&mpi);
+    let output = mpirun(
+        2,
+        &mpi_args.iter().map(String::as_str).collect::<Vec<_>>(),
+        MPIRUN_TIMEOUT,
+    )
+    .expect("mpirun -n 2 modes did not end");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let (s, p) = (
+        eigenvalues_csv(&serial.join("frequencies.csv")),
+        eigenvalues_csv(&mpi.join("frequencies.csv")),
+    );
+    assert_eq!(s.len(), 10);
+    assert_eq!(p.len(), 10);
+    // Both solvers converge to relative residuals of 1e-10 or less: eigenvalue errors of the
+    // order of the squared residual times the spectral spread, far below 1e-8.
+    for (a, b) in s.iter().zip(&p) {
+        assert!(
+            ((a - b) / a).abs() < 1e-8,
+            "eigenvalue {a} (serial) vs {b} (MPI)"
+        );
+    }
+    assert!(mpi.join("modes.vtu").exists());
+}

@@ -107,6 +107,11 @@ impl EigenSolver {
             "EPSSetWhichEigenpairs",
         )?;
         check(unsafe { ffi::EPSSetTarget(eps, sigma) }, "EPSSetTarget")?;
+        // M is positive definite: no purification of the eigenvectors (one more solve each).
+        check(
+            unsafe { ffi::EPSSetPurify(eps, ffi::PetscBool::PETSC_FALSE) },
+            "EPSSetPurify",
+        )?;
         check(
             unsafe { ffi::EPSSetTolerances(eps, EIGEN_TOLERANCE, PETSC_DEFAULT) },
             "EPSSetTolerances",

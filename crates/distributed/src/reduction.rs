@@ -89,7 +89,7 @@ pub fn craig_bampton(input: &ReductionInput) -> Result<Option<Reduction>> {
     let t = std::time::Instant::now();
     let gathered = basis.gather(&interior_rows)?;
     logged("basis gathered on rank 0", t);
-    let Some((interior, psi, phi)) = gathered else {
+    let Some(GatheredBasis { interior, psi, phi }) = gathered else {
         return Ok(None);
     };
     let (mut k_r, mut m_r) = (k_r, m_r);
@@ -340,6 +340,13 @@ fn full_check(input: &ReductionInput, k: &Matrix, m: &Matrix) -> Result<Option<V
     ))
 }
 
+/// Psi and Phi on rank 0, rows in the serial order: interior free DOFs ascending.
+struct GatheredBasis {
+    interior: Vec<usize>,
+    psi: Mat<f64>,
+    phi: Mat<f64>,
+}
+
 /// The local rows of the reduction basis.
 struct Basis<'a> {
     layout: &'a Layout,
@@ -401,7 +408,7 @@ impl Basis<'_> {
 
     /// Psi and Phi on rank 0 with their rows in the serial order (interior free DOFs
     /// ascending), and the interior DOFs; `None` on the other ranks. One column at a time.
-    fn gather(&self, interior_rows: &[usize]) -> Result<Option<(Vec<usize>, Mat<f64>, Mat<f64>)>> {
+    fn gather(&self, interior_rows: &[usize]) -> Result<Option<GatheredBasis>> {
         let frees: Vec<u64> = interior_rows
             .iter()
             .map(|&r| self.layout.free_of_row[r] as u64)
@@ -438,7 +445,9 @@ impl Basis<'_> {
             }
         }
         Ok(match (root, psi, phi) {
-            (Some((interior, _)), Some(psi), Some(phi)) => Some((interior, psi, phi)),
+            (Some((interior, _)), Some(psi), Some(phi)) => {
+                Some(GatheredBasis { interior, psi, phi })
+            }
             _ => None,
         })
     }
