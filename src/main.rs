@@ -286,7 +286,8 @@ fn parse_key_value(s: &str) -> Result<(String, f64), String> {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     // Under mpirun: MPI and PETSc for the finite-element stages; ranks other than 0 are quiet.
-    let mpi = match nlmodes_distributed::start() {
+    // Finalizes PETSc and MPI when main returns.
+    let _mpi = match nlmodes_distributed::start() {
         Ok(session) => session,
         Err(e) => {
             eprintln!("error: {e}");
@@ -305,7 +306,6 @@ fn main() -> std::process::ExitCode {
             }
             // Every other rank ends too: it could be waiting for this one in a collective.
             nlmodes_distributed::abort_if_parallel(code.into());
-            drop(mpi);
             std::process::ExitCode::from(code)
         }
     }
