@@ -33,6 +33,8 @@ mod ffi {
 #[cfg(feature = "petsc")]
 mod assembly;
 #[cfg(feature = "petsc")]
+pub mod bridge;
+#[cfg(feature = "petsc")]
 mod collective;
 #[cfg(feature = "petsc")]
 pub mod eigen;
