@@ -41,7 +41,7 @@ mod stage_hash;
 mod ui;
 mod validate;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -286,17 +286,41 @@ fn parse_key_value(s: &str) -> Result<(String, f64), String> {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    ui::init(cli.quiet);
+    // Under mpirun: MPI and PETSc for the finite-element stages; ranks other than 0 are quiet.
+    // Finalizes PETSc and MPI when main returns.
+    let _mpi = match nlmodes_distributed::start() {
+        Ok(session) => session,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return std::process::ExitCode::from(exit::FAILURE);
+        }
+    };
+    let rank = nlmodes_distributed::world().map(|w| w.rank);
+    ui::init(cli.quiet || rank.is_some_and(|r| r > 0));
     match run(cli.command) {
         Ok(()) => std::process::ExitCode::from(exit::COMPLETE),
         Err(e) => {
-            eprintln!("error: {e:#}");
-            std::process::ExitCode::from(exit::code_of(&e))
+            let code = exit::code_of(&e);
+            match rank {
+                Some(r) => eprintln!("error (MPI rank {r}): {e:#}"),
+                None => eprintln!("error: {e:#}"),
+            }
+            // Every other rank ends too: it could be waiting for this one in a collective.
+            nlmodes_distributed::abort_if_parallel(code.into());
+            std::process::ExitCode::from(code)
         }
     }
 }
 
 fn run(command: Command) -> Result<()> {
+    if nlmodes_distributed::world().is_some()
+        && !matches!(command, Command::Modes { .. } | Command::Reduce(_))
+    {
+        return Err(bad_input(
+            "under mpirun only `nlmodes modes` and `nlmodes reduce` run (the finite-element \
+             stages, over MPI); run the other commands without mpirun",
+        ));
+    }
     match command {
         Command::Mesh {
             geo,
@@ -326,6 +350,9 @@ fn run(command: Command) -> Result<()> {
                 )));
             }
             validate::check_output_dir(&out, "--out")?;
+            if nlmodes_distributed::world().is_some() {
+                return distributed_modes(&mesh, &material.material()?, &fix, modes, sigma, &out);
+            }
             let fe = fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
             let m = fe.modes(modes, sigma)?;
             fe_model::write_modes(&fe, &m, &out)?;
@@ -359,8 +386,43 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
     let axis = nlmodes_modal::RotorAxis::new(a.axis_point, a.axis_direction)
         .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
     validate::check_output_dir(&a.out, "--out")?;
-    let fe = fe_model::FeModel::build(&a.mesh, &a.material.material()?, &a.fix)?;
-    let dofs = fe.dofs.n_free();
+    let material = a.material.material()?;
+    let reduced = if nlmodes_distributed::world().is_some() {
+        let (mesh, dofs) = fe_model::read_mesh(&a.mesh, &a.fix)?;
+        let settings = reduce_settings(&a, axis, dofs.n_free());
+        let side = reduce::MeshSide {
+            mesh: &mesh,
+            dofs: &dofs,
+            clamp: &a.fix,
+        };
+        reduce::reduce_distributed(&side, &material, &settings)?
+    } else {
+        let fe = fe_model::FeModel::build(&a.mesh, &material, &a.fix)?;
+        Some(reduce::reduce(
+            &fe,
+            &reduce_settings(&a, axis, fe.dofs.n_free()),
+        )?)
+    };
+    // Under MPI only rank 0 has the model and writes it.
+    let Some((mut model, full)) = reduced else {
+        return Ok(());
+    };
+    reduce::write_model(&mut model, &a.out, &a.mesh)?;
+    if let Some(full) = full {
+        ui::say(&reduce::comparison_table(
+            &full,
+            &model.linear_frequencies_hz,
+        ));
+    }
+    Ok(())
+}
+
+/// The settings of `nlmodes reduce` for a model of `dofs` free DOFs.
+fn reduce_settings(
+    a: &ReduceArgs,
+    axis: nlmodes_modal::RotorAxis,
+    dofs: usize,
+) -> reduce::ReduceSettings<'_> {
     let check = a.full_check.wanted(dofs);
     if a.compare > 0 && !check {
         tracing::info!(
@@ -368,7 +430,7 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
             reduce::FULL_CHECK_AUTO_MAX_DOFS
         );
     }
-    let settings = reduce::ReduceSettings {
+    reduce::ReduceSettings {
         contact_group: &a.contact,
         axis,
         gap: a.gap,
@@ -377,15 +439,32 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         check_modes: if check { a.compare.min(dofs) } else { 0 },
         running: None,
         loads: Vec::new(),
-    };
-    let (mut model, full) = reduce::reduce(&fe, &settings)?;
-    reduce::write_model(&mut model, &a.out, &a.mesh)?;
-    if let Some(full) = full {
-        ui::say(&reduce::comparison_table(
-            &full,
-            &model.linear_frequencies_hz,
-        ));
     }
+}
+
+/// `nlmodes modes` under mpirun: the modes by SLEPc over the ranks, written by rank 0.
+fn distributed_modes(
+    mesh_path: &Path,
+    material: &nlmodes_fem::Isotropic,
+    fix: &[String],
+    modes: usize,
+    sigma: f64,
+    out: &Path,
+) -> Result<()> {
+    let (mesh, dofs) = fe_model::read_mesh(mesh_path, fix)?;
+    let stage = ui::Stage::start("modes");
+    let found = nlmodes_distributed::full_modes(&mesh, material, &dofs, modes, sigma)
+        .with_context(|| format!("computing {modes} modes of the {}-DOF model", dofs.n_free()))?;
+    let Some(m) = found else {
+        return Ok(());
+    };
+    let worst = m.residuals.iter().cloned().fold(0.0, f64::max);
+    stage.done(&format!(
+        "{} modes, largest relative residual {worst:.2e}",
+        m.len()
+    ));
+    fe_model::write_modes_of(&mesh, &dofs, &m, out)?;
+    ui::say(&fe_model::frequency_table(&m));
     Ok(())
 }
 
