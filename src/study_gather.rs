@@ -334,3 +334,47 @@ pub fn table(g: &Gathered) -> Result<CsvTable> {
     }
     Ok(t)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each level's peak is its row of largest q1/g0, whatever the order of the rows.
+    #[test]
+    fn peaks_are_each_levels_largest_first_harmonic() {
+        let tmp = tempfile::tempdir().unwrap();
+        let frf = tmp.path().join("frf.csv");
+        std::fs::write(
+            &frf,
+            "level,force_N,point,omega_rad_s,frequency_hz,omega_ratio,q1_over_g0\n\
+             0.5,1,0,10,1.5,0.9,1.0\n0.5,1,1,11,1.6,1.0,3.0\n0.5,1,2,12,1.7,1.1,2.0\n\
+             2,4,0,10,1.5,0.9,2.5\n2,4,1,12,1.8,1.2,9.5\n",
+        )
+        .unwrap();
+        let p = forced_peaks(&frf);
+        assert_eq!(p.len(), 2);
+        assert_eq!(
+            (
+                p[0].level,
+                p[0].q1_over_g0,
+                p[0].omega_ratio,
+                p[0].frequency_hz
+            ),
+            (0.5, 3.0, 1.0, 1.6)
+        );
+        assert_eq!(
+            (p[1].level, p[1].q1_over_g0, p[1].omega_ratio),
+            (2.0, 9.5, 1.2)
+        );
+        assert!(forced_peaks(&tmp.path().join("absent.csv")).is_empty());
+    }
+
+    #[test]
+    fn parameter_cells_are_numbers_where_they_can_be() {
+        let v = |s: &str| serde_json::from_str::<serde_json::Value>(s).unwrap();
+        assert_eq!(cell(&v("0.003")), CsvValue::Num(0.003));
+        assert_eq!(cell(&v("[2.0]")), CsvValue::Num(2.0));
+        assert_eq!(cell(&v("\"exact\"")), CsvValue::Text("exact".into()));
+        assert_eq!(cell(&v("[0.5,2.0]")), CsvValue::Text("[0.5,2.0]".into()));
+    }
+}

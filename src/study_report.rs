@@ -1,6 +1,7 @@
 //! What a study's last job writes (docs/STUDIES.md): `study.csv` (`crate::study_gather`), one
-//! figure per numeric parameter (the forced peak q1/g0 of each level against it, one line per
-//! value of the other parameters; the backbone's reach w/w1 when there is no forced stage), and
+//! figure per numeric parameter (`figures/peak_vs_<key>`: the forced peak q1/g0 of each level
+//! against it, one line per value of the other parameters; `backbone_reach_vs_<key>`: the
+//! backbone's reach w/w1 when there is no forced stage), and
 //! `report.md`: the parameters, how many jobs each stage took and how many runs they served,
 //! the table, the figures, the runs that did not complete.
 
@@ -43,23 +44,24 @@ pub fn write_gathered(dir: &Path) -> Result<Gathered> {
     Ok(g)
 }
 
-/// The plotted quantity: (column of a row, line label) for each line family.
-fn quantities(g: &Gathered) -> (Vec<(String, String)>, &'static str) {
+/// The plotted quantity: (column of a row, line label) for each line family, the axis label
+/// and the figures' file prefix.
+fn quantities(g: &Gathered) -> (Vec<(String, String)>, &'static str, &'static str) {
     if !g.levels.is_empty() {
         let q = g
             .levels
             .iter()
             .map(|&l| (level_column("peak_q1_over_g0", l), format!("level {l}")))
             .collect();
-        return (q, "peak q1 / g0 (forced response)");
+        return (q, "peak q1 / g0 (forced response)", "peak");
     }
     let q = vec![("backbone_reach_omega_ratio".to_string(), String::new())];
-    (q, "w / w1 at the backbone's reach")
+    (q, "w / w1 at the backbone's reach", "backbone_reach")
 }
 
 /// One figure per parameter with at least two numeric values; returns the files' names.
 fn figures(dir: &Path, plan: &Plan, g: &Gathered) -> Result<Vec<(String, String)>> {
-    let (quantities, y_label) = quantities(g);
+    let (quantities, y_label, prefix) = quantities(g);
     let mut written = Vec::new();
     for (k, key) in plan.parameters.iter().enumerate() {
         let numeric = |r: &Row| match r.values[k] {
@@ -97,7 +99,7 @@ fn figures(dir: &Path, plan: &Plan, g: &Gathered) -> Result<Vec<(String, String)
             let label = if legend { label } else { String::new() };
             plot = plot.with_series(Series::new(label, x, y).markers(true));
         }
-        let name = format!("figures/peak_vs_{}", file_part(key));
+        let name = format!("figures/{prefix}_vs_{}", file_part(key));
         std::fs::create_dir_all(dir.join("figures"))?;
         plot.write_svg_and_png(&dir.join(&name))?;
         written.push((key.clone(), format!("{name}.png")));
@@ -177,23 +179,43 @@ fn report(dir: &Path, plan: &Plan, g: &Gathered, figures: &[(String, String)]) -
     s + &incomplete_section(dir, plan, g)
 }
 
-/// How many jobs each stage took, the runs they served, their summed wall time.
+/// How many jobs each stage took, the runs they served, their summed wall time and their
+/// largest memory (Snakemake's benchmark of each job: `max_rss`, MB).
 fn jobs_section(dir: &Path, plan: &Plan) -> String {
     let mut s = String::from(
         "\n## Jobs\n\nRuns whose inputs to a stage are the same share its job.\n\n| stage | jobs \
-         | runs served | wall time (s, all its jobs) |\n|---|---|---|---|\n",
+         | runs served | wall time (s, all its jobs) | largest max_rss (MB) |\n|---|---|---|---|---|\n",
     );
     for (kind, (jobs, served)) in job_counts(plan) {
-        let seconds: f64 = plan
-            .jobs
-            .iter()
-            .filter(|(_, j)| j.kind == kind)
-            .filter_map(|(id, _)| JobStatus::read(dir, id))
+        let ids = || {
+            plan.jobs
+                .iter()
+                .filter(move |(_, j)| j.kind == kind)
+                .map(|(id, _)| id)
+        };
+        let seconds: f64 = ids()
+            .filter_map(|id| JobStatus::read(dir, id))
             .map(|st| st.seconds)
             .sum();
-        let _ = writeln!(s, "| {} | {jobs} | {served} | {seconds:.1} |", kind.name());
+        let rss = ids()
+            .filter_map(|id| max_rss(&dir.join("benchmarks").join(format!("{id}.tsv"))))
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+        let rss = rss.map_or_else(|| "-".to_string(), |v| format!("{v:.0}"));
+        let _ = writeln!(
+            s,
+            "| {} | {jobs} | {served} | {seconds:.1} | {rss} |",
+            kind.name()
+        );
     }
     s
+}
+
+/// `max_rss` (MB) of a Snakemake benchmark file.
+fn max_rss(tsv: &Path) -> Option<f64> {
+    let text = std::fs::read_to_string(tsv).ok()?;
+    let mut lines = text.lines();
+    let column = lines.next()?.split('\t').position(|h| h == "max_rss")?;
+    lines.next()?.split('\t').nth(column)?.parse().ok()
 }
 
 /// The table's first rows in Markdown.

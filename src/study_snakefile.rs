@@ -18,9 +18,11 @@ struct RuleResources {
     runtime: usize,
 }
 
-/// The defaults per stage. The default blade's jobs take at most 1.1 GB and 1.5 min each
-/// (docs/STUDIES.md); mesh and reduce grow with the mesh (docs/LARGE_MODELS.md: 14.5 GB for a
-/// 1M-DOF reduction), campbell with its speeds, forced with its levels.
+/// The defaults per stage. Measured on the default blade (cases/blade_study.toml, Snakemake's
+/// benchmark files; docs/STUDIES.md): reduce, speed and campbell 1.1-1.2 GB, the others under
+/// 0.8 GB; the longest job 196 s of CPU (a forced job at 0.2 % damping). Mesh, modes, reduce,
+/// speed and campbell grow with the mesh (docs/LARGE_MODELS.md: 14.5 GB for a 1M-DOF
+/// reduction), campbell with its speeds, forced with its levels and points.
 fn resources(kind: JobKind) -> RuleResources {
     let r = |threads, mem_mb, runtime| RuleResources {
         threads,
@@ -51,7 +53,7 @@ pub fn snakefile(name: &str, study_file: &Path, nlmodes: &Path) -> String {
 #
 # Here, from this folder:    snakemake --cores 2
 # SLURM (Snakemake 7.21):    snakemake --profile profiles/slurm     (set its account, partition)
-#   or                       snakemake --slurm --jobs 50 --default-resources slurm_account=ACCOUNT slurm_partition=PARTITION
+#   or  snakemake --slurm --jobs 50 --default-resources "slurm_account='ACCOUNT'" "slurm_partition='PARTITION'"
 #   sbatch via --cluster:    snakemake --profile profiles/cluster
 # Each rule's threads (SLURM: --cpus-per-task), mem_mb (--mem) and runtime (minutes, --time) are
 # below; change them with e.g. --set-threads forced=8 --set-resources reduce:mem_mb=32000.
