@@ -45,6 +45,15 @@ pub fn study(path: &Path, opts: &Options) -> Result<()> {
         &study.dir,
         &format!("{}: the study's folder", path.display()),
     )?;
+    if study.dir.join(".stamps").exists() {
+        return Err(bad_input(format!(
+            "{}: study.name = {:?}: {} holds the results of a case (`nlmodes run`): expected \
+             another name for the study",
+            path.display(),
+            study.name,
+            study.dir.display()
+        )));
+    }
     let snakemake = if opts.write_only {
         None
     } else {
