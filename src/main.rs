@@ -38,6 +38,13 @@ mod run;
 mod speed_stage;
 mod stage;
 mod stage_hash;
+mod study;
+mod study_file;
+mod study_gather;
+mod study_job;
+mod study_plan;
+mod study_report;
+mod study_snakefile;
 mod ui;
 mod validate;
 
@@ -118,6 +125,39 @@ enum Command {
         /// (the stages an `--only` stage needs still rerun only when out of date).
         #[arg(long)]
         force: bool,
+    },
+    /// Run a parameter study as a Snakemake workflow: the study file names the case keys to
+    /// vary and their values (every combination is a run); the runs share the stages whose
+    /// inputs are the same; the runs are gathered into study.csv, figures and report.md in
+    /// <results_dir>/<study>/ (docs/STUDIES.md).
+    Study {
+        /// The study file: a `[study]` table (`case`, `name`, `post`, `[study.parameters]`)
+        /// and case tables over the base case.
+        study: PathBuf,
+        /// Cores for the local run (Snakemake's --cores) [default: all].
+        #[arg(long)]
+        cores: Option<usize>,
+        /// Write the workflow (Snakefile, plan.json, cases/, profiles/) without running it:
+        /// run it with snakemake there, e.g. on a SLURM cluster.
+        #[arg(long)]
+        write_only: bool,
+        /// More arguments for snakemake, after `--` (e.g. `-- --dry-run`).
+        #[arg(last = true)]
+        snakemake: Vec<String>,
+    },
+    /// One job of a study's workflow, as its Snakefile runs it: JOB (`<stage>-<key>` or
+    /// `run-<run>`) of plan.json in DIR.
+    StudyJob {
+        /// The study's folder.
+        dir: PathBuf,
+        /// The job's id.
+        job: String,
+    },
+    /// Gather a study's runs into study.csv, figures/ and report.md (the workflow's last job;
+    /// by hand, it gathers the runs done so far).
+    StudyGather {
+        /// The study's folder.
+        dir: PathBuf,
     },
 }
 
@@ -363,6 +403,22 @@ fn run(command: Command) -> Result<()> {
         Command::Backbone(args) => backbone_command(args),
         Command::Forced(args) => forced_command(args),
         Command::Run { case, only, force } => run::run(&case, only, force),
+        Command::Study {
+            study,
+            cores,
+            write_only,
+            snakemake,
+        } => {
+            let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let opts = study::Options {
+                cores: cores.unwrap_or(all),
+                write_only,
+                snakemake_args: snakemake,
+            };
+            study::study(&study, &opts)
+        }
+        Command::StudyJob { dir, job } => study_job::run(&dir, &job),
+        Command::StudyGather { dir } => study_report::write_gathered(&dir).map(drop),
     }
 }
 
