@@ -223,6 +223,8 @@ pub fn run(
     let w = system.linear_frequencies()[s.mode];
     let frf = FrfSettings {
         stability: s.stability,
+        max_harmonics: Some(s.top_harmonics()),
+        harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
     let bar = crate::ui::bar(s.levels.len() as u64, "forced");
@@ -307,6 +309,8 @@ impl LevelSweeps<'_> {
                 let frf = FrfSettings {
                     sweep: Sweep::Level { omega: ratio * w },
                     stability: s.stability,
+                    max_harmonics: Some(s.top_harmonics()),
+                    harmonic_tolerance: s.harmonic_tolerance,
                     ..FrfSettings::new(s.level_range[0], s.level_range[1])
                 };
                 let solver =

@@ -98,8 +98,14 @@ pub struct ForcedSection {
     /// Frequency range [start, end] as W / w_mode (default [0.9, 1.2]); the curve starts from
     /// the linear response.
     pub range: [f64; 2],
-    /// Highest harmonic N of the response.
+    /// Highest harmonic N of the response where the orbit is out of contact, and the first N
+    /// of a point in contact (raised there until the point converges; docs/DESIGN.md §10.8).
     pub harmonics: usize,
+    /// The largest N a point in contact may be raised to (0: four times `harmonics`).
+    pub max_harmonics: usize,
+    /// A point's N is enough when doubling it moves the master's first harmonic and W by at
+    /// most this (relative).
+    pub harmonic_tolerance: f64,
     /// Time samples per period m (0: the default 4 (2N + 1) rounded up to a power of two).
     pub samples: usize,
     /// Harmonic h >= 1 of the response at which the force acts (1: at W).
@@ -163,6 +169,8 @@ impl Default for ForcedSection {
             mode: 0,
             range: [0.9, 1.2],
             harmonics: 10,
+            max_harmonics: 0,
+            harmonic_tolerance: 1e-3,
             samples: 0,
             harmonic: 1,
             damping_ratio: 0.003,
@@ -190,6 +198,16 @@ impl Default for ForcedSection {
 }
 
 impl ForcedSection {
+    /// The largest N of a point in contact (`max_harmonics`, 0: four times `harmonics`, at most
+    /// `MAX_HARMONICS`).
+    pub fn top_harmonics(&self) -> usize {
+        if self.max_harmonics == 0 {
+            (4 * self.harmonics).min(MAX_HARMONICS).max(self.harmonics)
+        } else {
+            self.max_harmonics
+        }
+    }
+
     /// Every value checked (order-independent ones; the mode indices against the model later).
     pub fn check(&self, p: &mut Problems) {
         let finite_pos = |v: f64| v.is_finite() && v > 0.0;
@@ -220,6 +238,21 @@ impl ForcedSection {
                 "N <= {MAX_HARMONICS} (the forced solver's condensed Newton matrix is dense \
                  in (2 N + 1) x contact rows: 0.74 GB per level at N = 200 on the blade's 24 rows)"
             ),
+        );
+        p.check(
+            self.max_harmonics == 0
+                || (self.max_harmonics >= self.harmonics && self.max_harmonics <= MAX_HARMONICS),
+            "forced.max_harmonics",
+            self.max_harmonics,
+            &format!("0 (four times harmonics) or harmonics <= N <= {MAX_HARMONICS}"),
+        );
+        p.check(
+            self.harmonic_tolerance.is_finite()
+                && self.harmonic_tolerance > 0.0
+                && self.harmonic_tolerance < 1.0,
+            "forced.harmonic_tolerance",
+            self.harmonic_tolerance,
+            "a relative change 0 < tolerance < 1",
         );
         p.check(
             self.samples == 0 || self.samples > 2 * self.harmonics,

@@ -5,8 +5,10 @@
 //! tangent and prediction padded with zero harmonics), from its own orbit padded. When the first
 //! harmonic of the master and W move by at most the tolerance (relative), N is enough
 //! ([`HarmonicCheck::Converged`]); otherwise the point at 2N replaces it and is checked at 4N,
-//! and so on up to the ladder's top ([`HarmonicCheck::NotConverged`]). Out of contact the
-//! equation is linear and its harmonic balance exact at any N ([`HarmonicCheck::Linear`]).
+//! and so on up to the ladder's top ([`HarmonicCheck::NotConverged`]). A point above the base
+//! is first compared with N / 2: when that agrees, the point is converged and the next steps
+//! go down to N / 2. Out of contact the equation is linear and its harmonic balance exact at any
+//! N ([`HarmonicCheck::Linear`]).
 
 use nlmodes_hb::contact::Multipliers;
 
@@ -95,7 +97,9 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
     }
 
     /// Checks `point` (solved at `level` on `arc`, or at fixed W without one) as the module
-    /// docs say; returns the point to keep (checked) and its level.
+    /// docs say; returns the point to keep (checked) and the level the next steps take. Above
+    /// the base the coarser level is tried first: when it agrees within the tolerance the point
+    /// is converged and the next steps go one level down (N falls where the contact eases).
     pub fn converge(
         &self,
         mut point: ForcedPoint,
@@ -107,34 +111,20 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
             return (point, level);
         }
         let mut last_change = None;
-        while level + 1 < self.levels() {
-            let finer = self.solver(level + 1);
-            let row = arc.map(|a| resize_arc(a, finer));
-            let finer_point = match finer.solve(start_at(&point, finer), row.as_ref()) {
-                Ok(p) => p,
-                Err(e) => {
-                    tracing::debug!(
-                        omega = point.omega,
-                        harmonics = finer.basis().harmonics(),
-                        "forced response: the check at 2N did not converge: {e}"
-                    );
-                    point.harmonic_check = HarmonicCheck::NotConverged { change: None };
-                    return (point, level);
+        if level > 0 {
+            if let Some((_, change)) = self.same_orbit(&point, level - 1, arc) {
+                if change.iter().all(|&c| c <= self.tolerance) {
+                    point.harmonic_check = HarmonicCheck::Converged { change };
+                    return (point, level - 1);
                 }
-            };
-            let change = self.change(&point, &finer_point);
-            if change.iter().any(|&c| c > REFINE_REACH) || finer_point.touches() != point.touches()
-            {
-                // Not the same orbit at 2N: the solve on the arc row met another branch (next
-                // to grazing the row crosses the orbits in and out of contact close together).
-                tracing::debug!(
-                    omega = point.omega,
-                    ?change,
-                    "forced response: the solve at 2N landed on another orbit"
-                );
+                last_change = Some(change);
+            }
+        }
+        while level + 1 < self.levels() {
+            let Some((finer_point, change)) = self.same_orbit(&point, level + 1, arc) else {
                 point.harmonic_check = HarmonicCheck::NotConverged { change: None };
                 return (point, level);
-            }
+            };
             if change.iter().all(|&c| c <= self.tolerance) {
                 point.harmonic_check = HarmonicCheck::Converged { change };
                 return (point, level);
@@ -148,8 +138,49 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
         (point, level)
     }
 
-    /// [|dq1| / q1, |dW| / W] between a point and the same orbit at 2N.
-    fn change(&self, coarse: &ForcedPoint, fine: &ForcedPoint) -> [f64; 2] {
+    /// The orbit of `point` solved again at `level` on the same row (or at the same W), and the
+    /// relative change [q1, W] between the two; `None` when that solve fails or lands on
+    /// another orbit (a change beyond `REFINE_REACH`, or in or out of contact when the point is
+    /// not: next to grazing the row crosses orbits in and out of contact close together).
+    fn same_orbit(
+        &self,
+        point: &ForcedPoint,
+        level: usize,
+        arc: Option<&ArcRow>,
+    ) -> Option<(ForcedPoint, [f64; 2])> {
+        let solver = self.solver(level);
+        let row = arc.map(|a| resize_arc(a, solver));
+        let other = match solver.solve(start_at(point, solver), row.as_ref()) {
+            Ok(p) => p,
+            Err(e) => {
+                tracing::debug!(
+                    omega = point.omega,
+                    harmonics = solver.basis().harmonics(),
+                    "forced response: the check of N did not converge: {e}"
+                );
+                return None;
+            }
+        };
+        let change = self.change(point, &other);
+        if change.iter().any(|&c| c > REFINE_REACH) || other.touches() != point.touches() {
+            tracing::debug!(
+                omega = point.omega,
+                ?change,
+                "forced response: the check of N landed on another orbit"
+            );
+            return None;
+        }
+        Some((other, change))
+    }
+
+    /// [|dq1| / q1, |dW| / W] between two solves of one orbit at different N (relative to
+    /// the one at the larger N).
+    fn change(&self, a: &ForcedPoint, b: &ForcedPoint) -> [f64; 2] {
+        let (coarse, fine) = if a.harmonics <= b.harmonics {
+            (a, b)
+        } else {
+            (b, a)
+        };
         let master = self.base.system().master();
         let (q, qf) = (coarse.first_harmonic(master), fine.first_harmonic(master));
         [

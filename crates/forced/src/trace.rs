@@ -218,13 +218,8 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
     fn settle_level(&mut self) {
         let last = self.curve.points.last().expect("two points");
         if self.level > 0 && !last.touches() {
-            let (from, to) = (self.terms(), self.ladder.solver(0).basis().terms());
-            let l = self.tangent.len() - 1;
-            let mut t = resize_signals(&self.tangent[..l], self.rows(), from, to);
-            t.push(self.tangent[l]);
-            let length = norm(&t);
-            self.tangent = t.into_iter().map(|v| v / length).collect();
             self.level = 0;
+            self.tangent = resize_tangent(&self.tangent, self.rows(), self.terms());
         }
     }
 
@@ -317,16 +312,20 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
     /// the parameter's component of the tangent changed sign since the last point.
     pub(crate) fn accept(&mut self, p: ForcedPoint, arc: &ArcRow, next: Vec<f64>) {
         let (p, level) = self.ladder.converge(p, self.level, Some(arc));
-        let next = if level == self.level {
+        let rows = self.rows();
+        let own = self.ladder.level_of(p.harmonics);
+        let next = if own == self.level {
             next
         } else {
-            let row = crate::ladder::resize_arc(arc, self.ladder.solver(level));
-            self.ladder
-                .solver(level)
+            // The point was replaced by its solve at another N: its tangent there.
+            let solver = self.ladder.solver(own);
+            let row = crate::ladder::resize_arc(arc, solver);
+            solver
                 .tangent(&p, &row)
-                .unwrap_or_else(|_| resize_tangent(&next, self.rows(), self.terms(), &row))
+                .unwrap_or_else(|_| resize_tangent(&next, rows, solver.basis().terms()))
         };
         self.level = level;
+        let next = resize_tangent(&next, rows, self.terms());
         self.push(p, next);
         self.settle_level();
     }
@@ -382,11 +381,14 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
     }
 }
 
-/// A tangent re-expressed at another level (padded or truncated) and normalized again: the
-/// fallback when the tangent at a finer level cannot be solved for.
-fn resize_tangent(t: &[f64], rows: usize, from: usize, to_row: &ArcRow) -> Vec<f64> {
+/// A unit tangent re-expressed with `to` coefficients per contact row (padded or truncated) and
+/// normalized again.
+fn resize_tangent(t: &[f64], rows: usize, to: usize) -> Vec<f64> {
     let l = t.len() - 1;
-    let to = to_row.tangent_y.len() / rows.max(1);
+    let from = l / rows.max(1);
+    if from == to {
+        return t.to_vec();
+    }
     let mut v = resize_signals(&t[..l], rows, from, to);
     v.push(t[l]);
     let length = norm(&v);
