@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use common::{csv_columns, nlmodes, padded_contact_model, Memo};
-use pwl::{Dense, Integrator, Orbit, Pwl};
+use pwl::trace::{first_harmonic, linear_state, ExactCurve};
+use pwl::{periodic_at, Dense, Pwl};
 
 /// The contact's gap (m).
 const GAP: f64 = 1.0;
@@ -29,10 +30,16 @@ const FOLD_OMEGA: f64 = 0.01;
 const POINT_AMPLITUDE: f64 = 0.01;
 const POINT_SHARE: f64 = 0.99;
 
-/// Within this relative distance in W of an exact fold a point with no exact orbit within
-/// `POINT_AMPLITUDE` at its own W is compared with the exact orbit nearest to it, which must lie
-/// within `POINT_AMPLITUDE` in the first harmonic and within this in W (module docs).
+/// Near a fold (a point's W within this, relative, of an exact fold's) a point may lie just
+/// beyond the fold in W, where no exact orbit exists at its own W: it is on the curve when the
+/// exact curve (the polyline of the oracle's samples, within 2e-5 g of the curve: module docs
+/// of `pwl::trace`) passes within `NEAR_FOLD_OMEGA` of its W and `POINT_AMPLITUDE` of its
+/// first harmonic.
 const NEAR_FOLD_OMEGA: f64 = 1e-3;
+
+/// How far past the end of the range (in W / w1) the exact curve is traced: the program's
+/// last point, and the last of its own exact curve, may lie one step (at most 0.02 w1) beyond.
+const TRACE_BEYOND: f64 = 0.05;
 
 /// One test system: M x'' + C x' + K x + kc (x_c - g)_+ e_c = F cos(W t) e_m, C modal with
 /// one ratio, kc = `penalty_factor` x the static contact stiffness 1 / (K^-1)_cc.
@@ -46,8 +53,8 @@ struct Spec {
     master: usize,
     zeta: f64,
     penalty_factor: f64,
-    /// The force F as a multiple of the grazing force (the F whose linear resonant response of
-    /// the contact coordinate reaches the gap), or in N.
+    /// The force F in N, or as a multiple of the grazing force (the F whose linear resonant
+    /// response of the contact coordinate reaches the gap).
     level: Level,
     /// [start, end] in W / w1.
     range: (f64, f64),
@@ -89,12 +96,21 @@ fn chain() -> Spec {
     }
 }
 
+/// The issue's 1-DOF oscillator over a range it cannot cover: W / w1 from 0.8 to 60 needs more
+/// than the continuation's 2000 points (scaled steps of at most 0.02 in W / w1 past the
+/// resonance), so the trace ends at its point limit near W / w1 = 30.
+fn one_dof_too_wide() -> Spec {
+    Spec {
+        name: "one_dof_too_wide",
+        range: (0.8, 60.0),
+        ..one_dof()
+    }
+}
+
 /// The system's own linear algebra, independent of the crates under test.
 struct Linear {
     /// Circular frequencies (rad/s, ascending).
     omega: Vec<f64>,
-    /// Mass-normalized mode shapes, one vector per mode.
-    shapes: Vec<Vec<f64>>,
     /// C = M Phi diag(2 zeta w) Phi^T M (N s/m).
     damping: Vec<Vec<f64>>,
 }
@@ -191,11 +207,7 @@ fn linear(spec: &Spec) -> Linear {
                 .collect()
         })
         .collect();
-    Linear {
-        omega,
-        shapes,
-        damping,
-    }
+    Linear { omega, damping }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -230,33 +242,19 @@ fn oracle(spec: &Spec, lin: &Linear, force: f64, kc: f64) -> Pwl {
     }
 }
 
-/// First-harmonic amplitude (m) of coordinate `j` of the linear response to `sys`'s force at
-/// W: (K - W^2 M + i W C) X = fc, as a real 2n system.
-fn linear_amplitude(sys: &Pwl, omega: f64, j: usize) -> f64 {
-    let n = sys.n;
-    let big = Dense::from_fn(2 * n, |p, q| {
-        let (i, jj) = (p % n, q % n);
-        let d = sys.k.at(i, jj) - omega * omega * sys.m.at(i, jj);
-        let e = omega * sys.c.at(i, jj);
-        match (p < n, q < n) {
-            (true, true) | (false, false) => d,
-            (true, false) => -e,
-            (false, true) => e,
-        }
-    });
-    let mut rhs = sys.fc.clone();
-    rhs.extend(vec![0.0; n]);
-    let x = big.solve(&rhs);
-    x[j].hypot(x[n + j])
-}
-
 /// The largest linear response of the contact coordinate per newton around the first mode (m/N):
 /// a scan of [0.9, 1.1] w1 refined by golden sections.
 fn resonant_compliance(spec: &Spec, lin: &Linear) -> f64 {
     let unit_force = oracle(spec, lin, 1.0, 0.0);
-    let f = |w: f64| linear_amplitude(&unit_force, w, spec.contact);
+    let n = spec.mass.len();
+    let f = |w: f64| {
+        let z = linear_state(&unit_force, w);
+        z[spec.contact].hypot(z[n + spec.contact] / w)
+    };
     let w1 = lin.omega[0];
-    let grid: Vec<f64> = (0..=2000).map(|i| w1 * (0.9 + 0.2 * i as f64 / 2000.0)).collect();
+    let grid: Vec<f64> = (0..=2000)
+        .map(|i| w1 * (0.9 + 0.2 * i as f64 / 2000.0))
+        .collect();
     let best = (1..grid.len() - 1)
         .max_by(|&a, &b| f(grid[a]).total_cmp(&f(grid[b])))
         .unwrap();
@@ -280,18 +278,28 @@ fn static_contact_stiffness(spec: &Spec) -> f64 {
     1.0 / k.solve(&unit(n, spec.contact))[spec.contact]
 }
 
+/// The force (N) and the penalty stiffness (N/m) of a spec, and the linear resonant response of
+/// the contact coordinate at that force over the gap.
+fn load_and_penalty(spec: &Spec, lin: &Linear) -> (f64, f64, f64) {
+    let compliance = resonant_compliance(spec, lin);
+    let force = match spec.level {
+        Level::Newtons(f) => f,
+        Level::TimesGrazing(k) => k * GAP / compliance,
+    };
+    let kc = spec.penalty_factor * static_contact_stiffness(spec);
+    (force, kc, force * compliance / GAP)
+}
+
 /// What `nlmodes forced` reported.
 struct Reported {
-    /// Exit status, stdout and stderr.
+    /// Exit status, stdout and stderr, wall time (s).
     code: Option<i32>,
-    stdout: String,
-    stderr: String,
-    /// Per point: W (rad/s), the master's first harmonic (m, frf.csv's q1_over_g0 x g0), the
-    /// orbit's (x, v)(0) of the system's coordinates (from frf.json's coefficients), its N and
-    /// frf.csv's `fold` and `piece`.
+    log: String,
+    seconds: f64,
+    /// Per point (frf.csv): W (rad/s), the master's first harmonic (m, q1_over_g0 x g0), N,
+    /// `fold` and `piece`.
     omega: Vec<f64>,
     q1: Vec<f64>,
-    states: Vec<Vec<f64>>,
     harmonics: Vec<usize>,
     csv_fold: Vec<String>,
     piece: Vec<usize>,
@@ -303,11 +311,21 @@ struct Reported {
     boundary: Vec<(f64, f64, bool)>,
     /// Where the run's files are.
     out: PathBuf,
-    seconds: f64,
 }
 
-/// Writes the model and settings of `spec` under the test binary's temporary directory and runs
-/// `nlmodes forced` on them at the force `force` (N).
+/// The settings a user gives: the range, the load, the level, the contact law and the damping;
+/// `harmonics`, `samples` and every other key at their defaults.
+fn settings_text(spec: &Spec, force: f64) -> String {
+    format!(
+        "[forced]\nrange = [{:?}, {:?}]\nload = \"master\"\nlevels = [{force:?}]\n\
+         level_unit = \"N\"\ncontact = \"penalty\"\npenalty_factor = {:?}\n\
+         damping_ratio = {:?}\n",
+        spec.range.0, spec.range.1, spec.penalty_factor, spec.zeta
+    )
+}
+
+/// Writes the padded model and the settings of `spec` under the test binary's temporary
+/// directory and runs `nlmodes forced` on them at the force `force` (N).
 fn run_forced(spec: &Spec, lin: &Linear, force: f64) -> Reported {
     let root = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join("forced_oracle")
@@ -322,16 +340,7 @@ fn run_forced(spec: &Spec, lin: &Linear, force: f64) -> Reported {
         &lin.omega,
     );
     let settings = root.join("forced.toml");
-    std::fs::write(
-        &settings,
-        format!(
-            "[forced]\nrange = [{:?}, {:?}]\nload = \"master\"\nlevels = [{force:?}]\n\
-             level_unit = \"N\"\ncontact = \"penalty\"\npenalty_factor = {:?}\n\
-             damping_ratio = {:?}\n",
-            spec.range.0, spec.range.1, spec.penalty_factor, spec.zeta
-        ),
-    )
-    .unwrap();
+    std::fs::write(&settings, settings_text(spec, force)).unwrap();
     let started = std::time::Instant::now();
     let run = nlmodes(&[
         "forced",
@@ -342,44 +351,20 @@ fn run_forced(spec: &Spec, lin: &Linear, force: f64) -> Reported {
         out.to_str().unwrap(),
     ]);
     let seconds = started.elapsed().as_secs_f64();
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&run.stdout).into_owned(),
-        String::from_utf8_lossy(&run.stderr).into_owned(),
+    let log = format!(
+        "{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
     );
     assert!(
         out.join("frf.json").is_file(),
-        "{}: no frf.json ({:?}):\n{stdout}{stderr}",
+        "{}: no frf.json ({:?}):\n{log}",
         spec.name,
         run.status
     );
-    let mut reported = read_outputs(&out, spec.mass.len());
-    reported.code = run.status.code();
-    (reported.stdout, reported.stderr, reported.seconds) = (stdout, stderr, seconds);
+    let mut reported = read_outputs(&out);
+    (reported.code, reported.log, reported.seconds) = (run.status.code(), log, seconds);
     reported
-}
-
-/// (x, v)(0) of the first `n` coordinates of an orbit from its coefficients [u0, a1, b1, ...].
-fn state_at_zero(coefficients: &serde_json::Value, n: usize, omega: f64) -> Vec<f64> {
-    let rows: Vec<Vec<f64>> = (0..n)
-        .map(|d| {
-            coefficients[d]
-                .as_array()
-                .expect("coefficients per coordinate")
-                .iter()
-                .map(|v| v.as_f64().expect("a number"))
-                .collect()
-        })
-        .collect();
-    let x = rows.iter().map(|c| c[0] + c[1..].iter().step_by(2).sum::<f64>());
-    let v = rows.iter().map(|c| {
-        c[2..]
-            .iter()
-            .step_by(2)
-            .enumerate()
-            .map(|(h, b)| (h + 1) as f64 * omega * b)
-            .sum::<f64>()
-    });
-    x.chain(v).collect()
 }
 
 fn num(s: &str) -> f64 {
@@ -387,22 +372,16 @@ fn num(s: &str) -> f64 {
         .unwrap_or_else(|_| panic!("{s:?} is not a number"))
 }
 
-/// frf.csv, frf.json and frf_boundary.csv of one level; `n` the system's coordinates.
-fn read_outputs(out: &Path, n: usize) -> Reported {
+/// frf.csv, frf.json and frf_boundary.csv of a run with one level.
+fn read_outputs(out: &Path) -> Reported {
     let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
     let json: serde_json::Value = serde_json::from_str(&read("frf.json")).unwrap();
     let g = json["gap_reference_m"].as_f64().unwrap();
     let curve = &json["curves"][0];
-    let orbits = curve["orbits"].as_array().unwrap();
     let rows = csv_columns(
         &read("frf.csv"),
         &["omega_rad_s", "q1_over_g0", "fold", "piece", "harmonics"],
     );
-    assert_eq!(rows.len(), orbits.len(), "frf.csv and frf.json disagree");
-    let states = orbits
-        .iter()
-        .map(|o| state_at_zero(&o["coefficients"], n, o["omega"].as_f64().unwrap()))
-        .collect();
     let folds = curve["folds"]
         .as_array()
         .unwrap()
@@ -422,11 +401,10 @@ fn read_outputs(out: &Path, n: usize) -> Reported {
         .unwrap_or_default();
     Reported {
         code: None,
-        stdout: String::new(),
-        stderr: String::new(),
+        log: String::new(),
+        seconds: 0.0,
         omega: rows.iter().map(|r| num(&r[0])).collect(),
         q1: rows.iter().map(|r| num(&r[1]) * g).collect(),
-        states,
         harmonics: rows.iter().map(|r| r[4].parse().unwrap()).collect(),
         csv_fold: rows.iter().map(|r| r[2].clone()).collect(),
         piece: rows.iter().map(|r| r[3].parse().unwrap()).collect(),
@@ -435,67 +413,61 @@ fn read_outputs(out: &Path, n: usize) -> Reported {
         kc: json["penalty_stiffness_n_per_m"].as_f64().unwrap_or(f64::NAN),
         boundary,
         out: out.to_path_buf(),
-        seconds: 0.0,
     }
 }
 
-/// The oracle's view of one system: its periodic orbits through the points, its folds and peak.
-struct Exact<'s> {
-    sys: &'s Pwl,
-    master: usize,
-    /// (g, w1): the scaled variables are (x, v)(0) / g and W / w1.
-    scales: (f64, f64),
+/// The first harmonics (m) of the master of every exact orbit at W (rad/s): one per crossing
+/// of W by the traced curve, shot at W from the state interpolated between the two samples
+/// that bracket it (the segments that meet at a sample exactly at W both give it).
+fn exact_at(curve: &ExactCurve, w: f64) -> Vec<f64> {
+    let mut found = Vec::new();
+    for pair in curve.samples.windows(2) {
+        let (a, b) = (&pair[0].orbit, &pair[1].orbit);
+        if (a.omega - w) * (b.omega - w) > 0.0 {
+            continue;
+        }
+        let u = if b.omega == a.omega {
+            0.0
+        } else {
+            (w - a.omega) / (b.omega - a.omega)
+        };
+        let z: Vec<f64> = a.z0.iter().zip(&b.z0).map(|(x, y)| x + u * (y - x)).collect();
+        let orbit = periodic_at(&curve.sys, w, &z, ORBIT_TOL).unwrap_or_else(|| {
+            panic!(
+                "the oracle found no orbit at W = {w} rad/s between its samples at {} and {}",
+                a.omega, b.omega
+            )
+        });
+        found.push(first_harmonic(&curve.sys, &orbit, &curve.observed));
+    }
+    found
 }
 
-impl Exact<'_> {
-    /// The master's first-harmonic amplitude (m) of an exact orbit.
-    fn q1(&self, orbit: &Orbit) -> f64 {
-        let integ = Integrator::new(self.sys, orbit.omega, pwl::STEPS);
-        let c = integ.fourier(&orbit.flow, &unit(self.sys.n, self.master), 1);
-        c[1].hypot(c[2])
-    }
-
-    /// The scaled point (z / g, W / w1).
-    fn scaled(&self, z: &[f64], omega: f64) -> Vec<f64> {
-        let mut v: Vec<f64> = z.iter().map(|x| x / self.scales.0).collect();
-        v.push(omega / self.scales.1);
-        v
-    }
-
-    /// One pseudo-arc-length step of the exact curve: from `orbit` along the unit scaled
-    /// tangent `t` by `h`, the orbit on the hyperplane normal to `t` and its tangent.
-    fn step(&self, orbit: &Orbit, t: &[f64], h: f64) -> Option<(Orbit, Vec<f64>)> {
-        let n2 = orbit.z0.len();
-        let z: Vec<f64> = (0..n2)
-            .map(|i| orbit.z0[i] + h * t[i] * self.scales.0)
-            .collect();
-        let w = orbit.omega + h * t[n2] * self.scales.1;
-        let next = pwl::periodic_on_plane(self.sys, &z, w, t, self.scales, ORBIT_TOL)?;
-        let tangent = pwl::exact_tangent(self.sys, &next, t, self.scales);
-        Some((next, tangent))
-    }
-}
-
-/// The unit secant of the reported curve at point i (from its neighbours in the same piece) in
-/// the scaled variables: the orientation of the exact tangent there.
-fn secant(exact: &Exact, r: &Reported, i: usize) -> Vec<f64> {
-    let last = r.omega.len() - 1;
-    let lo = if i > 0 && r.piece[i - 1] == r.piece[i] {
-        i - 1
-    } else {
-        i
-    };
-    let hi = if i < last && r.piece[i + 1] == r.piece[i] {
-        i + 1
-    } else {
-        i
-    };
-    let d = sub(
-        &exact.scaled(&r.states[hi], r.omega[hi]),
-        &exact.scaled(&r.states[lo], r.omega[lo]),
+/// Whether the polyline of the exact samples (W, q1) enters the box
+/// [w (1 -+ NEAR_FOLD_OMEGA)] x [q (1 -+ POINT_AMPLITUDE)].
+fn polyline_enters_box(curve: &ExactCurve, w: f64, q: f64) -> bool {
+    let (w_box, q_box) = (
+        (w * (1.0 - NEAR_FOLD_OMEGA), w * (1.0 + NEAR_FOLD_OMEGA)),
+        (q * (1.0 - POINT_AMPLITUDE), q * (1.0 + POINT_AMPLITUDE)),
     );
-    let length = norm(&d);
-    d.iter().map(|v| v / length).collect()
+    // The parameter interval u in [0, 1] where a + u (b - a) lies within [lo, hi].
+    let inside = |a: f64, b: f64, (lo, hi): (f64, f64)| -> (f64, f64) {
+        if a == b {
+            return if a >= lo && a <= hi {
+                (0.0, 1.0)
+            } else {
+                (1.0, 0.0)
+            };
+        }
+        let (u0, u1) = ((lo - a) / (b - a), (hi - a) / (b - a));
+        (u0.min(u1).max(0.0), u0.max(u1).min(1.0))
+    };
+    curve.samples.windows(2).any(|pair| {
+        let (a, b) = (&pair[0], &pair[1]);
+        let (uw0, uw1) = inside(a.orbit.omega, b.orbit.omega, w_box);
+        let (uq0, uq1) = inside(a.q1, b.q1, q_box);
+        uw0.max(uq0) <= uw1.min(uq1)
+    })
 }
 
 /// How a point compares with the exact curve.
@@ -503,8 +475,8 @@ fn secant(exact: &Exact, r: &Reported, i: usize) -> Vec<f64> {
 enum How {
     /// An exact orbit at the point's W within `POINT_AMPLITUDE` in the first harmonic.
     AtItsOmega,
-    /// Within `NEAR_FOLD_OMEGA` of an exact fold, no such orbit at its W; the exact orbit
-    /// nearest to it within `POINT_AMPLITUDE` in q1 and `NEAR_FOLD_OMEGA` in W.
+    /// Within `NEAR_FOLD_OMEGA` of an exact fold, no such orbit at its W, but the exact curve
+    /// within `NEAR_FOLD_OMEGA` in W and `POINT_AMPLITUDE` in q1 (`polyline_enters_box`).
     NearFold,
     /// Neither.
     Missed,
@@ -512,181 +484,79 @@ enum How {
 
 /// One reported point against the exact curve.
 struct PointCheck {
-    /// The exact orbit it is compared with (at its W, or the nearest) and its q1 (m).
-    orbit: Orbit,
-    q1: f64,
-    /// |q1 / q1_reported - 1| and |W_exact / W - 1|.
+    /// The first harmonics (m) of the exact orbits at the point's W.
+    exact: Vec<f64>,
+    /// The smallest |q1_exact / q1 - 1| over them (infinite when there is none).
     error: f64,
-    omega_error: f64,
-    /// The exact tangent's W component there (oriented along the reported curve).
-    slope: f64,
-    /// Whether an orbit at the point's own W matched.
-    at_omega: bool,
     how: How,
 }
 
-/// The exact orbit for point i: at its own W from its own (x, v)(0), else from the previous
-/// point's exact orbit (the other branch near a fold); else the exact orbit nearest to it.
-fn check_point(exact: &Exact, r: &Reported, i: usize, previous: Option<&Orbit>) -> PointCheck {
-    let (w, q) = (r.omega[i], r.q1[i]);
-    let mut best: Option<(Orbit, f64)> = None;
-    let starts = std::iter::once(&r.states[i]).chain(previous.map(|o| &o.z0));
-    for start in starts {
-        if let Some(orbit) = pwl::periodic_at(exact.sys, w, start, ORBIT_TOL) {
-            let q_exact = exact.q1(&orbit);
-            if best.as_ref().is_none_or(|b| (b.1 / q - 1.0).abs() > (q_exact / q - 1.0).abs()) {
-                best = Some((orbit, q_exact));
-            }
-        }
-        if best.as_ref().is_some_and(|b| (b.1 / q - 1.0).abs() <= POINT_AMPLITUDE) {
-            break;
-        }
-    }
-    let like = secant(exact, r, i);
-    let (orbit, q_exact, at_omega) = match best {
-        Some((o, qe)) if (qe / q - 1.0).abs() <= POINT_AMPLITUDE => (o, qe, true),
-        _ => {
-            let (o, _) = pwl::nearest_on_curve(exact.sys, &r.states[i], w, &like, exact.scales, ORBIT_TOL)
-                .unwrap_or_else(|| panic!("no exact orbit near point {i} (W = {w})"));
-            let qe = exact.q1(&o);
-            (o, qe, false)
-        }
+fn check_point(curve: &ExactCurve, folds: &[Fold], w: f64, q: f64) -> PointCheck {
+    let exact = exact_at(curve, w);
+    let error = exact
+        .iter()
+        .map(|e| (e / q - 1.0).abs())
+        .fold(f64::INFINITY, f64::min);
+    let near_fold = folds
+        .iter()
+        .any(|f| (w / f.omega - 1.0).abs() <= NEAR_FOLD_OMEGA);
+    let how = if error <= POINT_AMPLITUDE {
+        How::AtItsOmega
+    } else if near_fold && polyline_enters_box(curve, w, q) {
+        How::NearFold
+    } else {
+        How::Missed
     };
-    let tangent = pwl::exact_tangent(exact.sys, &orbit, &like, exact.scales);
-    PointCheck {
-        error: (q_exact / q - 1.0).abs(),
-        omega_error: (orbit.omega / w - 1.0).abs(),
-        slope: tangent[tangent.len() - 1],
-        q1: q_exact,
-        orbit,
-        at_omega,
-        how: if at_omega { How::AtItsOmega } else { How::Missed },
-    }
+    PointCheck { exact, error, how }
 }
 
-/// A fold of the exact curve.
-#[derive(Clone, Debug)]
-struct ExactFold {
+/// A fold of the exact curve: W (rad/s), the master's first harmonic (m), and whether W is
+/// largest there (`turns_back`, frf.json's "TurnsBack") or smallest ("TurnsForward").
+#[derive(Clone, Copy, Debug)]
+struct Fold {
     omega: f64,
     q1: f64,
-    /// "TurnsBack" (W rose, then falls) or "TurnsForward".
-    kind: &'static str,
+    turns_back: bool,
 }
 
-/// The folds of the exact curve: where the W component of the exact tangent changes sign
-/// between consecutive points of a piece, solved for by `pwl::fold_near` from the exact orbit
-/// with the smaller component; a fold found twice kept once.
-fn exact_folds(exact: &Exact, r: &Reported, checks: &[PointCheck]) -> Vec<ExactFold> {
-    let mut folds: Vec<ExactFold> = Vec::new();
-    for i in 1..checks.len() {
-        let (a, b) = (&checks[i - 1], &checks[i]);
-        if r.piece[i - 1] != r.piece[i] || a.slope * b.slope >= 0.0 {
-            continue;
-        }
-        let (first, second) = if a.slope.abs() <= b.slope.abs() {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        let fold = [first, second]
-            .iter()
-            .find_map(|c| pwl::fold_near(exact.sys, &c.orbit.z0, c.orbit.omega, ORBIT_TOL))
-            .unwrap_or_else(|| {
-                panic!(
-                    "no exact fold near points {} and {i} (W = {} .. {} rad/s)",
-                    i - 1,
-                    r.omega[i - 1],
-                    r.omega[i]
-                )
-            });
-        let kind = if a.slope > 0.0 {
-            "TurnsBack"
-        } else {
-            "TurnsForward"
-        };
-        let known = folds
-            .iter()
-            .any(|f| f.kind == kind && (f.omega / fold.omega - 1.0).abs() < 1e-8);
-        if !known {
-            folds.push(ExactFold {
-                omega: fold.omega,
-                q1: exact.q1(&fold),
-                kind,
-            });
-        }
-    }
-    folds
+fn exact_folds(curve: &ExactCurve) -> Vec<Fold> {
+    curve
+        .folds
+        .iter()
+        .map(|f| {
+            let s = &curve.samples[f.sample];
+            Fold {
+                omega: s.orbit.omega,
+                q1: s.q1,
+                turns_back: f.turns_back,
+            }
+        })
+        .collect()
 }
 
-/// The peak of the exact curve, (W, q1): from the exact orbit with the largest first harmonic
-/// among the points', the curve walked both ways in scaled steps of 1e-3 until q1 has fallen on
-/// three steps; the vertex of the parabola q1(s) through the largest sample and its neighbours,
-/// W there by the parabola through the same three.
-fn exact_peak(exact: &Exact, r: &Reported, checks: &[PointCheck]) -> (f64, f64) {
-    let top = (0..checks.len())
-        .max_by(|&a, &b| checks[a].q1.total_cmp(&checks[b].q1))
-        .unwrap();
-    let t0 = pwl::exact_tangent(exact.sys, &checks[top].orbit, &secant(exact, r, top), exact.scales);
-    let h = 1e-3;
-    let mut samples = vec![(0.0, checks[top].orbit.omega, checks[top].q1)];
-    for sign in [1.0, -1.0] {
-        let mut t: Vec<f64> = t0.iter().map(|v| sign * v).collect();
-        let mut orbit = checks[top].orbit.clone();
-        let (mut s, mut last, mut falls) = (0.0, checks[top].q1, 0);
-        while falls < 3 {
-            let (next, tangent) = exact
-                .step(&orbit, &t, h)
-                .unwrap_or_else(|| panic!("the exact curve lost near its peak"));
-            s += sign * h;
-            let q = exact.q1(&next);
-            falls = if q < last { falls + 1 } else { 0 };
-            samples.push((s, next.omega, q));
-            (orbit, t, last) = (next, tangent, q);
-        }
+fn kind(fold: &Fold) -> &'static str {
+    if fold.turns_back {
+        "TurnsBack"
+    } else {
+        "TurnsForward"
     }
-    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let k = (1..samples.len() - 1)
-        .max_by(|&a, &b| samples[a].2.total_cmp(&samples[b].2))
-        .unwrap();
-    let [p0, p1, p2] = [samples[k - 1], samples[k], samples[k + 1]];
-    let lagrange = |x: f64, f: fn(&(f64, f64, f64)) -> f64| {
-        f(&p0) * (x - p1.0) * (x - p2.0) / ((p0.0 - p1.0) * (p0.0 - p2.0))
-            + f(&p1) * (x - p0.0) * (x - p2.0) / ((p1.0 - p0.0) * (p1.0 - p2.0))
-            + f(&p2) * (x - p0.0) * (x - p1.0) / ((p2.0 - p0.0) * (p2.0 - p1.0))
-    };
-    // Vertex of q(s): q'(s) = 0 for the parabola through the three samples.
-    let (d01, d12) = ((p1.2 - p0.2) / (p1.0 - p0.0), (p2.2 - p1.2) / (p2.0 - p1.0));
-    let second = (d12 - d01) / (p2.0 - p0.0);
-    let s_star = 0.5 * (p0.0 + p1.0) - d01 / (2.0 * second);
-    (lagrange(s_star, |p| p.1), lagrange(s_star, |p| p.2))
 }
 
 /// Everything one system's checks need.
 struct Analysis {
     name: &'static str,
     w1: f64,
-    master: usize,
     force: f64,
     kc: f64,
     /// The linear resonant response of the contact coordinate at the force, / g.
     linear_peak_over_gap: f64,
     reported: Reported,
-    sys: Pwl,
-    checks: Vec<PointCheck>,
-    folds: Vec<ExactFold>,
+    curve: ExactCurve,
+    folds: Vec<Fold>,
     /// Exact peak (W rad/s, q1 m).
     peak: (f64, f64),
+    checks: Vec<PointCheck>,
     oracle_seconds: f64,
-}
-
-impl Analysis {
-    fn exact(&self) -> Exact<'_> {
-        Exact {
-            sys: &self.sys,
-            master: self.master,
-            scales: (GAP, self.w1),
-        }
-    }
 }
 
 static ANALYSES: Memo<Analysis> = Memo::new();
@@ -697,54 +567,45 @@ fn analysis(spec: fn() -> Spec) -> Arc<Analysis> {
     ANALYSES.get(spec.name.into(), || analyse(&spec))
 }
 
+/// Runs the CLI, then traces the exact curve over the range (from its start, independently of
+/// what the CLI reported) and compares every reported point with it.
 fn analyse(spec: &Spec) -> Analysis {
     let lin = linear(spec);
-    let compliance = resonant_compliance(spec, &lin);
-    let force = match spec.level {
-        Level::Newtons(f) => f,
-        Level::TimesGrazing(k) => k * GAP / compliance,
-    };
-    let kc = spec.penalty_factor * static_contact_stiffness(spec);
+    let (force, kc, linear_peak_over_gap) = load_and_penalty(spec, &lin);
     let reported = run_forced(spec, &lin, force);
     let started = std::time::Instant::now();
-    let sys = oracle(spec, &lin, force, kc);
-    let exact = Exact {
-        sys: &sys,
-        master: spec.master,
-        scales: (GAP, lin.omega[0]),
-    };
-    let mut checks: Vec<PointCheck> = Vec::with_capacity(reported.omega.len());
-    for i in 0..reported.omega.len() {
-        let previous = checks
-            .last()
-            .filter(|_| i > 0 && reported.piece[i - 1] == reported.piece[i])
-            .map(|c| &c.orbit);
-        let c = check_point(&exact, &reported, i, previous);
-        checks.push(c);
-    }
-    let folds = exact_folds(&exact, &reported, &checks);
-    for (w, c) in reported.omega.iter().zip(&mut checks) {
-        let near = folds
-            .iter()
-            .any(|f| (w / f.omega - 1.0).abs() <= NEAR_FOLD_OMEGA);
-        if !c.at_omega && near && c.error <= POINT_AMPLITUDE && c.omega_error <= NEAR_FOLD_OMEGA {
-            c.how = How::NearFold;
-        }
-    }
-    let peak = exact_peak(&exact, &reported, &checks);
+    let w1 = lin.omega[0];
+    let n = spec.mass.len();
+    let curve = ExactCurve::trace(
+        oracle(spec, &lin, force, kc),
+        unit(n, spec.master),
+        (spec.range.0 * w1, (spec.range.1 + TRACE_BEYOND) * w1),
+        (GAP, w1),
+        ORBIT_TOL,
+    )
+    .unwrap_or_else(|e| panic!("{}: the exact curve: {e}", spec.name));
+    let folds = exact_folds(&curve);
+    let peak = curve
+        .peak()
+        .unwrap_or_else(|e| panic!("{}: the exact peak: {e}", spec.name));
+    let checks = reported
+        .omega
+        .iter()
+        .zip(&reported.q1)
+        .map(|(&w, &q)| check_point(&curve, &folds, w, q))
+        .collect();
     Analysis {
         name: spec.name,
-        w1: lin.omega[0],
-        master: spec.master,
+        w1,
         force,
         kc,
-        linear_peak_over_gap: force * compliance / GAP,
+        linear_peak_over_gap,
         reported,
-        checks,
+        curve,
         folds,
         peak,
+        checks,
         oracle_seconds: started.elapsed().as_secs_f64(),
-        sys,
     }
 }
 
@@ -757,10 +618,10 @@ fn reported_peak(r: &Reported) -> (f64, f64) {
 }
 
 /// The exact fold of `kind` nearest to W (rad/s), and the relative distance in W.
-fn nearest_fold<'f>(folds: &'f [ExactFold], kind: &str, w: f64) -> Option<(&'f ExactFold, f64)> {
+fn nearest_fold<'f>(folds: &'f [Fold], kind_: &str, w: f64) -> Option<(&'f Fold, f64)> {
     folds
         .iter()
-        .filter(|f| f.kind == kind)
+        .filter(|f| kind(f) == kind_)
         .map(|f| (f, (w / f.omega - 1.0).abs()))
         .min_by(|a, b| a.1.total_cmp(&b.1))
 }
@@ -773,7 +634,8 @@ fn report(a: &Analysis) {
     ns.dedup();
     println!(
         "{}: F = {:.6e} N (linear resonance of the contact coordinate {:.3} g), kc = {} N/m; \
-         nlmodes exit {:?} in {:.1} s ({}), {} points at N = {ns:?}; oracle {:.1} s; files in {}",
+         nlmodes exit {:?} in {:.1} s ({}), {} points at N = {ns:?}; oracle {} samples, {:.1} \
+         s; files in {}",
         a.name,
         a.force,
         a.linear_peak_over_gap,
@@ -782,6 +644,7 @@ fn report(a: &Analysis) {
         r.seconds,
         r.termination,
         r.omega.len(),
+        a.curve.samples.len(),
         a.oracle_seconds,
         r.out.display()
     );
@@ -798,60 +661,63 @@ fn report(a: &Analysis) {
     for f in &a.folds {
         println!(
             "  exact fold {}: W/w1 {:.6}, q1/g {:.5}",
-            f.kind,
+            kind(f),
             f.omega / w1,
             f.q1 / GAP
         );
     }
-    for (point, w, kind) in &r.folds {
-        let d = nearest_fold(&a.folds, kind, *w).map_or(f64::NAN, |x| x.1);
-        let d_point = nearest_fold(&a.folds, kind, r.omega[*point]).map_or(f64::NAN, |x| x.1);
+    for (point, w, k) in &r.folds {
+        let d = nearest_fold(&a.folds, k, *w).map_or(f64::NAN, |x| x.1);
         println!(
-            "  reported fold {kind}: W/w1 {:.6} ({d:.2e} from the exact fold), at point {point} \
-             W/w1 {:.6} ({d_point:.2e})",
+            "  reported fold {k}: W/w1 {:.6} ({d:.2e} from the exact fold), at point {point} \
+             W/w1 {:.6}",
             w / w1,
             r.omega[*point] / w1
         );
     }
     let count = |how: How| a.checks.iter().filter(|c| c.how == how).count();
-    let at: Vec<f64> = a.checks.iter().filter(|c| c.at_omega).map(|c| c.error).collect();
-    let mut sorted = at.clone();
-    sorted.sort_by(f64::total_cmp);
+    let mut at: Vec<f64> = a
+        .checks
+        .iter()
+        .filter(|c| c.how == How::AtItsOmega)
+        .map(|c| c.error)
+        .collect();
+    at.sort_by(f64::total_cmp);
     println!(
-        "  points: {} at their W (largest error {:.2e}, median {:.2e}), {} near a fold by the \
-         nearest exact orbit, {} missed",
+        "  points: {} at their W (largest error {:.2e}, median {:.2e}), {} near a fold, {} missed",
         count(How::AtItsOmega),
-        sorted.last().copied().unwrap_or(0.0),
-        sorted.get(sorted.len() / 2).copied().unwrap_or(0.0),
+        at.last().copied().unwrap_or(0.0),
+        at.get(at.len() / 2).copied().unwrap_or(0.0),
         count(How::NearFold),
         count(How::Missed)
     );
-    for (i, c) in a.checks.iter().enumerate().filter(|(_, c)| c.how != How::AtItsOmega) {
-        println!(
-            "    point {i} ({:?}): W/w1 {:.6}, N = {}, q1/g {:.5}, exact {:.5} at W/w1 {:.6}: \
-             {:.2e} in q1, {:.2e} in W",
-            c.how,
-            r.omega[i] / w1,
-            r.harmonics[i],
-            r.q1[i] / GAP,
-            c.q1 / GAP,
-            c.orbit.omega / w1,
-            c.error,
-            c.omega_error
-        );
+    for (i, c) in a.checks.iter().enumerate() {
+        if c.how != How::AtItsOmega {
+            let exact: Vec<f64> = c.exact.iter().map(|q| q / GAP).collect();
+            println!(
+                "    point {i} ({:?}): W/w1 {:.6}, N = {}, piece {}, q1/g {:.5}, exact at its W \
+                 {exact:.5?} ({:.2e})",
+                c.how,
+                r.omega[i] / w1,
+                r.harmonics[i],
+                r.piece[i],
+                r.q1[i] / GAP,
+                c.error
+            );
+        }
     }
 }
 
 /// Issue 37's checks on one system (module docs).
 fn assert_acceptance(a: &Analysis) {
     let r = &a.reported;
-    assert_eq!(
-        r.code,
-        Some(0),
-        "{}: nlmodes forced did not succeed:\n{}{}",
+    assert!(
+        r.code == Some(0) && r.termination.starts_with("complete"),
+        "{}: nlmodes forced exit {:?}, curve {:?}:\n{}",
         a.name,
-        r.stdout,
-        r.stderr
+        r.code,
+        r.termination,
+        r.log
     );
     assert!(
         (r.kc / a.kc - 1.0).abs() < 1e-12,
@@ -860,12 +726,10 @@ fn assert_acceptance(a: &Analysis) {
         r.kc,
         a.kc
     );
-    // Past grazing: the linear resonance would reach beyond the gap, and the exact orbit at
-    // the largest first harmonic is in contact.
-    let top = (0..a.checks.len())
-        .max_by(|&x, &y| a.checks[x].q1.total_cmp(&a.checks[y].q1))
-        .unwrap();
-    assert!(a.linear_peak_over_gap > 1.0 && !a.checks[top].orbit.flow.events.is_empty());
+    // Past grazing: the linear resonance reaches beyond the gap and the exact curve's largest
+    // first harmonic is on an orbit in contact.
+    let top = a.curve.samples.iter().max_by(|x, y| x.q1.total_cmp(&y.q1));
+    assert!(a.linear_peak_over_gap > 1.0 && !top.unwrap().orbit.flow.events.is_empty());
     let (wp, qp) = reported_peak(r);
     let (dq, dw) = ((qp / a.peak.1 - 1.0).abs(), (wp / a.peak.0 - 1.0).abs());
     assert!(
@@ -876,33 +740,35 @@ fn assert_acceptance(a: &Analysis) {
         a.peak.0
     );
     assert_folds(a);
-    let passed = a.checks.iter().filter(|c| c.how != How::Missed).count();
-    let share = passed as f64 / a.checks.len() as f64;
+    let on = a.checks.iter().filter(|c| c.how != How::Missed).count();
+    let share = on as f64 / a.checks.len() as f64;
     assert!(
         share >= POINT_SHARE,
-        "{}: {passed} of {} points within {POINT_AMPLITUDE} of the exact curve ({share:.4})",
+        "{}: {on} of {} points within {POINT_AMPLITUDE} of the exact curve ({share:.4})",
         a.name,
         a.checks.len()
     );
 }
 
 /// The reported folds (frf.json's, refined, and the points frf.csv marks) against the exact
-/// ones: as many, each reported within `FOLD_OMEGA` of an exact fold of its kind, and each
-/// exact fold so reported.
+/// ones: the same kinds as often, each reported fold (its refined W and its point's W) within
+/// `FOLD_OMEGA` of an exact fold of its kind, and each exact fold so reported.
 fn assert_folds(a: &Analysis) {
     let r = &a.reported;
-    let kinds = |folds: Vec<&str>| {
-        let mut k: Vec<String> = folds.into_iter().map(String::from).collect();
+    let sorted = |mut k: Vec<String>| {
         k.sort();
         k
     };
     assert_eq!(
-        kinds(r.folds.iter().map(|f| f.2.as_str()).collect()),
-        kinds(a.folds.iter().map(|f| f.kind).collect()),
-        "{}: reported folds {:?}, exact {:?}",
+        sorted(r.folds.iter().map(|f| f.2.clone()).collect()),
+        sorted(a.folds.iter().map(|f| kind(f).to_string()).collect()),
+        "{}: reported folds {:?}, exact at W {:?}",
         a.name,
         r.folds,
         a.folds
+            .iter()
+            .map(|f| (f.omega, kind(f)))
+            .collect::<Vec<_>>()
     );
     let marked: Vec<usize> = (0..r.csv_fold.len())
         .filter(|&i| !r.csv_fold[i].is_empty())
@@ -911,18 +777,28 @@ fn assert_folds(a: &Analysis) {
     for &i in &marked {
         assert!(r.folds.iter().any(|f| f.0 == i && f.2 == r.csv_fold[i]));
     }
-    for (point, w, kind) in &r.folds {
+    for (point, w, k) in &r.folds {
         for at in [*w, r.omega[*point]] {
-            let (_, d) = nearest_fold(&a.folds, kind, at).expect("an exact fold of the kind");
-            assert!(d <= FOLD_OMEGA, "{}: reported fold {kind} at W = {at}: {d:.2e}", a.name);
+            let (_, d) = nearest_fold(&a.folds, k, at).expect("an exact fold of the kind");
+            assert!(
+                d <= FOLD_OMEGA,
+                "{}: reported fold {k} at W = {at}: {d:.2e}",
+                a.name
+            );
         }
     }
     for f in &a.folds {
         let reported = r
             .folds
             .iter()
-            .any(|(_, w, kind)| kind == f.kind && (w / f.omega - 1.0).abs() <= FOLD_OMEGA);
-        assert!(reported, "{}: exact fold {f:?} not reported", a.name);
+            .any(|(_, w, k)| k == kind(f) && (w / f.omega - 1.0).abs() <= FOLD_OMEGA);
+        assert!(
+            reported,
+            "{}: exact fold {} at W = {} not reported",
+            a.name,
+            kind(f),
+            f.omega
+        );
     }
 }
 
@@ -940,31 +816,50 @@ fn the_chain_at_half_a_percent_five_times_past_grazing_meets_its_exact_orbits() 
     assert_acceptance(&a);
 }
 
-/// For every point (W_b, q_b) of frf_boundary.csv, the oracle's orbits at W_b shot from the
-/// exact orbits of the five reported points nearest to it in (W, q1), the one closest in q1:
-/// the largest relative difference in q1 over the points.
+/// A range the continuation cannot cover (`one_dof_too_wide`): exit 3, the curve written up to
+/// where it stopped, the reason printed, and the curve not called complete.
+#[test]
+fn a_range_the_continuation_cannot_cover_exits_3_with_the_points_it_computed() {
+    let spec = one_dof_too_wide();
+    let lin = linear(&spec);
+    let (force, _, _) = load_and_penalty(&spec, &lin);
+    let r = run_forced(&spec, &lin, force);
+    let highest = r.omega.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    println!(
+        "{}: exit {:?}, {} points up to W/w1 {:.3} of {}, curve {:?}",
+        spec.name,
+        r.code,
+        r.omega.len(),
+        highest / lin.omega[0],
+        spec.range.1,
+        r.termination
+    );
+    assert_eq!(r.code, Some(3), "{}:\n{}", spec.name, r.log);
+    assert!(!r.termination.starts_with("complete"), "{}", r.termination);
+    assert!(highest < spec.range.1 * lin.omega[0] && !r.omega.is_empty());
+    assert!(r.log.contains("stopped before the end of its range"), "{}", r.log);
+}
+
+/// For every point (W_b, q_b) of frf_boundary.csv, the smallest relative difference of q_b from
+/// the first harmonics of the oracle's orbits at W_b; the largest over the points.
 fn boundary_agreement(a: &Analysis) -> f64 {
-    let (r, exact) = (&a.reported, a.exact());
-    let mut worst = 0.0_f64;
-    for &(wb, qb, _) in &r.boundary {
-        let d = |i: usize| (r.omega[i] / wb - 1.0).abs() + (r.q1[i] / qb - 1.0).abs();
-        let j = (0..r.omega.len()).min_by(|&x, &y| d(x).total_cmp(&d(y))).unwrap();
-        let (lo, hi) = (j.saturating_sub(2), (j + 2).min(r.omega.len() - 1));
-        let best = (lo..=hi)
-            .filter_map(|i| pwl::periodic_at(&a.sys, wb, &a.checks[i].orbit.z0, ORBIT_TOL))
-            .map(|o| (exact.q1(&o) / qb - 1.0).abs())
-            .fold(f64::INFINITY, f64::min);
-        worst = worst.max(best);
-    }
-    worst
+    a.reported
+        .boundary
+        .iter()
+        .map(|&(wb, qb, _)| {
+            exact_at(&a.curve, wb)
+                .iter()
+                .map(|e| (e / qb - 1.0).abs())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The program's exact curve (frf_boundary.csv: shooting on the massless contact boundary,
 /// which for a penalty law on a model whose modes are all resolved is the penalty equation
-/// itself) against the oracle: every point on the oracle's curve, and at each fold: as many
-/// folds, each marked point (the first after W turned, not refined) within BOUNDARY_FOLD of the
-/// oracle's fold, and no point of the program's curve near it beyond the oracle's fold in W
-/// (the fold is W's extremum on the exact curve).
+/// itself) against the oracle: every point on the oracle's curve within `BOUNDARY_POINT`, as
+/// many folds marked as the oracle's, each marked point (the first after W turned, not
+/// refined) within `BOUNDARY_FOLD` of the oracle's fold.
 fn assert_boundary_agrees(a: &Analysis) {
     let r = &a.reported;
     assert!(!r.boundary.is_empty(), "{}: no frf_boundary.csv", a.name);
@@ -981,33 +876,30 @@ fn assert_boundary_agrees(a: &Analysis) {
             .collect::<Vec<_>>()
     );
     assert!(worst <= BOUNDARY_POINT, "{}: {worst:.2e}", a.name);
-    assert_eq!(marked.len(), a.folds.len(), "{}: folds of frf_boundary.csv", a.name);
+    assert_eq!(
+        marked.len(),
+        a.folds.len(),
+        "{}: folds of frf_boundary.csv",
+        a.name
+    );
     for f in &a.folds {
-        let (i, d) = marked
+        let d = marked
             .iter()
-            .map(|&i| (i, (r.boundary[i].0 / f.omega - 1.0).abs()))
-            .min_by(|x, y| x.1.total_cmp(&y.1))
-            .unwrap();
-        let sign = if f.kind == "TurnsBack" { 1.0 } else { -1.0 };
-        let (lo, hi) = (i.saturating_sub(3), (i + 3).min(r.boundary.len() - 1));
-        let beyond = (lo..=hi)
-            .map(|k| sign * (r.boundary[k].0 / f.omega - 1.0))
-            .fold(f64::NEG_INFINITY, f64::max);
+            .map(|&i| (r.boundary[i].0 / f.omega - 1.0).abs())
+            .fold(f64::INFINITY, f64::min);
         println!(
-            "  oracle fold {} at W/w1 {:.7}: marked point {:.7} ({d:.2e}), farthest neighbour \
-             {beyond:.2e} beyond it",
-            f.kind,
-            f.omega / a.w1,
-            r.boundary[i].0 / a.w1
+            "  oracle fold {} at W/w1 {:.7}: nearest marked point {d:.2e} from it",
+            kind(f),
+            f.omega / a.w1
         );
-        assert!(d <= BOUNDARY_FOLD && beyond <= 1e-9, "{}: {f:?}", a.name);
+        assert!(d <= BOUNDARY_FOLD, "{}: {} fold, {d:.2e}", a.name, kind(f));
     }
 }
 
 /// Bounds of the cross-check of the oracle with the program's exact curve: a point's first
 /// harmonic (relative), a marked fold's W (relative).
 const BOUNDARY_POINT: f64 = 1e-6;
-const BOUNDARY_FOLD: f64 = 1e-4;
+const BOUNDARY_FOLD: f64 = 1e-3;
 
 #[test]
 fn the_oracle_and_the_programs_exact_curve_agree_through_the_folds() {
