@@ -2,7 +2,48 @@
 //! `samples`, against exact periodic orbits built here (docs/VERIFICATION.md, "Forced response
 //! at its defaults against exact orbits").
 //!
-//! MEASURED-PLACEHOLDER
+//! Each system is written as a reduced-model directory padded as an FE code's model would be
+//! (the contact coordinate completed to a 3-coordinate node by two stiff decoupled pads,
+//! `common::padded_contact_model`) and run through `nlmodes forced MODEL --settings S --out O`
+//! with only `range`, `load`, `levels`, `level_unit`, `contact`, `penalty_factor` and
+//! `damping_ratio` given. The reference is independent of the program and of what it reports:
+//! the penalty equation is piecewise linear, and `pwl::trace` continues its exact periodic orbits
+//! (matrix-exponential flow between switches found as events, shooting Newton with the exact
+//! monodromy) by pseudo-arc-length in (z(0), W) from the linear response at the start of the
+//! range, through the folds, past its end; the folds are solved for (a multiplier at +1) and
+//! inserted into the trace, the peak is refined on a local re-trace. Checked (issue 37, "How it
+//! is checked"):
+//!
+//! * exit 0 and a curve "complete";
+//! * the peak (the reported point with the largest first harmonic of the master) within 2 % of
+//!   the exact peak's amplitude and 0.5 % of its W;
+//! * as many folds of each kind as the exact curve has, each reported fold (frf.json's refined W
+//!   and its point's W) within 1 % in W of an exact fold of its kind, every exact fold so
+//!   reported, frf.csv's `fold` column marking the same points;
+//! * at least 99 % of the points on the exact curve: an exact orbit at the point's own W whose
+//!   first harmonic is within 1 % (every crossing of W by the exact curve is shot at W). Near a
+//!   fold (W within 1e-3 of an exact fold's) a point just beyond the fold in W has no exact orbit
+//!   at its own W: it counts as on the curve when the exact curve passes within 1e-3 in W and
+//!   1 % in the first harmonic (`How::NearFold`; the fold samples are part of the polyline);
+//! * a range the continuation cannot cover exits 3 with its points written;
+//! * the oracle itself: its first orbit is the linear response, Liouville on every sample, every
+//!   fold an extremum of W; and the program's own exact curve (frf_boundary.csv, shooting on the
+//!   massless contact boundary) lies on the oracle's within 1e-6.
+//!
+//! Measured on main at 2c0fbb9 (2026-11-27), q1 = first harmonic of the master over g:
+//!
+//! | system | points (N) | peak: reported / exact (q1, W/w1) | folds: reported / exact (W/w1) | points at their W: largest, median error |
+//! |---|---|---|---|---|
+//! | 1-DOF, 1 %, 0.1 N | 607 (10, 20) | 2.59098 at 1.60454 / 2.59091 at 1.60458 (2.5e-5, 2.1e-5) | 1.604773 / 1.604787, 1.047750 / 1.047750 | 607 of 607: 7.1e-4, 5.1e-5 |
+//! | chain, 0.5 %, 5 x grazing | 511 (10, 20) | 4.62517 at 1.32294 / 4.62361 at 1.32298 (3.4e-4, 2.7e-5) | 1.323297 / 1.323311, 1.024819 / 1.024819 | 511 of 511: 2.0e-3, 4.8e-4 |
+//!
+//! The program's exact curve lies on the oracle's within 2.0e-7 (1-DOF) and 5.6e-10 (chain).
+//! The range [0.8, 60] w1 stops at the point limit (2000 points, W/w1 = 30.08): exit 3. The
+//! oracle's numbers do not move (to the 7 digits printed) when its trace step (0.02 or 0.05),
+//! its peak re-trace step (5e-4, 1e-3, 2e-3) or its event grid (128 or 256 steps a period)
+//! change. Wall time of the whole file about 20-35 s on the 2-core machine (the CLI runs 6-20 s
+//! each, the oracle 2.5-10 s). Run with
+//! `cargo test --release --test forced_oracle_cli -- --nocapture` for the tables.
 
 mod common;
 #[path = "../crates/forced/tests/pwl/mod.rs"]
@@ -32,8 +73,8 @@ const POINT_SHARE: f64 = 0.99;
 
 /// Near a fold (a point's W within this, relative, of an exact fold's) a point may lie just
 /// beyond the fold in W, where no exact orbit exists at its own W: it is on the curve when the
-/// exact curve (the polyline of the oracle's samples, within 2e-5 g of the curve: module docs
-/// of `pwl::trace`) passes within `NEAR_FOLD_OMEGA` of its W and `POINT_AMPLITUDE` of its
+/// exact curve (the polyline of the oracle's samples, within 6e-4 of the curve in the scaled
+/// variables (z(0) / g, W / w1): module docs of `pwl::trace`) passes within `NEAR_FOLD_OMEGA` of its W and `POINT_AMPLITUDE` of its
 /// first harmonic.
 const NEAR_FOLD_OMEGA: f64 = 1e-3;
 
@@ -157,8 +198,9 @@ fn jacobi(mut a: Vec<Vec<f64>>) -> (Vec<f64>, Vec<Vec<f64>>) {
                 for row in a.iter_mut() {
                     (row[p], row[q]) = rotate(row[p], row[q]);
                 }
-                for k in 0..n {
-                    (a[p][k], a[q][k]) = rotate(a[p][k], a[q][k]);
+                let (head, tail) = a.split_at_mut(q);
+                for (x, y) in head[p].iter_mut().zip(tail[0].iter_mut()) {
+                    (*x, *y) = rotate(*x, *y);
                 }
                 for row in v.iter_mut() {
                     (row[p], row[q]) = rotate(row[p], row[q]);
@@ -180,7 +222,11 @@ fn linear(spec: &Spec) -> Linear {
     let kd = Dense::from_fn(n, |i, j| k[i][j]);
     let linv_t = Dense::from_fn(n, |i, j| linv.at(j, i));
     let a = linv.mul(&kd).mul(&linv_t);
-    let (lambda, v) = jacobi((0..n).map(|i| (0..n).map(|j| a.at(i, j)).collect()).collect());
+    let (lambda, v) = jacobi(
+        (0..n)
+            .map(|i| (0..n).map(|j| a.at(i, j)).collect())
+            .collect(),
+    );
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&x, &y| lambda[x].total_cmp(&lambda[y]));
     let omega: Vec<f64> = order.iter().map(|&i| lambda[i].sqrt()).collect();
@@ -192,8 +238,16 @@ fn linear(spec: &Spec) -> Linear {
     for (w, phi) in omega.iter().zip(&shapes) {
         let (kp, mp) = (kd.apply(phi), md.apply(phi));
         let residual = norm(&sub(&kp, &mp.iter().map(|x| w * w * x).collect::<Vec<_>>()));
-        assert!(residual <= 1e-12 * norm(&kp), "{}: mode residual", spec.name);
-        assert!((dot(phi, &mp) - 1.0).abs() < 1e-12, "{}: mass norm", spec.name);
+        assert!(
+            residual <= 1e-12 * norm(&kp),
+            "{}: mode residual",
+            spec.name
+        );
+        assert!(
+            (dot(phi, &mp) - 1.0).abs() < 1e-12,
+            "{}: mass norm",
+            spec.name
+        );
     }
     let mphi: Vec<Vec<f64>> = shapes.iter().map(|p| md.apply(p)).collect();
     let damping = (0..n)
@@ -410,7 +464,9 @@ fn read_outputs(out: &Path) -> Reported {
         piece: rows.iter().map(|r| r[3].parse().unwrap()).collect(),
         folds,
         termination: curve["termination"].as_str().unwrap_or("").into(),
-        kc: json["penalty_stiffness_n_per_m"].as_f64().unwrap_or(f64::NAN),
+        kc: json["penalty_stiffness_n_per_m"]
+            .as_f64()
+            .unwrap_or(f64::NAN),
         boundary,
         out: out.to_path_buf(),
     }
@@ -431,7 +487,11 @@ fn exact_at(curve: &ExactCurve, w: f64) -> Vec<f64> {
         } else {
             (w - a.omega) / (b.omega - a.omega)
         };
-        let z: Vec<f64> = a.z0.iter().zip(&b.z0).map(|(x, y)| x + u * (y - x)).collect();
+        let z: Vec<f64> =
+            a.z0.iter()
+                .zip(&b.z0)
+                .map(|(x, y)| x + u * (y - x))
+                .collect();
         let orbit = periodic_at(&curve.sys, w, &z, ORBIT_TOL).unwrap_or_else(|| {
             panic!(
                 "the oracle found no orbit at W = {w} rad/s between its samples at {} and {}",
@@ -546,6 +606,8 @@ fn kind(fold: &Fold) -> &'static str {
 struct Analysis {
     name: &'static str,
     w1: f64,
+    /// The range (rad/s).
+    range: (f64, f64),
     force: f64,
     kc: f64,
     /// The linear resonant response of the contact coordinate at the force, / g.
@@ -597,6 +659,7 @@ fn analyse(spec: &Spec) -> Analysis {
     Analysis {
         name: spec.name,
         w1,
+        range: (spec.range.0 * w1, spec.range.1 * w1),
         force,
         kc,
         linear_peak_over_gap,
@@ -650,7 +713,7 @@ fn report(a: &Analysis) {
     );
     let (wp, qp) = reported_peak(r);
     println!(
-        "  peak: reported q1/g {:.5} at W/w1 {:.5}; exact {:.5} at {:.5} ({:.2e}, {:.2e})",
+        "  peak: reported q1/g {:.5} at W/w1 {:.5}; exact {:.7} at {:.7} ({:.2e}, {:.2e})",
         qp / GAP,
         wp / w1,
         a.peak.1 / GAP,
@@ -706,6 +769,59 @@ fn report(a: &Analysis) {
             );
         }
     }
+}
+
+/// The oracle's own checks, independent of the program: its first orbit is the linear response
+/// (no switch, the first harmonic that of the linear solve to 1e-9), Liouville on every sample
+/// (det of the exact monodromy = exp(-T tr(M^-1 C)) to 1e-9), every fold an extremum of W
+/// among the samples around it, the trace past the end of the range, and the refined peak at
+/// least the largest sample and at most 1e-3 above it.
+fn assert_oracle(a: &Analysis) {
+    let (curve, sys) = (&a.curve, &a.curve.sys);
+    let first = &curve.samples[0];
+    let w0 = first.orbit.omega;
+    let z = linear_state(sys, w0);
+    let j = (0..sys.n).find(|&i| curve.observed[i] == 1.0).unwrap();
+    let linear = z[j].hypot(z[sys.n + j] / w0);
+    assert!(first.orbit.flow.events.is_empty() && (first.q1 / linear - 1.0).abs() < 1e-9);
+    let damping = sys.trace_minv_c();
+    let liouville = curve
+        .samples
+        .iter()
+        .map(|s| {
+            let expected = (-2.0 * std::f64::consts::PI / s.orbit.omega * damping).exp();
+            (s.orbit.flow.monodromy.det() / expected - 1.0).abs()
+        })
+        .fold(0.0, f64::max);
+    assert!(liouville < 1e-9, "{}: Liouville {liouville:.2e}", a.name);
+    for f in &curve.folds {
+        let w = curve.samples[f.sample].orbit.omega;
+        let around = f.sample.saturating_sub(3)..(f.sample + 4).min(curve.samples.len());
+        let extremum = curve.samples[around].iter().all(|s| {
+            let w_s = s.orbit.omega;
+            if f.turns_back {
+                w_s <= w
+            } else {
+                w_s >= w
+            }
+        });
+        assert!(
+            extremum,
+            "{}: the exact fold at W = {w} is no extremum",
+            a.name
+        );
+    }
+    assert!(curve.samples.last().unwrap().orbit.omega > a.range.1);
+    let top = curve.samples.iter().map(|s| s.q1).fold(0.0, f64::max);
+    assert!(
+        a.peak.1 >= top && a.peak.1 <= top * (1.0 + 1e-3),
+        "{}: peak",
+        a.name
+    );
+    println!(
+        "  oracle: first orbit against the linear response {:.1e}, Liouville {liouville:.1e}",
+        (first.q1 / linear - 1.0).abs()
+    );
 }
 
 /// Issue 37's checks on one system (module docs).
@@ -773,7 +889,12 @@ fn assert_folds(a: &Analysis) {
     let marked: Vec<usize> = (0..r.csv_fold.len())
         .filter(|&i| !r.csv_fold[i].is_empty())
         .collect();
-    assert_eq!(marked.len(), r.folds.len(), "{}: frf.csv's fold column", a.name);
+    assert_eq!(
+        marked.len(),
+        r.folds.len(),
+        "{}: frf.csv's fold column",
+        a.name
+    );
     for &i in &marked {
         assert!(r.folds.iter().any(|f| f.0 == i && f.2 == r.csv_fold[i]));
     }
@@ -806,6 +927,7 @@ fn assert_folds(a: &Analysis) {
 fn the_issues_one_dof_oscillator_at_one_percent_meets_its_exact_orbits() {
     let a = analysis(one_dof);
     report(&a);
+    assert_oracle(&a);
     assert_acceptance(&a);
 }
 
@@ -813,6 +935,7 @@ fn the_issues_one_dof_oscillator_at_one_percent_meets_its_exact_orbits() {
 fn the_chain_at_half_a_percent_five_times_past_grazing_meets_its_exact_orbits() {
     let a = analysis(chain);
     report(&a);
+    assert_oracle(&a);
     assert_acceptance(&a);
 }
 
@@ -837,7 +960,11 @@ fn a_range_the_continuation_cannot_cover_exits_3_with_the_points_it_computed() {
     assert_eq!(r.code, Some(3), "{}:\n{}", spec.name, r.log);
     assert!(!r.termination.starts_with("complete"), "{}", r.termination);
     assert!(highest < spec.range.1 * lin.omega[0] && !r.omega.is_empty());
-    assert!(r.log.contains("stopped before the end of its range"), "{}", r.log);
+    assert!(
+        r.log.contains("stopped before the end of its range"),
+        "{}",
+        r.log
+    );
 }
 
 /// For every point (W_b, q_b) of frf_boundary.csv, the smallest relative difference of q_b from

@@ -15,8 +15,11 @@
 //! K_open = K, b_open = 0, K_closed = K + kc a a^T, b_closed = kc g a. So w(t) = exp(G_r t) w(0)
 //! exactly within a regime. A period is integrated on a uniform grid of `steps` sub-steps
 //! (exp(G_r h) computed once per regime); a change of sign of a.x - g within a sub-step (or a
-//! touch-and-leave detected by the sign change of a.v) is located by safeguarded Newton on the
-//! exact flow to 1e-15 T, and the flow continues from the event in the other regime.
+//! touch-and-leave detected by the sign change of a.v, its extremum found the same way) is
+//! located by safeguarded Newton to 1e-15 T on the exact flow's Taylor series in time (`taylor`:
+//! a.x(t) = sum a.(G^k w)_x t^k / k!, truncated below 1e-24 and rounded to about 1e-13 of |w|
+//! over a sub-step; one exponential per Newton iterate where the sub-step is too long for it),
+//! and the flow continues from the event in the other regime.
 //!
 //! The monodromy (derivative of z(T) = (x, v)(T) with respect to z(0)) is the ordered product of
 //! the upper-left 2n x 2n blocks of the exponentials: the vector field is continuous across the
@@ -656,10 +659,10 @@ impl<'a> Integrator<'a> {
     }
 }
 
-/// Terms of the Taylor series of a.x - g along one regime's flow, and the largest
-/// ||G tau||_1 over which it is used: the truncation is below 6^49 / 49! ~ 2e-25 of |a| |w|,
-/// the rounding of the sum about e^6 eps ~ 1e-13 of it (terms grow up to e^||G tau|| before
-/// they fall).
+/// Terms of the Taylor series of a linear functional l of the state along one regime's flow
+/// (`taylor`), and the largest ||G tau||_1 over which it is used: the truncation is below
+/// 6^49 / 49! ~ 2e-25 of |l|_inf |w|_1, the rounding of the sum about e^6 eps ~ 1e-13 of it
+/// (terms grow up to e^||G tau|| before they fall).
 const SERIES_TERMS: usize = 49;
 const SERIES_REACH: f64 = 6.0;
 
@@ -701,7 +704,11 @@ impl<'a> GapAlong<'a> {
             Self::Exact { integ, closed, w } => {
                 let wt = integ.flow(*closed, tau).apply(w);
                 let acc = integ.gen[usize::from(*closed)].apply(&wt);
-                [integ.sys.gap_of(&wt), integ.sys.rate_of(&wt), integ.sys.rate_of(&acc)]
+                [
+                    integ.sys.gap_of(&wt),
+                    integ.sys.rate_of(&wt),
+                    integ.sys.rate_of(&acc),
+                ]
             }
         }
     }

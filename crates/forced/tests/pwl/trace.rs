@@ -9,9 +9,10 @@
 //! on the hyperplane through the prediction normal to t (`periodic_on_plane`). A step is
 //! accepted when the corrector converges within `MAX_ITERATIONS`, lands within h of the
 //! prediction and the tangent turns by at most `MAX_TURN`; otherwise h is halved. The turn bound
-//! keeps the samples dense where the curve bends (a fold is never stepped over: W's component of
-//! the tangent changes sign between two samples at most 0.1 rad apart), and the chord between
-//! two samples then lies within h MAX_TURN / 8 of the curve.
+//! keeps the samples dense where the curve bends: a fold shows as a change of sign of W's
+//! component of the tangent between two samples, and two folds could hide between samples only
+//! in a wiggle that turns the tangent by less than 0.1 rad; the chord between two samples lies
+//! within h MAX_TURN / 8 (6e-4 at the largest step) of the curve.
 //!
 //! A fold is where W's component of the tangent changes sign between two samples: it is solved
 //! for by `fold_near` (a multiplier at +1) from the sample with the smaller component, checked to
@@ -123,11 +124,7 @@ impl ExactCurve {
 
     fn sample(&self, orbit: Orbit, tangent: Vec<f64>) -> Sample {
         let q1 = first_harmonic(&self.sys, &orbit, &self.observed);
-        Sample {
-            orbit,
-            tangent,
-            q1,
-        }
+        Sample { orbit, tangent, q1 }
     }
 
     /// One predictor-corrector step of scaled length h from `from`, if accepted (module docs).
@@ -135,9 +132,7 @@ impl ExactCurve {
         let (gs, ws) = self.scales;
         let t = &from.tangent;
         let dim = from.orbit.z0.len();
-        let z: Vec<f64> = (0..dim)
-            .map(|i| from.orbit.z0[i] + h * t[i] * gs)
-            .collect();
+        let z: Vec<f64> = (0..dim).map(|i| from.orbit.z0[i] + h * t[i] * gs).collect();
         let w = from.orbit.omega + h * t[dim] * ws;
         let next = periodic_on_plane(&self.sys, &z, w, t, self.scales, self.tol)?;
         let predicted: Vec<f64> = self
@@ -166,8 +161,9 @@ impl ExactCurve {
         scales: (f64, f64),
         tol: f64,
     ) -> Result<Self, String> {
-        let first = periodic_at(&sys, w_start, &linear_state(&sys, w_start), tol)
-            .ok_or(format!("no periodic orbit at the start W = {w_start} rad/s"))?;
+        let first = periodic_at(&sys, w_start, &linear_state(&sys, w_start), tol).ok_or(
+            format!("no periodic orbit at the start W = {w_start} rad/s"),
+        )?;
         let mut forward = vec![0.0; first.z0.len()];
         forward.push(1.0);
         let tangent = exact_tangent(&sys, &first, &forward, scales);
@@ -255,9 +251,10 @@ impl ExactCurve {
             at.tangent.iter_mut().for_each(|v| *v *= sign);
             let (mut s, mut falls) = (0.0, 0);
             while falls < 3 {
-                let (next, _) = self
-                    .step(&at, PEAK_STEP)
-                    .ok_or(format!("re-trace lost near the peak, W = {}", at.orbit.omega))?;
+                let (next, _) = self.step(&at, PEAK_STEP).ok_or(format!(
+                    "re-trace lost near the peak, W = {}",
+                    at.orbit.omega
+                ))?;
                 s += sign * PEAK_STEP;
                 falls = if next.q1 < at.q1 { falls + 1 } else { 0 };
                 local.push((s, next.orbit.omega, next.q1));
