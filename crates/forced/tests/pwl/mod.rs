@@ -19,7 +19,10 @@
 //! located by safeguarded Newton to 1e-15 T on the exact flow's Taylor series in time (`taylor`:
 //! a.x(t) = sum a.(G^k w)_x t^k / k!, truncated below 1e-24 and rounded to about 1e-13 of |w|
 //! over a sub-step; one exponential per Newton iterate where the sub-step is too long for it),
-//! and the flow continues from the event in the other regime.
+//! and the flow continues from the event in the other regime. The sign tests see every event
+//! when a.x - g has at most one extremum per sub-step, i.e. a sub-step shorter than half the
+//! period of the fastest regime (on the stiffest system of the tests, the light chain of
+//! tests/forced_oracle_cli.rs with kc = 1500 N/m: T / 256 <= 0.027 s against 0.081 s).
 //!
 //! The monodromy (derivative of z(T) = (x, v)(T) with respect to z(0)) is the ordered product of
 //! the upper-left 2n x 2n blocks of the exponentials: the vector field is continuous across the

@@ -12,7 +12,21 @@
 //! keeps the samples dense where the curve bends: a fold shows as a change of sign of W's
 //! component of the tangent between two samples, and two folds could hide between samples only
 //! in a wiggle that turns the tangent by less than 0.1 rad; the chord between two samples lies
-//! within h MAX_TURN / 8 (6e-4 at the largest step) of the curve.
+//! within h MAX_TURN / 8 (6e-4 at the largest step) of the curve (except across a grazing
+//! corner, below).
+//!
+//! A grazing corner: where the orbits of a stiff penalty law first touch the stop, the period
+//! map's derivative changes by about kc tau over contacts of duration tau ~ sqrt(penetration),
+//! so the tangent turns by O(1) within a penetration far below the smallest step (the light
+//! chain of tests/forced_oracle_cli.rs, kc = 1500 N/m at 0.3 %: 75 degrees within 1e-6 w1 in W,
+//! the largest multiplier from 0.98 to 1.53 across it). When the step has been halved below
+//! `MIN_STEP`, the trace hops: the orbit at W moved by `GRAZING_HOP` w_s the way W moves, shot
+//! from the last sample, is the next sample if it lies in the other regime (switches appear or
+//! vanish), within `HOP_REACH` (scaled) of the last sample, and W moves on the same way at it;
+//! otherwise the trace stops with an error. A fold hidden in the corner would lie within
+//! `GRAZING_HOP` w_s of it in W, far below the 1e-3 the comparisons resolve. The curves compared
+//! do not move when `GRAZING_HOP` is 1e-7 instead (the ordinary steps after the hop then finish
+//! the turn); at 1e-5 the shooting from the last sample does not converge.
 //!
 //! A fold is where W's component of the tangent changes sign between two samples: it is solved
 //! for by `fold_near` (a multiplier at +1) from the sample with the smaller component, checked to
@@ -37,6 +51,10 @@ const EASY_ITERATIONS: usize = 4;
 const MAX_SAMPLES: usize = 20_000;
 /// Scaled step of the local re-trace around the peak.
 const PEAK_STEP: f64 = 1e-3;
+/// The step in W / w_s across a grazing corner, and how far (scaled) the orbit on its far side
+/// may lie from the last sample (module docs).
+const GRAZING_HOP: f64 = 1e-6;
+const HOP_REACH: f64 = 1e-3;
 
 /// One sample of the exact curve: the periodic orbit, its unit scaled tangent and the first
 /// harmonic (m) of the observed coordinate.
@@ -64,6 +82,8 @@ pub struct ExactCurve {
     pub tol: f64,
     pub samples: Vec<Sample>,
     pub folds: Vec<Fold>,
+    /// The samples reached across a grazing corner (`across_grazing`).
+    pub corners: Vec<usize>,
 }
 
 /// (x, v)(0) of the open regime's steady response to fc cos(W t) + fs sin(W t):
@@ -90,9 +110,11 @@ pub fn linear_state(sys: &Pwl, omega: f64) -> Vec<f64> {
 
 /// Gauss-Legendre nodes per piece of `first_harmonic`. A piece lasts at most T / `STEPS`; the
 /// integrand x(t) cos(W t) is a sum of exponentials e^{lambda t} with |lambda| below the closed
-/// regime's highest frequency plus W (12 rad/s on the systems here, |lambda| dt < 0.4), where
-/// the q-point rule errs by (|lambda| dt)^{2q} (q!)^4 / ((2q + 1) ((2q)!)^3) relative, 3e-21 at
-/// q = 6 (the 12 of `Integrator::fourier` serve its higher harmonics).
+/// regime's highest frequency plus W (at most 41 rad/s on the systems of
+/// tests/forced_oracle_cli.rs, the light chain's 38.8 + 1.25; |lambda| dt < 1.1 with
+/// dt <= 2 pi / 0.9 / 256 s), where the q-point rule errs by
+/// (|lambda| dt)^{2q} (q!)^4 / ((2q + 1) ((2q)!)^3) relative, 6e-16 at q = 6 (the 12 of
+/// `Integrator::fourier` serve its higher harmonics).
 const FIRST_HARMONIC_NODES: usize = 6;
 
 /// First-harmonic amplitude of `coord . x` along an orbit.
@@ -174,6 +196,7 @@ impl ExactCurve {
             tol,
             samples: Vec::new(),
             folds: Vec::new(),
+            corners: Vec::new(),
         };
         curve.samples.push(curve.sample(first, tangent));
         let mut h = FIRST_STEP;
@@ -195,9 +218,44 @@ impl ExactCurve {
                     }
                 }
                 None if h > MIN_STEP => h *= 0.5,
-                None => return Err(format!("step below {MIN_STEP} at W = {w} rad/s")),
+                None => {
+                    let next = curve
+                        .across_grazing(last)
+                        .map_err(|e| format!("step below {MIN_STEP} at W = {w} rad/s, and {e}"))?;
+                    curve.corners.push(curve.samples.len());
+                    curve.samples.push(next);
+                    h = GRAZING_HOP;
+                }
             }
         }
+    }
+
+    /// The sample across a grazing corner from `last` (module docs): the orbit at W moved by
+    /// `GRAZING_HOP` w_s the way W moves at `last`, shot from `last`'s state, if it lies in the
+    /// other regime (its switches appear or vanish), within `HOP_REACH` of `last` and W moves on
+    /// the same way there (no fold in the corner).
+    fn across_grazing(&self, last: &Sample) -> Result<Sample, String> {
+        let dim = last.orbit.z0.len();
+        let way = last.tangent[dim].signum();
+        let w = last.orbit.omega + way * GRAZING_HOP * self.scales.1;
+        let orbit = periodic_at(&self.sys, w, &last.orbit.z0, self.tol)
+            .ok_or(format!("no orbit at W = {w} rad/s across it"))?;
+        let mut like = vec![0.0; dim];
+        like.push(way);
+        let tangent = exact_tangent(&self.sys, &orbit, &like, self.scales);
+        let switched = orbit.flow.events.is_empty() != last.orbit.flow.events.is_empty();
+        let reach = distance(&self.scaled(&orbit), &self.scaled(&last.orbit));
+        if !switched || reach > HOP_REACH || tangent[dim] * way <= 0.0 {
+            return Err(format!(
+                "the orbit at W = {w} rad/s is no grazing corner's far side (switches {} -> {}, \
+                 {reach:.1e} away, W's tangent component {:.1e} -> {:.1e})",
+                last.orbit.flow.events.len(),
+                orbit.flow.events.len(),
+                last.tangent[dim],
+                tangent[dim]
+            ));
+        }
+        Ok(self.sample(orbit, tangent))
     }
 
     /// The fold between the last sample and `next`, if W turns between them (module docs).
@@ -245,6 +303,61 @@ impl ExactCurve {
         let top = (0..self.samples.len())
             .max_by(|&a, &b| self.samples[a].q1.total_cmp(&self.samples[b].q1))
             .expect("samples");
+        self.peak_near(top)
+    }
+
+    /// The index of the first sample beyond `w_end` (rad/s): the samples before it are the part
+    /// of the curve a continuation from the start of the range meets before it leaves the range
+    /// (all of them when none is beyond).
+    pub fn leaves_at(&self, w_end: f64) -> usize {
+        self.samples
+            .iter()
+            .position(|s| s.orbit.omega > w_end)
+            .unwrap_or(self.samples.len())
+    }
+
+    /// The peak of the part of the curve before it leaves the range at `w_end` (rad/s,
+    /// `leaves_at`): (W rad/s, first harmonic m, whether it is the range's end). When that part
+    /// still rises at its end (the orbit at W = `w_end` on it, shot from the samples around it,
+    /// is above every sample before it), the end; otherwise the peak refined around the largest
+    /// sample before it, as `peak`.
+    pub fn peak_before(&self, w_end: f64) -> Result<(f64, f64, bool), String> {
+        let cut = self.leaves_at(w_end);
+        let top = (0..cut)
+            .max_by(|&a, &b| self.samples[a].q1.total_cmp(&self.samples[b].q1))
+            .expect("samples");
+        if cut < self.samples.len() {
+            let end = self.orbit_on_segment(cut - 1, w_end).ok_or(format!(
+                "no orbit where the curve leaves the range, W = {w_end}"
+            ))?;
+            let q_end = first_harmonic(&self.sys, &end, &self.observed);
+            if q_end >= self.samples[top].q1 {
+                return Ok((w_end, q_end, true));
+            }
+        }
+        let (w, q) = self.peak_near(top)?;
+        Ok((w, q, false))
+    }
+
+    /// The periodic orbit at W (rad/s) on the segment from sample `i` to `i + 1` (W between
+    /// theirs), shot at W from the state interpolated linearly in W between the two.
+    pub fn orbit_on_segment(&self, i: usize, w: f64) -> Option<Orbit> {
+        let (a, b) = (&self.samples[i].orbit, &self.samples[i + 1].orbit);
+        let u = if b.omega == a.omega {
+            0.0
+        } else {
+            (w - a.omega) / (b.omega - a.omega)
+        };
+        let z: Vec<f64> =
+            a.z0.iter()
+                .zip(&b.z0)
+                .map(|(x, y)| x + u * (y - x))
+                .collect();
+        periodic_at(&self.sys, w, &z, self.tol)
+    }
+
+    /// `peak` around the sample `top`.
+    fn peak_near(&self, top: usize) -> Result<(f64, f64), String> {
         let mut local = vec![(0.0, self.samples[top].orbit.omega, self.samples[top].q1)];
         for sign in [1.0, -1.0] {
             let mut at = self.samples[top].clone();
