@@ -53,8 +53,8 @@
 //! at the point limit (2000 points, W/w1 = 30.08): exit 3. The oracle's numbers do not move (to
 //! the 7 digits printed) when its trace step (0.02 or 0.05), its peak re-trace step (5e-4, 1e-3,
 //! 2e-3), its event grid (128 or 256 steps a period; 256 or 512 on the light chain) or its hop
-//! across the grazing corner (1e-6 or 1e-7 w1) change. Wall time of the whole file about 30 s on
-//! the 2-core machine (the CLI runs 4-20 s each, the oracle 3-10 s). Run with
+//! across the grazing corner (1e-6 or 1e-7 w1) change. Wall time of the whole file 20-30 s on the
+//! 2-core machine (the CLI runs 4-20 s each, the oracle 2-10 s). Run with
 //! `cargo test --release --test forced_oracle_cli -- --nocapture` for the tables.
 
 mod common;
