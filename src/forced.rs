@@ -224,6 +224,7 @@ pub fn run(
     let frf = FrfSettings {
         stability: s.stability,
         max_harmonics: Some(s.top_harmonics()),
+        follow_harmonics: s.adapt_harmonics,
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
@@ -310,6 +311,7 @@ impl LevelSweeps<'_> {
                     sweep: Sweep::Level { omega: ratio * w },
                     stability: s.stability,
                     max_harmonics: Some(s.top_harmonics()),
+                    follow_harmonics: s.adapt_harmonics,
                     harmonic_tolerance: s.harmonic_tolerance,
                     ..FrfSettings::new(s.level_range[0], s.level_range[1])
                 };
@@ -452,17 +454,9 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
     if stopped.is_empty() {
         return Ok(());
     }
-    let hint = if st.settings.contact == ForcedContact::Penalty {
-        format!(
-            ". A light damping under a stiff penalty law (penalty_factor = {}) makes the sampled \
-             curve turn at corners near its folds and at grazing, where the continuation can \
-             lose it: more harmonics, a smaller penalty_factor or contact = \"exact\" may carry \
-             it through (README, known limits)",
-            st.settings.penalty_factor
-        )
-    } else {
-        String::new()
-    };
+    let hint = ". frf.png marks the branch not computed and report.md's forced section names \
+                it; a narrower range (forced.range) or a larger max_harmonics may carry the \
+                trace through";
     Err(anyhow::Error::new(crate::exit::StoppedEarly(format!(
         "forced response stopped before the end of its range ({}); the points computed are in \
          {}{hint}",

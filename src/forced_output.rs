@@ -52,7 +52,7 @@ pub(crate) fn harmonic_check(c: &HarmonicCheck) -> (&'static str, Option<[f64; 2
         HarmonicCheck::Unchecked => ("", None),
         HarmonicCheck::Linear => ("linear", None),
         HarmonicCheck::Converged { change } => ("converged", Some(*change)),
-        HarmonicCheck::NotConverged { change: Some(c) } => ("max_harmonics", Some(*c)),
+        HarmonicCheck::NotConverged { change: Some(c) } => ("not_converged", Some(*c)),
         HarmonicCheck::NotConverged { change: None } => ("check_failed", None),
     }
 }
@@ -419,6 +419,21 @@ fn frf_figure(
             };
             labelled = true;
             plot = plot.with_series(Series::new(label, x, y).color(color).style(style));
+        }
+        if let Some((from, to)) = c.response.gap() {
+            // The ends of the branch not computed, joined by a dotted line when both are known.
+            let ends: Vec<usize> = std::iter::once(from).chain(to).collect();
+            let x: Vec<f64> = ends
+                .iter()
+                .map(|&i| c.response.points[i].omega / w)
+                .collect();
+            let y: Vec<f64> = ends.iter().map(|&i| amp(&c.response.points[i])).collect();
+            plot = plot.with_series(
+                Series::new(format!("level {}: branch not computed", c.level), x, y)
+                    .color(Color(200, 0, 0))
+                    .style(LineStyle::Dotted)
+                    .markers(true),
+            );
         }
         if !max_abs {
             let pts: Vec<((f64, f64), f64)> = c

@@ -103,6 +103,9 @@ pub struct ForcedSection {
     pub harmonics: usize,
     /// The largest N a point in contact may be raised to (0: four times `harmonics`).
     pub max_harmonics: usize,
+    /// true (the default): the trace raises N where a point needs it (up to `max_harmonics`);
+    /// false: the trace keeps `harmonics` and every point in contact is checked once at 2N.
+    pub adapt_harmonics: bool,
     /// A point's N is enough when doubling it moves the master's first harmonic and W by at
     /// most this (relative).
     pub harmonic_tolerance: f64,
@@ -170,6 +173,7 @@ impl Default for ForcedSection {
             range: [0.9, 1.2],
             harmonics: 10,
             max_harmonics: 0,
+            adapt_harmonics: true,
             harmonic_tolerance: 1e-3,
             samples: 0,
             harmonic: 1,

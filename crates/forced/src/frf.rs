@@ -66,6 +66,9 @@ pub struct FrfSettings {
     /// Largest N a point in contact may be raised to (`ladder`; default `None`: four times the
     /// solver's N, two doublings).
     pub max_harmonics: Option<usize>,
+    /// true: the trace takes the N a point needed for its next steps (DESIGN §10.8); false: the
+    /// trace keeps the base N and each point in contact is only checked at 2N.
+    pub follow_harmonics: bool,
     /// A point's N is enough when doubling it moves the master's first harmonic and W by at
     /// most this (relative; default 1e-3).
     pub harmonic_tolerance: f64,
@@ -94,6 +97,7 @@ impl FrfSettings {
             max_points: 2000,
             stability: true,
             max_harmonics: None,
+            follow_harmonics: true,
             harmonic_tolerance: 1e-3,
             stability_margin: 1e-3,
             period_tolerance: 1e-3,
@@ -337,7 +341,8 @@ pub fn response_curve(
     settings.validate()?;
     let base = solver.basis().harmonics();
     let top = settings.max_harmonics.unwrap_or(4 * base).max(base);
-    let ladder = HarmonicLadder::new(solver, top, settings.harmonic_tolerance)?;
+    let ladder = HarmonicLadder::new(solver, top, settings.harmonic_tolerance)?
+        .following(settings.follow_harmonics);
     let mut trace = FrfTrace::begin(&ladder, settings, 1.0, Vec::new(), &mut progress)?;
     trace.run(&mut progress);
     let stopped = matches!(

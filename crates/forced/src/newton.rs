@@ -96,7 +96,7 @@ pub enum ForceIntegration {
     /// law of Algorithm 1, whose multipliers live on the samples.
     Sampled,
     /// The plain penalty law lambda = k (g)_+ integrated exactly between its switch instants
-    /// (`nlmodes_hb::penalty_integral`, DESIGN §10.7): no corners where a sample enters contact.
+    /// (`nlmodes_hb::penalty_integral`, DESIGN §10.9): no corners where a sample enters contact.
     ExactPenalty {
         /// k (force per length), the same on every row.
         stiffness: f64,
@@ -188,7 +188,7 @@ pub fn contact_samples_smoothed(
             }
         }
         ForceIntegration::ExactPenalty { stiffness, phases } => {
-            for j in 0..c {
+            for (j, &gap) in g0.iter().enumerate() {
                 let (rows, samples) = (j * t..(j + 1) * t, j * m..(j + 1) * m);
                 let series = &y[rows.clone()];
                 let contact = if m >= phases.grid() {
@@ -196,16 +196,16 @@ pub fn contact_samples_smoothed(
                         series,
                         &raw_gaps[samples.clone()],
                         &sampled_rates[samples],
-                        g0[j],
+                        gap,
                     )
                 } else {
-                    phases.above(series, g0[j])
+                    phases.above(series, gap)
                 };
                 let mut block = (!contact.is_empty()).then(|| Mat::zeros(t, t));
                 let lambda = penalty_force(
                     &contact,
                     series,
-                    g0[j],
+                    gap,
                     stiffness,
                     block.as_mut().map(|b| b.as_mut()),
                 );
@@ -349,7 +349,7 @@ impl InnerNewton<'_> {
         }
     }
 
-    /// The exactly integrated penalty law's rescue (DESIGN §10.7): its Jacobian is continuous
+    /// The exactly integrated penalty law's rescue (DESIGN §10.9): its Jacobian is continuous
     /// but, where a contact phase appears, changes like k sqrt(penetration), and with a stiff law
     /// on a lightly damped resonance Newton's basin can be narrower than the distance from a
     /// prediction (or from the orbit at another N) to the orbit. At a soft stiffness

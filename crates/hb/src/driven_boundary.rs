@@ -187,7 +187,7 @@ impl Piece {
         };
         for (k, ek) in e.iter().enumerate() {
             let l = self.values[k];
-            rows.curvatures[k] = l.norm_sqr() * ek.norm();
+            rows.curvatures[k] = l.norm_sqr() * ek.norm_sqr().sqrt();
             for j in 0..c {
                 let v = self.events[(j, k)] * ek;
                 rows.events[j] += v.re;
@@ -201,7 +201,7 @@ impl Piece {
     /// in t, so each term's largest modulus is at one end).
     fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64 {
         (0..a.curvatures.len())
-            .map(|k| self.events[(j, k)].norm() * a.curvatures[k].max(b.curvatures[k]))
+            .map(|k| self.events[(j, k)].norm_sqr().sqrt() * a.curvatures[k].max(b.curvatures[k]))
             .sum()
     }
 
@@ -371,10 +371,12 @@ fn next_switch(
                 // it stays below f(t0) + f'(t0) h + |f''| h^2 / 2: no excursion when that is
                 // below the threshold.
                 let h = t1 - t0;
-                let reach = before.events[j]
-                    + before.rates[j] * h
-                    + 0.5 * piece.curvature_bound(j, &before, &after) * h * h;
-                if before.rates[j] > 0.0 && after.rates[j] < 0.0 && reach > tol {
+                let reach = || {
+                    before.events[j]
+                        + before.rates[j] * h
+                        + 0.5 * piece.curvature_bound(j, &before, &after) * h * h
+                };
+                if before.rates[j] > 0.0 && after.rates[j] < 0.0 && reach() > tol {
                     let top = bisect_rate(piece, w0, j, t0, t1);
                     if piece.event(j, w0, top) > tol {
                         return Some((bisect(piece, w0, j, t0, top), j));

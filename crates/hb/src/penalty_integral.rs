@@ -1,5 +1,5 @@
 //! The penalty law lambda = k (y - g0)_+ integrated exactly over one period of a series of the
-//! full basis (DESIGN §10.7), instead of sampled on the time grid (Eqs. 18-19).
+//! full basis (DESIGN §10.9), instead of sampled on the time grid (Eqs. 18-19).
 //!
 //! Sampled (AFT), the harmonic-balance residual of a penalty law is continuous but its Jacobian
 //! P diag(slope) E jumps by k / m each time a sample enters or leaves contact. Next to a lightly
