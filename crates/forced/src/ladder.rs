@@ -13,6 +13,7 @@
 use nlmodes_hb::contact::Multipliers;
 
 use crate::error::ForcedError;
+pub use crate::harmonic_check::HarmonicCheck;
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 
@@ -20,27 +21,6 @@ use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 /// solve at 2N for the two to be the same orbit (a truncation error; on the test systems the
 /// change from N = 10 to 20 is at most 4e-3).
 const REFINE_REACH: f64 = 0.05;
-
-/// What the check of a point's N found.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum HarmonicCheck {
-    /// Not checked (the default of a solve).
-    Unchecked,
-    /// No contact: the orbit is exact at any N.
-    Linear,
-    /// Doubling N moved the master's first harmonic and W by the relative `change` = [q, W],
-    /// both within the tolerance.
-    Converged {
-        /// [|dq1| / q1, |dW| / W] at 2N.
-        change: [f64; 2],
-    },
-    /// Still moving at the top of the ladder (`change` at its last doubling), or the solve at
-    /// 2N failed (`change` None).
-    NotConverged {
-        /// [|dq1| / q1, |dW| / W] at the last doubling, when that solve converged.
-        change: Option<[f64; 2]>,
-    },
-}
 
 /// The forced problem at N0 2^k, k = 0, 1, ..., N0 2^k <= `max_harmonics`.
 pub struct HarmonicLadder<'a, 's> {

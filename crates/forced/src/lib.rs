@@ -19,12 +19,15 @@
 mod boundary;
 mod boundary_curve;
 mod corner;
+mod curve;
+mod curve_stability;
 mod damping;
 mod dynamics;
 mod error;
 mod fold;
 mod frf;
 mod grazing;
+mod harmonic_check;
 mod ladder;
 mod load;
 mod newton;
@@ -38,13 +41,12 @@ pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
 pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
+pub use curve::{Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
-pub use frf::{
-    response_curve, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep,
-};
-pub use ladder::HarmonicCheck;
+pub use frf::response_curve;
+pub use harmonic_check::HarmonicCheck;
 pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
