@@ -91,6 +91,9 @@ pub struct StabilityRecord {
     /// The shot orbit's per-row contact shares (shooting method only).
     #[serde(default)]
     pub contact_shares: Vec<f64>,
+    /// The event-based monodromy's modes above the orbit's harmonics (absent: none).
+    #[serde(default)]
+    pub unresolved: Vec<nlmodes_nnm::UnresolvedPair>,
 }
 
 impl Orbit {
@@ -107,6 +110,7 @@ impl Orbit {
                 trivial: s.trivial,
                 orbit_shift: s.orbit_shift,
                 check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
+                unresolved: &s.unresolved,
             })
         })
     }

@@ -88,6 +88,7 @@ mod boundary_holes;
 mod boundary_shooting;
 mod hill;
 mod impact;
+mod modal_basis;
 mod monodromy;
 mod saltation;
 #[cfg(test)]
@@ -100,6 +101,7 @@ pub use boundary_backbone::{boundary_backbone, BoundaryBackbone};
 pub use boundary_history::{boundary_history, BoundaryHistory};
 pub use boundary_holes::{HoleFollow, HoleFollowEnd};
 pub use hill::FloquetAnalysis;
+pub use modal_basis::DECOUPLED_SHARE;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
 
 use rayon::prelude::*;
@@ -276,6 +278,28 @@ pub const SALTATION_TRIVIAL_LIMIT: f64 = 0.3;
 /// another member of the family (or of a tongue) and says nothing of this point.
 pub const SHOOTING_SHIFT_LIMIT: f64 = 1e-2;
 
+/// Largest share of a contact row's inverse mass c_j = a_j M^-1 a_j^T that the modes above the
+/// event-based monodromy's cutoff (w_k > `mode_cutoff` (N + 1) w) may carry together for it to
+/// apply (docs/STABILITY.md, Sec. 10). Those modes take their state at the impacts from their
+/// exact response to the orbit's impulses; an impact hands them about 4 x this share of its
+/// normal momentum exchange, which the N-harmonic orbit itself represents only quasi-statically.
+/// Above it (a Craig-Bampton contact node, whose inverse mass sits mostly in modes far above
+/// N w) the orbit's impact data are not those of the rigid-impact model, and the massless
+/// contact boundary (Sec. 9) is the model.
+pub const UNRESOLVED_SHARE_LIMIT: f64 = 1e-2;
+
+/// A mode the event-based monodromy computes from its impulse response (above the orbit's
+/// harmonics, weakly coupled): where its free pair exp(+-i angle) sits and how strongly the
+/// impacts reach it. Its pair is on the unit circle unless the coupling moves it; the verdict
+/// weighs the orbit's error on it by the coupling ([`verdict_word`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnresolvedPair {
+    /// w_k T reduced to [0, 2 pi) (rad).
+    pub angle: f64,
+    /// Its largest share b_jk^2 / c_j of a contact row's inverse mass.
+    pub share: f64,
+}
+
 /// What a point's verdict is read from: its [`Stability`], or the record of it in a results file.
 #[derive(Clone, Copy, Debug)]
 pub struct VerdictInputs<'a> {
@@ -294,6 +318,8 @@ pub struct VerdictInputs<'a> {
     pub orbit_shift: f64,
     /// The RK4 check disagreed with the shooting monodromy (false where none was made).
     pub check_failed: bool,
+    /// The event-based monodromy's modes above the orbit's harmonics (empty for the others).
+    pub unresolved: &'a [UnresolvedPair],
 }
 
 impl<'a> VerdictInputs<'a> {
@@ -308,6 +334,7 @@ impl<'a> VerdictInputs<'a> {
             trivial: s.trivial,
             orbit_shift: s.orbit_shift,
             check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
+            unresolved: &s.unresolved,
         }
     }
 }
@@ -321,7 +348,10 @@ impl<'a> VerdictInputs<'a> {
 ///   of the monodromy it reveals (see [`SALTATION_TRIVIAL_LIMIT`]): undetermined when eps passes
 ///   that limit; unstable when |mu|_max - 1 > 2 eps^2 |mu|_max; stable unless a non-trivial
 ///   multiplier lies within 2 eps of +1 or -1, where a collision (fold, period doubling) is
-///   within the error; else undetermined.
+///   within the error ([`collision_radii`]: 2 eps sqrt(share) for the pair of a weakly coupled
+///   unresolved mode); else undetermined.
+/// * Every method: undetermined when the orbit whose multipliers these are lies more than
+///   [`SHOOTING_SHIFT_LIMIT`] from the point (`orbit_shift`), or an RK4 check disagreed.
 pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
     let eps = v.trivial_pair_error;
     let limit = match v.method {
@@ -335,23 +365,59 @@ pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
     let margin = v.max_multiplier_abs - 1.0;
     let (decided, near_collision) = match v.method {
         StabilityMethod::Hill | StabilityMethod::Shooting => (margin > eps, false),
-        StabilityMethod::Saltation => (
-            margin > 2.0 * eps * eps * v.max_multiplier_abs,
-            v.multipliers
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| !v.trivial.contains(i))
-                .any(|(_, m)| {
-                    let d = |x: f64| (m[0] - x).hypot(m[1]);
-                    d(1.0).min(d(-1.0)) < 2.0 * eps
-                }),
-        ),
+        StabilityMethod::Saltation => {
+            let radii = collision_radii(v, eps);
+            (
+                margin > 2.0 * eps * eps * v.max_multiplier_abs,
+                v.multipliers
+                    .iter()
+                    .zip(&radii)
+                    .enumerate()
+                    .filter(|(i, _)| !v.trivial.contains(i))
+                    .any(|(_, (m, radius))| {
+                        let d = |x: f64| (m[0] - x).hypot(m[1]);
+                        d(1.0).min(d(-1.0)) < *radius
+                    }),
+            )
+        }
     };
     match (v.stable, decided, near_collision) {
         (true, _, false) => "stable",
         (false, true, _) => "unstable",
         _ => "undetermined",
     }
+}
+
+/// The distance from +-1 within which a non-trivial multiplier of the event-based monodromy may
+/// be a collision the orbit's error hides: 2 eps (a perturbation delta ~ eps^2 moves a pair
+/// meeting at +-1 by sqrt(delta)). The orbit's error reaches the pair of a mode above its
+/// harmonics only through that mode's coupling: its radius is 2 eps sqrt(share). The pair is
+/// the two non-trivial multipliers nearest exp(+-i angle), taken only within 2 eps +
+/// 4 sqrt(share) of it (the coupling moves a pair off a resonance by O(share); a multiplier
+/// farther away is another mode's, which keeps 2 eps).
+fn collision_radii(v: &VerdictInputs<'_>, eps: f64) -> Vec<f64> {
+    let mut radii = vec![2.0 * eps; v.multipliers.len()];
+    let mut taken: Vec<bool> = (0..v.multipliers.len())
+        .map(|i| v.trivial.contains(&i))
+        .collect();
+    for pair in v.unresolved {
+        let reach = 2.0 * eps + 4.0 * pair.share.sqrt();
+        for sign in [1.0, -1.0] {
+            let target = [pair.angle.cos(), sign * pair.angle.sin()];
+            let nearest = (0..v.multipliers.len())
+                .filter(|&i| !taken[i])
+                .map(|i| {
+                    let m = v.multipliers[i];
+                    (i, (m[0] - target[0]).hypot(m[1] - target[1]))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((i, _)) = nearest.filter(|(_, d)| *d <= reach) {
+                taken[i] = true;
+                radii[i] = 2.0 * eps * pair.share.sqrt();
+            }
+        }
+    }
+    radii
 }
 
 /// The independent check of a shooting verdict: one period of RK4 of the massless-boundary
@@ -399,8 +465,11 @@ pub struct Stability {
     /// Impacts per period treated by saltation matrices (0 for Hill's method); contact switches
     /// per period of the shot orbit for the shooting method.
     pub impacts: usize,
-    /// |w_shot - w| / w: how far the shot periodic orbit of the massless boundary lies from the
-    /// harmonic-balance orbit (shooting method; 0 for the others).
+    /// How far the orbit whose multipliers these are lies from the harmonic-balance orbit:
+    /// |w_shot - w| / w for the shooting method (the massless boundary's shot periodic orbit);
+    /// for the event-based monodromy, the largest relative error of the contact displacement at
+    /// an impact that the orbit's series makes in the modes above its harmonics (0 when it
+    /// resolves every coupled mode); 0 for Hill's method.
     pub orbit_shift: f64,
     /// w of the shot periodic orbit (rad/s; shooting method, 0 for the others): the converged
     /// reference of the harmonic refinement (docs/STABILITY.md Sec. 9.4).
@@ -435,6 +504,13 @@ pub struct Stability {
     pub modes_kept: usize,
     /// Harmonics N of Hill's basis (those of the orbit).
     pub harmonics: usize,
+    /// Linear modes left out as decoupled from every contact row (their pairs exp(+-i w_k T) on
+    /// the unit circle; docs/STABILITY.md, Sec. 10).
+    pub decoupled_modes: usize,
+    /// Event-based monodromy: the modes above the orbit's harmonics, computed from their
+    /// impulse response (empty for the other methods and when every coupled mode is resolved).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub unresolved: Vec<UnresolvedPair>,
     /// Largest |mean harmonic| of a selected eigenvector (the centring of the selection criterion,
     /// see the module docs): 0 in the linear regime, 1/2 at a period doubling (0 for the
     /// event-based monodromy, which has no copies to select from).
@@ -542,6 +618,7 @@ mod verdict_tests {
             trivial: [0, 1],
             orbit_shift: 0.0,
             check_failed: false,
+            unresolved: &[],
         })
     }
 
