@@ -522,8 +522,10 @@ pub struct Stability {
 
 /// Floquet stability of every point of `backbone` (docs/DESIGN.md §9), stored in
 /// [`BackbonePoint::stability`], and [`BackbonePoint::bifurcation`] set where the stability
-/// changed since the previous point of the same branch (a branch's first point is compared with
-/// the point of its parent it leaves from). The points are analysed in parallel (each alone:
+/// changed since the previous point of the same branch whose verdict is determined (a branch's
+/// first point is compared with the point of its parent it leaves from); an `undetermined`
+/// point ([`verdict_word`]) neither carries a bifurcation nor serves as the reference, so that
+/// no change is read from a flag its method cannot back. The points are analysed in parallel (each alone:
 /// the same numbers as one by one), then compared in order. `progress(done, total)` is called
 /// after each point. A point whose analysis fails keeps `None` (logged); the others go on.
 /// Returns how many failed.
@@ -558,8 +560,10 @@ pub fn analyze_backbone(
         match result {
             Ok(s) => {
                 let p = &mut backbone.points[i];
-                p.bifurcation = last[branch].as_ref().and_then(|prev| classify(prev, &s));
-                last[branch] = Some(s.clone());
+                if verdict_word(&VerdictInputs::of(&s)) != "undetermined" {
+                    p.bifurcation = last[branch].as_ref().and_then(|prev| classify(prev, &s));
+                    last[branch] = Some(s.clone());
+                }
                 p.stability = Some(s);
             }
             Err(e) => {
