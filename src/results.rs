@@ -94,6 +94,9 @@ pub struct StabilityRecord {
     /// The event-based monodromy's modes above the orbit's harmonics (absent: none).
     #[serde(default)]
     pub unresolved: Vec<nlmodes_nnm::UnresolvedPair>,
+    /// Their share of an impact's normal acceleration (absent: 0).
+    #[serde(default)]
+    pub unresolved_acceleration: f64,
 }
 
 impl Orbit {
@@ -111,6 +114,7 @@ impl Orbit {
                 orbit_shift: s.orbit_shift,
                 check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
                 unresolved: &s.unresolved,
+                unresolved_acceleration: s.unresolved_acceleration,
             })
         })
     }

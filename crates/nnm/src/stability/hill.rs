@@ -254,6 +254,7 @@ impl<'s> FloquetAnalysis<'s> {
         out.harmonics = harmonics;
         out.impacts = impacts.len();
         out.orbit_shift = flow.unresolved_gap_error(point, &impacts, self.system.gaps());
+        out.unresolved_acceleration = flow.unresolved_acceleration_share(point, &impacts);
         out.unresolved = (resolved..n)
             .map(|k| UnresolvedPair {
                 angle: (self.modes.omega[k] * period).rem_euclid(2.0 * std::f64::consts::PI),
@@ -859,6 +860,7 @@ pub(crate) fn stability_with_trivial(
         check: None,
         decoupled_modes: 0,
         unresolved: Vec::new(),
+        unresolved_acceleration: 0.0,
     }
 }
 

@@ -288,6 +288,14 @@ pub const SHOOTING_SHIFT_LIMIT: f64 = 1e-2;
 /// contact boundary (Sec. 9) is the model.
 pub const UNRESOLVED_SHARE_LIMIT: f64 = 1e-2;
 
+/// Largest share of the normal acceleration at an impact that the modes above the orbit's
+/// harmonics may carry for an event-based verdict (docs/STABILITY.md, Sec. 10). Their share goes
+/// like share (w_k / w) |cot(w_k T / 2)|: small off their internal resonances w_k = m w, it
+/// dominates the impact's timing term next to one, where the exact multipliers change by O(1)
+/// within 0.1 % of w (1.02 to 6.9 on the weakly padded 3-DOF system) while the N-harmonic
+/// orbit does not represent that mode's response at all.
+pub const UNRESOLVED_ACCELERATION_LIMIT: f64 = 0.25;
+
 /// A mode the event-based monodromy computes from its impulse response (above the orbit's
 /// harmonics, weakly coupled): where its free pair exp(+-i angle) sits and how strongly the
 /// impacts reach it. Its pair is on the unit circle unless the coupling moves it; the verdict
@@ -320,6 +328,8 @@ pub struct VerdictInputs<'a> {
     pub check_failed: bool,
     /// The event-based monodromy's modes above the orbit's harmonics (empty for the others).
     pub unresolved: &'a [UnresolvedPair],
+    /// Their share of the normal acceleration at an impact (0 for the other methods).
+    pub unresolved_acceleration: f64,
 }
 
 impl<'a> VerdictInputs<'a> {
@@ -335,6 +345,7 @@ impl<'a> VerdictInputs<'a> {
             orbit_shift: s.orbit_shift,
             check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
             unresolved: &s.unresolved,
+            unresolved_acceleration: s.unresolved_acceleration,
         }
     }
 }
@@ -351,7 +362,9 @@ impl<'a> VerdictInputs<'a> {
 ///   within the error ([`collision_radii`]: 2 eps sqrt(share) for the pair of a weakly coupled
 ///   unresolved mode); else undetermined.
 /// * Every method: undetermined when the orbit whose multipliers these are lies more than
-///   [`SHOOTING_SHIFT_LIMIT`] from the point (`orbit_shift`), or an RK4 check disagreed.
+///   [`SHOOTING_SHIFT_LIMIT`] from the point (`orbit_shift`), when the modes above the orbit's
+///   harmonics carry more than [`UNRESOLVED_ACCELERATION_LIMIT`] of an impact's normal
+///   acceleration, or when an RK4 check disagreed.
 pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
     let eps = v.trivial_pair_error;
     let limit = match v.method {
@@ -359,7 +372,9 @@ pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
         StabilityMethod::Saltation => SALTATION_TRIVIAL_LIMIT,
     };
     let shift_ok = !(v.orbit_shift > SHOOTING_SHIFT_LIMIT || v.orbit_shift.is_nan());
-    if eps.is_nan() || eps > limit || !shift_ok || v.check_failed {
+    let unresolved_ok = !(v.unresolved_acceleration > UNRESOLVED_ACCELERATION_LIMIT
+        || v.unresolved_acceleration.is_nan());
+    if eps.is_nan() || eps > limit || !shift_ok || !unresolved_ok || v.check_failed {
         return "undetermined";
     }
     let margin = v.max_multiplier_abs - 1.0;
@@ -511,6 +526,10 @@ pub struct Stability {
     /// impulse response (empty for the other methods and when every coupled mode is resolved).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub unresolved: Vec<UnresolvedPair>,
+    /// Event-based monodromy: the largest share of the normal acceleration at an impact carried
+    /// by the modes above the orbit's harmonics (0 for the other methods; docs/STABILITY.md,
+    /// Sec. 10).
+    pub unresolved_acceleration: f64,
     /// Largest |mean harmonic| of a selected eigenvector (the centring of the selection criterion,
     /// see the module docs): 0 in the linear regime, 1/2 at a period doubling (0 for the
     /// event-based monodromy, which has no copies to select from).
@@ -623,6 +642,7 @@ mod verdict_tests {
             orbit_shift: 0.0,
             check_failed: false,
             unresolved: &[],
+            unresolved_acceleration: 0.0,
         })
     }
 

@@ -240,6 +240,34 @@ impl ModalFlow<'_> {
             .fold(0.0, f64::max)
     }
 
+    /// Largest share of the normal acceleration at an impact, a.acc = -sum_k b_jk w_k^2 eta_k,
+    /// that the modes above the orbit's harmonics carry, |a.acc_unresolved| / (|a.acc_resolved| +
+    /// |a.acc_unresolved|) (0 when every mode is resolved). Their response to the impulses goes
+    /// like cot(w_k T / 2) / w_k in displacement but like w_k cot(w_k T / 2) in acceleration: next
+    /// to an internal resonance w_k T = 2 pi m it dominates the impact's timing term of the
+    /// saltation matrix, and its phase w_k T then moves by w_k T times the orbit's own frequency
+    /// error, which the harmonic balance does not resolve.
+    pub fn unresolved_acceleration_share(&self, point: &BackbonePoint, impacts: &[Impact]) -> f64 {
+        if self.resolved == self.omega.len() {
+            return 0.0;
+        }
+        impacts
+            .iter()
+            .map(|impact| {
+                let (eta, _) = self.modal_state(point, impacts, impact.time);
+                let part = |range: std::ops::Range<usize>| -> f64 {
+                    range
+                        .map(|k| self.contact_modal[(impact.row, k)] * self.omega[k].powi(2) * eta[k])
+                        .sum::<f64>()
+                        .abs()
+                };
+                let (resolved, unresolved) =
+                    (part(0..self.resolved), part(self.resolved..self.omega.len()));
+                unresolved / (resolved + unresolved)
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// x <- F(dt) x, F the free flow of the modes over dt (exact rotations; w_k = 0 drifts).
     fn apply_flow(&self, dt: f64, x: &mut Mat<f64>) {
         let n = self.omega.len();
@@ -369,7 +397,9 @@ fn two_by_two_eigenvalues(m: [[f64; 2]; 2]) -> [c64; 2] {
 
 /// From the eigenvalues rho of the skew-Hamiltonian part (each double; paired greedily by
 /// nearness), the multipliers rho +- sqrt(rho^2 - 1) of each pair. A real rho (|Im rho| <= 1e-10
-/// max(1, |rho|): round-off) is taken real, so that |rho| <= 1 gives |mu| = 1 exactly.
+/// max(1, |rho|): round-off) is taken real, so that |rho| <= 1 gives |mu| = 1 exactly. The pair's
+/// product is 1: the smaller is taken as the inverse of the larger, which rho - sqrt(rho^2 - 1)
+/// would cancel to 0 for a large |rho| (a multiplier of 1e9 near an internal resonance).
 fn multipliers_from_rho(rhos: &[c64]) -> Vec<c64> {
     let mut free: Vec<c64> = rhos.to_vec();
     let mut out = Vec::with_capacity(rhos.len());
@@ -389,8 +419,14 @@ fn multipliers_from_rho(rhos: &[c64]) -> Vec<c64> {
             rho
         };
         let root = (rho * rho - c64::new(1.0, 0.0)).sqrt();
-        out.push(rho + root);
-        out.push(rho - root);
+        let (plus, minus) = (rho + root, rho - root);
+        let large = if plus.norm() >= minus.norm() {
+            plus
+        } else {
+            minus
+        };
+        out.push(large);
+        out.push(c64::new(1.0, 0.0) / large);
     }
     out
 }
