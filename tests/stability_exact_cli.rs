@@ -216,7 +216,8 @@ fn model_dir(spec: &Spec, pad: Padding, w1: f64, dir: &Path) {
 fn weakly_padded_exact(spec: &Spec, w1: f64) -> ImpactChain {
     let n = spec.a.len() + 1;
     let (m, k) = padded(spec, Padding::Weak, w1);
-    let cut = |a: &[Vec<f64>]| -> Vec<Vec<f64>> { a[..n].iter().map(|r| r[..n].to_vec()).collect() };
+    let cut =
+        |a: &[Vec<f64>]| -> Vec<Vec<f64>> { a[..n].iter().map(|r| r[..n].to_vec()).collect() };
     let a: Vec<f64> = spec.a.iter().copied().chain([0.0]).collect();
     ImpactChain::new(&cut(&m), &cut(&k), &a, spec.gap, spec.master)
 }
@@ -292,7 +293,11 @@ fn check(spec: &Spec, pad: Padding, root: &Path, args: &[&str]) -> Tally {
     // The weakly coupled coordinate's mode: the padded system's mode above 10 w1.
     let w_weak = match pad {
         Padding::Decoupled(_) => None,
-        Padding::Weak => reference.linear_omegas().iter().copied().find(|&w| w > 10.0 * w1),
+        Padding::Weak => reference
+            .linear_omegas()
+            .iter()
+            .copied()
+            .find(|&w| w > 10.0 * w1),
     };
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_nlmodes"))
         .args(["--quiet", "backbone"])

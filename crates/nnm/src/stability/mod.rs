@@ -86,6 +86,7 @@ mod boundary_flow;
 mod boundary_history;
 mod boundary_holes;
 mod boundary_shooting;
+mod event_based;
 mod hill;
 mod impact;
 mod modal_basis;
@@ -690,5 +691,51 @@ mod verdict_tests {
             word(StabilityMethod::Hill, true, 1.0, 0.1, &on_circle(90.0)),
             "undetermined"
         );
+    }
+
+    fn saltation_word(
+        multipliers: &[[f64; 2]],
+        unresolved: &[UnresolvedPair],
+        acceleration: f64,
+    ) -> &'static str {
+        verdict_word(&VerdictInputs {
+            method: StabilityMethod::Saltation,
+            stable: true,
+            max_multiplier_abs: 1.0,
+            trivial_pair_error: 0.1,
+            multipliers,
+            trivial: [0, 1],
+            orbit_shift: 0.0,
+            check_failed: false,
+            unresolved,
+            unresolved_acceleration: acceleration,
+        })
+    }
+
+    #[test]
+    fn a_weakly_coupled_pair_near_one_is_weighed_by_its_coupling() {
+        // A pair 0.1 from +1, eps = 0.1: a collision within the error for a resolved pair.
+        let t: f64 = 0.1;
+        let multipliers = [
+            [1.1, 0.0],
+            [1.0 / 1.1, 0.0],
+            [t.cos(), t.sin()],
+            [t.cos(), -t.sin()],
+        ];
+        assert_eq!(saltation_word(&multipliers, &[], 0.0), "undetermined");
+        // The pair of a mode holding 1e-3 of the row's inverse mass: radius 2 eps sqrt(1e-3).
+        let weak = [UnresolvedPair {
+            angle: 0.11,
+            share: 1e-3,
+        }];
+        assert_eq!(saltation_word(&multipliers, &weak, 0.0), "stable");
+        // Too far from the mode's free pair (0.9 rad): not that mode's, radius 2 eps.
+        let far = [UnresolvedPair {
+            angle: 1.0,
+            share: 1e-3,
+        }];
+        assert_eq!(saltation_word(&multipliers, &far, 0.0), "undetermined");
+        // Next to an internal resonance of that mode: its acceleration share above the limit.
+        assert_eq!(saltation_word(&multipliers, &weak, 0.3), "undetermined");
     }
 }

@@ -28,6 +28,7 @@ pub const DECOUPLED_SHARE: f64 = f64::EPSILON;
 const CARRIED_SHARE: f64 = 1e-12;
 
 /// Linear modes and their couplings (mass-normalized, ascending w_k).
+#[derive(Clone)]
 pub(crate) struct ModalBasis {
     /// w_k (rad/s), ascending.
     pub omega: Vec<f64>,

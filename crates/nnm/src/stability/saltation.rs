@@ -230,8 +230,10 @@ impl ModalFlow<'_> {
                 let u = point.displacement_at(impact.time);
                 let error: f64 = (self.resolved..self.omega.len())
                     .map(|k| {
-                        let series: f64 = (0..u.len()).map(|i| self.projection[(k, i)] * u[i]).sum();
-                        let (exact, _) = self.impulse_response(k, impacts, point.period(), impact.time);
+                        let series: f64 =
+                            (0..u.len()).map(|i| self.projection[(k, i)] * u[i]).sum();
+                        let (exact, _) =
+                            self.impulse_response(k, impacts, point.period(), impact.time);
                         self.contact_modal[(impact.row, k)] * (exact - series)
                     })
                     .sum();
@@ -257,12 +259,16 @@ impl ModalFlow<'_> {
                 let (eta, _) = self.modal_state(point, impacts, impact.time);
                 let part = |range: std::ops::Range<usize>| -> f64 {
                     range
-                        .map(|k| self.contact_modal[(impact.row, k)] * self.omega[k].powi(2) * eta[k])
+                        .map(|k| {
+                            self.contact_modal[(impact.row, k)] * self.omega[k].powi(2) * eta[k]
+                        })
                         .sum::<f64>()
                         .abs()
                 };
-                let (resolved, unresolved) =
-                    (part(0..self.resolved), part(self.resolved..self.omega.len()));
+                let (resolved, unresolved) = (
+                    part(0..self.resolved),
+                    part(self.resolved..self.omega.len()),
+                );
                 unresolved / (resolved + unresolved)
             })
             .fold(0.0, f64::max)
@@ -433,7 +439,7 @@ fn multipliers_from_rho(rhos: &[c64]) -> Vec<c64> {
 
 #[cfg(test)]
 mod tests {
-    use super::{positive_runs, reduced_multipliers};
+    use super::{positive_runs, reduced_multipliers, Impact, ModalFlow};
     use faer::linalg::solvers::Solve;
     use faer::{c64, Mat};
 
@@ -530,6 +536,68 @@ mod tests {
             split > 1e-3,
             "the trivial block splits like sqrt(delta): {split}"
         );
+    }
+
+    /// The impulse response of a mode above the orbit's harmonics: between impacts a free
+    /// oscillation of frequency w, at each impact a velocity jump of -b P, and T-periodic. Two
+    /// impacts on two rows; the free flow from just after the second impact over the rest of the
+    /// period must land on the state just before the first (1e-12, relative).
+    #[test]
+    fn impulse_response_is_the_periodic_orbit_of_the_impulse_train() {
+        let contact_modal = Mat::from_fn(2, 1, |j, _| [0.3, -0.7][j]);
+        let projection = Mat::<f64>::identity(1, 1);
+        let omega = [37.3];
+        let flow = ModalFlow {
+            omega: &omega,
+            contact_modal: contact_modal.as_ref(),
+            projection: projection.as_ref(),
+            resolved: 0,
+        };
+        let period = 1.0;
+        let impacts = [
+            Impact {
+                row: 0,
+                time: 0.1,
+                impulse: 2.0,
+            },
+            Impact {
+                row: 1,
+                time: 0.55,
+                impulse: 0.8,
+            },
+        ];
+        let state = |t: f64| flow.impulse_response(0, &impacts, period, t);
+        let w = omega[0];
+        // Just before / after an impact: the mean velocity -+ half the jump b P.
+        let jump = |i: usize| -contact_modal[(impacts[i].row, 0)] * impacts[i].impulse;
+        let (x0, v0_mean) = state(impacts[0].time);
+        let v0_before = v0_mean - 0.5 * jump(0);
+        let (x1, v1_mean) = state(impacts[1].time);
+        let v1_after = v1_mean + 0.5 * jump(1);
+        let free = |x: f64, v: f64, dt: f64| {
+            let (sn, cs) = (w * dt).sin_cos();
+            (x * cs + v * sn / w, -x * w * sn + v * cs)
+        };
+        // From just after impact 0 to just before impact 1, the free flow.
+        let (xa, va) = free(
+            x0,
+            v0_mean + 0.5 * jump(0),
+            impacts[1].time - impacts[0].time,
+        );
+        let scale = x0.abs() + v0_before.abs() / w;
+        assert!((xa - x1).abs() < 1e-12 * scale, "{xa} {x1}");
+        assert!((va - (v1_mean - 0.5 * jump(1))).abs() < 1e-12 * scale * w);
+        // From just after impact 1 around to just before impact 0 one period later.
+        let (xb, vb) = free(x1, v1_after, impacts[0].time + period - impacts[1].time);
+        assert!((xb - x0).abs() < 1e-12 * scale, "{xb} {x0}");
+        assert!(
+            (vb - v0_before).abs() < 1e-12 * scale * w,
+            "{vb} {v0_before}"
+        );
+        // Between impacts it is the same free oscillation.
+        let (xm, _) = state(0.3);
+        let (xf, _) = free(x0, v0_mean + 0.5 * jump(0), 0.2);
+        assert!((xm - xf).abs() < 1e-12 * scale, "{xm} {xf}");
     }
 
     #[test]
