@@ -194,11 +194,14 @@ impl<'s> FloquetAnalysis<'s> {
     }
 
     /// Modes kept dynamic on the massless boundary at circular frequency `omega` with
-    /// `harmonics` harmonics: w_k <= `shooting_cutoff` (N + 1) w, at least `min_modes`.
+    /// `harmonics` harmonics: w_k <= `shooting_cutoff` (N + 1) w, at least one. (Not Hill's
+    /// `min_modes` floor: a second mode far above the cutoff made dynamic would be the contact
+    /// node's own stiff mode on the light-contact model, leaving no boundary at all; before the
+    /// decoupled modes were left out, two decoupled pads filled that floor.)
     pub(super) fn shooting_modes(&self, omega: f64, harmonics: usize) -> usize {
         let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * omega;
         let r = self.modes.omega.iter().filter(|&&w| w <= limit).count();
-        r.max(self.settings.min_modes).min(self.modes.omega.len())
+        r.max(1).min(self.modes.omega.len())
     }
 
     /// The massless-boundary model of `point` (the modes up to `shooting_cutoff` (N + 1) w

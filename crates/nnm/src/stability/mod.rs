@@ -166,7 +166,8 @@ pub struct FloquetSettings {
     /// method.
     pub shooting: bool,
     /// Modes kept dynamic on the massless boundary: w_k <= shooting_cutoff (N + 1) w (default 1:
-    /// the modes whose resonant harmonics the orbit holds), at least `min_modes`.
+    /// the modes whose resonant harmonics the orbit holds), at least one (issue 38: not
+    /// `min_modes`, which is Hill's).
     pub shooting_cutoff: f64,
     /// Check every k-th point's shooting verdict by an independent RK4 integration of the
     /// massless boundary ([`ShootingCheck`]); a verdict the check does not confirm becomes
