@@ -153,7 +153,8 @@ pub struct NnmSection {
     /// is doubled (a fraction of the period).
     pub share_tolerance: f64,
     /// Converged orbits: the largest N whose modes (w_k <= shooting_cutoff (N + 1) w) are kept
-    /// dynamic; N, 2N, 4N, ... are tried up to it. Default (absent): 2 x `harmonics`.
+    /// dynamic; N, 2N, 4N, ... are tried up to it, each only for the points the level below left
+    /// unconverged. Default (absent): 4 x `harmonics` (docs/BENCHMARKS.md: what 4N and 8N cost).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_harmonics: Option<usize>,
 }
@@ -164,7 +165,7 @@ impl NnmSection {
         nlmodes_nnm::ConvergenceSettings {
             omega_tolerance: self.truncation_tolerance,
             share_tolerance: self.share_tolerance,
-            max_harmonics: self.max_harmonics.unwrap_or(2 * self.harmonics),
+            max_harmonics: self.max_harmonics.unwrap_or(4 * self.harmonics),
         }
     }
 }

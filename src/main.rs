@@ -221,7 +221,7 @@ struct BackboneArgs {
     #[arg(long, default_value_t = NnmSection::default().samples)]
     samples: usize,
     /// Converged orbits of the main-branch points in contact: the largest N whose modes are kept
-    /// dynamic (docs/STABILITY.md Sec. 9.4) [default: 2 x harmonics].
+    /// dynamic (docs/STABILITY.md Sec. 9.4) [default: 4 x harmonics].
     #[arg(long)]
     max_harmonics: Option<usize>,
     /// Master coordinate (reduced DOF index); default: the model's.
@@ -547,7 +547,7 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     });
     validate::check_nnm(a.harmonics, a.samples, &mut problems);
     let convergence = nlmodes_nnm::ConvergenceSettings {
-        max_harmonics: a.max_harmonics.unwrap_or(2 * a.harmonics),
+        max_harmonics: a.max_harmonics.unwrap_or(4 * a.harmonics),
         ..NnmSection::default().convergence()
     };
     validate::check_convergence(&convergence, a.harmonics, &mut problems);
