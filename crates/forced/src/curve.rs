@@ -271,7 +271,14 @@ impl FrequencyResponse {
                 "stopped at {}: no step down to min_step converged ({reason})",
                 at(*v)
             ),
-            FrfTermination::PointLimit => "stopped at the point limit (max_points)".into(),
+            FrfTermination::PointLimit => match self.points.last() {
+                Some(p) => format!(
+                    "stopped at the point limit (max_points) at {}: the branch beyond it is not \
+                     computed",
+                    at(self.parameter(p))
+                ),
+                None => "stopped at the point limit (max_points)".into(),
+            },
             FrfTermination::LeftRange { at: v } => format!(
                 "the curve turned back below the start of the range after {}",
                 at(*v)
@@ -306,10 +313,14 @@ impl FrequencyResponse {
     }
 
     /// The missing branch of an incomplete curve: the indices of the points where it starts and
-    /// (when a second piece was traced) ends.
+    /// (when a second piece was traced) ends; a curve that stopped with one piece misses
+    /// everything beyond its last point.
     pub fn gap(&self) -> Option<(usize, Option<usize>)> {
         match &self.termination {
             FrfTermination::Gap { from, to, .. } => Some((*from, *to)),
+            t if !t.covers_range() && !self.points.is_empty() => {
+                Some((self.points.len() - 1, None))
+            }
             _ => None,
         }
     }
