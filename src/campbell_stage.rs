@@ -14,7 +14,8 @@ use faer::Mat;
 use nlmodes_fem::Isotropic;
 use serde::{Deserialize, Serialize};
 
-use crate::campbell::{RitzCampbell, SpeedFamily, SpeedModes};
+use crate::campbell::{BasisModes, RitzCampbell, SpeedModes};
+use crate::campbell_march::SpeedFamily;
 use crate::case::Case;
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
@@ -160,9 +161,13 @@ impl<'a> CampbellStage<'a> {
         let speeds = r.campbell_rpm();
         let mut all: Vec<f64> = speeds.iter().map(|s| s * RPM_TO_RAD_S).collect();
         all.extend(&basis);
-        let family = SpeedFamily::of(&fe, material, &axis, r.nonlinear(), &all)?;
         // A few modes beyond those drawn, so that a mode entering from above is in the basis.
-        let ritz = RitzCampbell::new(&family, &basis, r.campbell_modes + 4)?;
+        let mut basis_modes = BasisModes::new(&basis, r.campbell_modes + 4);
+        let mut family =
+            SpeedFamily::of(&fe, material, &axis, r.nonlinear(), &all, &mut |mut p| {
+                basis_modes.visit(&mut p, &fe.m)
+            })?;
+        let ritz = RitzCampbell::new(basis_modes, &family.m)?;
         let bar = crate::ui::bar(speeds.len() as u64, "campbell");
         let mut modes = Vec::with_capacity(speeds.len());
         for &rpm in &speeds {
@@ -171,7 +176,8 @@ impl<'a> CampbellStage<'a> {
             bar.inc(1);
         }
         bar.finish_and_clear();
-        let direct_check = direct_check(&family, &speeds, &basis_rpm, &modes, r.campbell_modes)?;
+        let direct_check =
+            direct_check(&mut family, &speeds, &basis_rpm, &modes, r.campbell_modes)?;
         let coriolis = coriolis_shift(&family, &ritz, &speeds, &modes, r.campbell_modes)?;
         let curves = track(&speeds, &modes, r.campbell_modes);
         let crossings = crossings(&speeds, &curves, &r.engine_orders);
@@ -238,9 +244,10 @@ fn coriolis_shift(
     }))
 }
 
-/// The direct check at the non-basis speed whose drawn modes have the largest residual.
+/// The direct check at the non-basis speed whose drawn modes have the largest residual (the
+/// factorization of K(Omega) reuses the march's analysis).
 fn direct_check(
-    family: &SpeedFamily<'_>,
+    family: &mut SpeedFamily<'_>,
     speeds: &[f64],
     basis: &[f64],
     modes: &[SpeedModes],
@@ -254,8 +261,10 @@ fn direct_check(
         return Ok(None);
     };
     let k = family.at(speeds[s] * RPM_TO_RAD_S)?;
+    let (m, solver) = family.mass_and_solver();
+    let factor = solver.factorize(&k, "K(Omega)")?;
     let direct = crate::ui::with_solve_spinner("campbell check", |opts| {
-        nlmodes_modal::eigs_shift_invert(&k, &family.m, n, 0.0, opts)
+        nlmodes_modal::eigs_shift_invert_factored(&k, m, 0.0, factor, n, opts)
     })?;
     let frequency_hz: Vec<f64> = direct.eigenvalues.iter().map(|&l| hz(l)).collect();
     let max_relative_error = frequency_hz

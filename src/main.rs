@@ -6,6 +6,7 @@ mod backbone_exact;
 mod backbone_holes;
 mod backbone_stage;
 mod campbell;
+mod campbell_march;
 mod campbell_stage;
 mod case;
 mod child;

@@ -25,25 +25,33 @@ pub struct MetisCholesky {
     factor: Option<nlmodes_modal::SparseCholesky>,
 }
 
-impl LinearSolver for MetisCholesky {
-    fn solve(&mut self, a: &CsMat<f64>, b: &[f64]) -> Result<Vec<f64>, LinearSolveError> {
-        let failed = |e: nlmodes_modal::ModalError| {
-            LinearSolveError(format!("Cholesky factorization failed: {e}"))
-        };
+impl MetisCholesky {
+    /// The factorization of `a` (`what` names it in messages), reusing the ordering and symbolic
+    /// analysis of the last matrix factorized when `a` has its pattern. With the same ordering
+    /// and analysis the factor is the one a fresh analysis would give, bit for bit.
+    pub fn factorize(
+        &mut self,
+        a: &CsMat<f64>,
+        what: &str,
+    ) -> Result<&nlmodes_modal::SparseCholesky, nlmodes_modal::ModalError> {
         match &mut self.factor {
-            Some(f) if f.same_pattern(a) => f.refactorize(a, "tangent").map_err(failed)?,
+            Some(f) if f.same_pattern(a) => f.refactorize(a, what)?,
             _ => {
                 self.factor = None;
-                let f = nlmodes_modal::SparseCholesky::with_options(
-                    a,
-                    "tangent",
-                    nlmodes_modal::CholeskyOptions::default(),
-                )
-                .map_err(failed)?;
+                let options = nlmodes_modal::CholeskyOptions::default();
+                let f = nlmodes_modal::SparseCholesky::with_options(a, what, options)?;
                 self.factor = Some(f);
             }
         }
-        let factor = self.factor.as_ref().expect("factorized above");
+        Ok(self.factor.as_ref().expect("factorized above"))
+    }
+}
+
+impl LinearSolver for MetisCholesky {
+    fn solve(&mut self, a: &CsMat<f64>, b: &[f64]) -> Result<Vec<f64>, LinearSolveError> {
+        let factor = self
+            .factorize(a, "tangent")
+            .map_err(|e| LinearSolveError(format!("Cholesky factorization failed: {e}")))?;
         let mut x = b.to_vec();
         factor
             .solve_in_place(&mut x)
