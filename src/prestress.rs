@@ -117,24 +117,29 @@ pub fn at_speed(
     let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
         .context("the rotating model")?;
     let mut solver = MetisCholesky::default();
-    let solution = if nonlinear {
+    let (solution, stiffness) = if nonlinear {
         // One nominal load step: the blade's strains are about 1e-3, Newton converges from the
-        // unstressed tangent in 3-4 iterations; the cutbacks catch harder cases.
+        // unstressed tangent in 3-4 iterations; the cutbacks catch harder cases. The stiffness
+        // at speed is the last Newton tangent.
         let options = NewtonOptions {
             load_steps: 1,
             ..NewtonOptions::default()
         };
-        model.solve_nonlinear(omega, &options, &mut solver)
+        model
+            .solve_nonlinear_with_stiffness(None, omega, &options, &mut solver)
+            .map_err(|e| not_converged(key, omega, e))?
     } else {
-        model.solve_linearized(omega, false, &mut solver)
-    }
-    .map_err(|e| not_converged(key, omega, e))?;
+        let s = model
+            .solve_linearized(omega, false, &mut solver)
+            .map_err(|e| not_converged(key, omega, e))?;
+        let k = model
+            .stiffness_at_speed(&s)
+            .context("the stiffness at speed")?;
+        (s, k)
+    };
     let growth = radial_growth(fe, axis, &solution.displacement, contact);
     let running_gaps: Vec<f64> = growth.iter().map(|g| cold_gap - g).collect();
     check_open((omega, key), &growth, &running_gaps, contact, cold_gap)?;
-    let stiffness = model
-        .stiffness_at_speed(&solution)
-        .context("the stiffness at speed")?;
     let von_mises = model.nodal_von_mises(&solution)?;
     let root_stress = root_stress(&model, &von_mises, &fe.clamp)?;
     Ok(Prestress {
