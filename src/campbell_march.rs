@@ -64,27 +64,35 @@ pub struct SpeedPoint<'a> {
 }
 
 impl<'m> SpeedFamily<'m> {
-    /// The family of the clamped model `fe` turning about `axis` at `speeds` (rad/s, any
-    /// order); `visit` is called at each speed, in ascending order, with K(Omega) (module
-    /// docs). With the nonlinear prestress the static states are marched from rest; with the
-    /// linear one a single static solve at the highest speed serves every speed.
+    /// The family of the clamped model `fe` turning about `axis` at `speeds` and `side` (rad/s,
+    /// any order); `visit` is called at each speed, in ascending order, with K(Omega) (module
+    /// docs). With the nonlinear prestress the static states at `speeds` are marched from rest,
+    /// and those at `side` solved on the side of the march (from the marched states below
+    /// them, without entering its sequence: the marched states are bit for bit those of a
+    /// march without side speeds); with the linear one a single static solve at the highest
+    /// speed serves every speed.
     pub fn of(
         fe: &'m FeModel,
         material: &Isotropic,
         axis: &RotorAxis,
         nonlinear: bool,
-        speeds: &[f64],
+        (speeds, side): (&[f64], &[f64]),
         visit: &mut dyn FnMut(SpeedPoint<'_>) -> Result<()>,
     ) -> Result<Self> {
         let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
             .context("the rotating model")?;
         let mut solver = MetisCholesky::default();
-        let mut sorted = speeds.to_vec();
-        sorted.sort_by(f64::total_cmp);
-        sorted.dedup();
+        let sorted = |v: &[f64]| {
+            let mut v = v.to_vec();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        };
+        let (marched, side) = (sorted(speeds), sorted(side));
         let stiffness = if nonlinear {
-            Stiffness::Nonlinear(march(&model, &sorted, &mut solver, visit)?)
+            Stiffness::Nonlinear(march(&model, (&marched, &side), &mut solver, visit)?)
         } else {
+            let sorted = sorted(&[marched, side].concat());
             let top = sorted.last().copied().unwrap_or(0.0);
             let top = if top > 0.0 { top } else { 1.0 };
             let state = model
@@ -184,44 +192,65 @@ fn predictor(
     }))
 }
 
-/// The nonlinear static states at `sorted` (rad/s, ascending, distinct), each from the
-/// previous ones; `visit` gets each speed's K(Omega).
+/// The nonlinear static states at `marched` (rad/s, ascending, distinct), each from the
+/// previous ones, and at `side` (ascending), each from the marched states below it; `visit`
+/// gets each speed's K(Omega), in ascending order of speed. The states are returned in that
+/// order.
 fn march(
     model: &RotatingModel<'_>,
-    sorted: &[f64],
+    (marched, side): (&[f64], &[f64]),
     solver: &mut MetisCholesky,
     visit: &mut dyn FnMut(SpeedPoint<'_>) -> Result<()>,
 ) -> Result<Vec<StaticSolution>> {
+    let bar = crate::ui::bar((marched.len() + side.len()) as u64, "prestress");
+    let mut states: Vec<StaticSolution> = Vec::with_capacity(marched.len());
+    let mut all: Vec<StaticSolution> = Vec::with_capacity(marched.len() + side.len());
+    let mut side = side.iter().copied().peekable();
+    for &omega in marched {
+        while let Some(w) = side.next_if(|&w| w < omega) {
+            all.push(solve_at(model, &states, w, solver, visit)?);
+            bar.inc(1);
+        }
+        let state = solve_at(model, &states, omega, solver, visit)?;
+        states.push(state.clone());
+        all.push(state);
+        bar.inc(1);
+    }
+    for w in side {
+        all.push(solve_at(model, &states, w, solver, visit)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(all)
+}
+
+/// The static state at `omega` from the marched `states` below it (Newton from their secant
+/// predictor), handed to `visit` with its K(Omega).
+fn solve_at(
+    model: &RotatingModel<'_>,
+    states: &[StaticSolution],
+    omega: f64,
+    solver: &mut MetisCholesky,
+    visit: &mut dyn FnMut(SpeedPoint<'_>) -> Result<()>,
+) -> Result<StaticSolution> {
     let options = nlmodes_fem::rotation::NewtonOptions {
         load_steps: 1,
         ..Default::default()
     };
-    let bar = crate::ui::bar(sorted.len() as u64, "prestress");
-    let mut states: Vec<StaticSolution> = Vec::with_capacity(sorted.len());
-    for &omega in sorted {
-        let start = predictor(&states, omega, model)?;
-        let (state, stiffness) = model
-            .solve_nonlinear_with_stiffness(
-                start.as_ref().or(states.last()),
-                omega,
-                &options,
-                solver,
-            )
-            .map_err(|e| crate::prestress::not_converged("rotation.campbell_range", omega, e))?;
-        tracing::info!(
-            "prestress at {:.1} rpm: {}",
-            omega * 30.0 / std::f64::consts::PI,
-            crate::prestress::newton_history(&state.steps).join("; ")
-        );
-        visit(SpeedPoint {
-            omega,
-            stiffness: &stiffness,
-            displacement: &state.displacement,
-            solver,
-        })?;
-        states.push(state);
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    Ok(states)
+    let start = predictor(states, omega, model)?;
+    let (state, stiffness) = model
+        .solve_nonlinear_with_stiffness(start.as_ref().or(states.last()), omega, &options, solver)
+        .map_err(|e| crate::prestress::not_converged("rotation.campbell_range", omega, e))?;
+    tracing::info!(
+        "prestress at {:.1} rpm: {}",
+        omega * 30.0 / std::f64::consts::PI,
+        crate::prestress::newton_history(&state.steps).join("; ")
+    );
+    visit(SpeedPoint {
+        omega,
+        stiffness: &stiffness,
+        displacement: &state.displacement,
+        solver,
+    })?;
+    Ok(state)
 }

@@ -7,6 +7,7 @@ mod backbone_holes;
 mod backbone_stage;
 mod campbell;
 mod campbell_march;
+mod campbell_parametric;
 mod campbell_stage;
 mod case;
 mod child;
