@@ -48,6 +48,48 @@ pub struct SpeedFamily<'m> {
     stiffness: Stiffness,
     pub m: CsMat<f64>,
     solver: MetisCholesky,
+    /// The march's K(Omega), kept when they fit in memory.
+    kept: Option<KeptStiffness>,
+}
+
+/// The values of K(Omega) at the speeds of a march (one pattern, the mesh's), so that
+/// [`SpeedFamily::at`] need not assemble them again: kept when all of them take at most a
+/// quarter of the memory available (730 MB for the default blade's 14 speeds).
+struct KeptStiffness {
+    indptr: Vec<usize>,
+    indices: Vec<usize>,
+    values: Vec<(f64, Vec<f64>)>,
+}
+
+impl KeptStiffness {
+    /// Room for `count` matrices like `k`, or `None`.
+    fn with_room(k: &CsMat<f64>, count: usize) -> Option<Self> {
+        let bytes = count * k.nnz() * std::mem::size_of::<f64>();
+        let available = nlmodes_modal::memory::available_bytes()?;
+        (bytes <= available / 4).then(|| Self {
+            indptr: k.indptr().raw_storage().to_vec(),
+            indices: k.indices().to_vec(),
+            values: Vec::with_capacity(count),
+        })
+    }
+
+    /// Keeps `k` (N/m) at `omega` (rad/s) if it has the pattern.
+    fn keep(&mut self, omega: f64, k: &CsMat<f64>) {
+        if k.is_csc() && k.indptr().raw_storage() == self.indptr && k.indices() == self.indices {
+            self.values.push((omega, k.data().to_vec()));
+        }
+    }
+
+    fn at(&self, omega: f64) -> Option<Result<CsMat<f64>>> {
+        let (_, values) = self.values.iter().find(|v| v.0 == omega)?;
+        let n = self.indptr.len() - 1;
+        let shape = (n, n);
+        let (indptr, indices) = (self.indptr.clone(), self.indices.clone());
+        Some(
+            CsMat::try_new_csc(shape, indptr, indices, values.clone())
+                .map_err(|(_, _, _, e)| anyhow::anyhow!("a kept K(Omega): {e}")),
+        )
+    }
 }
 
 /// What the march hands to its visitor at each speed.
@@ -89,8 +131,17 @@ impl<'m> SpeedFamily<'m> {
             v
         };
         let (marched, side) = (sorted(speeds), sorted(side));
+        let mut kept: Option<Option<KeptStiffness>> = None;
         let stiffness = if nonlinear {
-            Stiffness::Nonlinear(march(&model, (&marched, &side), &mut solver, visit)?)
+            let count = marched.len() + side.len();
+            let mut keeping = |p: SpeedPoint<'_>| {
+                let kept = kept.get_or_insert_with(|| KeptStiffness::with_room(p.stiffness, count));
+                if let Some(k) = kept {
+                    k.keep(p.omega, p.stiffness);
+                }
+                visit(p)
+            };
+            Stiffness::Nonlinear(march(&model, (&marched, &side), &mut solver, &mut keeping)?)
         } else {
             let sorted = sorted(&[marched, side].concat());
             let top = sorted.last().copied().unwrap_or(0.0);
@@ -121,13 +172,18 @@ impl<'m> SpeedFamily<'m> {
             stiffness,
             m: fe.m.clone(),
             solver,
+            kept: kept.flatten(),
         })
     }
 
-    /// K(Omega), N/m; with the nonlinear prestress `omega` must be one of the family's speeds.
+    /// K(Omega), N/m; with the nonlinear prestress `omega` must be one of the family's speeds
+    /// (assembled again from its static state unless kept from the march: the same bits).
     pub fn at(&self, omega: f64) -> Result<CsMat<f64>> {
         if let Some(k) = linear_at(&self.stiffness, omega) {
             return Ok(k);
+        }
+        if let Some(k) = self.kept.as_ref().and_then(|kept| kept.at(omega)) {
+            return k;
         }
         let Stiffness::Nonlinear(states) = &self.stiffness else {
             unreachable!("a linear family answered above");
