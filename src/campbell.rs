@@ -246,28 +246,10 @@ mod tests {
     use crate::fe_model::FeModel;
     use crate::prestress::MetisCholesky;
     use nlmodes_fem::rotation::{RotatingModel, RotorAxis};
-    use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, TetKind};
+    use nlmodes_fem::Isotropic;
 
-    /// A clamped TET10 beam, 1 m x 4 cm x 4 cm (steel), 8 cells along.
     fn beam() -> FeModel {
-        let mesh = nlmodes_fem::generate::box_mesh([1.0, 0.04, 0.04], [8, 1, 1], TetKind::Tet10)
-            .expect("mesh");
-        let material = Isotropic::new(200e9, 0.3, 7800.0).expect("material");
-        let clamp = vec!["xmin".to_string()];
-        let fixed = fixed_dofs(&mesh, &clamp).expect("fixed");
-        let dofs = DofMap::new(mesh.n_nodes(), &fixed).expect("dofs");
-        let (k, m) = assemble(&mesh, &material).expect("assembly");
-        let (k, m) = (
-            dofs.try_restrict(&k).unwrap(),
-            dofs.try_restrict(&m).unwrap(),
-        );
-        FeModel {
-            mesh,
-            dofs,
-            k,
-            m,
-            clamp,
-        }
+        crate::campbell_march::fixtures::beam([8, 1, 1])
     }
 
     /// The stiffness at speed of the true static state at `omega` (rad/s), N/m.

@@ -310,3 +310,37 @@ fn solve_at(
     })?;
     Ok(state)
 }
+
+/// Test fixtures of the rotating studies.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use crate::fe_model::FeModel;
+    use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, TetKind};
+
+    /// Steel: E = 200 GPa, nu = 0.3, rho = 7800 kg/m^3.
+    pub fn steel() -> Isotropic {
+        Isotropic::new(200e9, 0.3, 7800.0).expect("material")
+    }
+
+    /// A TET10 beam 1 m x 4 cm x 4 cm of steel on `cells` hexahedra (6 tetrahedra each),
+    /// clamped on its face x = 0 (group `xmin`; the tip face is `xmax`).
+    pub fn beam(cells: [usize; 3]) -> FeModel {
+        let mesh = nlmodes_fem::generate::box_mesh([1.0, 0.04, 0.04], cells, TetKind::Tet10)
+            .expect("mesh");
+        let clamp = vec!["xmin".to_string()];
+        let fixed = fixed_dofs(&mesh, &clamp).expect("fixed");
+        let dofs = DofMap::new(mesh.n_nodes(), &fixed).expect("dofs");
+        let (k, m) = assemble(&mesh, &steel()).expect("assembly");
+        let (k, m) = (
+            dofs.try_restrict(&k).unwrap(),
+            dofs.try_restrict(&m).unwrap(),
+        );
+        FeModel {
+            mesh,
+            dofs,
+            k,
+            m,
+            clamp,
+        }
+    }
+}

@@ -178,8 +178,8 @@ impl<'a> CampbellStage<'a> {
         let side = check_speeds(&marched, r.parametric_checks);
         // A few modes beyond those drawn, so that a mode entering from above is in the basis.
         let mut basis_modes = BasisModes::new(&basis, r.campbell_modes + 4);
-        let mut builder =
-            ParametricBuilder::new(&fe, self.case, axis, basis[1], r.campbell_modes)?;
+        let settings = crate::reduce_stage::reduce_settings(self.case)?;
+        let mut builder = ParametricBuilder::new(&fe, settings, axis, basis[1], r.campbell_modes)?;
         let mut family = SpeedFamily::of(
             &fe,
             material,

@@ -184,10 +184,10 @@ mod tests {
         assert!(CubicSpline::new(&[0.0, f64::NAN]).is_none());
     }
 
-    /// Interpolates the samples exactly; on sin x over [0, pi] the error falls as h^4: about
-    /// 16x smaller when h halves (checked between 12x and 20x), and stays within 10x the
-    /// complete cubic spline's bound 5/384 h^4 max |y^(4)| (Hall and Meyer 1976; not-a-knot
-    /// ends lose a small constant factor near the ends).
+    /// Interpolates the samples exactly; on sin x over [0, pi] the error falls at least as h^4
+    /// (the observed order between h = pi/16 and pi/32 checked above 3.5; measured 5.0) and
+    /// stays within 10x the complete cubic spline's bound
+    /// 5/384 h^4 max |y^(4)| (Hall and Meyer 1976; not-a-knot ends lose a constant factor).
     #[test]
     fn error_falls_as_h_to_the_fourth() {
         let error = |s: usize| {
@@ -210,10 +210,15 @@ mod tests {
                 })
                 .fold(0.0, f64::max)
         };
-        let (coarse, fine) = (error(9), error(17));
-        println!("sin: h = pi/8 {coarse:.3e}, pi/16 {fine:.3e}, ratio {:.2}", coarse / fine);
+        let (e8, e16, e32) = (error(9), error(17), error(33));
+        let order = |a: f64, b: f64| (a / b).log2();
+        println!(
+            "sin: h = pi/8 {e8:.3e}, pi/16 {e16:.3e}, pi/32 {e32:.3e}; orders {:.2}, {:.2}",
+            order(e8, e16),
+            order(e16, e32)
+        );
         let bound = |s: usize| 50.0 / 384.0 * (std::f64::consts::PI / (s - 1) as f64).powi(4);
-        assert!(coarse < bound(9) && fine < bound(17), "{coarse} {fine}");
-        assert!((12.0..20.0).contains(&(coarse / fine)), "{}", coarse / fine);
+        assert!(e8 < bound(9) && e16 < bound(17) && e32 < bound(33), "{e8} {e16} {e32}");
+        assert!(order(e16, e32) > 3.5, "{}", order(e16, e32));
     }
 }
