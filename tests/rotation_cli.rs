@@ -205,9 +205,12 @@ fn parametric_model(res: &Path) -> nlmodes_modal::ParametricModel {
 
 /// The parametric model at `rpm` against the reduced model at speed of the `speed` stage
 /// (`speed/model/`, a static state solved from rest and its own Craig-Bampton basis): the
-/// running gaps within 1e-3 of the cold gap (equal to the static solves' 1e-10 at a sample;
-/// the spline's error between samples, measured 1.4e-4 at 7000 rpm) and the lowest 4
-/// frequencies within 1e-3 (the two reductions' errors).
+/// running gaps within 1e-3 of the cold gap (measured 5.5e-15 m at the sample 8000 rpm, where
+/// the two static solves agree to their 1e-10 tolerance; 2.7e-8 m, 1.4e-4 of the cold gap, at
+/// 7000 rpm: the spline's error between samples) and the lowest 3 frequencies within 1e-3
+/// (the model at speed's Craig-Bampton error with 20 fixed-interface modes, 7e-6 .. 8e-5 at
+/// 8000 rpm, as in `campbell_against_the_models`; the parametric model is within 2e-8 of the
+/// full model there).
 fn parametric_against_the_model_at_speed(
     parametric: &nlmodes_modal::ParametricModel,
     res: &Path,
@@ -221,7 +224,7 @@ fn parametric_against_the_model_at_speed(
         worst_gap = worst_gap.max((a.gap - b.gap).abs());
     }
     let (f, g) = (&model.linear_frequencies_hz, &at_speed.linear_frequencies_hz);
-    let worst_f = (0..4)
+    let worst_f = (0..3)
         .map(|k| (f[k] - g[k]).abs() / g[k])
         .fold(0.0, f64::max);
     println!(
