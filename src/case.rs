@@ -316,7 +316,7 @@ pub fn with_defaults<T: Serialize + DeserializeOwned>(
 }
 
 /// Overwrites `base` with `over`, recursing into tables present in both.
-fn merge(base: &mut toml::Value, over: toml::Value) {
+pub fn merge(base: &mut toml::Value, over: toml::Value) {
     match (base, over) {
         (toml::Value::Table(b), toml::Value::Table(o)) => {
             for (key, value) in o {

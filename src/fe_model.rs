@@ -20,15 +20,21 @@ pub struct FeModel {
     pub clamp: Vec<String>,
 }
 
+/// The mesh of `mesh_path` and its DOF map with the DOFs of the `fix` specs eliminated.
+pub fn read_mesh(mesh_path: &Path, fix: &[String]) -> Result<(Mesh, DofMap)> {
+    let mesh = read_msh(mesh_path)?;
+    let fixed = fixed_dofs(&mesh, fix)
+        .with_context(|| format!("Dirichlet conditions on {}", mesh_path.display()))?;
+    let dofs = DofMap::new(mesh.n_nodes(), &fixed)?;
+    Ok((mesh, dofs))
+}
+
 impl FeModel {
     /// Read `mesh_path`, assemble K and M for `material`, eliminate the DOFs of the `fix` specs
     /// (`root`, `bottom:z`).
     pub fn build(mesh_path: &Path, material: &Isotropic, fix: &[String]) -> Result<Self> {
         let stage = ui::Stage::start("assemble");
-        let mesh = read_msh(mesh_path)?;
-        let fixed = fixed_dofs(&mesh, fix)
-            .with_context(|| format!("Dirichlet conditions on {}", mesh_path.display()))?;
-        let dofs = DofMap::new(mesh.n_nodes(), &fixed)?;
+        let (mesh, dofs) = read_mesh(mesh_path, fix)?;
         let (k, m) = assemble(&mesh, material)
             .with_context(|| format!("assembling {}", mesh_path.display()))?;
         let k = dofs.try_restrict(&k)?;
@@ -96,11 +102,6 @@ impl FeModel {
         ));
         Ok(modes)
     }
-
-    /// Full nodal displacement (3 per node, m) of a free-DOF vector.
-    pub fn nodal(&self, free: &[f64]) -> Result<Vec<f64>> {
-        Ok(self.dofs.try_expand(free)?)
-    }
 }
 
 /// `frequencies.csv`: columns `mode,frequency_hz,eigenvalue,residual` (eigenvalue in rad^2/s^2).
@@ -137,6 +138,11 @@ pub fn frequency_table(modes: &Modes) -> String {
 
 /// Write `frequencies.csv` and `modes.vtu` (one point vector field per mode, m, mass-normalized).
 pub fn write_modes(fe: &FeModel, modes: &Modes, dir: &Path) -> Result<()> {
+    write_modes_of(&fe.mesh, &fe.dofs, modes, dir)
+}
+
+/// [`write_modes`] from the mesh and its DOF map.
+pub fn write_modes_of(mesh: &Mesh, dofs: &DofMap, modes: &Modes, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     crate::output::write_atomic(
         &dir.join("frequencies.csv"),
@@ -147,9 +153,9 @@ pub fn write_modes(fe: &FeModel, modes: &Modes, dir: &Path) -> Result<()> {
         let free: Vec<f64> = (0..modes.vectors.nrows())
             .map(|i| modes.vectors[(i, j)])
             .collect();
-        fields.push((format!("mode_{:02}", j + 1), fe.nodal(&free)?));
+        fields.push((format!("mode_{:02}", j + 1), dofs.try_expand(&free)?));
     }
-    crate::output::write_mesh_vtu(&fe.mesh, &dir.join("modes.vtu"), &fields)
+    crate::output::write_mesh_vtu(mesh, &dir.join("modes.vtu"), &fields)
 }
 
 /// Frequencies (Hz) read back from a `frequencies.csv`, if present and well formed.

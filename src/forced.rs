@@ -60,27 +60,6 @@ pub struct ForcedStudy {
     pub settings: ForcedSection,
 }
 
-/// Checks the mode indices against the model (bad input naming the key).
-pub fn check_against(system: &System, s: &ForcedSection, source: &str) -> Result<()> {
-    let n = system.n_dofs();
-    for (key, v) in [("forced.mode", s.mode), ("forced.load_mode", s.load_mode)] {
-        if v >= n {
-            return Err(bad_input(format!(
-                "{source}: {key} = {v}: expected a linear mode index (0-based) below {n}, the \
-                 order of the reduced model"
-            )));
-        }
-    }
-    if system.grazing_amplitude(s.mode)?.is_none() {
-        return Err(bad_input(format!(
-            "{source}: forced.mode = {}: no contact row moves in this mode, the forced \
-             response never touches",
-            s.mode
-        )));
-    }
-    Ok(())
-}
-
 /// The unit force pattern: for each harmonic of the excitation its cosine and sine parts, the
 /// largest entry over all of them 1 N, and the coordinate of that entry.
 pub(crate) struct Pattern {
@@ -104,10 +83,30 @@ impl Pattern {
                 .collect(),
         }
     }
+
+    /// How the pattern's lowest harmonic drives the linear mode `phi`: |phi . (f_c + i f_s)|
+    /// (per newton of the level), and sum_i |phi_i| (|f_c,i| + |f_s,i|), the bound of that
+    /// product's rounding (n eps times it) and of its size.
+    pub(crate) fn drive(&self, phi: &[f64]) -> Result<(f64, f64)> {
+        let (_, c, sn) = self
+            .harmonics
+            .iter()
+            .min_by_key(|(h, _, _)| *h)
+            .context("empty load")?;
+        let dot = |v: &[f64]| phi.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+        let bound = (phi.iter().zip(c).zip(sn))
+            .map(|((p, c), s)| p.abs() * (c.abs() + s.abs()))
+            .sum();
+        Ok((dot(c).hypot(dot(sn)), bound))
+    }
 }
 
 /// The pattern of `[forced] load` (`file`: the columns of F.mtx, `crate::forced_settings::file_load`).
-fn pattern(system: &System, s: &ForcedSection, file: Option<&Mat<f64>>) -> Result<Pattern> {
+pub(crate) fn pattern(
+    system: &System,
+    s: &ForcedSection,
+    file: Option<&Mat<f64>>,
+) -> Result<Pattern> {
     let n = system.n_dofs();
     let mut harmonics = Vec::new();
     match (s.load, file) {
@@ -183,13 +182,7 @@ pub(crate) fn force_of(
     let q = system
         .grazing_amplitude(s.mode)?
         .context("mode never touches")?;
-    let (_, c, sn) = pattern
-        .harmonics
-        .iter()
-        .min_by_key(|(h, _, _)| *h)
-        .context("empty load")?;
-    let dot = |v: &[f64]| phi.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
-    let drive = dot(c).hypot(dot(sn));
+    let (drive, _) = pattern.drive(&phi)?;
     let unit_peak = phi[system.master()].abs() * drive / (2.0 * zeta * w * w);
     anyhow::ensure!(
         unit_peak > 0.0 && zeta > 0.0,
@@ -230,6 +223,8 @@ pub fn run(
     let w = system.linear_frequencies()[s.mode];
     let frf = FrfSettings {
         stability: s.stability,
+        max_harmonics: Some(s.top_harmonics()),
+        harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
     let bar = crate::ui::bar(s.levels.len() as u64, "forced");
@@ -246,7 +241,10 @@ pub fn run(
             } else {
                 None
             };
-            let synthesis = backbone.map_or_else(Vec::new, |b| synthesis_of(system, &c, &load, b));
+            let synthesis = match backbone {
+                Some(b) => synthesis_of(system, &c, &load, b)?,
+                None => Vec::new(),
+            };
             bar.inc(1);
             Ok(ForcedCurve {
                 level,
@@ -311,6 +309,8 @@ impl LevelSweeps<'_> {
                 let frf = FrfSettings {
                     sweep: Sweep::Level { omega: ratio * w },
                     stability: s.stability,
+                    max_harmonics: Some(s.top_harmonics()),
+                    harmonic_tolerance: s.harmonic_tolerance,
                     ..FrfSettings::new(s.level_range[0], s.level_range[1])
                 };
                 let solver =
@@ -400,13 +400,14 @@ fn exact_level(
     Ok(exact)
 }
 
-/// The single-nonlinear-mode synthesis of the backbone's main-branch points under `load`.
+/// The single-nonlinear-mode synthesis of the backbone's main-branch points under `load` (the
+/// backbone checked against the model first: `crate::forced_inputs`).
 fn synthesis_of(
     system: &System,
     c: &Mat<f64>,
     load: &Load,
     b: &BackboneFile,
-) -> Vec<SynthesizedPoint> {
+) -> Result<Vec<SynthesizedPoint>> {
     let orbits: Vec<FreeOrbit<'_>> = b
         .points
         .iter()
@@ -417,7 +418,7 @@ fn synthesis_of(
             coefficients: &p.coefficients,
         })
         .collect();
-    synthesize(system.mass(), c.as_ref(), load, &orbits)
+    Ok(synthesize(system.mass(), c.as_ref(), load, &orbits)?)
 }
 
 /// Ok when every curve reached the end of its range; otherwise a

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use nlmodes_forced::{ForcedPoint, FrequencyResponse, PointStability, Verdict};
+use nlmodes_forced::{ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, Verdict};
 use nlmodes_hb::FullBasis;
 use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, Series, PALETTE};
 use nlmodes_output::{CsvTable, CsvValue};
@@ -43,6 +43,18 @@ fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
         touching,
         largest,
     )
+}
+
+/// What the check of a point's N found, as frf.csv's word, and the relative changes of the
+/// master's first harmonic and of W when N was last doubled.
+pub(crate) fn harmonic_check(c: &HarmonicCheck) -> (&'static str, Option<[f64; 2]>) {
+    match c {
+        HarmonicCheck::Unchecked => ("", None),
+        HarmonicCheck::Linear => ("linear", None),
+        HarmonicCheck::Converged { change } => ("converged", Some(*change)),
+        HarmonicCheck::NotConverged { change: Some(c) } => ("max_harmonics", Some(*c)),
+        HarmonicCheck::NotConverged { change: None } => ("check_failed", None),
+    }
 }
 
 /// A number, or an empty cell (never a NaN).
@@ -93,6 +105,10 @@ fn header(n: usize) -> Vec<String> {
         "fold",
         "hop",
         "piece",
+        "harmonics",
+        "harmonic_check",
+        "harmonic_change_q1",
+        "harmonic_change_omega",
     ] {
         h.push(s.to_string());
     }
@@ -157,7 +173,12 @@ pub(crate) fn push_curve(
             CsvValue::Text(fold.map_or(String::new(), |f| format!("{:?}", f.kind))),
             CsvValue::Int(i64::from(r.hops.contains(&i))),
             CsvValue::Int(piece_of(r, i) as i64),
+            CsvValue::Int(p.harmonics as i64),
         ]);
+        let (word, change) = harmonic_check(&p.harmonic_check);
+        row.push(CsvValue::Text(word.into()));
+        row.push(opt(change.map(|c| c[0])));
+        row.push(opt(change.map(|c| c[1])));
         table.push_row(row)?;
     }
     Ok(())
@@ -188,6 +209,12 @@ struct OrbitRecord {
     bifurcation: Option<String>,
     powell_measure: f64,
     newton_iterations: usize,
+    /// N of the orbit's basis (issue 37: raised where the point needed it).
+    harmonics: usize,
+    /// `converged`, `max_harmonics`, `check_failed` or `linear` (frf.csv's `harmonic_check`).
+    harmonic_check: String,
+    /// [|dq1| / q1, |dW| / W] when N was last doubled.
+    harmonic_change: Option<[f64; 2]>,
 }
 
 #[derive(Serialize)]
@@ -244,6 +271,9 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
                 bifurcation: s.and_then(|s| s.bifurcation).map(|b| format!("{b:?}")),
                 powell_measure: p.powell_measure,
                 newton_iterations: p.newton_iterations,
+                harmonics: p.harmonics,
+                harmonic_check: harmonic_check(&p.harmonic_check).0.into(),
+                harmonic_change: harmonic_check(&p.harmonic_check).1,
             }
         })
         .collect();
@@ -436,8 +466,8 @@ fn frf_figure(
         );
     }
     let name = if max_abs { "frf_max" } else { "frf" };
-    // Contact hardens: the peaks lean right, toward the top right corner, and the top left is
-    // free (below the resonance the amplitudes are small).
+    // The legend inside the plot only where it covers no curve (the peaks lean right, so the
+    // top left corner is tried first), else beside it.
     let plot = plot
         .with_x_range(st.settings.range[0], st.settings.range[1])
         .with_legend(LegendPosition::TopLeft);

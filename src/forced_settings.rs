@@ -75,6 +75,17 @@ pub enum LevelUnit {
     Grazing,
 }
 
+/// Largest `[forced] harmonics`: the forced solver's condensed Newton matrix is dense in
+/// (2 N + 1) x (contact rows), 8 ((2 N + 1) r)^2 bytes per level solved in parallel: 0.74 GB at
+/// N = 200 on the blade's 24 rows, 18 GB at N = 1000. Ten times the 21 harmonics of the NLvib
+/// comparison (docs/PEER_NLVIB.md), the most any study here uses.
+pub const MAX_HARMONICS: usize = 200;
+
+/// Largest `[forced] samples`: the Fourier matrices of the full basis are m x (2 N + 1) each
+/// (synthesis and analysis), 0.42 GB at m = 65536 and N = 200; 65536 samples resolve the
+/// highest of 200 harmonics with 160 samples per period, twenty times the default's 8.
+pub const MAX_SAMPLES: usize = 65_536;
+
 /// `[forced]` (see the module docs; keys documented in cases/blade.toml and the README).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -87,8 +98,14 @@ pub struct ForcedSection {
     /// Frequency range [start, end] as W / w_mode (default [0.9, 1.2]); the curve starts from
     /// the linear response.
     pub range: [f64; 2],
-    /// Highest harmonic N of the response.
+    /// Highest harmonic N of the response where the orbit is out of contact, and the first N
+    /// of a point in contact (raised there until the point converges; docs/DESIGN.md §10.8).
     pub harmonics: usize,
+    /// The largest N a point in contact may be raised to (0: four times `harmonics`).
+    pub max_harmonics: usize,
+    /// A point's N is enough when doubling it moves the master's first harmonic and W by at
+    /// most this (relative).
+    pub harmonic_tolerance: f64,
     /// Time samples per period m (0: the default 4 (2N + 1) rounded up to a power of two).
     pub samples: usize,
     /// Harmonic h >= 1 of the response at which the force acts (1: at W).
@@ -152,6 +169,8 @@ impl Default for ForcedSection {
             mode: 0,
             range: [0.9, 1.2],
             harmonics: 10,
+            max_harmonics: 0,
+            harmonic_tolerance: 1e-3,
             samples: 0,
             harmonic: 1,
             damping_ratio: 0.003,
@@ -179,6 +198,16 @@ impl Default for ForcedSection {
 }
 
 impl ForcedSection {
+    /// The largest N of a point in contact (`max_harmonics`, 0: four times `harmonics`, at most
+    /// `MAX_HARMONICS`).
+    pub fn top_harmonics(&self) -> usize {
+        if self.max_harmonics == 0 {
+            (4 * self.harmonics).min(MAX_HARMONICS).max(self.harmonics)
+        } else {
+            self.max_harmonics
+        }
+    }
+
     /// Every value checked (order-independent ones; the mode indices against the model later).
     pub fn check(&self, p: &mut Problems) {
         let finite_pos = |v: f64| v.is_finite() && v > 0.0;
@@ -202,10 +231,40 @@ impl ForcedSection {
             ">= 1",
         );
         p.check(
+            self.harmonics <= MAX_HARMONICS,
+            "forced.harmonics",
+            self.harmonics,
+            &format!(
+                "N <= {MAX_HARMONICS} (the forced solver's condensed Newton matrix is dense \
+                 in (2 N + 1) x contact rows: 0.74 GB per level at N = 200 on the blade's 24 rows)"
+            ),
+        );
+        p.check(
+            self.max_harmonics == 0
+                || (self.max_harmonics >= self.harmonics && self.max_harmonics <= MAX_HARMONICS),
+            "forced.max_harmonics",
+            self.max_harmonics,
+            &format!("0 (four times harmonics) or harmonics <= N <= {MAX_HARMONICS}"),
+        );
+        p.check(
+            self.harmonic_tolerance.is_finite()
+                && self.harmonic_tolerance > 0.0
+                && self.harmonic_tolerance < 1.0,
+            "forced.harmonic_tolerance",
+            self.harmonic_tolerance,
+            "a relative change 0 < tolerance < 1",
+        );
+        p.check(
             self.samples == 0 || self.samples > 2 * self.harmonics,
             "forced.samples",
             self.samples,
             "0 (default) or m >= 2 N + 1",
+        );
+        p.check(
+            self.samples <= MAX_SAMPLES,
+            "forced.samples",
+            self.samples,
+            &format!("at most {MAX_SAMPLES} time samples per period"),
         );
         p.check(
             (1..=self.harmonics).contains(&self.harmonic),
@@ -246,6 +305,17 @@ impl ForcedSection {
                 k,
                 "finite frequencies W / w_mode > 0",
             );
+            if finite_pos(*k) && finite_pos(a) && b.is_finite() && b > a {
+                p.check(
+                    (a..=b).contains(k),
+                    "forced.keep",
+                    k,
+                    &format!(
+                        "a frequency W / w_mode within forced.range = [{a}, {b}] (the curves \
+                         cross no other)"
+                    ),
+                );
+            }
         }
         p.check(
             (2..=1000).contains(&self.frames),
@@ -276,6 +346,15 @@ impl ForcedSection {
                 r,
                 "[alpha >= 0 (1/s), beta >= 0 (s)]",
             );
+            p.check(
+                self.damping_ratios.is_empty(),
+                "forced.damping_ratios",
+                &self.damping_ratios,
+                &format!(
+                    "no list beside forced.rayleigh = {r:?}: give one damping (the ratios or \
+                     Rayleigh's coefficients)"
+                ),
+            );
         }
         p.check(
             !self.levels.is_empty(),
@@ -298,6 +377,53 @@ impl ForcedSection {
             "a finite factor > 0",
         );
         self.check_level_sweeps(p);
+        self.check_grazing_unit(p);
+    }
+
+    /// `level_unit = "grazing"` scales the levels by the force whose damped linear resonance of
+    /// `mode` grazes: it needs damping on that mode and a load that drives it. Known here from
+    /// the keys alone; C.mtx, F.mtx and the model's modes are checked against the model
+    /// (`crate::forced_inputs`).
+    fn check_grazing_unit(&self, p: &mut Problems) {
+        if self.level_unit != LevelUnit::Grazing {
+            return;
+        }
+        let undamped = format!(
+            "damping on the swept mode (forced.mode = {}) with forced.level_unit = \"grazing\": \
+             its levels are multiples of the force whose damped linear resonance grazes, which \
+             is zero without damping (give damping > 0 or level_unit = \"N\")",
+            self.mode
+        );
+        if !self.damping_matrix {
+            match (self.rayleigh, self.damping_ratios.as_slice()) {
+                (Some(r), _) => p.check(r != [0.0, 0.0], "forced.rayleigh", r, &undamped),
+                (None, []) => p.check(
+                    self.damping_ratio != 0.0,
+                    "forced.damping_ratio",
+                    self.damping_ratio,
+                    &undamped,
+                ),
+                (None, z) => {
+                    let k = self.mode.min(z.len() - 1);
+                    let key = format!("forced.damping_ratios[{k}]");
+                    p.check(z[k] != 0.0, &key, z[k], &undamped);
+                }
+            }
+        }
+        if self.load == ForcedLoadKind::Mode {
+            p.check(
+                self.load_mode == self.mode,
+                "forced.load_mode",
+                self.load_mode,
+                &format!(
+                    "a linear mode index equal to forced.mode = {} with load = \"mode\" and \
+                     level_unit = \"grazing\": the pattern M phi of another mode does not drive \
+                     mode {} (the modes are M-orthogonal), so no force makes it graze (or \
+                     level_unit = \"N\")",
+                    self.mode, self.mode
+                ),
+            );
+        }
     }
 
     /// `level_sweeps` and `level_range`.
@@ -354,24 +480,46 @@ pub fn load(path: &std::path::Path) -> anyhow::Result<ForcedSection> {
     }
 }
 
-/// The model's `C.mtx` when `[forced] damping_matrix` asks for it; a missing or unreadable file
-/// is bad input naming it.
+/// The model's `C.mtx` when `[forced] damping_matrix` asks for it, checked against `system`:
+/// entries at most 1e30 (the bound of K.mtx and M.mtx), of its order, finite, symmetric and
+/// positive semi-definite (`nlmodes_forced::Damping::matrix`).
+/// A missing, unreadable or refused file is bad input naming it.
 pub fn damping_matrix(
     s: &ForcedSection,
     model_dir: &std::path::Path,
+    system: &nlmodes_nnm::System,
 ) -> anyhow::Result<Option<faer::Mat<f64>>> {
     if !s.damping_matrix {
         return Ok(None);
     }
     let path = model_dir.join("C.mtx");
-    nlmodes_modal::matrix_market::read_symmetric_dense(&path)
-        .map(Some)
+    let bad = |what: String| {
+        crate::exit::bad_input(format!(
+            "forced.damping_matrix = true: {}: {what}",
+            path.display()
+        ))
+    };
+    let c = nlmodes_modal::matrix_market::read_symmetric_dense(&path)
+        .map_err(|e| bad(format!("cannot read it: {e}")))?;
+    let largest = (0..c.nrows())
+        .flat_map(|i| (0..c.ncols()).map(move |j| (i, j)))
+        .fold(0.0_f64, |a, (i, j)| a.max(c[(i, j)].abs()));
+    let (_, high) = nlmodes_modal::model_checks::MAGNITUDE_RANGE;
+    if largest > high {
+        return Err(bad(format!(
+            "the largest entry of C is {largest:e}: expected at most {high:e} N s/m, the bound \
+             K.mtx and M.mtx are held to (check the units or the file)"
+        )));
+    }
+    let n = system.n_dofs();
+    nlmodes_forced::Damping::Matrix(c.clone())
+        .matrix(system)
         .map_err(|e| {
-            crate::exit::bad_input(format!(
-                "forced.damping_matrix = true: cannot read {}: {e}",
-                path.display()
+            bad(format!(
+                "{e} (C in N s/m of the reduced model, order n = {n})"
             ))
-        })
+        })?;
+    Ok(Some(c))
 }
 
 /// The harmonics of `load = "file"`'s column pairs: `load_harmonics`, or `harmonic` alone.
@@ -527,4 +675,105 @@ fn pressure_load(
         s.load_group, area[0], area[1], area[2]
     );
     Ok((f, description))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn problems_of(s: &ForcedSection) -> String {
+        let mut p = Problems::new(|k| format!("f.toml: {k}"));
+        s.check(&mut p);
+        p.finish().map_or_else(|e| e.to_string(), |_| String::new())
+    }
+
+    #[test]
+    fn the_defaults_are_valid() {
+        assert_eq!(problems_of(&ForcedSection::default()), "");
+    }
+
+    /// Issue 37: what the keys alone tell is refused naming the key, the value and why.
+    #[test]
+    fn sizes_frequencies_and_conflicting_damping_are_named() {
+        let s = ForcedSection {
+            harmonics: 100_000,
+            samples: 10_000_000_000,
+            keep: vec![1.5, 1.0],
+            rayleigh: Some([1.0, 0.0]),
+            damping_ratios: vec![0.01],
+            ..ForcedSection::default()
+        };
+        let msg = problems_of(&s);
+        for want in [
+            "f.toml: forced.harmonics = 100000: expected N <= 200",
+            "f.toml: forced.samples = 10000000000: expected at most 65536",
+            "f.toml: forced.keep = 1.5: expected a frequency W / w_mode within forced.range = \
+             [0.9, 1.2]",
+            "f.toml: forced.damping_ratios = [0.01]: expected no list beside forced.rayleigh",
+        ] {
+            assert!(msg.contains(want), "missing `{want}` in:\n{msg}");
+        }
+        assert!(!msg.contains("forced.keep = 1.0"), "{msg}");
+        let at_limits = ForcedSection {
+            harmonics: MAX_HARMONICS,
+            samples: MAX_SAMPLES,
+            keep: vec![0.9, 1.2],
+            ..ForcedSection::default()
+        };
+        assert_eq!(problems_of(&at_limits), "");
+    }
+
+    /// `level_unit = "grazing"` needs damping on the swept mode and a load that drives it; with
+    /// `level_unit = "N"` the same damping and load are accepted.
+    #[test]
+    fn grazing_levels_need_a_damped_driven_mode() {
+        let grazing = ForcedSection::default();
+        let cases = [
+            (
+                ForcedSection {
+                    damping_ratio: 0.0,
+                    ..grazing.clone()
+                },
+                "forced.damping_ratio = 0.0: expected damping on the swept mode (forced.mode = 0)",
+            ),
+            (
+                ForcedSection {
+                    mode: 4,
+                    damping_ratios: vec![0.01, 0.0],
+                    ..grazing.clone()
+                },
+                "forced.damping_ratios[1] = 0.0: expected damping on the swept mode (forced.mode = 4)",
+            ),
+            (
+                ForcedSection {
+                    rayleigh: Some([0.0, 0.0]),
+                    ..grazing.clone()
+                },
+                "forced.rayleigh = [0.0, 0.0]: expected damping on the swept mode",
+            ),
+            (
+                ForcedSection {
+                    load: ForcedLoadKind::Mode,
+                    load_mode: 2,
+                    ..grazing.clone()
+                },
+                "forced.load_mode = 2: expected a linear mode index equal to forced.mode = 0",
+            ),
+        ];
+        for (s, want) in cases {
+            let msg = problems_of(&s);
+            assert!(msg.contains(want), "missing `{want}` in:\n{msg}");
+            let newtons = ForcedSection {
+                level_unit: LevelUnit::Newton,
+                ..s
+            };
+            assert_eq!(problems_of(&newtons), "");
+        }
+        let damped_second = ForcedSection {
+            mode: 1,
+            damping_ratios: vec![0.0, 0.01],
+            ..grazing
+        };
+        assert_eq!(problems_of(&damped_second), "");
+    }
 }

@@ -60,14 +60,19 @@ impl<'a> ForcedStage<'a> {
         let st = crate::ui::Stage::start("forced");
         let model = crate::backbone::load_model(&self.case.out_dir().join("model"))?;
         let system = crate::backbone::system_of(&model, None)?;
-        crate::forced::check_against(&system, &self.case.forced, "[forced]")?;
         let backbone: Option<BackboneFile> = match &self.backbone {
             Some(p) => Some(crate::results::read_json(p)?),
             None => None,
         };
         let model_dir = self.case.out_dir().join("model");
-        let c = crate::forced_settings::damping_matrix(&self.case.forced, &model_dir)?;
-        let f = crate::forced_settings::file_load(&self.case.forced, &model_dir, system.n_dofs())?;
+        let checked = crate::forced_inputs::ForcedModel {
+            dir: &model_dir,
+            reduced: &model,
+            system: &system,
+        };
+        let given = self.backbone.as_deref().zip(backbone.as_ref());
+        let inputs = crate::forced_inputs::check(&checked, &self.case.forced, "[forced]", given)?;
+        let (c, f) = (inputs.damping_matrix, inputs.file_load);
         let study =
             crate::forced::run(&system, &self.case.forced, c, f.as_ref(), backbone.as_ref())?;
         crate::forced_output::write(&study, backbone.as_ref(), &self.out)?;

@@ -17,6 +17,7 @@ mod fe_model;
 mod figures;
 mod forced;
 mod forced_exact;
+mod forced_inputs;
 mod forced_output;
 mod forced_paraview;
 mod forced_settings;
@@ -39,10 +40,17 @@ mod run;
 mod speed_stage;
 mod stage;
 mod stage_hash;
+mod study;
+mod study_file;
+mod study_gather;
+mod study_job;
+mod study_plan;
+mod study_report;
+mod study_snakefile;
 mod ui;
 mod validate;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -119,6 +127,39 @@ enum Command {
         /// (the stages an `--only` stage needs still rerun only when out of date).
         #[arg(long)]
         force: bool,
+    },
+    /// Run a parameter study as a Snakemake workflow: the study file names the case keys to
+    /// vary and their values (every combination is a run); the runs share the stages whose
+    /// inputs are the same; the runs are gathered into study.csv, figures and report.md in
+    /// <results_dir>/<study>/ (docs/STUDIES.md).
+    Study {
+        /// The study file: a `[study]` table (`case`, `name`, `post`, `[study.parameters]`)
+        /// and case tables over the base case.
+        study: PathBuf,
+        /// Cores for the local run (Snakemake's --cores) [default: all].
+        #[arg(long)]
+        cores: Option<usize>,
+        /// Write the workflow (Snakefile, plan.json, cases/, profiles/) without running it:
+        /// run it with snakemake there, e.g. on a SLURM cluster.
+        #[arg(long)]
+        write_only: bool,
+        /// More arguments for snakemake, after `--` (e.g. `-- --dry-run`).
+        #[arg(last = true)]
+        snakemake: Vec<String>,
+    },
+    /// One job of a study's workflow, as its Snakefile runs it: JOB (`<stage>-<key>` or
+    /// `run-<run>`) of plan.json in DIR.
+    StudyJob {
+        /// The study's folder.
+        dir: PathBuf,
+        /// The job's id.
+        job: String,
+    },
+    /// Gather a study's runs into study.csv, figures/ and report.md (the workflow's last job;
+    /// by hand, it gathers the runs done so far).
+    StudyGather {
+        /// The study's folder.
+        dir: PathBuf,
     },
 }
 
@@ -287,17 +328,41 @@ fn parse_key_value(s: &str) -> Result<(String, f64), String> {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    ui::init(cli.quiet);
+    // Under mpirun: MPI and PETSc for the finite-element stages; ranks other than 0 are quiet.
+    // Finalizes PETSc and MPI when main returns.
+    let _mpi = match nlmodes_distributed::start() {
+        Ok(session) => session,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return std::process::ExitCode::from(exit::FAILURE);
+        }
+    };
+    let rank = nlmodes_distributed::world().map(|w| w.rank);
+    ui::init(cli.quiet || rank.is_some_and(|r| r > 0));
     match run(cli.command) {
         Ok(()) => std::process::ExitCode::from(exit::COMPLETE),
         Err(e) => {
-            eprintln!("error: {e:#}");
-            std::process::ExitCode::from(exit::code_of(&e))
+            let code = exit::code_of(&e);
+            match rank {
+                Some(r) => eprintln!("error (MPI rank {r}): {e:#}"),
+                None => eprintln!("error: {e:#}"),
+            }
+            // Every other rank ends too: it could be waiting for this one in a collective.
+            nlmodes_distributed::abort_if_parallel(code.into());
+            std::process::ExitCode::from(code)
         }
     }
 }
 
 fn run(command: Command) -> Result<()> {
+    if nlmodes_distributed::world().is_some()
+        && !matches!(command, Command::Modes { .. } | Command::Reduce(_))
+    {
+        return Err(bad_input(
+            "under mpirun only `nlmodes modes` and `nlmodes reduce` run (the finite-element \
+             stages, over MPI); run the other commands without mpirun",
+        ));
+    }
     match command {
         Command::Mesh {
             geo,
@@ -327,6 +392,9 @@ fn run(command: Command) -> Result<()> {
                 )));
             }
             validate::check_output_dir(&out, "--out")?;
+            if nlmodes_distributed::world().is_some() {
+                return distributed_modes(&mesh, &material.material()?, &fix, modes, sigma, &out);
+            }
             let fe = fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
             let m = fe.modes(modes, sigma)?;
             fe_model::write_modes(&fe, &m, &out)?;
@@ -337,6 +405,22 @@ fn run(command: Command) -> Result<()> {
         Command::Backbone(args) => backbone_command(args),
         Command::Forced(args) => forced_command(args),
         Command::Run { case, only, force } => run::run(&case, only, force),
+        Command::Study {
+            study,
+            cores,
+            write_only,
+            snakemake,
+        } => {
+            let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let opts = study::Options {
+                cores: cores.unwrap_or(all),
+                write_only,
+                snakemake_args: snakemake,
+            };
+            study::study(&study, &opts)
+        }
+        Command::StudyJob { dir, job } => study_job::run(&dir, &job),
+        Command::StudyGather { dir } => study_report::write_gathered(&dir).map(drop),
     }
 }
 
@@ -360,8 +444,43 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
     let axis = nlmodes_modal::RotorAxis::new(a.axis_point, a.axis_direction)
         .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
     validate::check_output_dir(&a.out, "--out")?;
-    let fe = fe_model::FeModel::build(&a.mesh, &a.material.material()?, &a.fix)?;
-    let dofs = fe.dofs.n_free();
+    let material = a.material.material()?;
+    let reduced = if nlmodes_distributed::world().is_some() {
+        let (mesh, dofs) = fe_model::read_mesh(&a.mesh, &a.fix)?;
+        let settings = reduce_settings(&a, axis, dofs.n_free());
+        let side = reduce::MeshSide {
+            mesh: &mesh,
+            dofs: &dofs,
+            clamp: &a.fix,
+        };
+        reduce::reduce_distributed(&side, &material, &settings)?
+    } else {
+        let fe = fe_model::FeModel::build(&a.mesh, &material, &a.fix)?;
+        Some(reduce::reduce(
+            &fe,
+            &reduce_settings(&a, axis, fe.dofs.n_free()),
+        )?)
+    };
+    // Under MPI only rank 0 has the model and writes it.
+    let Some((mut model, full)) = reduced else {
+        return Ok(());
+    };
+    reduce::write_model(&mut model, &a.out, &a.mesh)?;
+    if let Some(full) = full {
+        ui::say(&reduce::comparison_table(
+            &full,
+            &model.linear_frequencies_hz,
+        ));
+    }
+    Ok(())
+}
+
+/// The settings of `nlmodes reduce` for a model of `dofs` free DOFs.
+fn reduce_settings(
+    a: &ReduceArgs,
+    axis: nlmodes_modal::RotorAxis,
+    dofs: usize,
+) -> reduce::ReduceSettings<'_> {
     let check = a.full_check.wanted(dofs);
     if a.compare > 0 && !check {
         tracing::info!(
@@ -369,7 +488,7 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
             reduce::FULL_CHECK_AUTO_MAX_DOFS
         );
     }
-    let settings = reduce::ReduceSettings {
+    reduce::ReduceSettings {
         contact_group: &a.contact,
         axis,
         gap: a.gap,
@@ -378,15 +497,32 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         check_modes: if check { a.compare.min(dofs) } else { 0 },
         running: None,
         loads: Vec::new(),
-    };
-    let (mut model, full) = reduce::reduce(&fe, &settings)?;
-    reduce::write_model(&mut model, &a.out, &a.mesh)?;
-    if let Some(full) = full {
-        ui::say(&reduce::comparison_table(
-            &full,
-            &model.linear_frequencies_hz,
-        ));
     }
+}
+
+/// `nlmodes modes` under mpirun: the modes by SLEPc over the ranks, written by rank 0.
+fn distributed_modes(
+    mesh_path: &Path,
+    material: &nlmodes_fem::Isotropic,
+    fix: &[String],
+    modes: usize,
+    sigma: f64,
+    out: &Path,
+) -> Result<()> {
+    let (mesh, dofs) = fe_model::read_mesh(mesh_path, fix)?;
+    let stage = ui::Stage::start("modes");
+    let found = nlmodes_distributed::full_modes(&mesh, material, &dofs, modes, sigma)
+        .with_context(|| format!("computing {modes} modes of the {}-DOF model", dofs.n_free()))?;
+    let Some(m) = found else {
+        return Ok(());
+    };
+    let worst = m.residuals.iter().cloned().fold(0.0, f64::max);
+    stage.done(&format!(
+        "{} modes, largest relative residual {worst:.2e}",
+        m.len()
+    ));
+    fe_model::write_modes_of(&mesh, &dofs, &m, out)?;
+    ui::say(&fe_model::frequency_table(&m));
     Ok(())
 }
 
@@ -460,8 +596,8 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     backbone::stopped_early(&b, &a.out)
 }
 
-/// `nlmodes forced`: settings, backbone and output path checked before the model is read, the
-/// mode indices against the model before anything is computed.
+/// `nlmodes forced`: settings, backbone and output path checked before the model is read, then
+/// every input against the model (`forced_inputs`) before anything is computed.
 fn forced_command(a: ForcedArgs) -> Result<()> {
     let (section, source) = match &a.settings {
         Some(p) => (forced_settings::load(p)?, p.display().to_string()),
@@ -483,10 +619,22 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     };
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = load_model(&a.model)?;
-    let system = backbone::system_of(&reduced, None)?;
-    forced::check_against(&system, &section, &source)?;
-    let c = forced_settings::damping_matrix(&section, &a.model)?;
-    let f = forced_settings::file_load(&section, &a.model, system.n_dofs())?;
+    // System::new refuses only the model's own matrices and contact data (a K that is not
+    // positive definite: a rigid-body mode the loader only warned of).
+    let system = backbone::system_of(&reduced, None).map_err(|e| {
+        e.context(exit::BadInput(format!(
+            "the reduced model {}",
+            a.model.display()
+        )))
+    })?;
+    let model = forced_inputs::ForcedModel {
+        dir: &a.model,
+        reduced: &reduced,
+        system: &system,
+    };
+    let given = a.backbone.as_deref().zip(backbone.as_ref());
+    let inputs = forced_inputs::check(&model, &section, &source, given)?;
+    let (c, f) = (inputs.damping_matrix, inputs.file_load);
     let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
     forced_output::write(&study, backbone.as_ref(), &a.out)?;
     level_sweep::write(&study, &a.out)?;

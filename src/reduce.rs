@@ -3,9 +3,10 @@
 
 use anyhow::{Context, Result};
 use faer::Mat;
+use nlmodes_fem::{DofMap, Isotropic, Mesh};
 use nlmodes_modal::{
-    craig_bampton_with_loads, reduced_eigen, ContactNode, MasterCoordinate, MeshReference,
-    ReducedModel, RotorAxis,
+    craig_bampton_with_loads, reduced_eigen, ContactNode, CraigBampton, MasterCoordinate,
+    MeshReference, ReducedModel, RotorAxis,
 };
 use std::path::Path;
 
@@ -96,12 +97,17 @@ pub fn msh_node_count(path: &Path) -> Option<usize> {
 /// Contact nodes of `group` (mesh node indices), ordered from the leading edge to the trailing edge:
 /// along the line through the two farthest-apart nodes, from the end with the smaller y.
 pub fn ordered_contact_nodes(fe: &FeModel, group: &str) -> Result<Vec<usize>> {
-    let g = fe.mesh.group(group)?;
+    contact_nodes_of(&fe.mesh, group)
+}
+
+/// [`ordered_contact_nodes`] of a mesh.
+fn contact_nodes_of(mesh: &Mesh, group: &str) -> Result<Vec<usize>> {
+    let g = mesh.group(group)?;
     let mut nodes = g.nodes.clone();
     if nodes.is_empty() {
         return Err(bad_input(format!("contact group `{group}` has no nodes")));
     }
-    let x = |n: usize| fe.mesh.nodes[n];
+    let x = |n: usize| mesh.nodes[n];
     let dist2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
     let (mut a, mut b, mut best) = (nodes[0], nodes[0], -1.0);
     for &p in &nodes {
@@ -124,10 +130,10 @@ pub fn ordered_contact_nodes(fe: &FeModel, group: &str) -> Result<Vec<usize>> {
 
 /// Two contact nodes at the same point (distinct tags, equal coordinates) would make two
 /// identical contact rows: bad input naming both nodes.
-fn check_distinct_positions(fe: &FeModel, nodes: &[usize], group: &str) -> Result<()> {
+fn check_distinct_positions(mesh: &Mesh, nodes: &[usize], group: &str) -> Result<()> {
     let mut sorted: Vec<usize> = nodes.to_vec();
     sorted.sort_by(|&a, &b| {
-        let (p, q) = (fe.mesh.nodes[a], fe.mesh.nodes[b]);
+        let (p, q) = (mesh.nodes[a], mesh.nodes[b]);
         p.iter()
             .zip(&q)
             .map(|(x, y)| x.total_cmp(y))
@@ -136,14 +142,14 @@ fn check_distinct_positions(fe: &FeModel, nodes: &[usize], group: &str) -> Resul
     });
     if let Some(w) = sorted
         .windows(2)
-        .find(|w| fe.mesh.nodes[w[0]] == fe.mesh.nodes[w[1]])
+        .find(|w| mesh.nodes[w[0]] == mesh.nodes[w[1]])
     {
         return Err(bad_input(format!(
             "contact group `{group}`: mesh nodes {} and {} are both at {:?}: duplicated contact \
              node (each contact point must be one mesh node)",
             w[0] + 1,
             w[1] + 1,
-            fe.mesh.nodes[w[0]]
+            mesh.nodes[w[0]]
         )));
     }
     Ok(())
@@ -152,14 +158,74 @@ fn check_distinct_positions(fe: &FeModel, nodes: &[usize], group: &str) -> Resul
 /// Reduce `fe` by Craig-Bampton onto the three DOFs of every contact node; with the frequencies
 /// (Hz) of the full model's first `s.check_modes` modes when asked.
 pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<Vec<f64>>)> {
+    let fe_side = MeshSide {
+        mesh: &fe.mesh,
+        dofs: &fe.dofs,
+        clamp: &fe.clamp,
+    };
+    let reduced = reduce_with(&fe_side, s, |boundary| {
+        let (cb, full) = ui::with_solve_spinner("reduce", |opts| {
+            craig_bampton_with_loads(
+                &fe.k,
+                &fe.m,
+                boundary,
+                s.modes,
+                s.check_modes,
+                &s.loads,
+                opts,
+            )
+        })?;
+        Ok(Some((cb, full.map(|m| m.frequencies_hz()))))
+    })?;
+    reduced.context("the serial reduction delivers on its only process")
+}
+
+/// The mesh side of an FE model: what the reduction needs besides K and M.
+pub struct MeshSide<'a> {
+    pub mesh: &'a Mesh,
+    pub dofs: &'a DofMap,
+    /// The Dirichlet specifications applied, for messages.
+    pub clamp: &'a [String],
+}
+
+/// [`reduce`] over the ranks of an MPI job (`mpirun -n P nlmodes reduce`): K and M assembled,
+/// factorized and reduced by PETSc, MUMPS and SLEPc (`nlmodes_distributed`); the model on
+/// rank 0, `None` on the others.
+pub fn reduce_distributed(
+    fe_side: &MeshSide,
+    material: &Isotropic,
+    s: &ReduceSettings,
+) -> Result<Option<(ReducedModel, Option<Vec<f64>>)>> {
+    reduce_with(fe_side, s, |boundary| {
+        let input = nlmodes_distributed::ReductionInput {
+            mesh: fe_side.mesh,
+            material,
+            dofs: fe_side.dofs,
+            boundary,
+            n_modes: s.modes,
+            check_modes: s.check_modes,
+            loads: &s.loads,
+        };
+        let reduced = nlmodes_distributed::craig_bampton(&input)?;
+        Ok(reduced.map(|r| (r.cb, r.full_check_hz)))
+    })
+}
+
+/// The reduction with the Craig-Bampton basis of `craig_bampton` (given the boundary DOFs in
+/// the free numbering), which delivers it on this process or not (`None`: another MPI rank).
+fn reduce_with(
+    fe: &MeshSide,
+    s: &ReduceSettings,
+    craig_bampton: impl FnOnce(&[usize]) -> Result<Option<(CraigBampton, Option<Vec<f64>>)>>,
+) -> Result<Option<(ReducedModel, Option<Vec<f64>>)>> {
     if !(s.gap > 0.0 && s.gap.is_finite()) {
         return Err(bad_input(format!(
             "the initial gap must be > 0 m, got {}",
             s.gap
         )));
     }
-    let nodes = ordered_contact_nodes(fe, s.contact_group)?;
-    check_distinct_positions(fe, &nodes, s.contact_group)?;
+    let nodes = contact_nodes_of(fe.mesh, s.contact_group)?;
+    check_distinct_positions(fe.mesh, &nodes, s.contact_group)?;
     let mut boundary = Vec::with_capacity(3 * nodes.len());
     for &n in &nodes {
         for c in 0..3 {
@@ -189,24 +255,16 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
         }
     }
     let stage = ui::Stage::start("reduce");
-    let (cb, full) = ui::with_solve_spinner("reduce", |opts| {
-        craig_bampton_with_loads(
-            &fe.k,
-            &fe.m,
-            &boundary,
-            s.modes,
-            s.check_modes,
-            &s.loads,
-            opts,
-        )
-    })
-    .with_context(|| {
+    let delivered = craig_bampton(&boundary).with_context(|| {
         format!(
             "Craig-Bampton reduction onto {} contact nodes with {} fixed-interface modes",
             nodes.len(),
             s.modes
         )
     })?;
+    let Some((cb, full)) = delivered else {
+        return Ok(None);
+    };
     tracing::info!(
         "reduced model: {} coordinates; asymmetry before symmetrization K_r {:.1e}, M_r {:.1e}",
         cb.n_reduced(),
@@ -267,7 +325,7 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
             k => format!(" + {k} static correction(s)"),
         }
     ));
-    Ok((model, full.map(|m| m.frequencies_hz())))
+    Ok(Some((model, full)))
 }
 
 /// The master coordinate: given, or the contact DOF with the largest amplitude in the first mode.

@@ -163,7 +163,8 @@ fn backbone(r: &ReportInputs<'_>) -> String {
     let _ = writeln!(
         s,
         "## Backbone (Fig. 3a) and frequency-energy plot\n\n![backbone](backbone.png)\n\
-         ![frequency-energy](frequency_energy.png)\n\n\
+         ![frequency-energy](frequency_energy.png)\n\
+         ![backbone diagnostics](backbone_diagnostics.png)\n\n\
          The linear segment and the main branch are drawn in blue (dashed where unstable, \
          dotted where the stability is undetermined: the trivial Floquet pair is off 1 by more \
          than 0.05 or by more than the unstable multiplier is off the unit circle, or the \
@@ -173,8 +174,10 @@ fn backbone(r: &ReportInputs<'_>) -> String {
          the others static on the contact rows, the contact displacements without mass, the \
          periodic orbit next to the point found by shooting and its monodromy computed exactly \
          (docs/STABILITY.md, Sec. 9). Internal-resonance tongues (branches where harmonic n of the orbit drives another linear \
-         mode k, n w near w_k) in light blue; `backbone/backbone.csv` gives every point with its \
-         `branch` and `branch_kind`.\n"
+         mode k, n w near w_k) in light blue on the frequency-energy plot and the diagnostics \
+         figure, which also draws the exact orbits, the converged orbits, the stability changes \
+         and the jumps; `backbone/backbone.csv` gives every point with its `branch` and \
+         `branch_kind`.\n"
     );
     let _ = writeln!(
         s,

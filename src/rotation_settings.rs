@@ -140,12 +140,18 @@ impl RotationSection {
             &self.engine_orders,
             "at least one engine order",
         );
-        for eo in &self.engine_orders {
+        for (i, eo) in self.engine_orders.iter().enumerate() {
             p.check(
                 (1..=200).contains(eo),
                 "rotation.engine_orders",
                 eo,
                 "integers 1 <= EO <= 200",
+            );
+            p.check(
+                !self.engine_orders[..i].contains(eo),
+                "rotation.engine_orders",
+                eo,
+                "each engine order listed once",
             );
         }
         for q in &self.map_amplitudes {
@@ -170,6 +176,28 @@ impl RotationSection {
                 v,
                 &format!("finite speeds within rotation.campbell_range = [{a}, {b}] rpm"),
             );
+        }
+    }
+}
+
+impl RotationSection {
+    /// `map_amplitudes` within the traced range [`q_start`, `q_max`] of `[continuation]` (each
+    /// backbone, at rest and at every speed, runs over it in its own gap): a mark outside it
+    /// falls on no traced point and would be left out of the map without a word.
+    pub fn check_map_amplitudes(&self, cont: &nlmodes_nnm::ContinuationSettings, p: &mut Problems) {
+        let (lo, hi) = (cont.q_start, cont.q_max);
+        for q in &self.map_amplitudes {
+            if q.is_finite() && *q > 0.0 {
+                p.check(
+                    (lo..=hi).contains(q),
+                    "rotation.map_amplitudes",
+                    q,
+                    &format!(
+                        "an amplitude q/g0 within [continuation.q_start, continuation.q_max] = \
+                         [{lo}, {hi}], the range every backbone traces"
+                    ),
+                );
+            }
         }
     }
 }
@@ -227,6 +255,15 @@ mod tests {
         ] {
             assert!(msg.contains(want), "missing `{want}` in:\n{msg}");
         }
+        let repeated = RotationSection {
+            engine_orders: vec![2, 3, 2],
+            ..RotationSection::default()
+        };
+        let msg = problems_of(&repeated);
+        assert!(
+            msg.contains("rotation.engine_orders = 2: expected each engine order listed once"),
+            "{msg}"
+        );
         let outside = RotationSection {
             operating_speed: 20_000.0,
             ..RotationSection::default()
@@ -236,5 +273,31 @@ mod tests {
             msg.contains("rotation.operating_speed = 20000.0: expected a speed within"),
             "{msg}"
         );
+    }
+
+    /// A map amplitude outside the traced range falls on no backbone point: refused.
+    #[test]
+    fn map_amplitudes_lie_within_the_traced_range() {
+        let cont = nlmodes_nnm::ContinuationSettings {
+            q_start: 0.5,
+            q_max: 14.0,
+            ..Default::default()
+        };
+        let s = RotationSection {
+            map_amplitudes: vec![0.5, 14.0, 20.0, 0.1],
+            ..RotationSection::default()
+        };
+        let mut p = Problems::new(|k| format!("case.toml: {k}"));
+        s.check_map_amplitudes(&cont, &mut p);
+        let msg = p.finish().map_or_else(|e| e.to_string(), |_| String::new());
+        assert!(
+            msg.contains(
+                "rotation.map_amplitudes = 20.0: expected an amplitude q/g0 within \
+                 [continuation.q_start, continuation.q_max] = [0.5, 14]"
+            ),
+            "{msg}"
+        );
+        assert!(msg.contains("rotation.map_amplitudes = 0.1"), "{msg}");
+        assert_eq!(msg.lines().count(), 2, "{msg}");
     }
 }

@@ -126,14 +126,7 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
         }
     }
     for speed in &speeds {
-        let mode = case.continuation.modes_to_trace()[0];
-        let stage = BackboneStage::new(
-            &case,
-            mode,
-            speed.layout().clone(),
-            speed.hash(),
-            "backbone".into(),
-        );
+        let stage = speed_backbone_stage(&case, speed);
         if stops.absorb(sel.run(&stage, &[Only::Post]))? && sel.wants(Only::Post) {
             post::post(&case, stage.results())?;
         }
@@ -184,7 +177,7 @@ fn prepare(case: &Case, case_path: &std::path::Path) -> Result<Layout> {
 }
 
 /// The speed stages of `[rotation]`: the operating speed, then each map speed.
-fn speed_stages<'a>(
+pub(crate) fn speed_stages<'a>(
     case: &'a Case,
     material: &'a Isotropic,
     layout: &Layout,
@@ -201,7 +194,7 @@ fn speed_stages<'a>(
 
 /// The backbone stage of each traced mode at rest (`mode_<k>/` and stamp `backbone_mode<k>`
 /// when the case traces several).
-fn backbone_stages<'a>(
+pub(crate) fn backbone_stages<'a>(
     case: &'a Case,
     layout: &Layout,
     reduce_hash: &str,
@@ -224,4 +217,17 @@ fn backbone_stages<'a>(
             BackboneStage::new(case, mode, lay, reduce_hash, name)
         })
         .collect()
+}
+
+/// The backbone stage at a speed of `[rotation]`: the first traced mode on that speed's reduced
+/// model, in its folder.
+pub(crate) fn speed_backbone_stage<'a>(case: &'a Case, speed: &SpeedStage) -> BackboneStage<'a> {
+    let mode = case.continuation.modes_to_trace()[0];
+    BackboneStage::new(
+        case,
+        mode,
+        speed.layout().clone(),
+        speed.hash(),
+        "backbone".into(),
+    )
 }

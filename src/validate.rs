@@ -83,24 +83,11 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
         "at least 2 frames per period",
     );
     if case.forced.enabled {
-        case.forced.check(&mut p);
-        let f_mtx = case.out_dir().join("model").join("F.mtx");
-        if case.forced.load == crate::forced_settings::ForcedLoadKind::File && !f_mtx.is_file() {
-            p.check(
-                false,
-                "forced.load",
-                "file",
-                &format!(
-                    "\"master\" or \"mode\" in a case: \"file\" reads F.mtx of a reduced-model \
-                     directory ({} does not exist; the reduce stage writes none): bring it with \
-                     `nlmodes forced MODEL`",
-                    f_mtx.display()
-                ),
-            );
-        }
+        check_forced(case, &mut p);
     }
     if let Some(r) = &case.rotation {
         r.check(&mut p);
+        r.check_map_amplitudes(&case.continuation, &mut p);
     }
     p.finish()?;
     check_output_dir(&case.out_dir(), &format!("{}: results_dir", path.display()))
@@ -208,6 +195,67 @@ fn check_model(case: &Case, p: &mut Problems) {
             "model.master",
             s,
             "\"auto\" or a reduced DOF index",
+        );
+    }
+}
+
+/// `[forced]` of a case: its keys, then what the case knows of the model before any stage runs.
+/// The swept and loading modes and the damping ratios count the modes the Craig-Bampton basis is
+/// built to represent (below `model.fixed_interface_modes`, as for the traced modes: the reduced
+/// model's higher modes are not converged), so a bad index is refused before meshing, reduction
+/// and the backbone; `F.mtx` (`load = "file"`) and `C.mtx` (`damping_matrix`) are not written by
+/// the reduce stage, so they must be in the model directory already.
+fn check_forced(case: &Case, p: &mut Problems) {
+    let f = &case.forced;
+    f.check(p);
+    let limit = case.model.fixed_interface_modes;
+    let expected =
+        format!("a linear mode index (0-based) below model.fixed_interface_modes = {limit}");
+    p.check(f.mode < limit, "forced.mode", f.mode, &expected);
+    p.check(
+        f.load_mode < limit,
+        "forced.load_mode",
+        f.load_mode,
+        &expected,
+    );
+    if f.damping_ratios.len() > limit {
+        p.note(
+            "forced.damping_ratios",
+            &format!(
+                "{} ratios: expected at most model.fixed_interface_modes = {limit}, one per \
+                 linear mode the reduced model is built to represent (the last applies to the \
+                 modes above)",
+                f.damping_ratios.len()
+            ),
+        );
+    }
+    let model = case.out_dir().join("model");
+    let f_mtx = model.join("F.mtx");
+    if f.load == crate::forced_settings::ForcedLoadKind::File && !f_mtx.is_file() {
+        p.check(
+            false,
+            "forced.load",
+            "file",
+            &format!(
+                "\"master\" or \"mode\" in a case: \"file\" reads F.mtx of a reduced-model \
+                 directory ({} does not exist; the reduce stage writes none): bring it with \
+                 `nlmodes forced MODEL`",
+                f_mtx.display()
+            ),
+        );
+    }
+    let c_mtx = model.join("C.mtx");
+    if f.damping_matrix && !c_mtx.is_file() {
+        p.check(
+            false,
+            "forced.damping_matrix",
+            true,
+            &format!(
+                "false in a case: true reads C.mtx of a reduced-model directory ({} does not \
+                 exist; the reduce stage writes none): give damping_ratio, damping_ratios or \
+                 rayleigh, or bring C.mtx with `nlmodes forced MODEL`",
+                c_mtx.display()
+            ),
         );
     }
 }
@@ -358,6 +406,32 @@ mod tests {
             assert!(e.contains(part), "missing `{part}` in:\n{e}");
         }
         assert!(!e.contains("nnm.keep[3]"), "{e}");
+    }
+
+    /// Issue 37: the forced indices count the modes the basis is built for, and the files the
+    /// reduce stage does not write are refused, all before the first stage.
+    #[test]
+    fn forced_keys_are_checked_against_the_case() {
+        let mut c = Case::default();
+        c.model.fixed_interface_modes = 20;
+        c.forced.mode = 500;
+        c.forced.load_mode = 20;
+        c.forced.damping_ratios = vec![0.01; 21];
+        c.forced.damping_matrix = true;
+        c.results_dir = std::env::temp_dir().join("nlmodes-validate-test-none");
+        let e = problems(&c);
+        for part in [
+            "c.toml: forced.mode = 500: expected a linear mode index (0-based) below \
+             model.fixed_interface_modes = 20",
+            "c.toml: forced.load_mode = 20: expected a linear mode index",
+            "c.toml: forced.damping_ratios: 21 ratios: expected at most \
+             model.fixed_interface_modes = 20",
+            "c.toml: forced.damping_matrix = true: expected false in a case",
+        ] {
+            assert!(e.contains(part), "missing `{part}` in:\n{e}");
+        }
+        c.forced.enabled = false;
+        assert!(!problems(&c).contains("forced."), "{}", problems(&c));
     }
 
     #[test]

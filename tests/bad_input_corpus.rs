@@ -1,11 +1,14 @@
-//! The bad-input corpus of issue 14: `tests/bad_inputs/make_corpus.py` writes damaged meshes,
-//! case and settings files, reduced models, command lines and output paths (at least 80) from one
-//! coarse blade mesh and its reduced model, built once here; every case must exit with its
-//! expected code (2 bad input, 3 stopped early; README "Exit codes") and a message matching its
-//! pattern, and leave behind no file it must not (no `.tmp`) and keep the files it must.
+//! The bad-input corpus of issues 14 and 37: `tests/bad_inputs/make_corpus.py` writes damaged
+//! meshes, case and settings files, reduced models, forced-study settings and inputs (C.mtx,
+//! F.mtx, `--backbone`, the orbit mesh), `[rotation]` tables, command lines and output paths (at
+//! least 240) from one coarse blade mesh and its reduced model, built once here; every case must
+//! exit with its expected code (2 bad input, 3 stopped early; README "Exit codes") and a message
+//! matching its pattern, and leave behind no file it must not (no `.tmp`, no `frf.csv` of a
+//! refused forced study) and keep the files it must.
 //!
 //! Cost: the coarse mesh and reduction take about 2 s; each case fails in milliseconds (the
-//! `reduce` cases after a coarse assembly, the one stopped-early backbone after 2 points).
+//! `reduce` cases after a coarse assembly, the forced inputs after reading the coarse model, the
+//! one stopped-early backbone after 2 points); about 40 s in all on 2 busy cores.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -163,7 +166,7 @@ fn every_bad_input_is_refused_with_its_code_and_message() {
     eprintln!("{}", String::from_utf8_lossy(&made.stdout));
     let manifest = std::fs::read(corpus.join("manifest.json")).unwrap();
     let cases: Vec<Case> = serde_json::from_slice(&manifest).unwrap();
-    assert!(cases.len() >= 80, "only {} cases", cases.len());
+    assert!(cases.len() >= 240, "only {} cases", cases.len());
     for class in [
         "case file",
         "settings file",
@@ -171,6 +174,8 @@ fn every_bad_input_is_refused_with_its_code_and_message() {
         "output path",
         "mesh",
         "reduced model",
+        "forced settings",
+        "forced inputs",
         "stopped early",
     ] {
         assert!(

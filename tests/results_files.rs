@@ -265,54 +265,38 @@ fn xdmf_series_and_modes_read_back_with_meshio() {
     assert!(py.status.success(), "meshio check failed: {}", text(&py));
 }
 
-/// ParaView's own reader (pvpython) on the series, where ParaView is installed (`scripts/test`
-/// installs it); elsewhere the test says so and passes.
+/// Every `.xdmf` file under `dir`, sorted.
+fn xdmf_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            out.extend(xdmf_files(&path));
+        } else if path.extension().is_some_and(|e| e == "xdmf") {
+            out.push(path);
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Every series, with every XDMF reader ParaView offers for it (XdmfReader, Xdmf3ReaderS,
+/// Xdmf3ReaderT in ParaView 5.11), read at every time step as the GUI reads it
+/// (tests/paraview_readers.py): all points and cells, every field as stored in the HDF5 file,
+/// where ParaView is installed (`scripts/test` installs it); elsewhere the test says so and
+/// passes.
 #[test]
-fn paraview_reads_the_series() {
+fn every_paraview_reader_reads_every_series() {
     let Ok(pv) = which("pvpython") else {
         eprintln!("pvpython not found: ParaView check skipped (apt-get install paraview python3-paraview)");
         return;
     };
     let res = results();
-    // Opened as a user would (OpenDataFile picks ParaView's own XDMF reader); cell type 24 is
-    // VTK_QUADRATIC_TETRA, whose node order the file keeps: the first cell's point ids must be
-    // those of the HDF5 connectivity (read here with h5py, another reader).
-    let script = r#"
-import sys, json
-import h5py
-import numpy as np
-from paraview.simple import OpenDataFile
-from paraview import servermanager
-from vtk.numpy_interface import dataset_adapter as dsa
-src = OpenDataFile(sys.argv[1])
-times = list(src.TimestepValues)
-out = {"times": times, "frames": [], "reader": src.GetXMLName()}
-heavy = h5py.File(sys.argv[1][:-len(".xdmf")] + ".h5", "r")
-first_cell = [int(i) for i in heavy["/mesh/connectivity"][0]]
-for t in times:
-    src.UpdatePipeline(t)
-    grid = servermanager.Fetch(src)
-    ids = grid.GetCell(0).GetPointIds()
-    d = dsa.WrapDataObject(grid)
-    on = np.asarray(d.PointData["contact_node"]) == 1
-    f = np.asarray(d.PointData["contact_force_n"])
-    g = np.asarray(d.PointData["radial_gap_m"])
-    u = np.asarray(d.PointData["displacement_m"])
-    out["frames"].append({
-        "points": int(d.GetNumberOfPoints()), "cells": int(d.GetNumberOfCells()),
-        "cell_type": int(grid.GetCellType(0)),
-        "first_cell_as_stored": [ids.GetId(i) for i in range(ids.GetNumberOfIds())] == first_cell,
-        "contact": int(on.sum()),
-        "nan_off_contact": bool(np.isnan(f[~on]).all() and np.isnan(g[~on]).all()),
-        "finite_on_contact": bool(np.isfinite(f[on]).all() and np.isfinite(g[on]).all()),
-        "max_u": float(np.linalg.norm(u, axis=1).max())})
-print("RESULT " + json.dumps(out))
-"#;
-    let file = res.join("pv_check.py");
-    std::fs::write(&file, script).unwrap();
+    let files = xdmf_files(res);
+    assert!(files.contains(&series(res)), "{files:?}");
     let out = Command::new(pv)
-        .arg(&file)
-        .arg(series(res))
+        .arg(root().join("tests/paraview_readers.py"))
+        .args(&files)
         .env_remove("DISPLAY")
         .output()
         .unwrap();
@@ -324,24 +308,63 @@ print("RESULT " + json.dumps(out))
         .unwrap_or_else(|| panic!("no result from pvpython: {}", text(&out)));
     let v: serde_json::Value = serde_json::from_str(line).unwrap();
     let mesh = nlmodes_fem::read_msh(&res.join("mesh/mesh.msh")).unwrap();
+    for file in &files {
+        let entry = &v[file.to_str().unwrap()];
+        let mut readers: Vec<&str> = entry["readers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r.as_str().unwrap())
+            .collect();
+        readers.sort_unstable();
+        assert_eq!(
+            readers,
+            ["Xdmf3ReaderS", "Xdmf3ReaderT", "XdmfReader"],
+            "{file:?}"
+        );
+        let xml_times = f64s(&entry["xml_times"]);
+        for reader in readers {
+            let read = &entry["read"][reader];
+            let what = format!("{reader} on {}", file.display());
+            // Every frame's time (frames at t and T - t are distinct times).
+            let mut want = xml_times.clone();
+            want.sort_by(f64::total_cmp);
+            assert_eq!(f64s(&read["times"]), want, "{what}");
+            for (f, fr) in read["frames"].as_array().unwrap().iter().enumerate() {
+                let at = format!("{what}, frame {f}");
+                assert_eq!(fr["points"].as_u64(), Some(mesh.n_nodes() as u64), "{at}");
+                assert_eq!(fr["cells"].as_u64(), Some(mesh.n_elements() as u64), "{at}");
+                // VTK_QUADRATIC_TETRA, in the node order stored.
+                assert_eq!(fr["cell_type"], 24, "{at}");
+                assert_eq!(fr["first_cell_as_stored"], true, "{at}");
+                assert_eq!(fr["points_as_stored"], true, "{at}");
+                let fields = [
+                    "contact_force_n",
+                    "contact_node",
+                    "displacement_m",
+                    "radial_gap_m",
+                ];
+                assert_eq!(fr["fields"], serde_json::json!(fields), "{at}");
+                assert_eq!(fr["fields_as_stored"], serde_json::json!(fields), "{at}");
+                assert_eq!(fr["contact"].as_u64(), Some(CONTACT_NODES as u64), "{at}");
+                assert_eq!(fr["nan_off_contact"], true, "{at}");
+                assert_eq!(fr["finite_on_contact"], true, "{at}");
+            }
+        }
+    }
+    // The kept orbit's series: FRAMES frames over one period, frame 0 the orbit at t = 0.
+    let entry = &v[series(res).to_str().unwrap()];
     let omega = kept_orbit(res)["omega"].as_f64().unwrap();
     let period = 2.0 * std::f64::consts::PI / omega;
-    let times = f64s(&v["times"]);
+    let times = f64s(&entry["xml_times"]);
     assert_eq!(times.len(), FRAMES);
     assert!((times[FRAMES / 2] - 0.5 * period).abs() <= 1e-12 * period);
     let u0 = max_norm(&displacement_at_zero(res, &kept_orbit(res)));
-    for (f, fr) in v["frames"].as_array().unwrap().iter().enumerate() {
-        assert_eq!(fr["points"].as_u64().unwrap() as usize, mesh.n_nodes());
-        assert_eq!(fr["cells"].as_u64().unwrap() as usize, mesh.n_elements());
-        assert_eq!(fr["contact"].as_u64().unwrap() as usize, CONTACT_NODES);
-        assert_eq!(fr["cell_type"], 24, "frame {f}");
-        assert_eq!(fr["first_cell_as_stored"], true, "frame {f}");
-        assert_eq!(fr["nan_off_contact"], true, "frame {f}");
-        assert_eq!(fr["finite_on_contact"], true, "frame {f}");
-        if f == 0 {
-            let m = fr["max_u"].as_f64().unwrap();
-            assert!((m - u0).abs() <= 1e-6 * u0, "{m} vs {u0}");
-        }
+    for reader in ["Xdmf3ReaderS", "Xdmf3ReaderT", "XdmfReader"] {
+        let m = entry["read"][reader]["frames"][0]["max_u"]
+            .as_f64()
+            .unwrap();
+        assert!((m - u0).abs() <= 1e-6 * u0, "{reader}: {m} vs {u0}");
     }
 }
 
@@ -373,6 +396,32 @@ fn report_pictures_show_the_blade() {
         assert!(
             (0.05..=0.6).contains(&share),
             "{name}: coloured pixel share {share:.3}"
+        );
+    }
+}
+
+/// Every picture report.md shows exists, Fig. 3a and its diagnostics among them.
+#[test]
+fn report_pictures_exist() {
+    let res = results();
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    let pictures: Vec<&str> = report
+        .split("](")
+        .skip(1)
+        .filter_map(|rest| rest.split(')').next())
+        .filter(|link| link.ends_with(".png"))
+        .collect();
+    for want in [
+        "backbone.png",
+        "backbone_diagnostics.png",
+        "frequency_energy.png",
+    ] {
+        assert!(pictures.contains(&want), "report.md does not show {want}");
+    }
+    for p in pictures {
+        assert!(
+            res.join(p).is_file(),
+            "report.md shows {p}, which is missing"
         );
     }
 }

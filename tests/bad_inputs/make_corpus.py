@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generates the bad-input corpus of issue 14 (run by tests/bad_input_corpus.rs).
+"""Generates the bad-input corpus of issues 14 and 37 (run by tests/bad_input_corpus.rs).
 
 Usage: make_corpus.py --out DIR --mesh COARSE.msh --model MODEL_DIR --geo BLADE.geo
 
@@ -7,7 +7,8 @@ From one good coarse mesh (MSH 4.1 ASCII) and the good reduced model built from 
 copies and bad case / settings files into DIR, and DIR/manifest.json: one entry per case with
 
   name     unique name
-  class    case file | settings file | CLI argument | output path | mesh | reduced model | stopped early
+  class    case file | settings file | forced settings | forced inputs | CLI argument | output path |
+           mesh | reduced model | stopped early
   args     the nlmodes command line (absolute paths)
   code     expected exit code (2 bad input, 3 stopped early; README "Exit codes")
   pattern  a regular expression the message (stdout + stderr) must match
@@ -15,7 +16,8 @@ copies and bad case / settings files into DIR, and DIR/manifest.json: one entry 
   present  paths that must exist afterwards (partial results kept)
 
 Every case but the "stopped early" one must fail before any computation (milliseconds), the
-reduce cases after a coarse assembly (well under a second).
+reduce cases after a coarse assembly (well under a second), the forced inputs after reading the
+coarse model (C.mtx, F.mtx, --backbone, the orbit mesh against it; no frf.csv written).
 """
 
 import argparse
@@ -229,6 +231,31 @@ def case_files(c, geo):
         r'forced\.load_group = "casing" \(forced\.load = "pressure"\): no physical group named \'casing\'; '
         r"groups present:" + groups,
         text=base_case(c, geo, model='full_check = "off"') + pressure.format("casing"))
+    # Issue 37: [forced] against what the case knows of the model (model.fixed_interface_modes =
+    # 20), and the files the reduce stage does not write, before any stage runs.
+    beyond = r"expected a linear mode index \(0-based\) below model\.fixed_interface_modes = 20"
+    for name, lines, pat in [
+        ("mode_beyond_basis", "mode = 500", r"forced\.mode = 500: " + beyond),
+        ("load_mode_beyond_basis", "load = \"mode\"\nload_mode = 500\nmode = 0\nlevel_unit = \"N\"", r"forced\.load_mode = 500: " + beyond),
+        ("damping_ratios_beyond_basis", "damping_ratios = [" + ", ".join(["0.01"] * 30) + "]",
+         r"forced\.damping_ratios: 30 ratios: expected at most model\.fixed_interface_modes = 20"),
+        ("damping_matrix", "damping_matrix = true", r"forced\.damping_matrix = true: expected false in a case: .*C\.mtx does not exist"),
+        ("zero_damping_grazing", "damping_ratio = 0.0", file_key + r"forced\.damping_ratio = 0\.0: expected damping on the swept mode"),
+        ("harmonics_huge", "harmonics = 5000", r"forced\.harmonics = 5000: expected N <= 200"),
+    ]:
+        bad(f"forced_{name}", pat, text=base_case(c, geo) + "[forced]\n" + lines + "\n")
+    for name, lines, pat in [
+        ("engine_orders_repeated", "engine_orders = [2, 3, 2]", r"rotation\.engine_orders = 2: expected each engine order listed once"),
+        ("map_amplitude_beyond_q_max", "map_amplitudes = [5.0, 20.0]",
+         r"rotation\.map_amplitudes = 20\.0: expected an amplitude q/g0 within \[continuation\.q_start, continuation\.q_max\] = \[0\.5, 14\]"),
+        ("map_amplitude_below_q_start", "map_amplitudes = [0.1]", r"rotation\.map_amplitudes = 0\.1: expected an amplitude q/g0 within"),
+        ("speed_word", "operating_speed = \"fast\"", r"invalid TOML file .*: .*operating_speed|invalid type: string \"fast\""),
+        ("campbell_range_one", "campbell_range = [1000.0]", r"invalid length 1, expected an array of length 2"),
+        ("engine_order_float", "engine_orders = [1.5]", r"invalid type: floating point `1\.5`, expected i64"),
+        ("map_speeds_inf", "map_speeds = [inf]", r"rotation\.map_speeds = inf: expected finite speeds"),
+        ("campbell_modes_31", "campbell_modes = 31", r"rotation\.campbell_modes = 31: expected between 1 and 30 modes"),
+    ]:
+        bad(f"rotation_{name}", pat, text=base_case(c, geo) + "[rotation]\n" + lines + "\n")
     bad("rotation_zero_axis", r"model\.rotor_axis_direction = \[0\.0, 0\.0, 0\.0\]",
         text=base_case(c, geo, model="rotor_axis_direction = [0.0, 0.0, 0.0]") + "[rotation]\n")
 
@@ -359,8 +386,136 @@ def forced_settings(c, model):
     bad("load_file_missing", "load = \"file\"\n", r"forced\.load = \"file\": .*F\.mtx: cannot read it")
     bad("load_harmonics_zero", "load = \"file\"\nload_harmonics = [0]\n", r"forced\.load_harmonics = 0: expected distinct harmonics 1 <= h <= harmonics")
     bad("load_harmonics_repeated", "load = \"file\"\nload_harmonics = [2, 2]\n", r"forced\.load_harmonics = 2: expected distinct harmonics")
+    # Issue 37: what the keys alone tell.
+    graze = r"expected damping on the swept mode \(forced\.mode = 0\) with forced\.level_unit = \"grazing\""
+    bad("damping_zero_grazing", "damping_ratio = 0.0\n", r"\.toml: forced\.damping_ratio = 0\.0: " + graze)
+    bad("damping_ratios_zero_on_mode", "damping_ratios = [0.0, 0.02]\n", r"forced\.damping_ratios\[0\] = 0\.0: " + graze)
+    bad("damping_ratios_last_zero", "mode = 3\ndamping_ratios = [0.01, 0.0]\n",
+        r"forced\.damping_ratios\[1\] = 0\.0: expected damping on the swept mode \(forced\.mode = 3\)")
+    bad("rayleigh_zero_grazing", "rayleigh = [0.0, 0.0]\n", r"forced\.rayleigh = \[0\.0, 0\.0\]: " + graze)
+    bad("rayleigh_and_ratios", "rayleigh = [1.0, 0.0]\ndamping_ratios = [0.01]\n",
+        r"forced\.damping_ratios = \[0\.01\]: expected no list beside forced\.rayleigh = \[1\.0, 0\.0\]")
+    bad("damping_ratios_longer_than_model", "damping_ratios = [" + ", ".join(["0.01"] * 500) + "]\n",
+        r"\.toml: forced\.damping_ratios: 500 ratios: expected at most one per linear mode of the reduced model, n = \d+")
+    bad("load_mode_other_grazing", "load = \"mode\"\nload_mode = 1\n",
+        r"forced\.load_mode = 1: expected a linear mode index equal to forced\.mode = 0 with load = \"mode\" and\s+level_unit = \"grazing\": the pattern M phi of another mode does not drive\s+mode 0")
+    bad("harmonics_huge", "harmonics = 100000\n", r"forced\.harmonics = 100000: expected N <= 200")
+    bad("samples_huge", "samples = 10000000000\n", r"forced\.samples = 10000000000: expected at most 65536 time samples per period")
+    bad("keep_outside_range", "keep = [1.5]\n", r"forced\.keep = 1\.5: expected a frequency W / w_mode within forced\.range = \[0\.9, 1\.2\]")
+    bad("penalty_overflow", "penalty_factor = 1e306\n", r"forced\.penalty_factor = 1e306: kc = .* = inf N/m: expected a finite penalty stiffness > 0")
+    bad("level_unit_word", "level_unit = \"kN\"\n", r"\.toml: \[forced\]: unknown variant `kN`, expected `N` or `grazing`")
+    bad("mode_word", "mode = \"first\"\n", r"\.toml: \[forced\]: invalid type: string \"first\", expected usize\s+in `mode`")
+    bad("mode_negative", "mode = -1\n", r"\.toml: \[forced\]: invalid value: integer `-1`, expected usize\s+in `mode`")
+    bad("levels_scalar", "levels = 0.5\n", r"\.toml: \[forced\]: invalid type: floating point `0\.5`, expected a sequence\s+in `levels`")
+    bad("load_direction_nan", "load = \"group\"\nload_direction = [nan, 0.0, 0.0]\n", r"forced\.load_direction = \[NaN, 0\.0, 0\.0\]: expected a finite, non-zero direction")
+    bad("damping_ratio_one", "damping_ratio = 1.0\n", r"forced\.damping_ratio = 1\.0: expected a ratio 0 <= zeta < 1")
+    bad("level_sweeps_nan", "level_sweeps = [nan]\n", r"forced\.level_sweeps = NaN: expected frequencies W / w_mode > 0")
     c.add("forced settings", "forced_backbone_missing",
           ["forced", model, "--backbone", c.path("forced/none.json"), "-o", out], r"--backbone .*none\.json", absent=[os.path.join(out, "frf.csv")])
+
+
+def forced_inputs(c, model):
+    """`nlmodes forced MODEL`: C.mtx, F.mtx, --backbone and the orbit mesh against the model (issue 37)."""
+    _, K = read_mtx(os.path.join(model, "K.mtx"))
+    doc = json.load(open(os.path.join(model, "model.json")))
+    n = len(K)
+    out = c.path("forced_inputs_out")
+
+    def bad(name, settings, pat, files=None, edit=None, extra=()):
+        d = c.path("forced_models", name)
+        shutil.copytree(model, d)
+        for fname, text in (files or {}).items():
+            with open(os.path.join(d, fname), "w") as f:
+                f.write(text)
+        if edit is not None:
+            edit(d)
+        p = c.write(f"forced_models/{name}.toml", "[forced]\n" + settings)
+        c.add("forced inputs", f"forced_input_{name}", ["forced", d, "--settings", p, "-o", out, *extra], pat,
+              absent=[os.path.join(out, "frf.csv")])
+
+    def mtx(a):
+        m = len(a)
+        lines = ["%%MatrixMarket matrix coordinate real symmetric", f"{m} {m} {m * (m + 1) // 2}"]
+        lines += [f"{i + 1} {j + 1} {a[i][j]:.17e}" for j in range(m) for i in range(j, m)]
+        return "\n".join(lines) + "\n"
+
+    def scaled(a, f):
+        return [[v * f for v in row] for row in a]
+
+    matrix = "damping_matrix = true\n"
+    small = [row[:-4] for row in scaled(K, 1e-5)[:-4]]
+    bad("c_wrong_order", matrix, rf"forced\.damping_matrix = true: .*c_wrong_order/C\.mtx: damping matrix C is {n - 4}x{n - 4}, expected {n}x{n}",
+        files={"C.mtx": mtx(small)})
+    bad("c_negative_definite", matrix + "level_unit = \"N\"\n",
+        rf"c_negative_definite/C\.mtx: damping matrix C: {n} negative eigenvalue\(s\) .*the lowest = -\S+: expected a positive semi-definite C",
+        files={"C.mtx": mtx(scaled(K, -0.01))})
+    indefinite = scaled(K, 1e-5)
+    indefinite[0][0] = -indefinite[0][0]
+    bad("c_indefinite", matrix, r"c_indefinite/C\.mtx: damping matrix C: [1-9]\d* negative eigenvalue\(s\)",
+        files={"C.mtx": mtx(indefinite)})
+    with_nan = mtx(scaled(K, 1e-5)).split("\n")
+    assert with_nan[2].startswith("1 1 ")
+    with_nan[2] = "1 1 nan"
+    bad("c_nan", matrix, r"c_nan/C\.mtx: cannot read it: .*(non-finite|NaN|not finite)",
+        files={"C.mtx": "\n".join(with_nan)})
+    bad("c_general_asymmetric", matrix, r"c_general_asymmetric/C\.mtx: cannot read it: .*symmetric",
+        files={"C.mtx": "%%MatrixMarket matrix coordinate real general\n" + f"{n} {n} {n + 1}\n"
+               + "".join(f"{i + 1} {i + 1} 1.0\n" for i in range(n)) + "2 1 0.5\n"})
+    bad("c_times_1e280", matrix, r"c_times_1e280/C\.mtx: the largest entry of C is \S+e2\d\d: expected at most 1e30 N s/m",
+        files={"C.mtx": mtx(scaled(K, 1e280))})
+    bad("c_missing", matrix, r"forced\.damping_matrix = true: .*c_missing/C\.mtx: cannot read it")
+    bad("c_zero_grazing", matrix,
+        r"forced\.damping_matrix = true \(.*c_zero_grazing/C\.mtx\): the swept mode \(forced\.mode = 0\) gets no damping .*expected damping on it with forced\.level_unit = \"grazing\"",
+        files={"C.mtx": f"%%MatrixMarket matrix coordinate real symmetric\n{n} {n} 0\n"})
+    bad("f_wrong_rows", "load = \"file\"\n", rf"forced\.load = \"file\": .*f_wrong_rows/F\.mtx: {n - 1} rows, expected the model's order n = {n}",
+        files={"F.mtx": f"%%MatrixMarket matrix array real general\n{n - 1} 1\n" + "1.0\n" * (n - 1)})
+    bad("f_nan", "load = \"file\"\n", r"f_nan/F\.mtx: cannot read it: .*(non-finite|NaN|not finite)",
+        files={"F.mtx": f"%%MatrixMarket matrix array real general\n{n} 1\n" + "1.0\n" * (n - 1) + "nan\n"})
+    bad("f_zero", "load = \"file\"\n", r"f_zero/F\.mtx: every entry is zero",
+        files={"F.mtx": f"%%MatrixMarket matrix array real general\n{n} 1\n" + "0.0\n" * n})
+    # --backbone: a backbone of another model (another order), of another mode, of another gap.
+    w1 = 2 * 3.141592653589793 * doc["linear_frequencies_hz"][0]
+    gap = sum(node["gap"] for node in doc["contact_nodes"]) / len(doc["contact_nodes"])
+
+    def backbone(name, order, omega, g):
+        point = dict(q=2 * g, omega=1.01 * omega, omega_ratio=1.01, frequency_hz=omega / 6.283185307179586,
+                     contact_fraction=[0.0], powell_measure=0.0, newton_iterations=1, fold=False, jump=False,
+                     truncation_warning=False, coefficients=[[0.0] * order, [1e-6] * order],
+                     contact_force=[[0.0]])
+        doc_b = dict(points=[point], termination="Complete", omega_linear=omega, gap_reference=g,
+                     grazing_amplitude=g)
+        return c.write(f"forced_models/{name}.json", json.dumps(doc_b))
+
+    other = backbone("backbone_other_model", n - 4, w1, gap)
+    bad("backbone_other_model", "", rf"--backbone .*backbone_other_model\.json: backbone point 0, harmonic 0 is {n - 4} coordinates, expected {n} \(the order of the model\)",
+        extra=["--backbone", other])
+    wrong_mode = backbone("backbone_other_mode", n, 3.0 * w1, gap)
+    bad("backbone_other_mode", "", r"--backbone .*backbone_other_mode\.json: omega_linear = \S+ rad/s .*expected \S+ rad/s, that of the swept mode .*a backbone of another mode or model",
+        extra=["--backbone", wrong_mode])
+    # K - w1^2 M: the first mode becomes a rigid-body mode (the loader only warns of it).
+    _, M = read_mtx(os.path.join(model, "M.mtx"))
+
+    def unclamped(d):
+        write_mtx(os.path.join(d, "K.mtx"), [[K[i][j] - w1 * w1 * M[i][j] for j in range(n)] for i in range(n)])
+        p = os.path.join(d, "model.json")
+        j = json.load(open(p))
+        j["linear_frequencies_hz"][0] = 0.0
+        json.dump(j, open(p, "w"), indent=1)
+    # w1^2 then lies within rounding of 0, on either side: refused as a rigid-body mode, or as a
+    # K that is not positive definite, naming the model.
+    bad("rigid_mode", "level_unit = \"N\"\n",
+        r"(\.toml: forced\.mode = 0: a rigid-body mode of the reduced model .*expected a vibration mode"
+        r"|the reduced model .*rigid_mode: matrix K is not positive definite)",
+        edit=unclamped)
+    # The orbits are drawn on the mesh named in model.json: a model moved without it is refused
+    # before the curves are traced (not after, with frf.csv written).
+    def no_mesh(d):
+        p = os.path.join(d, "model.json")
+        j = json.load(open(p))
+        j["mesh"]["msh_file"] = os.path.join(d, "none.msh")
+        json.dump(j, open(p, "w"), indent=1)
+    bad("orbit_mesh_missing", "", r"orbit_mesh_missing/model\.json: the mesh the model was reduced from: .*none\.msh.*forced\.keep_peaks = true",
+        edit=no_mesh)
 
 
 # ---------------------------------------------------------------- meshes
@@ -569,6 +724,7 @@ def main():
     case_files(c, geo)
     settings_files(c, model)
     forced_settings(c, model)
+    forced_inputs(c, model)
     cli_arguments(c, geo, mesh, model)
     output_paths(c, geo, mesh, model)
     meshes(c, mesh)

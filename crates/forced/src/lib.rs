@@ -18,31 +18,39 @@
 
 mod boundary;
 mod boundary_curve;
+mod corner;
 mod damping;
 mod dynamics;
 mod error;
+mod fold;
 mod frf;
+mod grazing;
+mod ladder;
 mod load;
 mod newton;
 mod period_check;
+mod point_stability;
 mod solver;
 mod synthesis;
+mod trace;
 
 pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
 pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
-pub use damping::{modal_ratios, Damping};
+pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
 pub use frf::{
-    response_curve, Fold, FoldKind, ForcedBifurcation, FrequencyResponse, FrfSettings,
-    FrfTermination, PointStability, Sweep,
+    response_curve, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep,
 };
+pub use ladder::HarmonicCheck;
 pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
+pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 pub use synthesis::{
-    nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit, SynthesizedPoint,
+    check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
+    SynthesizedPoint,
 };

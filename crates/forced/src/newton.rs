@@ -14,6 +14,7 @@
 use faer::Mat;
 use nlmodes_hb::contact::{apply_contact_law, Multipliers};
 use nlmodes_hb::dense::DenseLu;
+use nlmodes_hb::penalty_integral::{penalty_force, ContactPhases};
 use nlmodes_hb::FullBasis;
 
 use crate::dynamics::{product, ContactCompliance, ModalDynamics};
@@ -88,8 +89,24 @@ impl ArcRow {
     }
 }
 
+/// How the force coefficients Lambda of the contact law and their Jacobian are computed.
+#[derive(Clone, Copy, Debug)]
+pub enum ForceIntegration {
+    /// Sampled on the time grid and projected (the AFT of Eqs. 18-19): the augmented-Lagrangian
+    /// law of Algorithm 1, whose multipliers live on the samples.
+    Sampled,
+    /// The plain penalty law lambda = k (g)_+ integrated exactly between its switch instants
+    /// (`nlmodes_hb::penalty_integral`, DESIGN §10.7): no corners where a sample enters contact.
+    ExactPenalty {
+        /// k (force per length), the same on every row.
+        stiffness: f64,
+        /// The switch search.
+        phases: ContactPhases,
+    },
+}
+
 /// The contact law evaluated on an orbit: gaps, forces and slopes at the samples (c x m), and the
-/// force coefficients Lambda (c x (2N + 1)).
+/// force coefficients Lambda (c x (2N + 1)) with, for the exact penalty law, each row's Jacobian.
 pub struct ContactSamples {
     /// g = A u - g0 at the samples.
     pub gaps: Vec<f64>,
@@ -99,6 +116,26 @@ pub struct ContactSamples {
     pub slope: Vec<f64>,
     /// Lambda, signal-major.
     pub coefficients: Vec<f64>,
+    /// d Lambda_j / d y_j per row ((2N + 1)^2), `None` for a row out of contact; empty for the
+    /// sampled law (its Jacobian is projected from `slope`).
+    pub blocks: Vec<Option<Mat<f64>>>,
+}
+
+impl ContactSamples {
+    /// Whether any row touches anywhere in the period.
+    pub fn touches(&self, samples: usize) -> bool {
+        (0..self.gaps.len() / samples.max(1)).any(|j| self.row_active(j, samples))
+    }
+
+    /// Whether contact row `j` touches anywhere in the period.
+    pub fn row_active(&self, j: usize, samples: usize) -> bool {
+        match self.blocks.get(j) {
+            Some(block) => block.is_some(),
+            None => self.slope[j * samples..(j + 1) * samples]
+                .iter()
+                .any(|&v| v != 0.0),
+        }
+    }
 }
 
 /// Evaluates the sampled contact law of `multipliers` on the contact coordinates `y` (the exact
@@ -108,18 +145,20 @@ pub fn contact_samples(
     g0: &[f64],
     y: &[f64],
     mu: &Multipliers,
+    integration: ForceIntegration,
 ) -> ContactSamples {
-    contact_samples_smoothed(basis, g0, y, mu, 0.0)
+    contact_samples_smoothed(basis, g0, y, mu, 0.0, integration)
 }
 
-/// [`contact_samples`] with the positive part smoothed by `smoothing` (length units; 0: exact),
-/// see `nlmodes_hb::contact::apply_contact_law`.
+/// [`contact_samples`] with the positive part smoothed by `smoothing` (length units; 0: exact;
+/// the sampled law only), see `nlmodes_hb::contact::apply_contact_law`.
 pub fn contact_samples_smoothed(
     basis: &FullBasis,
     g0: &[f64],
     y: &[f64],
     mu: &Multipliers,
     smoothing: f64,
+    integration: ForceIntegration,
 ) -> ContactSamples {
     let (c, m, t) = (g0.len(), basis.samples(), basis.terms());
     let mut gaps = vec![0.0; c * m];
@@ -133,19 +172,50 @@ pub fn contact_samples_smoothed(
     let mut slope = vec![0.0; c * m];
     apply_contact_law(&gaps, mu, smoothing, &mut force, &mut slope);
     let mut coefficients = vec![0.0; c * t];
-    for j in 0..c {
-        basis.analyze(
-            &force[j * m..(j + 1) * m],
-            &mut coefficients[j * t..(j + 1) * t],
-        );
+    let mut blocks = Vec::new();
+    match integration {
+        ForceIntegration::Sampled => {
+            for j in 0..c {
+                basis.analyze(
+                    &force[j * m..(j + 1) * m],
+                    &mut coefficients[j * t..(j + 1) * t],
+                );
+            }
+        }
+        ForceIntegration::ExactPenalty { stiffness, phases } => {
+            for j in 0..c {
+                let mut block = Mat::zeros(t, t);
+                let (lambda, contact) = penalty_force(
+                    &phases,
+                    &y[j * t..(j + 1) * t],
+                    g0[j],
+                    stiffness,
+                    Some(block.as_mut()),
+                );
+                coefficients[j * t..(j + 1) * t].copy_from_slice(&lambda);
+                blocks.push((!contact.is_empty()).then_some(block));
+            }
+        }
     }
     ContactSamples {
         gaps,
         force,
         slope,
         coefficients,
+        blocks,
     }
 }
+
+/// The first stiffness of the exactly integrated penalty law's rescue path, as a fraction of
+/// the law's (`InnerNewton::penalty_homotopy`).
+const PENALTY_START: f64 = 1e-3;
+/// The smallest ratio between two stiffnesses of that path before it gives up.
+const PENALTY_RATIO_MIN: f64 = 1.02;
+/// Newton iterations the path may spend.
+const PENALTY_BUDGET: usize = 400;
+
+/// The shortest fraction of a Newton step tried on the exactly integrated law.
+const SHORTEST_STEP: f64 = 1e-6;
 
 /// Newton settings of the inner solve.
 #[derive(Clone, Copy, Debug)]
@@ -172,6 +242,8 @@ pub struct InnerNewton<'p> {
     pub cache: Option<ContactCompliance>,
     /// Smoothing of the law in the current solve (length units; 0 = exact).
     pub smoothing: f64,
+    /// How the law's coefficients are computed.
+    pub integration: ForceIntegration,
 }
 
 impl InnerNewton<'_> {
@@ -196,7 +268,14 @@ impl InnerNewton<'_> {
         s: &OrbitState,
         mu: &Multipliers,
     ) -> Result<(Vec<f64>, ContactSamples), ForcedError> {
-        let cs = contact_samples_smoothed(self.basis, self.g0, &s.y, mu, self.smoothing);
+        let cs = contact_samples_smoothed(
+            self.basis,
+            self.g0,
+            &s.y,
+            mu,
+            self.smoothing,
+            self.integration,
+        );
         let comp = self.compliance(s.omega)?;
         let lambda = faer::MatRef::from_column_major_slice(&cs.coefficients, s.y.len(), 1);
         let g_lambda = product(comp.g.as_ref(), lambda);
@@ -228,6 +307,18 @@ impl InnerNewton<'_> {
             Ok(it) => return Ok(it),
             Err(e) => e,
         };
+        if let ForceIntegration::ExactPenalty { stiffness, phases } = self.integration {
+            state.clone_from(&start);
+            let done = self.penalty_homotopy(state, mu, arc, stiffness, phases);
+            self.integration = ForceIntegration::ExactPenalty { stiffness, phases };
+            return match done {
+                Some(it) => Ok(spent + it),
+                None => {
+                    *state = start;
+                    Err(first)
+                }
+            };
+        }
         *state = start;
         for k in 2..=8 {
             self.smoothing = 10f64.powi(-k) * self.y_scale;
@@ -240,6 +331,59 @@ impl InnerNewton<'_> {
             Ok(it) => Ok(spent + it),
             Err(_) => Err(first),
         }
+    }
+
+    /// The exactly integrated penalty law's rescue (DESIGN §10.7): its Jacobian is continuous
+    /// but, where a contact phase appears, changes like k sqrt(penetration), and with a stiff law
+    /// on a lightly damped resonance Newton's basin can be narrower than the distance from a
+    /// prediction (or from the orbit at another N) to the orbit. At a soft stiffness
+    /// `PENALTY_START` x k the basin is wide; the stiffness then grows geometrically to k, each
+    /// stage from the last converged orbit, by a ratio that halves (in decades) after a failed
+    /// stage and doubles after a converged one, between `PENALTY_RATIO_MIN` and 10. Returns the
+    /// iterations spent, or `None` (the state is then left anywhere).
+    fn penalty_homotopy(
+        &mut self,
+        state: &mut OrbitState,
+        mu: &Multipliers,
+        arc: Option<&ArcRow>,
+        stiffness: f64,
+        phases: ContactPhases,
+    ) -> Option<usize> {
+        let mut spent = 0;
+        let (mut factor, mut decades) = (PENALTY_START, 1.0_f64);
+        let mut converged = false;
+        let mut last = state.clone();
+        while spent < PENALTY_BUDGET {
+            let trial = if converged {
+                (factor * 10f64.powf(decades)).min(1.0)
+            } else {
+                factor
+            };
+            self.integration = ForceIntegration::ExactPenalty {
+                stiffness: stiffness * trial,
+                phases,
+            };
+            match self.run_once(state, mu, arc) {
+                Ok(it) => {
+                    spent += it;
+                    if trial >= 1.0 {
+                        return Some(spent);
+                    }
+                    (factor, converged) = (trial, true);
+                    last.clone_from(state);
+                    decades = (2.0 * decades).min(1.0);
+                }
+                Err(_) => {
+                    spent += self.settings.max_iterations;
+                    if !converged || decades < PENALTY_RATIO_MIN.log10() {
+                        return None;
+                    }
+                    state.clone_from(&last);
+                    decades *= 0.5;
+                }
+            }
+        }
+        None
     }
 
     /// One Newton run at the current smoothing (see [`Self::run`]).
@@ -262,8 +406,23 @@ impl InnerNewton<'_> {
                 return Ok(it);
             }
             let (dy, dp) = self.direction(state, &r, &cs, arc)?;
+            // The exactly integrated law is continuously differentiable: the Newton direction
+            // decreases every residual for a short enough step, so only a decrease is taken
+            // (down to `SHORTEST_STEP`); the sampled law's kinks may need a step that does not
+            // decrease to leave a cycle between active sets (taken at 1/64).
+            let exact = matches!(self.integration, ForceIntegration::ExactPenalty { .. });
+            let forced_at = if exact { 0.0 } else { 1.0 / 64.0 };
             let mut step = 1.0;
             loop {
+                if exact && step < SHORTEST_STEP {
+                    return Err(ForcedError::NotConverged {
+                        omega: state.omega,
+                        reason: format!(
+                            "inner Newton: no step along the Newton direction decreases the \
+                             residual {merit:.3e} (units of g0)"
+                        ),
+                    });
+                }
                 let mut trial = OrbitState {
                     y: state.y.iter().zip(&dy).map(|(a, d)| a + step * d).collect(),
                     ..state.clone()
@@ -274,7 +433,7 @@ impl InnerNewton<'_> {
                 }
                 let (rt, ct) = self.residual(&trial, mu)?;
                 let mt = self.merit(&rt, arc.map(|a| (a, &trial)));
-                if mt.is_finite() && (mt < merit || step < 1.0 / 64.0) {
+                if mt.is_finite() && (mt < merit || step < forced_at) {
                     (*state, r, cs, merit) = (trial, rt, ct, mt);
                     break;
                 }
@@ -295,6 +454,30 @@ impl InnerNewton<'_> {
 }
 
 impl InnerNewton<'_> {
+    /// The unit tangent of the solution curve at the converged `state` (in the scaled space of
+    /// `along`: dy / y_scale, dp / p_scale), oriented so that it has a positive component along
+    /// `along`'s tangent: the null vector of [dR/dy, dR/dp], bordered by that tangent.
+    pub fn tangent(
+        &mut self,
+        state: &OrbitState,
+        mu: &Multipliers,
+        along: &ArcRow,
+    ) -> Result<Vec<f64>, ForcedError> {
+        let (_, cs) = self.residual(state, mu)?;
+        let zero = vec![0.0; state.y.len()];
+        let (dy, dp) = self.bordered_solve(state, &zero, &cs, Some((along, -1.0)))?;
+        let mut t: Vec<f64> = dy.iter().map(|v| v / along.y_scale).collect();
+        t.push(dp / along.parameter_scale);
+        let norm = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(norm.is_finite() && norm > 0.0) {
+            return Err(ForcedError::NotConverged {
+                omega: state.omega,
+                reason: "no tangent: the bordered matrix is singular".into(),
+            });
+        }
+        Ok(t.into_iter().map(|v| v / norm).collect())
+    }
+
     /// The Newton direction (dy, dp) from the reduced (bordered) system on the active rows.
     fn direction(
         &mut self,
@@ -303,11 +486,24 @@ impl InnerNewton<'_> {
         cs: &ContactSamples,
         arc: Option<&ArcRow>,
     ) -> Result<(Vec<f64>, f64), ForcedError> {
+        self.bordered_solve(s, r, cs, arc.map(|a| (a, a.residual(s))))
+    }
+
+    /// Solves [dR/dy, dR/dp; arc row] (dy, dp) = -(r, arc residual) on the active rows, the
+    /// inactive ones following (the arc row and its residual given with `arc`).
+    fn bordered_solve(
+        &mut self,
+        s: &OrbitState,
+        r: &[f64],
+        cs: &ContactSamples,
+        arc_row: Option<(&ArcRow, f64)>,
+    ) -> Result<(Vec<f64>, f64), ForcedError> {
+        let arc = arc_row.map(|(a, _)| a);
         let (t, m, l) = (self.basis.terms(), self.basis.samples(), s.y.len());
         let active: Vec<usize> = (0..self.g0.len())
-            .filter(|&j| cs.slope[j * m..(j + 1) * m].iter().any(|&v| v != 0.0))
+            .filter(|&j| cs.row_active(j, m))
             .collect();
-        let gj = self.compliance_times_slopes(s.omega, &active, &cs.slope)?;
+        let gj = self.compliance_times_slopes(s.omega, &active, cs)?;
         let rate = match arc.map(|a| a.parameter) {
             Some(Parameter::Frequency) => {
                 let z = self.dynamics.response(s.omega, s.level, &cs.coefficients)?;
@@ -360,7 +556,8 @@ impl InnerNewton<'_> {
                     a[(la, col)] = tv(global(col)) - against(&|i| column[i]);
                 }
                 a[(la, la)] = arc.tangent_parameter / arc.parameter_scale - against(&|i| rate[i]);
-                rhs[la] = -arc.residual(s) + against(&|i| r[i]);
+                let residual = arc_row.map_or(0.0, |(_, v)| v);
+                rhs[la] = -residual + against(&|i| r[i]);
             }
         }
         if dim > 0 {
@@ -386,21 +583,28 @@ impl InnerNewton<'_> {
         Ok((dy, dw))
     }
 
-    /// G[:, active rows] times the block-diagonal J_Lambda of the active rows (L x La).
+    /// G[:, active rows] times the block-diagonal J_Lambda of the active rows (L x La): the
+    /// exact blocks of the integrated penalty law, or the projected slopes of the sampled law.
     fn compliance_times_slopes(
         &mut self,
         omega: f64,
         active: &[usize],
-        slope: &[f64],
+        cs: &ContactSamples,
     ) -> Result<Mat<f64>, ForcedError> {
         let (t, m) = (self.basis.terms(), self.basis.samples());
-        let mut block = Mat::zeros(t, t);
+        let mut projected = Mat::zeros(t, t);
         let basis = self.basis;
         let g = &self.compliance(omega)?.g;
         let mut gj = Mat::zeros(g.nrows(), active.len() * t);
         for (ai, &j) in active.iter().enumerate() {
-            basis.project_slopes(&slope[j * m..(j + 1) * m], block.as_mut());
-            let prod = product(g.subcols(j * t, t), block.as_ref());
+            let block = match cs.blocks.get(j) {
+                Some(Some(exact)) => exact.as_ref(),
+                _ => {
+                    basis.project_slopes(&cs.slope[j * m..(j + 1) * m], projected.as_mut());
+                    projected.as_ref()
+                }
+            };
+            let prod = product(g.subcols(j * t, t), block);
             gj.subcols_mut(ai * t, t).copy_from(&prod);
         }
         Ok(gj)

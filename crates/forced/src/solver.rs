@@ -10,9 +10,13 @@ use nlmodes_hb::{
 
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::ladder::HarmonicCheck;
 use crate::load::Load;
-use crate::newton::{contact_samples, ArcRow, InnerNewton, InnerTolerance, OrbitState};
+use crate::newton::{
+    contact_samples, ArcRow, ForceIntegration, InnerNewton, InnerTolerance, OrbitState,
+};
 use crate::period_check::PeriodCheck;
+use nlmodes_hb::penalty_integral::ContactPhases;
 
 /// Newton iterations one forced point may spend over all of Algorithm 1's inner solves. A
 /// continuation step that needs more is cheaper retried shorter: on the blade a converged point
@@ -71,6 +75,24 @@ pub struct ForcedPoint {
     pub inner_solves: usize,
     /// Newton iterations summed over the inner solves.
     pub newton_iterations: usize,
+    /// N of the basis the point was solved on.
+    pub harmonics: usize,
+    /// Whether the orbit touches (a contact phase anywhere in the period, however short).
+    pub touching: bool,
+    /// What the check of N found (`ladder`; `Unchecked` from a plain solve).
+    pub harmonic_check: HarmonicCheck,
+}
+
+impl ForcedPoint {
+    /// Whether the orbit touches anywhere in the period.
+    pub fn touches(&self) -> bool {
+        self.touching
+    }
+
+    /// First-harmonic amplitude sqrt(a_1^2 + b_1^2) of physical coordinate `i` (length units).
+    pub fn first_harmonic(&self, i: usize) -> f64 {
+        self.coefficients[(i, 1)].hypot(self.coefficients[(i, 2)])
+    }
 }
 
 /// The forced problem for one system, damping and load.
@@ -83,6 +105,7 @@ pub struct ForcedSolver<'s> {
     settings: ForcedSettings,
     kappa_initial: Vec<f64>,
     kappa_cap: Vec<f64>,
+    integration: ForceIntegration,
 }
 
 /// The state Algorithm 1 drives: the orbit and the one it last accepted.
@@ -101,7 +124,13 @@ impl InnerSolves for ForcedInner<'_, '_> {
             .map_err(|e| HbError::InnerSolve {
                 detail: e.to_string(),
             })?;
-        let cs = contact_samples(self.newton.basis, self.newton.g0, &self.state.y, mu);
+        let cs = contact_samples(
+            self.newton.basis,
+            self.newton.g0,
+            &self.state.y,
+            mu,
+            self.newton.integration,
+        );
         *gaps = cs.gaps;
         Ok(it)
     }
@@ -163,6 +192,13 @@ impl<'s> ForcedSolver<'s> {
                 (vec![stiffness; ks.len()], vec![stiffness; ks.len()])
             }
         };
+        let integration = match settings.algorithm.method {
+            ContactMethod::Penalty { stiffness } => ForceIntegration::ExactPenalty {
+                stiffness,
+                phases: ContactPhases::new(basis.harmonics(), basis.samples()),
+            },
+            ContactMethod::AugmentedLagrangian => ForceIntegration::Sampled,
+        };
         Ok(Self {
             system,
             damping: damping.clone(),
@@ -172,7 +208,22 @@ impl<'s> ForcedSolver<'s> {
             settings,
             kappa_initial,
             kappa_cap,
+            integration,
         })
+    }
+
+    /// The same problem on N = `harmonics` (the time samples grown with N in proportion, at
+    /// least `HarmonicSettings::default_samples`).
+    pub fn with_harmonics(&self, harmonics: usize) -> Result<ForcedSolver<'s>, ForcedError> {
+        let base = self.settings.harmonics;
+        let samples = (base.samples * harmonics)
+            .div_ceil(base.harmonics)
+            .max(HarmonicSettings::default_samples(harmonics));
+        let settings = ForcedSettings {
+            harmonics: HarmonicSettings::new(harmonics, samples)?,
+            ..self.settings.clone()
+        };
+        ForcedSolver::new(self.system, &self.damping, &self.load, settings)
     }
 
     /// The system.
@@ -347,17 +398,12 @@ impl<'s> ForcedSolver<'s> {
         }
     }
 
-    /// Solves at the start's W (fixed) or on the arc row `arc` (W free).
-    pub fn solve(
-        &self,
-        start: ForcedStart,
-        arc: Option<&ArcRow>,
-    ) -> Result<ForcedPoint, ForcedError> {
-        let g0 = self.system.gaps();
-        let mut newton = InnerNewton {
+    /// The inner Newton solve of this problem.
+    fn inner_newton(&self) -> InnerNewton<'_> {
+        InnerNewton {
             dynamics: &self.dynamics,
             basis: &self.basis,
-            g0,
+            g0: self.system.gaps(),
             y_scale: self.system.gap_reference(),
             settings: InnerTolerance {
                 tolerance: self.settings.newton_tolerance,
@@ -365,7 +411,35 @@ impl<'s> ForcedSolver<'s> {
             },
             cache: None,
             smoothing: 0.0,
+            integration: self.integration,
+        }
+    }
+
+    /// The unit tangent of the curve at the converged `point` in the scaled space of `along`
+    /// (see `InnerNewton::tangent`), oriented along `along`'s tangent.
+    pub fn tangent(&self, point: &ForcedPoint, along: &ArcRow) -> Result<Vec<f64>, ForcedError> {
+        let state = OrbitState {
+            y: point.contact.clone(),
+            omega: point.omega,
+            level: point.level,
         };
+        self.inner_newton()
+            .tangent(&state, &point.multipliers, along)
+    }
+
+    /// Whether the contact law is integrated exactly (the penalty law): its curve has no corners.
+    pub fn integrates_exactly(&self) -> bool {
+        matches!(self.integration, ForceIntegration::ExactPenalty { .. })
+    }
+
+    /// Solves at the start's W (fixed) or on the arc row `arc` (W free).
+    pub fn solve(
+        &self,
+        start: ForcedStart,
+        arc: Option<&ArcRow>,
+    ) -> Result<ForcedPoint, ForcedError> {
+        let g0 = self.system.gaps();
+        let mut newton = self.inner_newton();
         let ForcedStart {
             state,
             mut multipliers,
@@ -419,7 +493,13 @@ impl<'s> ForcedSolver<'s> {
         solves: usize,
         iterations: usize,
     ) -> Result<ForcedPoint, ForcedError> {
-        let cs = contact_samples(&self.basis, self.system.gaps(), &state.y, &multipliers);
+        let cs = contact_samples(
+            &self.basis,
+            self.system.gaps(),
+            &state.y,
+            &multipliers,
+            self.integration,
+        );
         let z = self
             .dynamics
             .response(state.omega, state.level, &cs.coefficients)?;
@@ -439,12 +519,15 @@ impl<'s> ForcedSolver<'s> {
             level: state.level,
             coefficients,
             contact: state.y,
+            touching: cs.touches(self.basis.samples()),
             contact_force: cs.force,
             gaps: cs.gaps,
             multipliers,
             powell_measure: measure,
             inner_solves: solves,
             newton_iterations: iterations,
+            harmonics: self.basis.harmonics(),
+            harmonic_check: HarmonicCheck::Unchecked,
         })
     }
 }

@@ -24,6 +24,7 @@
 
 use faer::MatRef;
 
+use crate::error::ForcedError;
 use crate::load::Load;
 
 /// A backbone point as the synthesis needs it.
@@ -94,16 +95,66 @@ pub fn nonlinear_damping_ratio(
         / (2.0 * orbit.omega * weighted_energy(m, orbit.coefficients))
 }
 
-/// The single-nonlinear-mode synthesis at each backbone point under the fundamental of `load`.
+/// Checks free orbits against a model of order `n`: q and w finite and > 0, at least the mean
+/// and the fundamental, every coefficient vector of n finite values (a backbone of another
+/// model has another order). The error names the point (0-based) and both sizes.
+pub fn check_orbits(n: usize, orbits: &[FreeOrbit<'_>]) -> Result<(), ForcedError> {
+    for (k, o) in orbits.iter().enumerate() {
+        for (name, v) in [("q", o.q), ("w", o.omega)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ForcedError::Load {
+                    what: format!("backbone point {k}"),
+                    detail: format!("{name} = {v:e}: expected a finite value > 0"),
+                });
+            }
+        }
+        if o.coefficients.len() < 2 {
+            return Err(ForcedError::Shape {
+                what: format!("backbone point {k}"),
+                found: format!("{} harmonic(s)", o.coefficients.len()),
+                expected: "the mean and at least the fundamental (2)".into(),
+            });
+        }
+        for (h, u) in o.coefficients.iter().enumerate() {
+            if u.len() != n {
+                return Err(ForcedError::Shape {
+                    what: format!("backbone point {k}, harmonic {h}"),
+                    found: format!("{} coordinates", u.len()),
+                    expected: format!("{n} (the order of the model)"),
+                });
+            }
+            if let Some(i) = u.iter().position(|v| !v.is_finite()) {
+                return Err(ForcedError::Load {
+                    what: format!("backbone point {k}, harmonic {h}"),
+                    detail: format!("coordinate {i} = {}: expected a finite value", u[i]),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The single-nonlinear-mode synthesis at each backbone point under the fundamental of `load`;
+/// the orbits are checked first ([`check_orbits`] against the order of M).
 pub fn synthesize(
     m: MatRef<'_, f64>,
     c: MatRef<'_, f64>,
     load: &Load,
     orbits: &[FreeOrbit<'_>],
-) -> Vec<SynthesizedPoint> {
+) -> Result<Vec<SynthesizedPoint>, ForcedError> {
     let n = m.nrows();
+    check_orbits(n, orbits)?;
+    if c.nrows() != n || c.ncols() != n {
+        return Err(ForcedError::Shape {
+            what: "damping matrix C".into(),
+            found: format!("{}x{}", c.nrows(), c.ncols()),
+            expected: format!("{n}x{n}"),
+        });
+    }
+    let highest = load.harmonics.iter().map(|h| h.harmonic).max().unwrap_or(1);
+    load.validate(n, highest)?;
     let (fc, fs) = load.at(1, n);
-    orbits
+    Ok(orbits
         .iter()
         .filter(|o| o.q > 0.0 && o.coefficients.len() > 1)
         .map(|o| {
@@ -129,5 +180,5 @@ pub fn synthesize(
                 discriminant: disc,
             }
         })
-        .collect()
+        .collect())
 }

@@ -37,7 +37,7 @@ fn linear_synthesis_matches_the_modal_damping_and_the_forced_peak() {
         .collect();
     let d = nonlinear_damping_ratio(system.mass(), c.as_ref(), &orbits[10]);
     assert!((d - zeta).abs() < 1e-14, "D = {d}");
-    let synth = synthesize(system.mass(), c.as_ref(), &load, &orbits);
+    let synth = synthesize(system.mass(), c.as_ref(), &load, &orbits).expect("synthesis");
     let (q_synth, w_synth) = synthesized_peak(&synth).unwrap();
 
     let settings = ForcedSettings::new(3).unwrap();

@@ -156,6 +156,16 @@ impl Piece {
             .sum()
     }
 
+    /// The time derivative of row j's event function at tau.
+    fn event_rate(&self, j: usize, w0: &[c64], tau: f64) -> f64 {
+        (0..w0.len())
+            .map(|k| {
+                let l = self.values[k];
+                (self.events[(j, k)] * l * (l * tau).exp() * w0[k]).re
+            })
+            .sum()
+    }
+
     /// Every row's event function at tau (one exponential per eigenvalue, shared by the rows).
     fn events_at(&self, w0: &[c64], tau: f64) -> Vec<f64> {
         let e: Vec<c64> = (0..w0.len())
@@ -317,19 +327,52 @@ fn next_switch(
     }
     let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * piece.fastest);
     let mut t0 = 0.0;
+    let mut rates: Vec<f64> = (0..c).map(|j| piece.event_rate(j, w0, 0.0)).collect();
     while t0 < horizon {
         let t1 = (t0 + step).min(horizon);
         let events = piece.events_at(w0, t1);
+        let rates_after: Vec<f64> = (0..c).map(|j| piece.event_rate(j, w0, t1)).collect();
         let crossing = (0..c)
-            .filter(|&j| events[j] > tol)
-            .map(|j| (bisect(piece, w0, j, t0, t1), j))
+            .filter_map(|j| {
+                if events[j] > tol {
+                    return Some((bisect(piece, w0, j, t0, t1), j));
+                }
+                // A short excursion past the boundary between two scan points (a grazing
+                // contact, shorter than the scan step): the event function rises, then falls;
+                // its maximum, where its rate vanishes, is past the threshold.
+                if rates[j] > 0.0 && rates_after[j] < 0.0 {
+                    let top = bisect_rate(piece, w0, j, t0, t1);
+                    if piece.event(j, w0, top) > tol {
+                        return Some((bisect(piece, w0, j, t0, top), j));
+                    }
+                }
+                None
+            })
             .min_by(|a, b| a.0.total_cmp(&b.0));
         if crossing.is_some() {
             return crossing;
         }
-        t0 = t1;
+        (t0, rates) = (t1, rates_after);
     }
     None
+}
+
+/// The time in (a, b) where row j's event rate falls through 0 (positive at a, negative at b):
+/// the event function's maximum.
+fn bisect_rate(piece: &Piece, w0: &[c64], j: usize, a: f64, b: f64) -> f64 {
+    let (mut lo, mut hi) = (a, b);
+    for _ in 0..BISECTION_STEPS {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if piece.event_rate(j, w0, mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 /// The time in (a, b] where row j's event function rises through 0 (the positive side).

@@ -52,6 +52,7 @@ pub mod linear_model;
 pub mod modal_tail;
 pub mod newton;
 pub mod newton_fallback;
+pub mod penalty_integral;
 pub mod solver_settings;
 pub mod system;
 

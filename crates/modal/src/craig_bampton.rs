@@ -55,7 +55,7 @@ pub struct CraigBampton {
     /// max |M_r - M_r^T| / max |M_r| before symmetrization.
     pub asymmetry_m: f64,
     /// Order of the input matrices.
-    n_full: usize,
+    pub n_full: usize,
 }
 
 impl CraigBampton {

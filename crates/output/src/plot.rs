@@ -2,7 +2,9 @@
 //!
 //! * [`LinePlot`]: axes with "nice" ticks, title, axis labels, several [`Series`] (solid, dashed
 //!   or dotted lines, optional markers), a legend, and dashed reference lines ([`RefLine`]) such as
-//!   "contact at 1" or "grazing".
+//!   "contact at 1" or "grazing". Its [`LineLayout`] says where everything is drawn: the legend
+//!   inside the plot area only where it meets no data, else beside or below it; reference-line
+//!   labels outside the area ([`LineLayout::clashes`] lists any overlap).
 //! * [`HeatMap`]: a matrix of values as colored cells with a color bar (the contact map: contact
 //!   node x time).
 //! * [`SurfacePicture`]: a triangulated surface (e.g. a deformed mesh) flat-shaded in an
@@ -13,11 +15,17 @@
 //! Both render to an SVG string (`to_svg`) and write `.svg` / `.png` files atomically
 //! (`write_svg`, `write_png`, `write_svg_and_png`). Non-finite data are refused.
 
+mod axis;
+mod clash;
 mod color;
 mod frame;
 mod heatmap;
+mod legend;
 mod line;
+mod line_layout;
+mod line_svg;
 mod raster;
+mod rect;
 mod series;
 mod surface;
 mod svg;
@@ -26,7 +34,9 @@ mod ticks;
 pub use color::{Color, Colormap, PALETTE};
 pub use heatmap::HeatMap;
 pub use line::LinePlot;
+pub use line_layout::{LineLayout, RefLabel, Stroke};
 pub use raster::{fonts_available, png_color_share, svg_to_png, PNG_SCALE};
+pub use rect::Rect;
 pub use series::{LegendPosition, LineStyle, Orientation, RefLine, Series};
 pub use surface::{Marker, SurfacePanel, SurfacePicture, View};
 pub use ticks::{nice_ticks, Ticks};
@@ -92,5 +102,7 @@ pub(crate) fn prefix(e: OutputError, path: &Path) -> OutputError {
     }
 }
 
+#[cfg(test)]
+mod layout_tests;
 #[cfg(test)]
 mod tests;

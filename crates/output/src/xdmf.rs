@@ -13,7 +13,13 @@
 //! and h5py alike).
 //!
 //! Readers: ParaView (`Xdmf3ReaderS`/`Xdmf3ReaderT`, and the older `XDMF Reader`) animates the
-//! collection with the time values written (`<Time Value=...>`); meshio's
+//! collection with the time values written (`<Time Value=...>`): each of the three reads every
+//! frame's points, cells and fields, shared arrays included, when asked for a time step as the
+//! GUI asks (checked by `tests/paraview_readers.py` on every series of a run). Asked for no time
+//! step, the Xdmf3 readers return an empty grid for any temporal collection (their output is
+//! one grid and the collection's frames are many; a series written by meshio does the same),
+//! and given a bare file name (no directory) ParaView 5.11's Xdmf3 readers join it to the HDF5
+//! name (`mode.xdmfmode.h5`) and abort: nothing in the file changes either. meshio's
 //! `meshio.xdmf.TimeSeriesReader` reads it with h5py.
 //!
 //! Topology: `Tetrahedron` or `Tetrahedron_10`, whose node order is VTK's (`VTK_TETRA`,

@@ -27,6 +27,11 @@ pub(crate) fn left_margin(tick_width: f64) -> f64 {
     16.0 + LABEL_FONT + 10.0 + tick_width + 8.0
 }
 
+/// Baseline of a title of `size` px.
+pub(crate) fn title_baseline(size: f64) -> f64 {
+    20.0 + size * 0.8
+}
+
 /// The title, bold, centred on `cx` at the top of the image (nothing if empty).
 pub(crate) fn title(svg: &mut Svg, cx: f64, text: &str, size: f64) {
     if text.is_empty() {
@@ -34,7 +39,7 @@ pub(crate) fn title(svg: &mut Svg, cx: f64, text: &str, size: f64) {
     }
     svg.text(
         cx,
-        20.0 + size * 0.8,
+        title_baseline(size),
         text,
         TextStyle {
             size,
@@ -47,7 +52,8 @@ pub(crate) fn title(svg: &mut Svg, cx: f64, text: &str, size: f64) {
 /// The plot area (x0, x1, y0, y1) in px, y downward.
 pub(crate) type Area = (f64, f64, f64, f64);
 
-/// The x label under the area (the image is `height` px high) and the y label left of it.
+/// The x label under the area (its baseline 14 px above `height`, the bottom of the frame's
+/// room) and the y label left of it.
 pub(crate) fn axis_labels(svg: &mut Svg, area: Area, height: f64, x_label: &str, y_label: &str) {
     let (x0, x1, y0, y1) = area;
     let label = TextStyle {

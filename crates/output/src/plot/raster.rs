@@ -53,6 +53,16 @@ pub fn fonts_available() -> bool {
     !font_db().is_empty()
 }
 
+/// `svg` parsed with the system fonts: its text laid out as the PNG draws it.
+pub(crate) fn parse_with_fonts(svg: &str) -> Result<usvg::Tree, usvg::Error> {
+    let options = usvg::Options {
+        fontdb: Arc::clone(font_db()),
+        font_family: "sans-serif".to_string(),
+        ..usvg::Options::default()
+    };
+    usvg::Tree::from_str(svg, &options)
+}
+
 /// Rasterizes `svg` at `scale` PNG pixels per SVG pixel and writes it to `path` atomically.
 /// Fails with [`OutputError::NoFonts`] when no font is installed, rather than writing a PNG
 /// without its text.
@@ -70,13 +80,7 @@ pub fn svg_to_png(svg: &str, path: &Path, scale: f32) -> Result<(), OutputError>
             path: path.to_path_buf(),
         });
     }
-    let options = usvg::Options {
-        fontdb: Arc::clone(db),
-        font_family: "sans-serif".to_string(),
-        ..usvg::Options::default()
-    };
-    let tree =
-        usvg::Tree::from_str(svg, &options).map_err(|e| render_err(format!("invalid SVG: {e}")))?;
+    let tree = parse_with_fonts(svg).map_err(|e| render_err(format!("invalid SVG: {e}")))?;
     let size = tree
         .size()
         .to_int_size()

@@ -41,7 +41,7 @@ pub struct Series {
     pub style: LineStyle,
     /// Draw a marker at every point.
     pub markers: bool,
-    /// Line width (px).
+    /// Line width (px); the markers' radius follows it ([`Series::marker_radius`]).
     pub width: f64,
 }
 
@@ -81,6 +81,12 @@ impl Series {
     pub fn width(mut self, w: f64) -> Self {
         self.width = w;
         self
+    }
+
+    /// Radius of its markers (px): 1.6 times the line width, 3.2 px at the default width 2, at
+    /// least 1.6 px.
+    pub fn marker_radius(&self) -> f64 {
+        1.6 * self.width.max(1.0)
     }
 }
 
@@ -124,18 +130,27 @@ impl RefLine {
     }
 }
 
-/// Where the legend box goes (inside the plot area).
+/// Where the legend box goes. A legend is never drawn over data: a corner inside the plot area
+/// is used only when the box there, with a margin, meets no curve, marker or reference line;
+/// otherwise the legend goes beside the area ([`LegendPosition::Right`]) and the image widens.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LegendPosition {
-    /// Top right corner.
+    /// The first free corner inside the area (top right, top left, bottom right, bottom
+    /// left); beside the area when none is free.
     #[default]
+    Auto,
+    /// Top right corner if free, else beside the area.
     TopRight,
-    /// Top left corner.
+    /// Top left corner if free, else beside the area.
     TopLeft,
-    /// Bottom right corner.
+    /// Bottom right corner if free, else beside the area.
     BottomRight,
-    /// Bottom left corner.
+    /// Bottom left corner if free, else beside the area.
     BottomLeft,
+    /// Beside the area, right of it, top-aligned (the image widens).
+    Right,
+    /// Below the x axis label, in as many columns as fit the image's width (the image grows).
+    Below,
     /// No legend.
     Hidden,
 }

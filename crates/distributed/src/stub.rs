@@ -1,0 +1,67 @@
+//! The crate without the `petsc` feature: the same entry points, none of which can run.
+
+use nlmodes_fem::{DofMap, Isotropic, Mesh};
+use nlmodes_modal::{CraigBampton, Modes};
+
+use crate::error::{DistributedError, Result};
+use crate::launch::{launch_variable, World};
+
+/// Never constructed without the `petsc` feature.
+pub enum Session {}
+
+/// [`DistributedError::NotBuilt`] under an MPI launcher, `None` otherwise.
+pub fn start() -> Result<Option<Session>> {
+    match launch_variable() {
+        Some(v) => Err(DistributedError::NotBuilt {
+            variable: v.to_string(),
+        }),
+        None => Ok(None),
+    }
+}
+
+/// Always `None`: no session can run.
+pub fn world() -> Option<World> {
+    None
+}
+
+/// Nothing to end without a session.
+pub fn abort_if_parallel(_code: i32) {}
+
+/// As with the `petsc` feature.
+pub struct ReductionInput<'a> {
+    pub mesh: &'a Mesh,
+    pub material: &'a Isotropic,
+    pub dofs: &'a DofMap,
+    pub boundary: &'a [usize],
+    pub n_modes: usize,
+    pub check_modes: usize,
+    pub loads: &'a [Vec<f64>],
+}
+
+/// As with the `petsc` feature.
+pub struct Reduction {
+    pub cb: CraigBampton,
+    pub full_check_hz: Option<Vec<f64>>,
+}
+
+fn not_built() -> DistributedError {
+    DistributedError::NotBuilt {
+        variable: launch_variable().unwrap_or("none").to_string(),
+    }
+}
+
+/// Always [`DistributedError::NotBuilt`].
+pub fn craig_bampton(_input: &ReductionInput) -> Result<Option<Reduction>> {
+    Err(not_built())
+}
+
+/// Always [`DistributedError::NotBuilt`].
+pub fn full_modes(
+    _mesh: &Mesh,
+    _material: &Isotropic,
+    _dofs: &DofMap,
+    _nev: usize,
+    _sigma: f64,
+) -> Result<Option<Modes>> {
+    Err(not_built())
+}

@@ -1,0 +1,279 @@
+//! N converged point by point (DESIGN §10.8): the forced problem at N0, 2 N0, 4 N0, ... up to
+//! `max_harmonics`, and the check that decides which N a point in contact needs.
+//!
+//! A point in contact solved at N on an arc row is solved again at 2N on the same row (its
+//! tangent and prediction padded with zero harmonics), from its own orbit padded. When the first
+//! harmonic of the master and W move by at most the tolerance (relative), N is enough
+//! ([`HarmonicCheck::Converged`]); otherwise the point at 2N replaces it and is checked at 4N,
+//! and so on up to the ladder's top ([`HarmonicCheck::NotConverged`]). A point above the base
+//! is first compared with N / 2: when that agrees, the point is converged and the next steps
+//! go down to N / 2. Out of contact the equation is linear and its harmonic balance exact at any
+//! N ([`HarmonicCheck::Linear`]).
+
+use nlmodes_hb::contact::Multipliers;
+
+use crate::error::ForcedError;
+use crate::newton::{ArcRow, OrbitState};
+use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
+
+/// The largest relative change of the master's first harmonic or of W between a point and its
+/// solve at 2N for the two to be the same orbit (a truncation error; on the test systems the
+/// change from N = 10 to 20 is at most 4e-3).
+const REFINE_REACH: f64 = 0.05;
+
+/// What the check of a point's N found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HarmonicCheck {
+    /// Not checked (the default of a solve).
+    Unchecked,
+    /// No contact: the orbit is exact at any N.
+    Linear,
+    /// Doubling N moved the master's first harmonic and W by the relative `change` = [q, W],
+    /// both within the tolerance.
+    Converged {
+        /// [|dq1| / q1, |dW| / W] at 2N.
+        change: [f64; 2],
+    },
+    /// Still moving at the top of the ladder (`change` at its last doubling), or the solve at
+    /// 2N failed (`change` None).
+    NotConverged {
+        /// [|dq1| / q1, |dW| / W] at the last doubling, when that solve converged.
+        change: Option<[f64; 2]>,
+    },
+}
+
+/// The forced problem at N0 2^k, k = 0, 1, ..., N0 2^k <= `max_harmonics`.
+pub struct HarmonicLadder<'a, 's> {
+    base: &'a ForcedSolver<'s>,
+    finer: Vec<ForcedSolver<'s>>,
+    tolerance: f64,
+}
+
+impl<'a, 's> HarmonicLadder<'a, 's> {
+    /// The ladder above `base` up to `max_harmonics` (at least the base alone), converging
+    /// points to `tolerance` (relative).
+    pub fn new(
+        base: &'a ForcedSolver<'s>,
+        max_harmonics: usize,
+        tolerance: f64,
+    ) -> Result<Self, ForcedError> {
+        let mut finer = Vec::new();
+        let mut n = 2 * base.basis().harmonics();
+        while n <= max_harmonics {
+            finer.push(base.with_harmonics(n)?);
+            n *= 2;
+        }
+        Ok(Self {
+            base,
+            finer,
+            tolerance,
+        })
+    }
+
+    /// Number of levels (1 for the base alone).
+    pub fn levels(&self) -> usize {
+        1 + self.finer.len()
+    }
+
+    /// The solver of `level` (0: the base).
+    pub fn solver(&self, level: usize) -> &ForcedSolver<'s> {
+        if level == 0 {
+            self.base
+        } else {
+            &self.finer[level - 1]
+        }
+    }
+
+    /// The level whose basis has `harmonics` (the base when none has).
+    pub fn level_of(&self, harmonics: usize) -> usize {
+        (0..self.levels())
+            .find(|&l| self.solver(l).basis().harmonics() == harmonics)
+            .unwrap_or(0)
+    }
+
+    /// The solver a point was solved with.
+    pub fn solver_of(&self, point: &ForcedPoint) -> &ForcedSolver<'s> {
+        self.solver(self.level_of(point.harmonics))
+    }
+
+    /// Checks `point` (solved at `level` on `arc`, or at fixed W without one) as the module
+    /// docs say; returns the point to keep (checked) and the level the next steps take. Above
+    /// the base the coarser level is tried first: when it agrees within the tolerance the point
+    /// is converged and the next steps go one level down (N falls where the contact eases).
+    pub fn converge(
+        &self,
+        mut point: ForcedPoint,
+        mut level: usize,
+        arc: Option<&ArcRow>,
+    ) -> (ForcedPoint, usize) {
+        if !point.touches() {
+            point.harmonic_check = HarmonicCheck::Linear;
+            return (point, level);
+        }
+        let mut last_change = None;
+        if level > 0 {
+            if let Some((_, change)) = self.same_orbit(&point, level - 1, arc) {
+                if change.iter().all(|&c| c <= self.tolerance) {
+                    point.harmonic_check = HarmonicCheck::Converged { change };
+                    return (point, level - 1);
+                }
+                last_change = Some(change);
+            }
+        }
+        while level + 1 < self.levels() {
+            let Some((finer_point, change)) = self.same_orbit(&point, level + 1, arc) else {
+                point.harmonic_check = HarmonicCheck::NotConverged { change: None };
+                return (point, level);
+            };
+            if change.iter().all(|&c| c <= self.tolerance) {
+                point.harmonic_check = HarmonicCheck::Converged { change };
+                return (point, level);
+            }
+            last_change = Some(change);
+            (point, level) = (finer_point, level + 1);
+        }
+        point.harmonic_check = HarmonicCheck::NotConverged {
+            change: last_change,
+        };
+        (point, level)
+    }
+
+    /// The orbit of `point` solved again at `level` on the same row (or at the same W), and the
+    /// relative change [q1, W] between the two; `None` when that solve fails or lands on
+    /// another orbit (a change beyond `REFINE_REACH`, or in or out of contact when the point is
+    /// not: next to grazing the row crosses orbits in and out of contact close together).
+    fn same_orbit(
+        &self,
+        point: &ForcedPoint,
+        level: usize,
+        arc: Option<&ArcRow>,
+    ) -> Option<(ForcedPoint, [f64; 2])> {
+        let solver = self.solver(level);
+        let row = arc.map(|a| resize_arc(a, solver));
+        let other = match solver.solve(start_at(point, solver), row.as_ref()) {
+            Ok(p) => p,
+            Err(e) => {
+                tracing::debug!(
+                    omega = point.omega,
+                    harmonics = solver.basis().harmonics(),
+                    "forced response: the check of N did not converge: {e}"
+                );
+                return None;
+            }
+        };
+        let change = self.change(point, &other);
+        if change.iter().any(|&c| c > REFINE_REACH) || other.touches() != point.touches() {
+            tracing::debug!(
+                omega = point.omega,
+                ?change,
+                "forced response: the check of N landed on another orbit"
+            );
+            return None;
+        }
+        Some((other, change))
+    }
+
+    /// [|dq1| / q1, |dW| / W] between two solves of one orbit at different N (relative to
+    /// the one at the larger N).
+    fn change(&self, a: &ForcedPoint, b: &ForcedPoint) -> [f64; 2] {
+        let (coarse, fine) = if a.harmonics <= b.harmonics {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let master = self.base.system().master();
+        let (q, qf) = (coarse.first_harmonic(master), fine.first_harmonic(master));
+        [
+            (q - qf).abs() / qf.abs().max(f64::MIN_POSITIVE),
+            (coarse.omega - fine.omega).abs() / fine.omega,
+        ]
+    }
+}
+
+/// A vector of `rows` signals of `from` coefficients each, truncated or padded with zeros to
+/// `to` coefficients per signal (the layout `[u_0, a_1, b_1, ...]` of `FullBasis` keeps the low
+/// harmonics in front).
+pub fn resize_signals(y: &[f64], rows: usize, from: usize, to: usize) -> Vec<f64> {
+    let mut out = vec![0.0; rows * to];
+    let keep = from.min(to);
+    for j in 0..rows {
+        out[j * to..j * to + keep].copy_from_slice(&y[j * from..j * from + keep]);
+    }
+    out
+}
+
+/// Samples per period resampled by periodic linear interpolation (`rows` signals of `from`
+/// samples each to `to` samples each).
+fn resample(v: &[f64], rows: usize, from: usize, to: usize) -> Vec<f64> {
+    let mut out = Vec::with_capacity(rows * to);
+    for j in 0..rows {
+        let s = &v[j * from..(j + 1) * from];
+        for k in 0..to {
+            let x = k as f64 * from as f64 / to as f64;
+            let (i, f) = (x.floor() as usize % from, x.fract());
+            out.push((1.0 - f) * s[i] + f * s[(i + 1) % from]);
+        }
+    }
+    out
+}
+
+/// The multipliers on another time grid of `samples` points.
+fn resample_multipliers(mu: &Multipliers, samples: usize) -> Multipliers {
+    let rows = mu.rows();
+    Multipliers {
+        samples,
+        theta: resample(&mu.theta, rows, mu.samples, samples),
+        kappa: resample(&mu.kappa, rows, mu.samples, samples),
+    }
+}
+
+/// The start of a solve at `target`'s N from a point solved at another N.
+pub fn start_at(point: &ForcedPoint, target: &ForcedSolver<'_>) -> ForcedStart {
+    let rows = target.system().n_contacts();
+    let from = point.contact.len() / rows.max(1);
+    ForcedStart {
+        state: OrbitState {
+            y: resize_signals(&point.contact, rows, from, target.basis().terms()),
+            omega: point.omega,
+            level: point.level,
+        },
+        multipliers: resample_multipliers(&point.multipliers, target.basis().samples()),
+    }
+}
+
+/// An arc row re-expressed at `to`'s N (tangent and prediction padded or truncated).
+pub fn resize_arc(arc: &ArcRow, to: &ForcedSolver<'_>) -> ArcRow {
+    let rows = to.system().n_contacts();
+    let (a, b) = (arc.predicted.y.len() / rows.max(1), to.basis().terms());
+    ArcRow {
+        tangent_y: resize_signals(&arc.tangent_y, rows, a, b),
+        predicted: OrbitState {
+            y: resize_signals(&arc.predicted.y, rows, a, b),
+            ..arc.predicted.clone()
+        },
+        ..arc.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resizing_keeps_the_low_harmonics_of_every_row() {
+        let y = [1.0, 2.0, 3.0, 10.0, 20.0, 30.0];
+        let up = resize_signals(&y, 2, 3, 5);
+        assert_eq!(
+            up,
+            vec![1.0, 2.0, 3.0, 0.0, 0.0, 10.0, 20.0, 30.0, 0.0, 0.0]
+        );
+        assert_eq!(resize_signals(&up, 2, 5, 3), y.to_vec());
+    }
+
+    #[test]
+    fn resampling_is_periodic_linear_interpolation() {
+        let v = [0.0, 1.0, 2.0, 3.0];
+        let r = resample(&v, 1, 4, 8);
+        assert_eq!(r, vec![0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 1.5]);
+    }
+}

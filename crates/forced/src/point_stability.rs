@@ -1,0 +1,176 @@
+//! The Floquet stability of each point of a response curve (docs/STABILITY.md Secs. 8-9): the
+//! exact monodromy of the massless contact boundary's shot orbit for points in contact where
+//! that model applies, else the switched monodromy of the harmonic-balance orbit backed by one
+//! period of independent time integration (`period_check`); then the changes of stability
+//! between consecutive determined points of one piece.
+
+use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
+
+use crate::error::ForcedError;
+use crate::frf::{FrequencyResponse, FrfSettings};
+use crate::ladder::HarmonicLadder;
+
+/// What a change of stability between two points is, from the multiplier that crossed the unit
+/// circle (its argument within 0.05 rad of 0 or pi, else a complex pair).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ForcedBifurcation {
+    /// Through +1 (at a fold of the curve, or a branch point).
+    Fold,
+    /// Through -1.
+    PeriodDoubling,
+    /// A complex pair (quasi-periodic motion sets in).
+    NeimarkSacker,
+}
+
+/// The Floquet stability of one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointStability {
+    /// Stable, unstable or undetermined (within the margin).
+    pub verdict: Verdict,
+    /// Largest multiplier modulus (`None` where the monodromy was not computed: the period
+    /// check already made the point undetermined).
+    pub largest_multiplier: Option<f64>,
+    /// Argument of that multiplier (rad).
+    pub argument: Option<f64>,
+    /// Liouville error of the monodromy (see `nlmodes_hb::floquet`).
+    pub liouville_error: Option<f64>,
+    /// The change of stability since the previous point, if any.
+    pub bifurcation: Option<ForcedBifurcation>,
+    /// How far one period of time integration of the penalty equation from the orbit's start
+    /// lands from it (relative; `period_check`); `None` for exact contact (not checked). Above
+    /// `FrfSettings::period_tolerance` the verdict is undetermined.
+    pub period_residual: Option<f64>,
+    /// On the massless contact boundary (points in contact, docs/STABILITY.md Sec. 9): the
+    /// scaled distance from the harmonic-balance orbit's start to the shot orbit's, whose
+    /// multipliers these are; above `BOUNDARY_SHIFT_LIMIT` the verdict is undetermined. `None`
+    /// where the massive model's monodromy and the period check were used.
+    pub boundary_shift: Option<f64>,
+}
+
+impl PointStability {
+    pub(crate) fn on_boundary(b: &crate::boundary::BoundaryMonodromy, margin: f64) -> Self {
+        let mut st = Self::of(&b.monodromy, margin);
+        st.boundary_shift = Some(b.shift);
+        if b.shift > crate::boundary::BOUNDARY_SHIFT_LIMIT {
+            st.verdict = Verdict::Undetermined;
+        }
+        st
+    }
+
+    fn of(mono: &SampledMonodromy, margin: f64) -> Self {
+        let first = mono.multipliers.first().copied().unwrap_or([0.0, 0.0]);
+        Self {
+            verdict: mono.verdict(margin),
+            largest_multiplier: Some(mono.largest()),
+            argument: Some(first[1].atan2(first[0])),
+            liouville_error: mono.liouville_error,
+            bifurcation: None,
+            period_residual: None,
+            boundary_shift: None,
+        }
+    }
+
+    /// Undetermined without a monodromy (see [`FrfSettings::period_tolerance`]).
+    fn unchecked() -> Self {
+        Self {
+            verdict: Verdict::Undetermined,
+            largest_multiplier: None,
+            argument: None,
+            liouville_error: None,
+            bifurcation: None,
+            period_residual: None,
+            boundary_shift: None,
+        }
+    }
+
+    /// The bifurcation between `previous` (the last determined point before this one) and this
+    /// point, when this one is determined and differs.
+    fn classify(&mut self, previous: &PointStability) {
+        let determined = |v: Verdict| v != Verdict::Undetermined;
+        if !(determined(self.verdict) && determined(previous.verdict))
+            || self.verdict == previous.verdict
+        {
+            return;
+        }
+        let unstable = if self.verdict == Verdict::Unstable {
+            *self
+        } else {
+            *previous
+        };
+        let arg = unstable.argument.unwrap_or(0.0).abs();
+        self.bifurcation = Some(if arg < 0.05 {
+            ForcedBifurcation::Fold
+        } else if arg > std::f64::consts::PI - 0.05 {
+            ForcedBifurcation::PeriodDoubling
+        } else {
+            ForcedBifurcation::NeimarkSacker
+        });
+    }
+}
+
+/// Floquet stability of the points not assessed yet (when asked for): each point's period
+/// check and monodromy in parallel (they depend on the point alone, so the result is the
+/// same in any order), then the changes of stability in order.
+pub(crate) fn assess_stability(
+    ladder: &HarmonicLadder<'_, '_>,
+    settings: &FrfSettings,
+    curve: &mut FrequencyResponse,
+) -> Result<(), ForcedError> {
+    use rayon::prelude::*;
+    if !settings.stability {
+        return Ok(());
+    }
+    let from = curve.stability.len();
+    let assessed: Vec<Result<PointStability, ForcedError>> = curve.points[from..]
+        .par_iter()
+        .map(|point| {
+            let solver = ladder.solver_of(point);
+            let touching = point.touches();
+            if touching {
+                if let Some(b) = solver.boundary_monodromy(point, false)? {
+                    return Ok(PointStability::on_boundary(&b, settings.stability_margin));
+                }
+            }
+            let residual = solver.period_residual(point);
+            let mut st = if residual.is_some_and(|r| r > settings.period_tolerance) {
+                // Not a periodic solution of the equation the monodromy linearizes. Under a
+                // penalty law on a model whose modes are all resolved, the exact periodic
+                // orbit of that equation next to the point answers (its verdict, unless
+                // farther than the shift limit); otherwise no verdict to compute.
+                let exact = if touching && solver.every_mode_resolved(point.omega) {
+                    solver.boundary_monodromy(point, true)?
+                } else {
+                    None
+                };
+                exact.map_or_else(PointStability::unchecked, |b| {
+                    PointStability::on_boundary(&b, settings.stability_margin)
+                })
+            } else {
+                let mono = solver.monodromy(point)?;
+                PointStability::of(&mono, settings.stability_margin)
+            };
+            st.period_residual = residual;
+            Ok(st)
+        })
+        .collect();
+    for st in assessed {
+        let mut st = st?;
+        // A change of stability is between points of one piece.
+        let piece = curve
+            .pieces
+            .iter()
+            .copied()
+            .filter(|&k| k <= curve.stability.len())
+            .max()
+            .unwrap_or(0);
+        let determined = curve.stability[piece..]
+            .iter()
+            .rev()
+            .find(|p| p.verdict != Verdict::Undetermined);
+        if let Some(prev) = determined {
+            st.classify(prev);
+        }
+        curve.stability.push(st);
+    }
+    Ok(())
+}

@@ -1,0 +1,317 @@
+//! `nlmodes reduce` over MPI (issue 40): `mpirun -n 1` and `-n 2` on the coarse blade
+//! (meshes/blade.geo, mesh_size 0.012, 8004 free DOFs, 20 fixed-interface modes) give the
+//! serial reduced model, and a failing or killed rank ends the whole job with an error.
+//!
+//! Tolerances: the reduced frequencies to 1e-8 relative and K_r, M_r to 1e-8 of their largest
+//! entry, after aligning the signs of the modal basis vectors. Both paths converge the
+//! fixed-interface modes to relative residuals near 1e-10 (serial block Lanczos; SLEPc with
+//! -eps_tol 1e-10), so their shapes agree to about 1e-10 / (relative eigenvalue gap) and the
+//! reduced matrices, linear in them, to ~1e-9; the projections and factorizations differ only
+//! by round-off (1e-13). Every mpirun has a timeout: a hang fails the test.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use nlmodes_modal::ReducedModel;
+
+/// Longest an mpirun of the coarse blade may take (it takes seconds; minutes on a loaded
+/// 2-core machine).
+const MPIRUN_TIMEOUT: Duration = Duration::from_secs(300);
+
+/// `mpirun -n ranks nlmodes --quiet args...`, killed after `timeout`; None when it timed out.
+fn mpirun(ranks: usize, args: &[&str], timeout: Duration) -> Option<Output> {
+    let child = mpirun_command(ranks, args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cannot start mpirun (Open MPI: scripts/deps installs openmpi-bin)");
+    wait_with_timeout(child, timeout)
+}
+
+fn mpirun_command(ranks: usize, args: &[&str]) -> Command {
+    let mut cmd = Command::new("mpirun");
+    cmd.args(["-n", &ranks.to_string(), "--oversubscribe"])
+        // CI and this machine run as root; one BLAS and rayon thread per rank on 2 cores.
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OPENBLAS_NUM_THREADS", "1")
+        .env("RAYON_NUM_THREADS", "1")
+        .arg(env!("CARGO_BIN_EXE_nlmodes"))
+        .arg("--quiet")
+        .args(args);
+    cmd
+}
+
+/// Waits for `child`, killing it after `timeout` (then None).
+fn wait_with_timeout(mut child: std::process::Child, timeout: Duration) -> Option<Output> {
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("waiting for mpirun").is_some() {
+            return Some(child.wait_with_output().expect("mpirun output"));
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn reduce_args<'a>(mesh: &'a str, out: &'a str, compare: &'a str) -> Vec<&'a str> {
+    vec![
+        "reduce",
+        mesh,
+        "--modes",
+        "20",
+        "--compare",
+        compare,
+        "-o",
+        out,
+    ]
+}
+
+/// Largest |a - b| over the largest |a|.
+fn relative_difference(a: &faer::Mat<f64>, b: &faer::Mat<f64>) -> f64 {
+    let mut diff: f64 = 0.0;
+    let mut scale: f64 = 0.0;
+    for j in 0..a.ncols() {
+        for i in 0..a.nrows() {
+            diff = diff.max((a[(i, j)] - b[(i, j)]).abs());
+            scale = scale.max(a[(i, j)].abs());
+        }
+    }
+    diff / scale
+}
+
+/// `b` with the signs of its modal basis vectors (coordinates n_b..) aligned on `a`'s: the
+/// sign of each mode's mass coupling with the boundary coordinates.
+fn sign_aligned(a: &ReducedModel, b: &ReducedModel) -> (faer::Mat<f64>, faer::Mat<f64>) {
+    let n_b = 3 * a.contact_nodes.len();
+    let n = a.k.nrows();
+    let sign: Vec<f64> = (0..n)
+        .map(|j| {
+            if j < n_b {
+                return 1.0;
+            }
+            let c: f64 = (0..n_b).map(|i| a.m[(i, j)] * b.m[(i, j)]).sum();
+            if c < 0.0 {
+                -1.0
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let flip = |x: &faer::Mat<f64>| faer::Mat::from_fn(n, n, |i, j| sign[i] * sign[j] * x[(i, j)]);
+    (flip(&b.k), flip(&b.m))
+}
+
+fn assert_same_model(serial: &Path, mpi: &Path, ranks: usize) {
+    let s = ReducedModel::read(serial).expect("serial model");
+    let p = ReducedModel::read(mpi).expect("MPI model");
+    assert_eq!(s.k.nrows(), p.k.nrows(), "reduced order, {ranks} rank(s)");
+    assert_eq!(s.master.dof, p.master.dof, "master coordinate");
+    let worst = s
+        .linear_frequencies_hz
+        .iter()
+        .zip(&p.linear_frequencies_hz)
+        .map(|(a, b)| ((a - b) / a).abs())
+        .fold(0.0, f64::max);
+    let (k, m) = sign_aligned(&s, &p);
+    let (dk, dm) = (relative_difference(&s.k, &k), relative_difference(&s.m, &m));
+    eprintln!(
+        "{ranks} rank(s): frequencies {worst:.1e} relative, K_r {dk:.1e}, M_r {dm:.1e} of \
+         their largest entry"
+    );
+    assert!(
+        worst < 1e-8,
+        "frequencies differ by {worst:e} ({ranks} ranks)"
+    );
+    assert!(dk < 1e-8, "K_r differs by {dk:e} ({ranks} ranks)");
+    assert!(dm < 1e-8, "M_r differs by {dm:e} ({ranks} ranks)");
+}
+
+#[test]
+fn mpirun_with_one_and_two_ranks_gives_the_serial_reduced_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let serial = common::coarse_blade_model(dir.path());
+    let mesh = dir.path().join("coarse.msh");
+    let mesh = mesh.to_str().unwrap();
+    for ranks in [1, 2] {
+        let out = dir.path().join(format!("model-{ranks}"));
+        let args = reduce_args(mesh, out.to_str().unwrap(), "0");
+        let output = mpirun(ranks, &args, MPIRUN_TIMEOUT)
+            .unwrap_or_else(|| panic!("mpirun -n {ranks} did not end in {MPIRUN_TIMEOUT:?}"));
+        assert!(
+            output.status.success(),
+            "mpirun -n {ranks}: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert_same_model(&serial, &out, ranks);
+    }
+}
+
+#[test]
+fn bad_input_under_mpirun_ends_every_rank_with_exit_status_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("coarse.msh");
+    common::nlmodes_ok(&[
+        "mesh",
+        common::blade_geo().to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--set",
+        "mesh_size=0.012",
+    ]);
+    let out = dir.path().join("model");
+    let mut args = reduce_args(mesh.to_str().unwrap(), out.to_str().unwrap(), "0");
+    args.extend(["--contact", "no_such_group"]);
+    let output = mpirun(2, &args, MPIRUN_TIMEOUT).expect("mpirun -n 2 hung on bad input");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("no_such_group"), "{stderr}");
+    assert!(!out.exists(), "no model directory after a failure");
+}
+
+/// The process ids of mpirun's children with `OMPI_COMM_WORLD_RANK=rank`.
+fn rank_pids(mpirun: u32, rank: usize) -> Vec<u32> {
+    let wanted = format!("OMPI_COMM_WORLD_RANK={rank}");
+    std::fs::read_dir("/proc")
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|pid| {
+            let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+            let ppid = stat
+                .rsplit(')')
+                .next()
+                .and_then(|s| s.split_whitespace().nth(1))
+                .and_then(|s| s.parse::<u32>().ok());
+            ppid == Some(mpirun)
+                && std::fs::read(format!("/proc/{pid}/environ"))
+                    .unwrap_or_default()
+                    .split(|&b| b == 0)
+                    .any(|v| v == wanted.as_bytes())
+        })
+        .collect()
+}
+
+#[test]
+fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("coarse.msh");
+    common::nlmodes_ok(&[
+        "mesh",
+        common::blade_geo().to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--set",
+        "mesh_size=0.012",
+    ]);
+    let out = dir.path().join("model");
+    // The full-model check too, so that the run lasts a few seconds after the ranks start.
+    let mut args = reduce_args(mesh.to_str().unwrap(), out.to_str().unwrap(), "10");
+    args.extend(["--full-check", "on"]);
+    let child = mpirun_command(2, &args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cannot start mpirun");
+    let start = Instant::now();
+    let victim = loop {
+        if let Some(&pid) = rank_pids(child.id(), 1).first() {
+            break pid;
+        }
+        assert!(start.elapsed() < MPIRUN_TIMEOUT, "rank 1 never started");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    // Mid-run: after MPI is up and the mesh is read (about a second), before the reduction ends.
+    std::thread::sleep(Duration::from_millis(1500));
+    let rank0 = rank_pids(child.id(), 0);
+    let killed = Command::new("kill")
+        .args(["-KILL", &victim.to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success(), "rank 1 had already ended");
+    let output = wait_with_timeout(child, MPIRUN_TIMEOUT).expect("the other rank hung");
+    assert!(!output.status.success(), "mpirun reported success");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("signal 9") || stderr.contains("Killed") || stderr.contains("killed"),
+        "mpirun names the killed rank: {stderr}"
+    );
+    for pid in rank0 {
+        assert!(
+            !Path::new(&format!("/proc/{pid}")).exists()
+                || std::fs::read_to_string(format!("/proc/{pid}/stat"))
+                    .is_ok_and(|s| s.contains(") Z ")),
+            "rank 0 (pid {pid}) still runs"
+        );
+    }
+    assert!(!out.join("model.json").exists(), "no model after a failure");
+}
+
+/// The eigenvalues of a `frequencies.csv` (column 3, rad^2/s^2).
+fn eigenvalues_csv(path: &Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn mpirun_modes_with_two_ranks_gives_the_serial_frequencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("coarse.msh");
+    let mesh_s = mesh.to_str().unwrap();
+    let geo = common::blade_geo();
+    common::nlmodes_ok(&[
+        "mesh",
+        geo.to_str().unwrap(),
+        "-o",
+        mesh_s,
+        "--set",
+        "mesh_size=0.012",
+    ]);
+    let (serial, mpi) = (dir.path().join("serial"), dir.path().join("mpi"));
+    let args = |out: &Path| {
+        ["modes", mesh_s, "--fix", "root", "--modes", "10", "-o"]
+            .iter()
+            .map(|s| s.to_string())
+            .chain([out.to_str().unwrap().to_string()])
+            .collect::<Vec<_>>()
+    };
+    let serial_args = args(&serial);
+    common::nlmodes_ok(&serial_args.iter().map(String::as_str).collect::<Vec<_>>());
+    let mpi_args = args(&mpi);
+    let output = mpirun(
+        2,
+        &mpi_args.iter().map(String::as_str).collect::<Vec<_>>(),
+        MPIRUN_TIMEOUT,
+    )
+    .expect("mpirun -n 2 modes did not end");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let (s, p) = (
+        eigenvalues_csv(&serial.join("frequencies.csv")),
+        eigenvalues_csv(&mpi.join("frequencies.csv")),
+    );
+    assert_eq!(s.len(), 10);
+    assert_eq!(p.len(), 10);
+    // Both solvers converge to relative residuals of 1e-10 or less: eigenvalue errors of the
+    // order of the squared residual times the spectral spread, far below 1e-8.
+    for (a, b) in s.iter().zip(&p) {
+        assert!(
+            ((a - b) / a).abs() < 1e-8,
+            "eigenvalue {a} (serial) vs {b} (MPI)"
+        );
+    }
+    assert!(mpi.join("modes.vtu").exists());
+}
