@@ -291,9 +291,14 @@ mod tests {
         let basis = [0.0, 60.0, 120.0];
         let speeds = [0.0, 30.0, 60.0, 95.0, 120.0];
         let mut basis_modes = BasisModes::new(&basis, 8);
-        let family = SpeedFamily::of(&fe, &material, &axis, nonlinear, (&speeds, &[]), &mut |mut p| {
-            basis_modes.visit(&mut p, &fe.m)
-        })
+        let family = SpeedFamily::of(
+            &fe,
+            &material,
+            &axis,
+            nonlinear,
+            (&speeds, &[]),
+            &mut |mut p| basis_modes.visit(&mut p, &fe.m),
+        )
         .unwrap();
         let k0_err = (&family.at(0.0).unwrap() - &fe.k)
             .data()

@@ -19,9 +19,7 @@
 use anyhow::{Context, Result};
 use faer::Mat;
 use nlmodes_fem::rotation::RotorAxis;
-use nlmodes_modal::{
-    Accuracy, AccuracyCheck, ParametricContact, ParametricModel, ReducedModel,
-};
+use nlmodes_modal::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel, ReducedModel};
 use sprs::CsMat;
 
 use std::path::Path;
@@ -213,7 +211,9 @@ impl<'a> ParametricBuilder<'a> {
         let reference = self.reference.as_mut().context("no reference model")?;
         let t = reference.recovery.as_ref().context("no basis")?;
         let (d, n_b) = (t.nrows(), boundary.len());
-        let mut columns: Vec<Vec<f64>> = (0..t.ncols()).map(|j| t.col(j).iter().copied().collect()).collect();
+        let mut columns: Vec<Vec<f64>> = (0..t.ncols())
+            .map(|j| t.col(j).iter().copied().collect())
+            .collect();
         let m_times = |x: &[f64]| {
             let mut y = Mat::<f64>::zeros(d, 1);
             let x = Mat::from_fn(d, 1, |i, _| x[i]);
@@ -223,11 +223,16 @@ impl<'a> ParametricBuilder<'a> {
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         let mut m_columns: Vec<Vec<f64>> = columns[n_b..].iter().map(|c| m_times(c)).collect();
         let added_before = columns.len();
-        for v in modes.iter().flat_map(|v| (0..v.ncols()).map(move |j| v.col(j))) {
+        for v in modes
+            .iter()
+            .flat_map(|v| (0..v.ncols()).map(move |j| v.col(j)))
+        {
             let mut w: Vec<f64> = v.iter().copied().collect();
             for (j, &b) in boundary.iter().enumerate() {
                 let vb = v[b];
-                w.iter_mut().zip(&columns[j]).for_each(|(x, c)| *x -= vb * c);
+                w.iter_mut()
+                    .zip(&columns[j])
+                    .for_each(|(x, c)| *x -= vb * c);
             }
             let original = dot(&w, &m_times(&w)).sqrt();
             for _pass in 0..2 {
@@ -332,7 +337,8 @@ impl<'a> ParametricBuilder<'a> {
                 .map(|d| &d.1)
                 .with_context(|| format!("no static state at {w} rad/s"))
         };
-        let per_speed: Vec<&Vec<[f64; 3]>> = speeds.iter().map(|&w| at(w)).collect::<Result<_>>()?;
+        let per_speed: Vec<&Vec<[f64; 3]>> =
+            speeds.iter().map(|&w| at(w)).collect::<Result<_>>()?;
         Ok(self
             .contact
             .iter()
@@ -462,9 +468,15 @@ mod tests {
             },
         )
         .unwrap();
-        builder.enrich(&basis.modes().collect::<Vec<_>>(), &fe.m).unwrap();
+        builder
+            .enrich(&basis.modes().collect::<Vec<_>>(), &fe.m)
+            .unwrap();
         let opts = nlmodes_modal::EigenOptions::default();
-        for (omega, sample) in SAMPLES.iter().map(|w| (*w, true)).chain(CHECKS.iter().map(|w| (*w, false))) {
+        for (omega, sample) in SAMPLES
+            .iter()
+            .map(|w| (*w, true))
+            .chain(CHECKS.iter().map(|w| (*w, false)))
+        {
             let k = family.at(omega).unwrap();
             let (m, _) = family.mass_and_solver();
             let full = nlmodes_modal::eigs_shift_invert(&k, m, 4, 0.0, &opts).unwrap();
@@ -518,11 +530,17 @@ mod tests {
                 assert!(c.full_model_frequency_error.unwrap() < 1e-6, "{c:?}");
                 assert!(c.interpolation_frequency_error < 1e-6, "{c:?}");
             }
-            assert_eq!(accuracy.checks.iter().filter(|c| c.between_samples).count(), 3);
+            assert_eq!(
+                accuracy.checks.iter().filter(|c| c.between_samples).count(),
+                3
+            );
             for omega in [30.0, 58.5] {
                 let s = southwell(&model, omega);
                 println!("nonlinear {nonlinear}: Southwell S at {omega} rad/s = {s:.5}");
-                assert!((s - 1.1933).abs() < 0.01 * 1.1933, "S = {s} at {omega} rad/s");
+                assert!(
+                    (s - 1.1933).abs() < 0.01 * 1.1933,
+                    "S = {s} at {omega} rad/s"
+                );
             }
         }
     }

@@ -17,13 +17,13 @@ use serde::{Deserialize, Serialize};
 use crate::campbell::{BasisModes, RitzCampbell, SpeedModes};
 use crate::campbell_march::SpeedFamily;
 use crate::campbell_parametric::{check_speeds, ParametricBuilder, ParametricSummary};
-use nlmodes_modal::ParametricModel;
 use crate::case::Case;
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
+use nlmodes_modal::ParametricModel;
 
 /// Tracked modes below this MAC with their predecessor are flagged (veering or a mode
 /// entering from above: the curve's identity is uncertain there).
@@ -195,7 +195,11 @@ impl<'a> CampbellStage<'a> {
         builder.enrich(&basis_modes.modes().collect::<Vec<_>>(), &family.m)?;
         let bar = crate::ui::bar((marched.len() + side.len()) as u64, "campbell");
         let mut modes = Vec::with_capacity(speeds.len());
-        for (&omega, is_sample) in marched.iter().map(|w| (w, true)).chain(side.iter().map(|w| (w, false))) {
+        for (&omega, is_sample) in marched
+            .iter()
+            .map(|w| (w, true))
+            .chain(side.iter().map(|w| (w, false)))
+        {
             let k = family.at(omega)?;
             let at = ritz.solve(&k, r.campbell_modes + 2)?;
             let full_hz = at.eigenvalues.iter().map(|&l| hz(l)).collect();
@@ -247,7 +251,8 @@ impl Stage for CampbellStage<'_> {
     fn outputs(&self) -> Vec<PathBuf> {
         vec![
             self.out.join("campbell.json"),
-            self.parametric_dir().join(nlmodes_modal::parametric::PARAMETRIC_FILE),
+            self.parametric_dir()
+                .join(nlmodes_modal::parametric::PARAMETRIC_FILE),
         ]
     }
     fn work(&self) -> Result<()> {

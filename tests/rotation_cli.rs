@@ -186,7 +186,11 @@ fn parametric_model(res: &Path) -> nlmodes_modal::ParametricModel {
     assert_eq!(model.kinematics(), "nonlinear");
     assert_eq!(model.reference_speed(), 5000.0 * rpm);
     let accuracy = model.accuracy().expect("the measured accuracy");
-    let between: Vec<_> = accuracy.checks.iter().filter(|c| c.between_samples).collect();
+    let between: Vec<_> = accuracy
+        .checks
+        .iter()
+        .filter(|c| c.between_samples)
+        .collect();
     assert_eq!(between.len(), 5);
     for c in &accuracy.checks {
         let full = c.full_model_frequency_error.unwrap();
@@ -197,7 +201,10 @@ fn parametric_model(res: &Path) -> nlmodes_modal::ParametricModel {
             c.interpolation_frequency_error,
             c.gap_error_m
         );
-        assert!(full < 1e-3 && c.interpolation_frequency_error < 1e-3, "{c:?}");
+        assert!(
+            full < 1e-3 && c.interpolation_frequency_error < 1e-3,
+            "{c:?}"
+        );
         assert!(c.gap_error_m < 1e-3 * 2e-4, "{c:?}");
     }
     model
@@ -223,7 +230,10 @@ fn parametric_against_the_model_at_speed(
         assert_eq!(a.mesh_node, b.mesh_node);
         worst_gap = worst_gap.max((a.gap - b.gap).abs());
     }
-    let (f, g) = (&model.linear_frequencies_hz, &at_speed.linear_frequencies_hz);
+    let (f, g) = (
+        &model.linear_frequencies_hz,
+        &at_speed.linear_frequencies_hz,
+    );
     let worst_f = (0..3)
         .map(|k| (f[k] - g[k]).abs() / g[k])
         .fold(0.0, f64::max);
@@ -231,8 +241,14 @@ fn parametric_against_the_model_at_speed(
         "parametric at {rpm} rpm against the model at speed: gaps {worst_gap:.1e} m, \
          frequencies {worst_f:.1e}"
     );
-    assert!(worst_gap < 1e-3 * 2e-4, "gaps differ by {worst_gap:e} m at {rpm} rpm");
-    assert!(worst_f < 1e-3, "frequencies differ by {worst_f:e} at {rpm} rpm");
+    assert!(
+        worst_gap < 1e-3 * 2e-4,
+        "gaps differ by {worst_gap:e} m at {rpm} rpm"
+    );
+    assert!(
+        worst_f < 1e-3,
+        "frequencies differ by {worst_f:e} at {rpm} rpm"
+    );
 }
 
 /// g(speed) = g0 - (r(x + u) - r(x)) at every contact node, from the two model files.

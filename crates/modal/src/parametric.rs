@@ -63,9 +63,7 @@ use crate::contact_geometry::{norm, RotorAxis};
 use crate::error::ModalError;
 use crate::matrix_market::{read_symmetric_dense, write_symmetric_dense};
 use crate::matrix_market_io::write_atomic;
-use crate::reduced_model::{
-    linear_frequencies_hz, ContactNode, RecoveryStorage, ReducedModel,
-};
+use crate::reduced_model::{linear_frequencies_hz, ContactNode, RecoveryStorage, ReducedModel};
 use crate::spline::CubicSpline;
 
 /// Value of the `format` field of `parametric.json`.
@@ -206,7 +204,9 @@ impl ParametricModel {
     ) -> Result<Self, ModalError> {
         let invalid = |m: String| ModalError::InvalidArgument(format!("parametric model: {m}"));
         if speeds.iter().any(|w| !w.is_finite() || *w < 0.0) {
-            return Err(invalid(format!("speeds {speeds:?} rad/s must be finite and >= 0")));
+            return Err(invalid(format!(
+                "speeds {speeds:?} rad/s must be finite and >= 0"
+            )));
         }
         let x: Vec<f64> = speeds.iter().map(|w| w * w).collect();
         let spline = CubicSpline::new(&x).ok_or_else(|| {
@@ -248,7 +248,10 @@ impl ParametricModel {
             crate::dense::check_dense_symmetric(k.as_ref(), &format!("K_r at speed {i}"))
                 .map_err(|e| e.to_string())?;
             if k.nrows() != n {
-                return Err(format!("K_r at speed {i} is {0} x {0}, the model's order is {n}", k.nrows()));
+                return Err(format!(
+                    "K_r at speed {i} is {0} x {0}, the model's order is {n}",
+                    k.nrows()
+                ));
             }
         }
         if self.contact.len() != self.reference.contact_nodes.len() {
@@ -267,13 +270,24 @@ impl ParametricModel {
                     c.cold_gap
                 ));
             }
-            let finite = c.undeformed_position.iter().chain(c.displacement_m.iter().flatten());
+            let finite = c
+                .undeformed_position
+                .iter()
+                .chain(c.displacement_m.iter().flatten());
             if finite.into_iter().any(|v| !v.is_finite()) {
-                return Err(format!("contact node {j}: a position or displacement is not finite"));
+                return Err(format!(
+                    "contact node {j}: a position or displacement is not finite"
+                ));
             }
         }
-        let at_reference = self.contact_nodes_from(&self.sample_weights(r)).map_err(|e| e.to_string())?;
-        for (j, (a, b)) in at_reference.iter().zip(&self.reference.contact_nodes).enumerate() {
+        let at_reference = self
+            .contact_nodes_from(&self.sample_weights(r))
+            .map_err(|e| e.to_string())?;
+        for (j, (a, b)) in at_reference
+            .iter()
+            .zip(&self.reference.contact_nodes)
+            .enumerate()
+        {
             let offset = norm(std::array::from_fn(|d| a.position[d] - b.position[d]));
             let tolerance = 1e-9 * b.gap;
             if offset > tolerance || (a.gap - b.gap).abs() > tolerance || a.dofs != b.dofs {
@@ -305,15 +319,18 @@ impl ParametricModel {
             return Ok(self.sample_weights(i));
         }
         let (lo, hi) = self.range();
-        self.spline.weights(omega * omega).filter(|_| omega >= 0.0).ok_or_else(|| {
-            ModalError::InvalidArgument(format!(
-                "speed {omega} rad/s ({:.1} rpm) is outside the parametric model's range \
+        self.spline
+            .weights(omega * omega)
+            .filter(|_| omega >= 0.0)
+            .ok_or_else(|| {
+                ModalError::InvalidArgument(format!(
+                    "speed {omega} rad/s ({:.1} rpm) is outside the parametric model's range \
                  [{lo}, {hi}] rad/s ([{:.1}, {:.1}] rpm)",
-                omega / RPM,
-                lo / RPM,
-                hi / RPM
-            ))
-        })
+                    omega / RPM,
+                    lo / RPM,
+                    hi / RPM
+                ))
+            })
     }
 
     /// The range of validity [first, last sample speed], rad/s.
@@ -392,7 +409,10 @@ impl ParametricModel {
             .zip(&self.reference.contact_nodes)
             .map(|(p, node)| {
                 let u: [f64; 3] = std::array::from_fn(|d| {
-                    c.iter().zip(&p.displacement_m).map(|(ck, u)| ck * u[d]).sum()
+                    c.iter()
+                        .zip(&p.displacement_m)
+                        .map(|(ck, u)| ck * u[d])
+                        .sum()
                 });
                 let x0 = p.undeformed_position;
                 let position = std::array::from_fn(|d| x0[d] + u[d]);
@@ -416,7 +436,11 @@ impl ParametricModel {
     pub fn at(&self, omega: f64) -> Result<ReducedModel, ModalError> {
         let k = self.stiffness_at(omega)?;
         let contact_nodes = self.contact_nodes_at(omega)?;
-        if let Some((j, c)) = contact_nodes.iter().enumerate().find(|(_, c)| !(c.gap > 0.0)) {
+        if let Some((j, c)) = contact_nodes
+            .iter()
+            .enumerate()
+            .find(|(_, c)| c.gap.is_nan() || c.gap <= 0.0)
+        {
             return Err(ModalError::InvalidArgument(format!(
                 "at {omega} rad/s ({:.1} rpm) the running gap of contact node {j} is {:e} m: \
                  the clearance is closed statically",
@@ -523,7 +547,8 @@ impl ParametricModel {
         let mut stiffness = Vec::with_capacity(d.stiffness_files.len());
         for file in &d.stiffness_files {
             let mut parts = Path::new(file).components();
-            let plain = matches!(parts.next(), Some(Component::Normal(_))) && parts.next().is_none();
+            let plain =
+                matches!(parts.next(), Some(Component::Normal(_))) && parts.next().is_none();
             if !plain {
                 return Err(bad(format!(
                     "stiffness file {file:?} must be a plain file name inside the model directory"

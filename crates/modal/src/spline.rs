@@ -153,6 +153,9 @@ fn solve_dense(m: usize, a: &mut [f64], b: &mut [f64]) -> Vec<f64> {
 mod tests {
     use super::*;
 
+    /// Interpolation nodes and the function sampled at them.
+    type NodesAndData<'a> = (&'a [f64], &'a dyn Fn(f64) -> f64);
+
     /// Cubic data are reproduced to round-off (1e-13 relative) on uneven nodes, anywhere in
     /// the range, for 3 (a quadratic then), 4 and 6 nodes; the weights sum to 1; bad nodes and
     /// points outside the range are refused.
@@ -160,7 +163,7 @@ mod tests {
     fn cubic_data_are_reproduced() {
         let cubic = |x: f64| 2.0 - 3.0 * x + 0.5 * x * x - 0.25 * x * x * x;
         let quadratic = |x: f64| 2.0 - 3.0 * x + 0.5 * x * x;
-        let cases: [(&[f64], &dyn Fn(f64) -> f64); 3] = [
+        let cases: [NodesAndData; 3] = [
             (&[0.0, 0.3, 4.0], &quadratic),
             (&[0.0, 0.3, 1.0, 4.0], &cubic),
             (&[0.0, 0.3, 1.0, 1.1, 2.5, 4.0], &cubic),
@@ -172,7 +175,12 @@ mod tests {
                 let x = 4.0 * j as f64 / 40.0;
                 let c = spline.weights(x).unwrap();
                 let v: f64 = c.iter().zip(&y).map(|(c, y)| c * y).sum();
-                assert!((v - f(x)).abs() < 1e-13 * 20.0, "{} nodes, x {x}: {v} vs {}", nodes.len(), f(x));
+                assert!(
+                    (v - f(x)).abs() < 1e-13 * 20.0,
+                    "{} nodes, x {x}: {v} vs {}",
+                    nodes.len(),
+                    f(x)
+                );
                 assert!((c.iter().sum::<f64>() - 1.0).abs() < 1e-13);
             }
             assert!(spline.weights(-1e-9).is_none() && spline.weights(4.0 + 1e-9).is_none());
@@ -218,7 +226,10 @@ mod tests {
             order(e16, e32)
         );
         let bound = |s: usize| 50.0 / 384.0 * (std::f64::consts::PI / (s - 1) as f64).powi(4);
-        assert!(e8 < bound(9) && e16 < bound(17) && e32 < bound(33), "{e8} {e16} {e32}");
+        assert!(
+            e8 < bound(9) && e16 < bound(17) && e32 < bound(33),
+            "{e8} {e16} {e32}"
+        );
         assert!(order(e16, e32) > 3.5, "{}", order(e16, e32));
     }
 }

@@ -113,7 +113,10 @@ fn parametric(structure: &Structure) -> ParametricModel {
         recovery: Some(t.clone()),
         mesh: None,
     };
-    let stiffness = SPEEDS.iter().map(|&w| project(&structure.k(w), &t)).collect();
+    let stiffness = SPEEDS
+        .iter()
+        .map(|&w| project(&structure.k(w), &t))
+        .collect();
     let contact = (0..2)
         .map(|j| ParametricContact {
             mesh_node: Some(j as u64 + 10),
@@ -122,8 +125,15 @@ fn parametric(structure: &Structure) -> ParametricModel {
             displacement_m: SPEEDS.iter().map(|&w| displacement(j, w)).collect(),
         })
         .collect();
-    ParametricModel::new(reference, REFERENCE, SPEEDS.to_vec(), stiffness, contact, "linear")
-        .unwrap()
+    ParametricModel::new(
+        reference,
+        REFERENCE,
+        SPEEDS.to_vec(),
+        stiffness,
+        contact,
+        "linear",
+    )
+    .unwrap()
 }
 
 fn max_abs(a: &Mat<f64>) -> f64 {
@@ -156,7 +166,11 @@ fn affine_stiffness_gives_an_exact_model() {
         let rows = at.contact_rows();
         for (j, node) in at.contact_nodes.iter().enumerate() {
             let gap = running_gap(j, omega);
-            assert!((node.gap - gap).abs() < 1e-12, "node {j}: {} vs {gap}", node.gap);
+            assert!(
+                (node.gap - gap).abs() < 1e-12,
+                "node {j}: {} vs {gap}",
+                node.gap
+            );
             let u = displacement(j, omega);
             let x = [POSITIONS[j][0] + u[0], POSITIONS[j][1] + u[1]];
             let r = x[0].hypot(x[1]);
@@ -180,7 +194,11 @@ fn speeds_outside_the_range_are_refused() {
     for omega in [-1.0, 400.0001, f64::NAN] {
         let err = model.at(omega).unwrap_err();
         assert!(matches!(err, ModalError::InvalidArgument(_)), "{err}");
-        assert!(err.to_string().contains("outside the parametric model's range"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("outside the parametric model's range"),
+            "{err}"
+        );
     }
 }
 
@@ -237,10 +255,19 @@ fn inconsistent_directories_are_refused() {
         std::fs::write(&json_path, text.replacen(from, to, 1)).unwrap();
         ParametricModel::read(dir.path()).unwrap_err().to_string()
     };
-    let err = edit("\"reference_speed_rad_s\": 200.0", "\"reference_speed_rad_s\": 250.0");
-    assert!(err.contains("parametric.json") && err.contains("not a sample speed"), "{err}");
+    let err = edit(
+        "\"reference_speed_rad_s\": 200.0",
+        "\"reference_speed_rad_s\": 250.0",
+    );
+    assert!(
+        err.contains("parametric.json") && err.contains("not a sample speed"),
+        "{err}"
+    );
     let err = edit("\"cold_gap\": 0.0001", "\"cold_gap\": 0.0002");
-    assert!(err.contains("contact node 0 at the reference speed"), "{err}");
+    assert!(
+        err.contains("contact node 0 at the reference speed"),
+        "{err}"
+    );
     let err = edit("\"K_speed_01.mtx\"", "\"K_speed_99.mtx\"");
     assert!(err.contains("K_speed_99.mtx"), "{err}");
     let err = edit("\"K_speed_01.mtx\"", "\"../K_speed_01.mtx\"");

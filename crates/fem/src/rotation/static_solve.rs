@@ -139,6 +139,9 @@ pub struct StaticSolution {
     pub steps: Vec<LoadStep>,
 }
 
+/// A Newton solve's history and converged tangent, or why it stopped with the history so far.
+type NewtonOutcome = Result<(Vec<NewtonIteration>, CsMat<f64>), (StopReason, Vec<NewtonIteration>)>;
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -276,7 +279,7 @@ impl RotatingModel<'_> {
         u: &mut [f64],
         options: &NewtonOptions,
         solver: &mut dyn LinearSolver,
-    ) -> Result<(Vec<NewtonIteration>, CsMat<f64>), (StopReason, Vec<NewtonIteration>)> {
+    ) -> NewtonOutcome {
         let mut history: Vec<NewtonIteration> = Vec::new();
         let mut correction = None;
         let mut initial = 0.0;

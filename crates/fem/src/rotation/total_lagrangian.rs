@@ -136,8 +136,8 @@ pub(crate) fn internal_force_and_tangent_with_rule(
 
 /// Adds the material part of the tangent at one point to the blocks b >= a of `k`.
 ///
-/// Entry (3a + i, 3b + j) gets c (lambda (F G_a)_i (F G_b)_j + mu (F G_b)_i (F G_a)_j)
-/// + c mu (G_a . G_b) (F F^T)_ij, evaluated in that order; the rows are walked as contiguous
+/// Entry (3a + i, 3b + j) gets c (lambda (F G_a)_i (F G_b)_j + mu (F G_b)_i (F G_a)_j) plus
+/// c mu (G_a . G_b) (F F^T)_ij, evaluated in that order; the rows are walked as contiguous
 /// runs over (b, j) so that the compiler vectorizes them (same operations per entry as the
 /// plain loops over a, b, i, j, hence the same bits).
 fn add_material_blocks(pt: &PointGeometry, npe: usize, f: &Mat3, lame: Lame, k: &mut [f64]) {
