@@ -32,6 +32,7 @@ mod newton;
 mod period_check;
 mod point_stability;
 mod solver;
+mod speed_grazing;
 mod speed_step;
 mod speed_sweep;
 mod synthesis;

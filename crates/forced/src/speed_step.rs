@@ -117,25 +117,47 @@ impl SpeedStepper<'_> {
         from: &SpeedPoint,
         arc: &SpeedArc,
     ) -> Result<SpeedPoint, ForcedError> {
-        let e = self.engine_order();
-        let row = arc.row(e);
-        let tolerance = self.settings.speed_tolerance * self.settings.speed_scale;
-        let mut speed = arc.speed;
-        let mut start = ForcedStart {
+        let row = arc.row(self.engine_order());
+        let start = ForcedStart {
             state: row.predicted.clone(),
             multipliers: from.point.multipliers.clone(),
         };
+        self.on_row(start, arc.speed, &|_, _| row.clone(), &|_, _| true)
+    }
+
+    /// The orbit on the row `row(solver, start)` builds at each frozen speed (from the speed
+    /// `speed` and the orbit `start` on), the frozen speed moved to W / e (module docs); a
+    /// point within the speed tolerance is kept when `settled(solver, point)`, else solved
+    /// again at the same speed from itself.
+    pub(crate) fn on_row(
+        &self,
+        mut start: ForcedStart,
+        mut speed: f64,
+        row: &dyn Fn(&ForcedSolver<'_>, &OrbitState) -> ArcRow,
+        settled: &dyn Fn(&ForcedSolver<'_>, &ForcedPoint) -> bool,
+    ) -> Result<SpeedPoint, ForcedError> {
+        let e = self.engine_order();
+        let tolerance = self.settings.speed_tolerance * self.settings.speed_scale;
         let mut previous: Option<(f64, f64)> = None;
         for corrections in 1..=SPEED_CORRECTIONS {
             let problem = self.family.at(speed)?;
             let solver = problem.solver(&self.settings.solver)?;
-            let point = solver.solve(start, Some(&row))?;
+            let arc = row(&solver, &start.state);
+            let point = solver.solve(start, Some(&arc))?;
             let mismatch = point.omega / e - speed;
+            tracing::debug!(
+                "speed sweep: correction {corrections} at {speed:.9e} rad/s: W / e - speed = \
+                 {mismatch:.3e} rad/s"
+            );
+            start = ForcedSolver::start_from(&point);
             if mismatch.abs() <= tolerance {
-                // Onto the speed line itself: W = e Omega exactly, from the point next to it.
-                let mut polish = ForcedSolver::start_from(&point);
-                polish.state.omega = e * speed;
-                let point = solver.solve(polish, None)?;
+                if !settled(&solver, &point) {
+                    continue;
+                }
+                // Onto the speed line itself: W = e Omega exactly, from the point next to it
+                // (at a fold of the speed the fixed-W solve can fail: the row's point stays).
+                start.state.omega = e * speed;
+                let point = solver.solve(start, None).unwrap_or(point);
                 return Ok(self.finish(speed, point, &solver, corrections + 1));
             }
             let next = match previous {
@@ -145,7 +167,6 @@ impl SpeedStepper<'_> {
                 _ => point.omega / e,
             };
             previous = Some((speed, mismatch));
-            start = ForcedSolver::start_from(&point);
             speed = next;
         }
         Err(ForcedError::NotConverged {
@@ -178,6 +199,7 @@ impl SpeedStepper<'_> {
         SpeedPoint {
             speed,
             gap_reference: system.gap_reference(),
+            running_gaps: system.gaps().to_vec(),
             mode_frequency: system.linear_frequencies()[s.mode],
             point,
             stability,
