@@ -30,6 +30,11 @@ const GRAZING_BAND: f64 = 0.05;
 const PENETRATIONS: [f64; 7] = [1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2];
 const BELOW: [f64; 3] = [-1e-4, -1e-3, -1e-2];
 
+/// Points after a passage that did not get across before it is tried again on the same row
+/// (each try costs a dozen solves; on the default blade the same row was tried at 20
+/// consecutive points, never across).
+const PASSAGE_RETRY: usize = 10;
+
 /// How far (in scaled distance, as a multiple of the hop's speed step) a hop may land from
 /// the last orbit (`corner::HOP_REACH`).
 const HOP_REACH: f64 = 20.0;
@@ -95,7 +100,11 @@ impl SpeedTrace<'_> {
     pub(crate) fn pass_grazing(&mut self, tangent: &[f64]) -> bool {
         let last = self.sweep.points.last().expect("two points").clone();
         let (row, penetration) = grazing_row(&last);
-        if penetration.abs() > GRAZING_BAND {
+        let n = self.sweep.points.len();
+        let retried = self
+            .failed_passage
+            .is_some_and(|(r, at)| r == row && n < at + PASSAGE_RETRY);
+        if penetration.abs() > GRAZING_BAND || retried {
             return false;
         }
         let terms = last.point.contact.len() / last.running_gaps.len().max(1);
@@ -127,6 +136,9 @@ impl SpeedTrace<'_> {
             crossed |= (target > 0.0) != (penetration > 0.0);
         }
         tracing::debug!(row, penetration, crossed, "speed sweep: grazing passage");
+        if !crossed {
+            self.failed_passage = Some((row, n));
+        }
         crossed
     }
 

@@ -25,7 +25,7 @@ use crate::error::ForcedError;
 use crate::frf::{FoldKind, FrfTermination};
 use crate::point_stability::PointStability;
 use crate::solver::{ForcedPoint, ForcedSettings};
-use crate::speed_step::{SpeedArc, SpeedFamily, SpeedStepper};
+use crate::speed_step::{assess, SpeedArc, SpeedFamily, SpeedStepper};
 use crate::trace::{norm, phase, phase_row, wrap_angle};
 use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::ContactMethod;
@@ -241,6 +241,9 @@ pub(crate) struct SpeedTrace<'a> {
     pub(crate) y_scale: f64,
     step: f64,
     pub(crate) sweep: SpeedSweep,
+    /// The row of the last grazing passage that did not get across and the number of points
+    /// then: the passage is not tried again on that row for `PASSAGE_RETRY` points.
+    pub(crate) failed_passage: Option<(usize, usize)>,
 }
 
 impl<'a> SpeedTrace<'a> {
@@ -250,7 +253,11 @@ impl<'a> SpeedTrace<'a> {
         settings: &'a SpeedSweepSettings,
         progress: &mut impl FnMut(&SpeedPoint),
     ) -> Result<Self, ForcedError> {
-        let stepper = SpeedStepper { family, settings };
+        let stepper = SpeedStepper {
+            family,
+            settings,
+            slope: std::cell::Cell::new(None),
+        };
         let first = stepper.at_speed(settings.start, None)?;
         progress(&first);
         let next = settings.start + settings.step * settings.speed_scale;
@@ -261,6 +268,7 @@ impl<'a> SpeedTrace<'a> {
             stepper,
             y_scale: first.gap_reference * (rows.max(1) as f64).sqrt(),
             step: settings.step,
+            failed_passage: None,
             sweep: SpeedSweep {
                 points: vec![first, second],
                 folds: Vec::new(),
@@ -482,8 +490,18 @@ impl<'a> SpeedTrace<'a> {
         });
     }
 
-    /// The changes of stability between consecutive determined points.
+    /// The Floquet stability of every point (when asked for; in parallel, each on the problem
+    /// at its own speed), then the changes of stability between consecutive determined points.
     fn classify_stability(&mut self) {
+        use rayon::prelude::*;
+        if !self.settings().stability {
+            return;
+        }
+        let (family, settings) = (self.stepper.family, self.stepper.settings);
+        self.sweep
+            .points
+            .par_iter_mut()
+            .for_each(|p| p.stability = Some(assess(family, settings, p)));
         let mut previous: Option<PointStability> = None;
         for p in &mut self.sweep.points {
             let Some(st) = p.stability.as_mut() else {
