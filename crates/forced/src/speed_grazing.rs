@@ -30,6 +30,10 @@ const GRAZING_BAND: f64 = 0.05;
 const PENETRATIONS: [f64; 7] = [1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 3e-2];
 const BELOW: [f64; 3] = [-1e-4, -1e-3, -1e-2];
 
+/// How far (relative to Omega_ref) the speed of a passage point may lie from the last point's:
+/// the passage's penetrations move the orbit along the curve by far less.
+const PASSAGE_REACH: f64 = 0.02;
+
 /// Points after a passage that did not get across before it is tried again on the same row
 /// (each try costs a dozen solves; on the default blade the same row was tried at 20
 /// consecutive points, never across).
@@ -170,7 +174,7 @@ impl SpeedTrace<'_> {
             multipliers: from.point.multipliers.clone(),
         };
         self.stepper
-            .on_row(start, from.speed, &make, &settled)
+            .on_row(start, from.speed, &make, &settled, PASSAGE_REACH * scales.1)
             .map_err(|e| tracing::debug!("speed sweep: no passage point at {target:e}: {e}"))
             .ok()
     }

@@ -59,6 +59,8 @@ pub(crate) struct SpeedArc {
     pub(crate) y: Vec<f64>,
     /// Predicted speed (rad/s).
     pub(crate) speed: f64,
+    /// The step h in the scaled space.
+    pub(crate) step: f64,
     /// y_s (m) and Omega_ref (rad/s) of the scaled space.
     pub(crate) y_scale: f64,
     pub(crate) speed_scale: f64,
@@ -127,21 +129,27 @@ impl SpeedStepper<'_> {
             state: row.predicted.clone(),
             multipliers: from.point.multipliers.clone(),
         };
-        self.on_row(start, arc.speed, &|_, _| row.clone(), &|_, _| true)
+        // A point on the row lies within about the step of the prediction (the judge takes
+        // one step): twice that bounds the speed's corrections.
+        let reach = 2.0 * arc.step * arc.speed_scale;
+        self.on_row(start, arc.speed, &|_, _| row.clone(), &|_, _| true, reach)
     }
 
     /// The orbit on the row `row(solver, start)` builds at each frozen speed (from the speed
     /// `speed` and the orbit `start` on), the frozen speed moved to W / e (module docs); a
     /// point within the speed tolerance is kept when `settled(solver, point)`, else solved
-    /// again at the same speed from itself.
+    /// again at the same speed from itself. The frozen speed moves at most `reach` (rad/s)
+    /// from `speed`.
     pub(crate) fn on_row(
         &self,
         mut start: ForcedStart,
         mut speed: f64,
         row: &dyn Fn(&ForcedSolver<'_>, &OrbitState) -> ArcRow,
         settled: &dyn Fn(&ForcedSolver<'_>, &ForcedPoint) -> bool,
+        reach: f64,
     ) -> Result<SpeedPoint, ForcedError> {
         let e = self.engine_order();
+        let first = speed;
         let tolerance = self.settings.speed_tolerance * self.settings.speed_scale;
         let mut previous: Option<(f64, f64)> = None;
         for corrections in 1..=SPEED_CORRECTIONS {
@@ -175,7 +183,10 @@ impl SpeedStepper<'_> {
                 }
                 _ => self.slope.get().unwrap_or(-1.0),
             };
-            let next = speed - mismatch / slope;
+            // The frozen speed stays within `reach` of where it started: farther, the slope
+            // of the last point no longer holds (a contact event between), and the secant
+            // would walk to another intersection of the row with the curve.
+            let next = (speed - mismatch / slope).clamp(first - reach, first + reach);
             previous = Some((speed, mismatch));
             speed = next;
         }

@@ -326,6 +326,7 @@ impl<'a> SpeedTrace<'a> {
                 .map(|(y, t)| y + h * t * self.y_scale)
                 .collect(),
             speed: last.speed + h * tangent[l] * scale,
+            step: h,
             y_scale: self.y_scale,
             speed_scale: scale,
         }
