@@ -1,5 +1,5 @@
 //! The forced response along the rotation speed at an engine order (issue 39, item 2;
-//! docs/DESIGN.md §10.9): the excitation at W = e Omega while the structure (K(Omega), the
+//! docs/DESIGN.md §10.8): the excitation at W = e Omega while the structure (K(Omega), the
 //! contact rows, the running gaps), its damping and its load follow the speed Omega
 //! ([`SpeedFamily`]), traced by pseudo-arc-length continuation in (orbit, Omega) through folds,
 //! as a run-up of a test rig crosses the Campbell diagram's crossings.
