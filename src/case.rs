@@ -37,6 +37,10 @@ pub struct Case {
     /// blade is at rest and every stage gives today's results.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rotation: Option<crate::rotation_settings::RotationSection>,
+    /// The speed sweeps through the Campbell crossings (issue 39):
+    /// `crate::speed_sweep_settings::SpeedSweepSection`; absent, none run. Needs `[rotation]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed_sweep: Option<crate::speed_sweep_settings::SpeedSweepSection>,
 }
 
 /// `[stability]`: Floquet multipliers of every backbone point by Hill's method.
@@ -186,6 +190,7 @@ impl Default for Case {
             stability: StabilitySection::default(),
             forced: crate::forced_settings::ForcedSection::default(),
             rotation: None,
+            speed_sweep: None,
         }
     }
 }

@@ -193,6 +193,28 @@ pub(crate) fn force_of(
     Ok(level * q.abs() / unit_peak)
 }
 
+/// The harmonic balance and contact law of `[forced]` on `system`: N, m, and the penalty law's
+/// kc = `penalty_factor` x the median static contact stiffness of the rows (N/m; `None` for
+/// exact contact).
+pub(crate) fn solver_settings(
+    system: &System,
+    s: &ForcedSection,
+) -> Result<(ForcedSettings, Option<f64>)> {
+    let mut settings = ForcedSettings::new(s.harmonics)?;
+    if s.samples > 0 {
+        settings.harmonics = HarmonicSettings::new(s.harmonics, s.samples)?;
+    }
+    let penalty_stiffness = (s.contact == ForcedContact::Penalty).then(|| {
+        let mut ks = system.contact_stiffness().to_vec();
+        ks.sort_by(f64::total_cmp);
+        s.penalty_factor * ks[ks.len() / 2]
+    });
+    if let Some(stiffness) = penalty_stiffness {
+        settings.algorithm.method = ContactMethod::Penalty { stiffness };
+    }
+    Ok((settings, penalty_stiffness))
+}
+
 /// Runs every level of the study (in parallel), with the backbone's synthesis when given.
 pub fn run(
     system: &System,
@@ -208,18 +230,7 @@ pub fn run(
     let ratios = modal_ratios(system, &c);
     let pattern = pattern(system, s, file_load)?;
     let excitation = pattern.excitation;
-    let mut settings = ForcedSettings::new(s.harmonics)?;
-    if s.samples > 0 {
-        settings.harmonics = HarmonicSettings::new(s.harmonics, s.samples)?;
-    }
-    let penalty_stiffness = (s.contact == ForcedContact::Penalty).then(|| {
-        let mut ks = system.contact_stiffness().to_vec();
-        ks.sort_by(f64::total_cmp);
-        s.penalty_factor * ks[ks.len() / 2]
-    });
-    if let Some(stiffness) = penalty_stiffness {
-        settings.algorithm.method = ContactMethod::Penalty { stiffness };
-    }
+    let (settings, penalty_stiffness) = solver_settings(system, s)?;
     let w = system.linear_frequencies()[s.mode];
     let frf = FrfSettings {
         stability: s.stability,

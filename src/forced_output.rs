@@ -16,13 +16,13 @@ use crate::forced::{ForcedCurve, ForcedStudy};
 use crate::results::BackboneFile;
 
 /// Amplitude and phase (rad) of harmonic h of coordinate i: a cos + b sin = r cos(h W t - phi).
-fn harmonic(p: &ForcedPoint, i: usize, h: usize) -> (f64, f64) {
+pub(crate) fn harmonic(p: &ForcedPoint, i: usize, h: usize) -> (f64, f64) {
     let (a, b) = (p.coefficients[(i, 2 * h - 1)], p.coefficients[(i, 2 * h)]);
     (a.hypot(b), b.atan2(a))
 }
 
 /// max over the period of |u_i(t)| on 512 points.
-fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
+pub(crate) fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
     let t = p.coefficients.ncols();
     let c: Vec<f64> = (0..t).map(|k| p.coefficients[(i, k)]).collect();
     (0..512)
@@ -31,7 +31,7 @@ fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
 }
 
 /// Contact share of samples x rows, rows touching at some sample, largest force (N).
-fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
+pub(crate) fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
     let m = p.contact_force.len() / rows.max(1);
     let touching = (0..rows)
         .filter(|&j| p.contact_force[j * m..(j + 1) * m].iter().any(|&f| f > 0.0))
@@ -58,11 +58,11 @@ pub(crate) fn harmonic_check(c: &HarmonicCheck) -> (&'static str, Option<[f64; 2
 }
 
 /// A number, or an empty cell (never a NaN).
-fn opt(v: Option<f64>) -> CsvValue {
+pub(crate) fn opt(v: Option<f64>) -> CsvValue {
     v.map_or(CsvValue::Text(String::new()), CsvValue::from)
 }
 
-fn verdict_word(s: Option<&PointStability>) -> String {
+pub(crate) fn verdict_word(s: Option<&PointStability>) -> String {
     match s.map(|s| s.verdict) {
         Some(Verdict::Stable) => "stable",
         Some(Verdict::Unstable) => "unstable",

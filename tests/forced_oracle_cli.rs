@@ -1241,7 +1241,10 @@ fn a_range_the_continuation_cannot_cover_exits_3_with_the_points_it_computed() {
     );
     // The figure shows where the computed curve ends and the rest is missing.
     let figure = std::fs::read_to_string(r.out.join("frf.svg")).unwrap();
-    assert!(figure.contains("branch not computed"), "no gap marked on frf.svg");
+    assert!(
+        figure.contains("branch not computed"),
+        "no gap marked on frf.svg"
+    );
 }
 
 /// For every point (W_b, q_b) of frf_boundary.csv, the smallest relative difference of q_b from

@@ -7,7 +7,7 @@ use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
 use nlmodes_hb::floquet::Verdict;
 
-use crate::point_stability::PointStability;
+use crate::point_stability::{assess_point, PointStability};
 
 /// Floquet stability of the points not assessed yet (when asked for): each point's period
 /// check and monodromy in parallel (they depend on the point alone, so the result is the
@@ -25,33 +25,12 @@ pub(crate) fn assess_stability(
     let assessed: Vec<Result<PointStability, ForcedError>> = curve.points[from..]
         .par_iter()
         .map(|point| {
-            let solver = ladder.solver_of(point);
-            let touching = point.touches();
-            if touching {
-                if let Some(b) = solver.boundary_monodromy(point, false)? {
-                    return Ok(PointStability::on_boundary(&b, settings.stability_margin));
-                }
-            }
-            let residual = solver.period_residual(point);
-            let mut st = if residual.is_some_and(|r| r > settings.period_tolerance) {
-                // Not a periodic solution of the equation the monodromy linearizes. Under a
-                // penalty law on a model whose modes are all resolved, the exact periodic
-                // orbit of that equation next to the point answers (its verdict, unless
-                // farther than the shift limit); otherwise no verdict to compute.
-                let exact = if touching && solver.every_mode_resolved(point.omega) {
-                    solver.boundary_monodromy(point, true)?
-                } else {
-                    None
-                };
-                exact.map_or_else(PointStability::unchecked, |b| {
-                    PointStability::on_boundary(&b, settings.stability_margin)
-                })
-            } else {
-                let mono = solver.monodromy(point)?;
-                PointStability::of(&mono, settings.stability_margin)
-            };
-            st.period_residual = residual;
-            Ok(st)
+            assess_point(
+                ladder.solver_of(point),
+                point,
+                settings.stability_margin,
+                settings.period_tolerance,
+            )
         })
         .collect();
     for st in assessed {

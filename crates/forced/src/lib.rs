@@ -13,7 +13,8 @@
 //!
 //! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row),
 //! [`response_curve`] (the curve over a frequency range, or over the load at a fixed
-//! frequency, through its folds), [`synthesize`]
+//! frequency, through its folds), [`speed_sweep`] (the response along the rotation speed at
+//! an engine order, the structure following the speed), [`synthesize`]
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod boundary;
@@ -34,6 +35,10 @@ mod newton;
 mod period_check;
 mod point_stability;
 mod solver;
+mod speed_curve;
+mod speed_grazing;
+mod speed_step;
+mod speed_sweep;
 mod synthesis;
 mod trace;
 
@@ -52,6 +57,9 @@ pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+pub use speed_curve::{SpeedPoint, SpeedSweepSettings};
+pub use speed_step::{SpeedFamily, SpeedProblem};
+pub use speed_sweep::{speed_sweep, SpeedFold, SpeedSweep};
 pub use synthesis::{
     check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
     SynthesizedPoint,

@@ -6,6 +6,9 @@
 
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 
+use crate::error::ForcedError;
+use crate::solver::{ForcedPoint, ForcedSolver};
+
 /// What a change of stability between two points is, from the multiplier that crossed the unit
 /// circle (its argument within 0.05 rad of 0 or pi, else a complex pair).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,4 +105,42 @@ impl PointStability {
             ForcedBifurcation::NeimarkSacker
         });
     }
+}
+
+/// The Floquet stability of one converged `point` of `solver` (module docs): the massless
+/// contact boundary's exact monodromy in contact, else the harmonic-balance orbit's backed by
+/// one period of time integration. `margin`: around |mu| = 1, undetermined inside;
+/// `period_tolerance`: the largest period residual given a verdict (`FrfSettings`).
+pub(crate) fn assess_point(
+    solver: &ForcedSolver<'_>,
+    point: &ForcedPoint,
+    margin: f64,
+    period_tolerance: f64,
+) -> Result<PointStability, ForcedError> {
+    let touching = point.touches();
+    if touching {
+        if let Some(b) = solver.boundary_monodromy(point, false)? {
+            return Ok(PointStability::on_boundary(&b, margin));
+        }
+    }
+    let residual = solver.period_residual(point);
+    let mut st = if residual.is_some_and(|r| r > period_tolerance) {
+        // Not a periodic solution of the equation the monodromy linearizes. Under a
+        // penalty law on a model whose modes are all resolved, the exact periodic
+        // orbit of that equation next to the point answers (its verdict, unless
+        // farther than the shift limit); otherwise no verdict to compute.
+        let exact = if touching && solver.every_mode_resolved(point.omega) {
+            solver.boundary_monodromy(point, true)?
+        } else {
+            None
+        };
+        exact.map_or_else(PointStability::unchecked, |b| {
+            PointStability::on_boundary(&b, margin)
+        })
+    } else {
+        let mono = solver.monodromy(point)?;
+        PointStability::of(&mono, margin)
+    };
+    st.period_residual = residual;
+    Ok(st)
 }
