@@ -235,7 +235,7 @@ pub fn run(
     let frf = FrfSettings {
         stability: s.stability,
         max_harmonics: Some(s.top_harmonics()),
-        follow_harmonics: s.adapt_harmonics,
+        follow_harmonics: s.adapt_harmonics.follows(system.n_contacts()),
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
@@ -322,7 +322,7 @@ impl LevelSweeps<'_> {
                     sweep: Sweep::Level { omega: ratio * w },
                     stability: s.stability,
                     max_harmonics: Some(s.top_harmonics()),
-                    follow_harmonics: s.adapt_harmonics,
+                    follow_harmonics: s.adapt_harmonics.follows(self.system.n_contacts()),
                     harmonic_tolerance: s.harmonic_tolerance,
                     ..FrfSettings::new(s.level_range[0], s.level_range[1])
                 };
