@@ -80,7 +80,7 @@ pub fn sweep(
         &plans,
         closure,
     )?;
-    crate::forced_speed_output::write(&study, out)?;
+    crate::forced_speed_report::write(&study, out)?;
     crate::ui::say(&crate::forced_speed_report::summary(&study));
     crate::forced_speed_report::stopped_early(&study, out)
 }

@@ -33,9 +33,15 @@ fn verdict_runs(run: &SweepRun) -> Vec<(Option<Verdict>, Vec<usize>)> {
     runs
 }
 
+/// Every file of the sweeps into `dir`: the tables (`forced_speed_output::write`) and the figure.
+pub fn write(st: &SpeedSweepStudy, dir: &Path) -> Result<()> {
+    crate::forced_speed_output::write(st, dir)?;
+    figure(st, dir)
+}
+
 /// `speed_sweep.png/.svg`: the master's first harmonic over the running gap against the speed
 /// (rpm), one colour per sweep; stable solid, unstable dashed, undetermined dotted.
-pub fn figure(st: &SpeedSweepStudy, dir: &Path) -> Result<()> {
+fn figure(st: &SpeedSweepStudy, dir: &Path) -> Result<()> {
     let mut plot = LinePlot::new(
         "Forced response along the speed (W = EO x speed)",
         "speed (rpm)",

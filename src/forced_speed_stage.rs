@@ -88,7 +88,7 @@ impl<'a> SpeedSweepStage<'a> {
             closure,
         )?;
         let out = self.out();
-        crate::forced_speed_output::write(&study, &out)?;
+        crate::forced_speed_report::write(&study, &out)?;
         let section = crate::forced_speed_report::section(&study);
         crate::output::write_atomic(&out.join("section.md"), section.as_bytes())?;
         crate::ui::say(&crate::forced_speed_report::summary(&study));

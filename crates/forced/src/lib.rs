@@ -32,6 +32,7 @@ mod newton;
 mod period_check;
 mod point_stability;
 mod solver;
+mod speed_curve;
 mod speed_grazing;
 mod speed_step;
 mod speed_sweep;
@@ -54,8 +55,9 @@ pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+pub use speed_curve::{SpeedFold, SpeedPoint, SpeedSweep, SpeedSweepSettings};
 pub use speed_step::{SpeedFamily, SpeedProblem};
-pub use speed_sweep::{speed_sweep, SpeedFold, SpeedPoint, SpeedSweep, SpeedSweepSettings};
+pub use speed_sweep::speed_sweep;
 pub use synthesis::{
     check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
     SynthesizedPoint,

@@ -20,7 +20,8 @@ use nlmodes_hb::FullBasis;
 use crate::grazing::series_max;
 use crate::newton::{ArcRow, OrbitState, Parameter};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
-use crate::speed_sweep::{SpeedPoint, SpeedTrace};
+use crate::speed_curve::SpeedPoint;
+use crate::speed_sweep::SpeedTrace;
 
 /// A row within this fraction of its gap (below or above) is grazing (`grazing::GRAZING_BAND`).
 const GRAZING_BAND: f64 = 0.05;

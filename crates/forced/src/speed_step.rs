@@ -20,7 +20,7 @@ use crate::load::Load;
 use crate::newton::{ArcRow, OrbitState, Parameter};
 use crate::point_stability::{assess_point, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
-use crate::speed_sweep::{SpeedPoint, SpeedSweepSettings};
+use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
 
 /// Corrections of the frozen speed one point may take before its step is refused: the secant
 /// settles in 3-6 on smooth curves.
