@@ -426,7 +426,7 @@ impl<'a> ParametricBuilder<'a> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::campbell::BasisModes;
     use crate::campbell_march::{fixtures, SpeedFamily};
@@ -441,7 +441,7 @@ mod tests {
     /// reduced onto its tip face (25 nodes, 10 fixed-interface modes, cold gap 1 mm), checked
     /// at `CHECKS` against the full model's lowest 4 frequencies by a direct shift-invert
     /// solve of the true K(Omega).
-    fn beam_model(nonlinear: bool) -> ParametricModel {
+    pub(crate) fn beam_model(nonlinear: bool) -> ParametricModel {
         let fe = fixtures::beam([10, 2, 2]);
         let axis = RotorAxis::new([0.0, 0.02, 0.02], [0.0, 0.0, 1.0]).unwrap();
         let settings = ReduceSettings {

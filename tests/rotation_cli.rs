@@ -22,7 +22,8 @@
 //!   naming the load step and why, and an operating speed outside the Campbell range is refused
 //!   before any stage runs;
 //! * `[speed_sweep]` through the case: the EO 3 sweep out of contact peaks at its crossing
-//!   within the damping's half-width (`speed_sweep_through_the_case`).
+//!   within the damping's half-width (`speed_sweep_through_the_case`); `[forced]` runs again
+//!   on the model at the operating speed (`forced_at_speed_through_the_case`).
 //!
 //! Cost: about 40 s (two runs of the coarse study, the second only the rotating stages).
 
@@ -169,6 +170,7 @@ fn rotating_study_from_the_command() {
     // speed, reduced from a static state solved from rest, is an independent direct solve.
     parametric_against_the_model_at_speed(&parametric, &res, 7000.0);
     speed_sweep_through_the_case(&dir, p, &res, &parametric);
+    forced_at_speed_through_the_case(&dir, p, &res);
     bad_speeds(&dir, p);
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -488,6 +490,37 @@ fn speed_sweep_through_the_case(
     assert!(res.join("speed_sweep/speed_sweep.png").is_file());
     let section = std::fs::read_to_string(res.join("speed_sweep/section.md")).unwrap();
     assert!(section.contains("## Speed sweeps through the Campbell crossings"));
+}
+
+/// `[forced]` with `[rotation]`: `nlmodes run --only forced` runs the forced study at rest and
+/// again on the reduced model at the operating speed (7000 rpm here), into `speed/forced/`,
+/// around that model's first mode (its frequency to 1e-12: the same eigen-solve of the same
+/// model), 20 % above the one at rest (the centrifugal stiffening), with its report section.
+/// A linear level without stability and exact curve: a few seconds each.
+fn forced_at_speed_through_the_case(dir: &Path, p: &str, res: &Path) {
+    let rotation = ROTATION.replace("operating_speed = 8000.0", "operating_speed = 7000.0");
+    let forced = "[forced]\nenabled = true\nlevels = [0.5]\nharmonics = 4\nexact_curve = false\n\
+                  stability = false\nkeep_peaks = false";
+    case(dir, &rotation);
+    let text = std::fs::read_to_string(dir.join("rot.toml")).unwrap();
+    std::fs::write(
+        dir.join("rot.toml"),
+        text.replace("[forced]\nenabled = false", forced),
+    )
+    .unwrap();
+    ok(&["run", p, "--only", "forced"]);
+    let omega = |f: &str| json(&res.join(f))["omega_mode_rad_s"].as_f64().unwrap();
+    let (rest, speed) = (omega("forced/frf.json"), omega("speed/forced/frf.json"));
+    let model = f64s(&json(&res.join("speed/model/model.json"))["linear_frequencies_hz"])[0];
+    let w = 2.0 * std::f64::consts::PI * model;
+    println!(
+        "forced at 7000 rpm around {speed:.4} rad/s (model at speed {w:.4}, at rest {rest:.4})"
+    );
+    assert!((speed - w).abs() < 1e-12 * w, "{speed} vs {w}");
+    assert!(speed > 1.2 * rest, "{speed} vs {rest} at rest");
+    assert!(res.join("speed/forced/frf.csv").is_file());
+    let section = std::fs::read_to_string(res.join("speed/forced/section.md")).unwrap();
+    assert!(section.contains("## Forced response"));
 }
 
 fn bad_speeds(dir: &Path, p: &str) {
