@@ -235,7 +235,7 @@ pub fn run(
     let frf = FrfSettings {
         stability: s.stability,
         max_harmonics: Some(s.top_harmonics()),
-        follow_harmonics: s.adapt_harmonics.follows(system.n_contacts()),
+        harmonic_policy: s.adapt_harmonics.policy(system.n_contacts()),
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
@@ -322,7 +322,7 @@ impl LevelSweeps<'_> {
                     sweep: Sweep::Level { omega: ratio * w },
                     stability: s.stability,
                     max_harmonics: Some(s.top_harmonics()),
-                    follow_harmonics: s.adapt_harmonics.follows(self.system.n_contacts()),
+                    harmonic_policy: s.adapt_harmonics.policy(self.system.n_contacts()),
                     harmonic_tolerance: s.harmonic_tolerance,
                     ..FrfSettings::new(s.level_range[0], s.level_range[1])
                 };
@@ -388,7 +388,15 @@ fn exact_level(
     level: f64,
 ) -> Result<Option<BoundaryCurve>> {
     // The exact curve is a second method beside the harmonic balance: its failure is reported,
-    // it does not take the level's results with it.
+    // it does not take the level's results with it. Its dynamic modes are those below
+    // (N + 1) W at the N the curve converged to (`retraces`), the modes that curve resolves.
+    let converged = match curve.retraces.last() {
+        Some(r) if r.harmonics != solver.basis().harmonics() => {
+            Some(solver.with_harmonics(r.harmonics)?)
+        }
+        _ => None,
+    };
+    let solver = converged.as_ref().unwrap_or(solver);
     let exact = match solver.boundary_curve(&curve.points, frf.end, frf.stability_margin) {
         Ok(exact) => exact,
         Err(e) => {

@@ -229,6 +229,22 @@ struct CurveRecord<'a> {
     orbits: Vec<OrbitRecord>,
     /// The exact curve on the massless contact boundary (`[forced] exact_curve`).
     exact_curve: Option<crate::forced_exact::ExactCurveRecord>,
+    /// `adapt_harmonics = "retrace"`: every trace of the curve at its N, the last the curve's.
+    retraces: Vec<RetraceRecord>,
+}
+
+/// One trace of a curve at one N and its check at 2N (DESIGN §10.8).
+#[derive(Serialize)]
+struct RetraceRecord {
+    harmonics: usize,
+    /// Indices (into that trace's points) of the points solved again at 2N.
+    checked: Vec<usize>,
+    /// Checked points that moved by more than `harmonic_tolerance`, or whose 2N solve failed.
+    not_converged: usize,
+    /// Largest [|dq1| / q1, |dW| / W] over the checked points.
+    largest_change: [f64; 2],
+    /// Whether 2N was within max_harmonics (else the trace could not be checked).
+    checkable: bool,
 }
 
 #[derive(Serialize)]
@@ -277,7 +293,19 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
             }
         })
         .collect();
+    let retraces = r
+        .retraces
+        .iter()
+        .map(|t| RetraceRecord {
+            harmonics: t.harmonics,
+            checked: t.checked.clone(),
+            not_converged: t.not_converged,
+            largest_change: t.largest_change,
+            checkable: t.checkable,
+        })
+        .collect();
     CurveRecord {
+        retraces,
         level: c.level,
         force_n: c.force,
         termination: r.end_text(),
@@ -517,6 +545,37 @@ pub fn peak_note(c: &ForcedCurve, peak: usize) -> &'static str {
     }
 }
 
+/// Under `adapt_harmonics = "retrace"`: the N of the curve and what its check at 2N found
+/// (one line, empty under the other policies).
+pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -> String {
+    let Some(last) = r.retraces.last() else {
+        return String::new();
+    };
+    let at_peak = match harmonic_check(&r.points[peak].harmonic_check) {
+        (_, Some(c)) => format!(" (at the peak {:.1e} in q1, {:.1e} in W)", c[0], c[1]),
+        _ => String::new(),
+    };
+    let traced: Vec<String> = r.retraces.iter().map(|t| t.harmonics.to_string()).collect();
+    let verdict = if !last.checkable {
+        "not checked (2N above max_harmonics)".to_string()
+    } else if last.converged() {
+        format!("converged at its {} checked points", last.checked.len())
+    } else {
+        format!(
+            "NOT converged: {} of its {} checked points move by more than {tolerance:e} at 2N",
+            last.not_converged,
+            last.checked.len()
+        )
+    };
+    format!(
+        "           N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{at_peak}\n",
+        last.harmonics,
+        traced.join(", "),
+        last.largest_change[0],
+        last.largest_change[1]
+    )
+}
+
 /// The lines printed after a forced run.
 pub fn summary(st: &ForcedStudy) -> String {
     let (g, w) = (st.gap_reference, st.omega_mode);
@@ -551,6 +610,7 @@ pub fn summary(st: &ForcedStudy) -> String {
                 undetermined,
                 r.end_text()
             );
+            out += &retrace_note(r, i, st.settings.harmonic_tolerance);
         }
     }
     out + &crate::forced_exact::summary(st)

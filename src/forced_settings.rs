@@ -6,31 +6,38 @@ use serde::{Deserialize, Serialize};
 
 use crate::problems::Problems;
 
-/// Whether the trace follows the N a point needs (`[forced] adapt_harmonics`).
+/// How the forced response converges N (`[forced] adapt_harmonics`; DESIGN §10.8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum HarmonicAdaptation {
-    /// Follow N on models with at most `AUTO_FOLLOW_ROWS` contact rows, check it on larger ones.
+    /// Follow N point by point on models with at most `AUTO_FOLLOW_ROWS` contact rows, retrace
+    /// the whole curve at 2N on larger ones.
     Auto,
     /// The trace raises N where a point needs it, up to `max_harmonics`.
     Follow,
+    /// The whole curve at one N, traced again at 2N while its peak, folds, deepest contact or
+    /// a few points spread over its contact move at 2N by more than `harmonic_tolerance`.
+    Retrace,
     /// The trace keeps `harmonics`; each point in contact is checked once at 2N.
     Check,
 }
 
-/// The most contact rows on which `adapt_harmonics = "auto"` follows N: on the default blade (24
-/// rows) following N costs 11x (level 2) to 70x (level 5) the fixed-N curve and its switching
-/// adds folds (docs/BENCHMARKS.md, session 17); the small systems of the acceptance tests (1 row)
-/// need it to be right.
+/// The most contact rows on which `adapt_harmonics = "auto"` follows N point by point. On the
+/// default blade (24 rows) following N costs 6x (level 2) to 70x (level 5) the fixed-N curve and
+/// its switching between neighbouring points adds folds (docs/BENCHMARKS.md, session 17); the
+/// whole curve traced again at 2N gives the same peak at a fraction of that. The small systems of
+/// the acceptance tests (1-2 rows) are followed, as they were verified.
 pub const AUTO_FOLLOW_ROWS: usize = 8;
 
 impl HarmonicAdaptation {
-    /// Whether the trace follows N on a model with `rows` contact rows.
-    pub fn follows(self, rows: usize) -> bool {
+    /// The policy on a model with `rows` contact rows.
+    pub fn policy(self, rows: usize) -> nlmodes_forced::HarmonicPolicy {
+        use nlmodes_forced::HarmonicPolicy;
         match self {
-            Self::Auto => rows <= AUTO_FOLLOW_ROWS,
-            Self::Follow => true,
-            Self::Check => false,
+            Self::Auto if rows <= AUTO_FOLLOW_ROWS => HarmonicPolicy::Follow,
+            Self::Auto | Self::Retrace => HarmonicPolicy::Retrace,
+            Self::Follow => HarmonicPolicy::Follow,
+            Self::Check => HarmonicPolicy::Check,
         }
     }
 }
@@ -132,9 +139,11 @@ pub struct ForcedSection {
     pub harmonics: usize,
     /// The largest N a point in contact may be raised to (0: four times `harmonics`).
     pub max_harmonics: usize,
-    /// "follow": the trace raises N where a point needs it (up to `max_harmonics`); "check":
+    /// "follow": the trace raises N where a point needs it (up to `max_harmonics`); "retrace":
+    /// the whole curve at one N, traced again at 2N while its checked points move; "check":
     /// the trace keeps `harmonics` and every point in contact is checked once at 2N; "auto"
-    /// (the default): follow on models with at most `AUTO_FOLLOW_ROWS` contact rows.
+    /// (the default): follow on models with at most `AUTO_FOLLOW_ROWS` contact rows, retrace
+    /// on larger ones.
     pub adapt_harmonics: HarmonicAdaptation,
     /// A point's N is enough when doubling it moves the master's first harmonic and W by at
     /// most this (relative).

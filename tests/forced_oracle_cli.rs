@@ -113,6 +113,8 @@ struct Spec {
     range: (f64, f64),
     /// How the system and its settings reach the program.
     input: Input,
+    /// Settings lines added to the user's (`Input::Padded`): a policy other than the default.
+    extra: &'static str,
 }
 
 enum Level {
@@ -151,6 +153,7 @@ fn one_dof() -> Spec {
         level: Level::Newtons(0.1),
         range: (0.8, 2.2),
         input: Input::Padded,
+        extra: "",
     }
 }
 
@@ -168,6 +171,7 @@ fn chain() -> Spec {
         level: Level::TimesGrazing(5.0),
         range: (0.8, 1.6),
         input: Input::Padded,
+        extra: "",
     }
 }
 
@@ -184,6 +188,25 @@ fn light_chain() -> Spec {
         level: Level::ModeOneGrazing(2.0),
         range: (0.9, 1.2),
         input: Input::ChainModelAtDefaults,
+        ..chain()
+    }
+}
+
+/// The issue's 1-DOF oscillator with N converged by tracing the whole curve again at 2N
+/// (`adapt_harmonics = "retrace"`, what "auto" does on models of more than 8 contact rows).
+fn one_dof_retraced() -> Spec {
+    Spec {
+        name: "one_dof_retraced",
+        extra: "adapt_harmonics = \"retrace\"\n",
+        ..one_dof()
+    }
+}
+
+/// The 2-DOF chain, N converged by retracing (as `one_dof_retraced`).
+fn chain_retraced() -> Spec {
+    Spec {
+        name: "chain_retraced",
+        extra: "adapt_harmonics = \"retrace\"\n",
         ..chain()
     }
 }
@@ -445,8 +468,8 @@ fn settings_text(spec: &Spec, force: f64) -> String {
         (Input::Padded, _) => format!(
             "[forced]\nrange = [{:?}, {:?}]\nload = \"master\"\nlevels = [{force:?}]\n\
              level_unit = \"N\"\ncontact = \"penalty\"\npenalty_factor = {:?}\n\
-             damping_ratio = {:?}\n",
-            spec.range.0, spec.range.1, spec.penalty_factor, spec.zeta
+             damping_ratio = {:?}\n{}",
+            spec.range.0, spec.range.1, spec.penalty_factor, spec.zeta, spec.extra
         ),
     }
 }
@@ -1137,6 +1160,24 @@ fn assert_folds(a: &Analysis) {
 #[test]
 fn the_issues_one_dof_oscillator_at_one_percent_meets_its_exact_orbits() {
     let a = analysis(one_dof);
+    report(&a);
+    assert_oracle(&a);
+    assert_acceptance(&a);
+}
+
+/// The same checks with the whole curve traced again at 2N until its peak, folds and contact
+/// points settle (`adapt_harmonics = "retrace"`).
+#[test]
+fn the_one_dof_oscillator_retraced_at_converged_n_meets_its_exact_orbits() {
+    let a = analysis(one_dof_retraced);
+    report(&a);
+    assert_oracle(&a);
+    assert_acceptance(&a);
+}
+
+#[test]
+fn the_chain_retraced_at_converged_n_meets_its_exact_orbits() {
+    let a = analysis(chain_retraced);
     report(&a);
     assert_oracle(&a);
     assert_acceptance(&a);

@@ -29,6 +29,45 @@ impl Sweep {
     }
 }
 
+/// How a response curve converges its number of harmonics N (DESIGN §10.8).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HarmonicPolicy {
+    /// Every point in contact is checked at 2N and the trace takes the N the point needed for
+    /// its next steps (N changes between neighbouring points).
+    Follow,
+    /// The trace keeps the base N; every point in contact is checked once at 2N and flagged.
+    Check,
+    /// The whole curve is traced at one N; its peak, folds, deepest contact and a few points
+    /// spread over the contact are checked at 2N, and while any has not converged the curve is
+    /// traced again at 2N (`FrequencyResponse::retraces`): the curve's points share one N, so
+    /// its folds are those of one truncation, never an artefact of N switching.
+    Retrace,
+}
+
+/// One trace of a curve under `HarmonicPolicy::Retrace`: its N and what its checked points
+/// found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveHarmonics {
+    /// N of every point of that trace.
+    pub harmonics: usize,
+    /// Points of that trace checked at 2N (indices into its points).
+    pub checked: Vec<usize>,
+    /// Checked points whose solve at 2N moved the master's first harmonic or W by more than
+    /// the tolerance, or failed.
+    pub not_converged: usize,
+    /// The largest [|dq1| / q1, |dW| / W] over the checked points whose solve at 2N converged.
+    pub largest_change: [f64; 2],
+    /// Whether 2N was available (below `max_harmonics`) to check this trace at all.
+    pub checkable: bool,
+}
+
+impl CurveHarmonics {
+    /// Whether this trace's N is enough at every checked point.
+    pub fn converged(&self) -> bool {
+        self.checkable && self.not_converged == 0
+    }
+}
+
 /// Settings of one continuation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrfSettings {
@@ -53,9 +92,8 @@ pub struct FrfSettings {
     /// Largest N a point in contact may be raised to (`ladder`; default `None`: four times the
     /// solver's N, two doublings).
     pub max_harmonics: Option<usize>,
-    /// true: the trace takes the N a point needed for its next steps (DESIGN §10.8); false: the
-    /// trace keeps the base N and each point in contact is only checked at 2N.
-    pub follow_harmonics: bool,
+    /// How N is converged along the curve (DESIGN §10.8; default `HarmonicPolicy::Follow`).
+    pub harmonic_policy: HarmonicPolicy,
     /// A point's N is enough when doubling it moves the master's first harmonic and W by at
     /// most this (relative; default 1e-3).
     pub harmonic_tolerance: f64,
@@ -84,7 +122,7 @@ impl FrfSettings {
             max_points: 2000,
             stability: true,
             max_harmonics: None,
-            follow_harmonics: true,
+            harmonic_policy: HarmonicPolicy::Follow,
             harmonic_tolerance: 1e-3,
             stability_margin: 1e-3,
             period_tolerance: 1e-3,
@@ -235,6 +273,9 @@ pub struct FrequencyResponse {
     /// the range stopped and a second one from its end (points k.., in the order traced, W
     /// falling first) met it or also stopped.
     pub pieces: Vec<usize>,
+    /// Under `HarmonicPolicy::Retrace`, every trace at its N, the last one being this curve's
+    /// (empty under the other policies).
+    pub retraces: Vec<CurveHarmonics>,
 }
 
 impl FrequencyResponse {
@@ -256,6 +297,7 @@ impl FrequencyResponse {
             stability: Vec::new(),
             termination: FrfTermination::Complete,
             pieces: vec![0],
+            retraces: Vec::new(),
         }
     }
 

@@ -13,7 +13,8 @@
 //! ([`FrfTermination::covers_range`]); two that do not meet leave the branch between their last
 //! points uncomputed ([`FrfTermination::Gap`]).
 
-use crate::curve::{Fold, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
+use crate::curve::{Fold, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy, Sweep};
+use crate::curve_harmonics::check_curve;
 use crate::curve_stability::assess_stability;
 use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
@@ -21,10 +22,12 @@ use crate::solver::{ForcedPoint, ForcedSolver};
 use crate::trace::FrfTrace;
 
 /// Traces the response curve of `solver` over the settings' range, in W or in the load scale
-/// (see module docs), N raised point by point up to `max_harmonics` (`ladder`); `progress` sees
-/// every accepted point. A frequency sweep whose trace from the start of the range stops or
-/// turns back is traced again from the end of the range, W falling, until it meets the first
-/// piece (`FrfTermination::Joined`, two `pieces`) or stops too (`FrfTermination::Gap`).
+/// (see module docs), N converged up to `max_harmonics` under the settings' `HarmonicPolicy`
+/// (point by point through `ladder`, or the whole curve again at 2N while its checked points
+/// have not converged: `curve_harmonics`); `progress` sees every accepted point. A frequency
+/// sweep whose trace from the start of the range stops or turns back is traced again from the
+/// end of the range, W falling, until it meets the first piece (`FrfTermination::Joined`, two
+/// `pieces`) or stops too (`FrfTermination::Gap`).
 pub fn response_curve(
     solver: &ForcedSolver<'_>,
     settings: &FrfSettings,
@@ -33,10 +36,63 @@ pub fn response_curve(
     settings.validate()?;
     let base = solver.basis().harmonics();
     let top = settings.max_harmonics.unwrap_or(4 * base).max(base);
+    if settings.harmonic_policy == HarmonicPolicy::Retrace {
+        return retraced_curve(solver, settings, top, &mut progress);
+    }
     let ladder = HarmonicLadder::new(solver, top, settings.harmonic_tolerance)?
-        .following(settings.follow_harmonics);
-    let mut trace = FrfTrace::begin(&ladder, settings, 1.0, Vec::new(), &mut progress)?;
-    trace.run(&mut progress);
+        .with_policy(settings.harmonic_policy);
+    let mut curve = trace_range(&ladder, settings, &mut progress)?;
+    assess_stability(&ladder, settings, &mut curve)?;
+    Ok(curve)
+}
+
+/// The curve at one N after another (`HarmonicPolicy::Retrace`): traced at the solver's N,
+/// checked at 2N (`curve_harmonics::check_curve`), traced again at 2N while a checked point
+/// moved by more than the tolerance and 4N is within `top`. The last trace is the curve; every
+/// trace is listed in its `retraces`.
+fn retraced_curve(
+    solver: &ForcedSolver<'_>,
+    settings: &FrfSettings,
+    top: usize,
+    progress: &mut impl FnMut(&ForcedPoint),
+) -> Result<FrequencyResponse, ForcedError> {
+    let mut retraces = Vec::new();
+    let mut finer: Option<ForcedSolver<'_>> = None;
+    loop {
+        let current = finer.as_ref().unwrap_or(solver);
+        let n = current.basis().harmonics();
+        let ladder = HarmonicLadder::new(current, (2 * n).min(top), settings.harmonic_tolerance)?
+            .with_policy(HarmonicPolicy::Retrace);
+        let mut curve = trace_range(&ladder, settings, progress)?;
+        let check = check_curve(&ladder, settings, &mut curve);
+        let again = !check.converged() && 4 * n <= top && curve.points.iter().any(|p| p.touches());
+        tracing::info!(
+            harmonics = n,
+            checked = check.checked.len(),
+            not_converged = check.not_converged,
+            change_q1 = check.largest_change[0],
+            change_omega = check.largest_change[1],
+            "forced response: the curve at N = {n} checked at 2N{}",
+            if again { "; traced again at 2N" } else { "" }
+        );
+        retraces.push(check);
+        if !again {
+            assess_stability(&ladder, settings, &mut curve)?;
+            curve.retraces = retraces;
+            return Ok(curve);
+        }
+        finer = Some(solver.with_harmonics(2 * n)?);
+    }
+}
+
+/// The curve over the range by `ladder` (see `response_curve`), without its stability.
+fn trace_range(
+    ladder: &HarmonicLadder<'_, '_>,
+    settings: &FrfSettings,
+    progress: &mut impl FnMut(&ForcedPoint),
+) -> Result<FrequencyResponse, ForcedError> {
+    let mut trace = FrfTrace::begin(ladder, settings, 1.0, Vec::new(), progress)?;
+    trace.run(progress);
     let stopped = matches!(
         trace.curve.termination,
         FrfTermination::StepTooSmall { .. } | FrfTermination::LeftRange { .. }
@@ -48,8 +104,8 @@ pub fn response_curve(
             .iter()
             .map(|p| trace.scaled_base(p))
             .collect();
-        let back = FrfTrace::begin(&ladder, settings, -1.0, meet, &mut progress).map(|mut back| {
-            back.run(&mut progress);
+        let back = FrfTrace::begin(ladder, settings, -1.0, meet, progress).map(|mut back| {
+            back.run(progress);
             back.curve
         });
         append(&mut trace.curve, back);
@@ -62,7 +118,6 @@ pub fn response_curve(
             to: None,
         };
     }
-    assess_stability(&ladder, settings, &mut trace.curve)?;
     Ok(trace.curve)
 }
 

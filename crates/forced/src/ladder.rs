@@ -12,6 +12,7 @@
 
 use nlmodes_hb::contact::Multipliers;
 
+use crate::curve::HarmonicPolicy;
 use crate::error::ForcedError;
 pub use crate::harmonic_check::HarmonicCheck;
 use crate::newton::{ArcRow, OrbitState};
@@ -27,9 +28,9 @@ pub struct HarmonicLadder<'a, 's> {
     base: &'a ForcedSolver<'s>,
     finer: Vec<ForcedSolver<'s>>,
     tolerance: f64,
-    /// Whether the trace follows the N a point needed (else every point stays at the base and
-    /// is checked once, at 2N).
-    follow: bool,
+    /// What `converge` does with a point in contact: follow its N, check it once at 2N, or
+    /// leave it to the check of the whole curve (`HarmonicPolicy::Retrace`, `curve_harmonics`).
+    policy: HarmonicPolicy,
 }
 
 impl<'a, 's> HarmonicLadder<'a, 's> {
@@ -50,14 +51,13 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
             base,
             finer,
             tolerance,
-            follow: true,
+            policy: HarmonicPolicy::Follow,
         })
     }
 
-    /// The ladder that raises the trace's N (`true`, the default of `new`) or only checks each
-    /// point at 2N and keeps the base N (`false`).
-    pub fn following(mut self, follow: bool) -> Self {
-        self.follow = follow;
+    /// The ladder under `policy` (`new` follows N).
+    pub fn with_policy(mut self, policy: HarmonicPolicy) -> Self {
+        self.policy = policy;
         self
     }
 
@@ -101,8 +101,10 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
             point.harmonic_check = HarmonicCheck::Linear;
             return (point, level);
         }
-        if !self.follow {
-            return (self.checked(point, level, arc), level);
+        match self.policy {
+            HarmonicPolicy::Follow => {}
+            HarmonicPolicy::Check => return (self.checked(point, level, arc), level),
+            HarmonicPolicy::Retrace => return (point, level),
         }
         let mut last_change = None;
         if level > 0 {
@@ -136,8 +138,13 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
     }
 
     /// `point` (in contact, solved at `level`) with the verdict of one solve at the next level,
-    /// the point itself kept.
-    fn checked(&self, mut point: ForcedPoint, level: usize, arc: Option<&ArcRow>) -> ForcedPoint {
+    /// the point itself kept (unchecked when `level` is the top).
+    pub(crate) fn checked(
+        &self,
+        mut point: ForcedPoint,
+        level: usize,
+        arc: Option<&ArcRow>,
+    ) -> ForcedPoint {
         if level + 1 >= self.levels() {
             return point;
         }

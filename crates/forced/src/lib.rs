@@ -21,6 +21,7 @@ mod boundary;
 mod boundary_curve;
 mod corner;
 mod curve;
+mod curve_harmonics;
 mod curve_stability;
 mod damping;
 mod dynamics;
@@ -46,7 +47,10 @@ pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
 pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
-pub use curve::{Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
+pub use curve::{
+    CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
+    Sweep,
+};
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;

@@ -1,0 +1,149 @@
+//! The check of a whole curve's N under `HarmonicPolicy::Retrace` (DESIGN §10.8): the points
+//! that carry what an engineer reads off the curve (its peak, its folds, its deepest contact)
+//! and a few spread over its contact are solved again at 2N, each on the row through the point
+//! normal to the curve there, so that a fold is checked where it is and a point far up a
+//! steep branch is not compared with another W's orbit.
+
+use crate::curve::{CurveHarmonics, FrequencyResponse, FrfSettings, Sweep};
+use crate::harmonic_check::HarmonicCheck;
+use crate::ladder::HarmonicLadder;
+use crate::newton::{ArcRow, OrbitState};
+use crate::solver::{ForcedPoint, ForcedSolver};
+use crate::trace::norm;
+
+/// Points spread evenly over the contact, checked beside the peak, the folds and the deepest
+/// contact.
+const SPREAD: usize = 4;
+
+/// Checks `curve` (traced at the base N of `ladder`, whose level 1, when there is one, is 2N)
+/// at the points of the module docs, marks them, and says what it found.
+pub(crate) fn check_curve(
+    ladder: &HarmonicLadder<'_, '_>,
+    settings: &FrfSettings,
+    curve: &mut FrequencyResponse,
+) -> CurveHarmonics {
+    let base = ladder.solver(0);
+    let checked = points_to_check(curve, base.system().master());
+    let mut out = CurveHarmonics {
+        harmonics: base.basis().harmonics(),
+        checked: checked.clone(),
+        not_converged: 0,
+        largest_change: [0.0; 2],
+        checkable: ladder.levels() > 1,
+    };
+    if !out.checkable {
+        return out;
+    }
+    for i in checked {
+        let row = normal_row(base, settings, curve, i);
+        let point = curve.points[i].clone();
+        let point = ladder.checked(point, 0, Some(&row));
+        match point.harmonic_check {
+            HarmonicCheck::Converged { change } => {
+                out.largest_change[0] = out.largest_change[0].max(change[0]);
+                out.largest_change[1] = out.largest_change[1].max(change[1]);
+            }
+            HarmonicCheck::NotConverged { change } => {
+                out.not_converged += 1;
+                if let Some(c) = change {
+                    out.largest_change[0] = out.largest_change[0].max(c[0]);
+                    out.largest_change[1] = out.largest_change[1].max(c[1]);
+                }
+            }
+            _ => {}
+        }
+        curve.points[i] = point;
+    }
+    out
+}
+
+/// The peak (largest first harmonic of the master), the point nearest each fold, the point of
+/// the largest contact force, and `SPREAD` points evenly spaced among those in contact; sorted,
+/// each once. None when the curve never touches.
+fn points_to_check(curve: &FrequencyResponse, master: usize) -> Vec<usize> {
+    let touching: Vec<usize> = (0..curve.points.len())
+        .filter(|&i| curve.points[i].touches())
+        .collect();
+    if touching.is_empty() {
+        return Vec::new();
+    }
+    let largest = |key: &dyn Fn(&ForcedPoint) -> f64| {
+        touching
+            .iter()
+            .copied()
+            .max_by(|&a, &b| key(&curve.points[a]).total_cmp(&key(&curve.points[b])))
+    };
+    let peak = largest(&|p| p.first_harmonic(master));
+    let force = largest(&|p| p.contact_force.iter().fold(0.0_f64, |m, f| m.max(f.abs())));
+    let mut out: Vec<usize> = peak.into_iter().chain(force).collect();
+    out.extend(curve.folds.iter().map(|f| f.point));
+    let n = touching.len();
+    out.extend((0..SPREAD).map(|k| touching[(2 * k + 1) * n / (2 * SPREAD)]));
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// The row through point `i` normal to the curve there: its tangent from the solver, oriented
+/// (and, should the tangent fail, replaced) by the secant of its neighbours in its piece.
+fn normal_row(
+    solver: &ForcedSolver<'_>,
+    settings: &FrfSettings,
+    curve: &FrequencyResponse,
+    i: usize,
+) -> ArcRow {
+    let system = solver.system();
+    let y_scale = system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt();
+    let p_scale = match settings.sweep {
+        Sweep::Frequency => system.linear_frequencies()[0],
+        Sweep::Level { .. } => settings.end,
+    };
+    let scaled = |p: &ForcedPoint| {
+        let mut v: Vec<f64> = p.contact.iter().map(|y| y / y_scale).collect();
+        v.push(curve.parameter(p) / p_scale);
+        v
+    };
+    let piece_start = curve.pieces.iter().copied().filter(|&k| k <= i).max();
+    let piece_end = curve
+        .pieces
+        .iter()
+        .copied()
+        .filter(|&k| k > i)
+        .min()
+        .unwrap_or(curve.points.len());
+    let before = if Some(i) == piece_start { i } else { i - 1 };
+    let after = if i + 1 == piece_end { i } else { i + 1 };
+    let (a, b) = (scaled(&curve.points[before]), scaled(&curve.points[after]));
+    let secant: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
+    let length = norm(&secant).max(f64::MIN_POSITIVE);
+    let secant: Vec<f64> = secant.iter().map(|v| v / length).collect();
+    let point = &curve.points[i];
+    let along = row(point, &secant, settings, y_scale, p_scale);
+    match solver.tangent(point, &along) {
+        Ok(t) => row(point, &t, settings, y_scale, p_scale),
+        Err(_) => along,
+    }
+}
+
+/// The arc row through `point` (h = 0) along the unit `tangent` of the scaled space.
+fn row(
+    point: &ForcedPoint,
+    tangent: &[f64],
+    settings: &FrfSettings,
+    y_scale: f64,
+    p_scale: f64,
+) -> ArcRow {
+    let l = point.contact.len();
+    ArcRow {
+        parameter: settings.sweep.parameter(),
+        tangent_y: tangent[..l].to_vec(),
+        tangent_parameter: tangent[l],
+        predicted: OrbitState {
+            y: point.contact.clone(),
+            omega: point.omega,
+            level: point.level,
+        },
+        y_scale,
+        parameter_scale: p_scale,
+    }
+}
