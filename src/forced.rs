@@ -389,21 +389,33 @@ fn exact_level(
 ) -> Result<Option<BoundaryCurve>> {
     // The exact curve is a second method beside the harmonic balance: its failure is reported,
     // it does not take the level's results with it. Its dynamic modes are those below
-    // (N + 1) W at the N the curve converged to (`retraces`), the modes that curve resolves.
+    // (N + 1) W at the N the curve converged to (`retraces`), the modes that curve resolves;
+    // where that boundary's curve does not reach the end of the range (an added mode's
+    // internal resonance: the blade's level 5 with 6 modes stops at W/w = 1.080), the one of
+    // the base N is kept when it does, and the log says so.
     let converged = match curve.retraces.last() {
         Some(r) if r.harmonics != solver.basis().harmonics() => {
             Some(solver.with_harmonics(r.harmonics)?)
         }
         _ => None,
     };
-    let solver = converged.as_ref().unwrap_or(solver);
-    let exact = match solver.boundary_curve(&curve.points, frf.end, frf.stability_margin) {
-        Ok(exact) => exact,
-        Err(e) => {
-            tracing::warn!("forced level {level}: no exact curve on the massless boundary: {e}");
-            None
+    let mut exact = exact_curve(converged.as_ref().unwrap_or(solver), curve, frf, level);
+    let stopped =
+        |e: &Option<BoundaryCurve>| e.as_ref().is_some_and(|e| e.end != CurveEnd::Complete);
+    if converged.is_some() && stopped(&exact) {
+        let base = exact_curve(solver, curve, frf, level);
+        if base.as_ref().is_some_and(|e| e.end == CurveEnd::Complete) {
+            if let Some(e) = &exact {
+                tracing::info!(
+                    "forced level {level}: the exact curve with the {} modes below (N + 1) W at \
+                     the curve's N stopped ({}); the one with the base N's modes is kept",
+                    e.modes,
+                    nlmodes_hb::driven_curve::driven_end_text(&e.end)
+                );
+            }
+            exact = base;
         }
-    };
+    }
     match &exact {
         Some(e) => tracing::info!(
             "forced level {level}: exact curve on the massless boundary ({} modes dynamic): {} \
@@ -419,6 +431,23 @@ fn exact_level(
         ),
     }
     Ok(exact)
+}
+
+/// The exact curve of `solver`'s massless boundary at `curve`'s level, `None` when it fails
+/// (logged).
+fn exact_curve(
+    solver: &ForcedSolver<'_>,
+    curve: &FrequencyResponse,
+    frf: &FrfSettings,
+    level: f64,
+) -> Option<BoundaryCurve> {
+    match solver.boundary_curve(&curve.points, frf.end, frf.stability_margin) {
+        Ok(exact) => exact,
+        Err(e) => {
+            tracing::warn!("forced level {level}: no exact curve on the massless boundary: {e}");
+            None
+        }
+    }
 }
 
 /// The single-nonlinear-mode synthesis of the backbone's main-branch points under `load` (the
