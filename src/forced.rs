@@ -5,11 +5,11 @@
 use anyhow::{Context, Result};
 use faer::Mat;
 use indicatif::ProgressBar;
+use nlmodes_boundary::CurveEnd;
 use nlmodes_forced::{
     modal_ratios, response_curve, synthesize, BoundaryCurve, ForcedSettings, ForcedSolver,
     FreeOrbit, FrequencyResponse, FrfSettings, HarmonicLoad, Load, Sweep, SynthesizedPoint,
 };
-use nlmodes_hb::arc_length::CurveEnd;
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
 use rayon::prelude::*;
 
@@ -403,7 +403,7 @@ fn exact_level(
             e.modes,
             e.points.len(),
             e.points.iter().filter(|p| p.fold).count(),
-            nlmodes_hb::driven_curve::driven_end_text(&e.end)
+            nlmodes_boundary::driven_end_text(&e.end)
         ),
         None => tracing::info!(
             "forced level {level}: no exact curve (exact contact on a model whose modes are all \

@@ -31,16 +31,12 @@
 //! validation model), `floquet` (multipliers from the sampled slopes), `augmented_lagrangian` (Algorithm 1), `solver_settings`, `dense` (faer
 //! helpers), `check` (parameter checks), `error`.
 
-pub mod arc_length;
 pub mod augmented_lagrangian;
-pub mod boundary_rk4;
 pub mod check;
 pub mod condensation_basis;
 pub mod condensed_newton;
 pub mod contact;
 pub mod dense;
-pub mod driven_boundary;
-pub mod driven_curve;
 pub mod error;
 pub mod floquet;
 pub mod fourier;

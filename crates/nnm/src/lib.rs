@@ -87,6 +87,12 @@ pub use continuation::{
     Termination,
 };
 pub use integrate::{check_periodicity, integrate_penalty, MotionState, PeriodicityCheck};
+/// The massless contact boundary's results as this crate returns them (`nlmodes-boundary`).
+pub use nlmodes_boundary::{
+    BoundaryBackbone, BoundaryBackbonePoint, BoundaryHistory, BoundaryPiece, ConvergedOrbit,
+    ConvergenceSettings, ConvergenceStop, ExactOrbitAtQ, HoleFollow, HoleFollowEnd, ShootingCheck,
+    SHOOTING_CHECK_LIMIT, SHOOTING_SHIFT_LIMIT,
+};
 /// The engine's error type: one type for the engine and the free-mode problem built on it.
 pub use nlmodes_hb::HbError as NnmError;
 pub use nlmodes_hb::{
@@ -97,14 +103,11 @@ pub use nlmodes_hb::{
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
 pub use stability::{
-    analyze_backbone, boundary_backbone, boundary_history, classify, floquet,
-    monodromy_by_integration, verdict_word, Bifurcation, BoundaryBackbone, BoundaryBackbonePoint,
-    BoundaryHistory, BoundaryPiece, ConvergedOrbit, ConvergenceSettings, ConvergenceStop,
-    ExactOrbitAtQ, FloquetAnalysis, FloquetSettings, HoleFollow, HoleFollowEnd, JacobianInTime,
-    Monodromy, MonodromySettings, ShootingCheck, Stability, StabilityMethod, UnresolvedPair,
-    UnstableCounts, VerdictInputs, DECOUPLED_SHARE, SALTATION_TRIVIAL_LIMIT, SHOOTING_CHECK_LIMIT,
-    SHOOTING_SHIFT_LIMIT, TRIVIAL_PAIR_LIMIT, UNRESOLVED_ACCELERATION_LIMIT,
-    UNRESOLVED_SHARE_LIMIT,
+    analyze_backbone, boundary_backbone, boundary_history, classify, converge_points, floquet,
+    monodromy_by_integration, verdict_word, Bifurcation, FloquetAnalysis, FloquetSettings,
+    JacobianInTime, Monodromy, MonodromySettings, Stability, StabilityMethod, UnresolvedPair,
+    UnstableCounts, VerdictInputs, DECOUPLED_SHARE, SALTATION_TRIVIAL_LIMIT, TRIVIAL_PAIR_LIMIT,
+    UNRESOLVED_ACCELERATION_LIMIT, UNRESOLVED_SHARE_LIMIT,
 };
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};
