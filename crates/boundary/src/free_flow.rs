@@ -22,7 +22,7 @@ use faer::{Mat, MatRef, Side};
 
 use crate::model::BoundaryModel;
 use crate::switch_scan::{next_switch, settle_active_set, EventPath, RowsAt};
-use nlmodes_hb::dense::generalized_eigen;
+use nlmodes_dense::generalized_eigen;
 use nlmodes_hb::HbError;
 
 /// Most switches in one call of [`BoundaryFlow::advance`] (a chattering set is an error).
@@ -371,7 +371,7 @@ fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, HbError>
     }
     let f_a = b_a.transpose() * &l_vec;
     let identity = Mat::<f64>::identity(r, r);
-    let eig = generalized_eigen(k_a.as_ref(), identity.as_ref(), "I")?;
+    let eig = generalized_eigen(k_a.as_ref(), identity.as_ref()).map_err(HbError::dense("I"))?;
     if eig.values.iter().any(|&s2| s2.is_nan() || s2 <= 0.0) {
         return Err(HbError::NotPositiveDefinite {
             name: "K_a",

@@ -16,7 +16,7 @@ use faer::{Mat, Side};
 
 use crate::driven_model::DrivenBoundary;
 use crate::switch_scan::settle_active_set;
-use nlmodes_hb::dense::generalized_eigen;
+use nlmodes_dense::generalized_eigen;
 use nlmodes_hb::HbError;
 
 /// RK4 steps per period of the fastest motion of the model (all rows closed): h s_max = 2 pi /
@@ -230,7 +230,7 @@ pub fn rk4_steps(model: &DrivenBoundary, duration: f64) -> Result<usize, HbError
     let k = stiffness_on(model, &all)?;
     let r = k.nrows();
     let identity = Mat::<f64>::identity(r, r);
-    let eig = generalized_eigen(k.as_ref(), identity.as_ref(), "I")?;
+    let eig = generalized_eigen(k.as_ref(), identity.as_ref()).map_err(HbError::dense("I"))?;
     let s_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
     let periods = duration * s_max / (2.0 * std::f64::consts::PI);
     Ok(((periods * STEPS_PER_FAST_PERIOD).ceil() as usize).max(1000))
