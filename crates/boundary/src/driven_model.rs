@@ -17,7 +17,7 @@
 
 use faer::{Mat, MatRef};
 
-use crate::model::{dynamic_modes, residual_flexibility};
+use crate::model::{dynamic_modes, residual_flexibility, BoundaryModel};
 use nlmodes_hb::full_basis::FullBasis;
 use nlmodes_hb::system::System;
 
@@ -74,6 +74,21 @@ impl DrivenBoundary {
         }
         x.push(1.0);
         x
+    }
+
+    /// The free model `model` as a driven one without damping or drive (for the RK4 check;
+    /// `period` (s) only sets its nominal frequency).
+    pub fn undriven(model: &BoundaryModel, period: f64) -> Self {
+        let r = model.omega2.len();
+        Self {
+            omega2: model.omega2.clone(),
+            damping: Mat::zeros(r, r),
+            contact_modal: model.contact_modal.clone(),
+            flexibility: model.flexibility.clone(),
+            gaps: model.gaps.clone(),
+            drive: Vec::new(),
+            omega: 2.0 * std::f64::consts::PI / period,
+        }
     }
 
     /// The same model at excitation frequency `omega` (rad/s).

@@ -312,6 +312,7 @@ fn trace_piece(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::driven_model::DrivenBoundary;
     use crate::rk4::{integrate, Rk4State};
     use crate::test_models::{bilinear, bilinear_period, judge, three_modes};
 
@@ -422,7 +423,13 @@ mod tests {
                 q: p.q0.clone(),
                 v: vec![0.0; 3],
             };
-            let (end, _) = integrate(&model.undriven(period), &start, period, 40_000).expect("rk4");
+            let (end, _) = integrate(
+                &DrivenBoundary::undriven(&model, period),
+                &start,
+                period,
+                40_000,
+            )
+            .expect("rk4");
             let gap = (0..3)
                 .map(|i| (end.q[i] - start.q[i]).abs() + (end.v[i] * period).abs())
                 .fold(0.0, f64::max);

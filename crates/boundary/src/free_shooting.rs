@@ -241,6 +241,7 @@ pub fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, HbError
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::driven_model::DrivenBoundary;
     use crate::rk4::{integrate, Rk4State};
     use crate::test_models::{bilinear, bilinear_period, three_modes};
 
@@ -296,8 +297,13 @@ mod tests {
                 q: start.q.clone(),
                 v: start.v.clone(),
             };
-            let (rk, rk_transition) =
-                integrate(&model.undriven(7.0), &rk_start, 7.0, 20_000).expect("rk4");
+            let (rk, rk_transition) = integrate(
+                &DrivenBoundary::undriven(&model, 7.0),
+                &rk_start,
+                7.0,
+                20_000,
+            )
+            .expect("rk4");
             let state_error = (0..3)
                 .map(|i| (end.q[i] - rk.q[i]).abs().max((end.v[i] - rk.v[i]).abs()))
                 .fold(0.0, f64::max);

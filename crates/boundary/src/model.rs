@@ -18,8 +18,6 @@
 
 use faer::{Mat, MatRef, Side};
 
-use crate::driven_model::DrivenBoundary;
-
 /// sum_{k >= r} b_k b_k^T / w_k^2 (c x c, m/N): the static flexibility of the modes r.. on the
 /// contact rows (`contact_modal` = A Phi, c x n; `eigenvalues` = w_k^2). Zero when r = n.
 pub fn residual_sum(contact_modal: MatRef<'_, f64>, eigenvalues: &[f64], r: usize) -> Mat<f64> {
@@ -86,21 +84,6 @@ impl BoundaryModel {
     /// The number r of modes kept dynamic.
     pub fn modes(&self) -> usize {
         self.omega2.len()
-    }
-
-    /// The same model as a [`DrivenBoundary`] without damping or drive (for the RK4 check;
-    /// `period` only sets its nominal frequency).
-    pub fn undriven(&self, period: f64) -> DrivenBoundary {
-        let r = self.omega2.len();
-        DrivenBoundary {
-            omega2: self.omega2.clone(),
-            damping: Mat::zeros(r, r),
-            contact_modal: self.contact_modal.clone(),
-            flexibility: self.flexibility.clone(),
-            gaps: self.gaps.clone(),
-            drive: Vec::new(),
-            omega: 2.0 * std::f64::consts::PI / period,
-        }
     }
 }
 

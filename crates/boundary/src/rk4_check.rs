@@ -5,6 +5,7 @@
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
+use crate::driven_model::DrivenBoundary;
 use crate::free_shooting::ShotOrbit;
 use crate::model::{norm, BoundaryModel};
 use crate::rk4::{integrate, rk4_steps, Rk4State};
@@ -54,7 +55,7 @@ pub fn check_by_rk4(model: &BoundaryModel, orbit: &ShotOrbit) -> Result<Shooting
         q: orbit.q0.clone(),
         v: vec![0.0; r],
     };
-    let driven = model.undriven(orbit.period);
+    let driven = DrivenBoundary::undriven(model, orbit.period);
     let steps = rk4_steps(&driven, orbit.period)?;
     let (end, monodromy) = integrate(&driven, &start, orbit.period, steps)?;
     let q_scale = norm(&orbit.q0);
