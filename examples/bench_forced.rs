@@ -107,7 +107,7 @@ fn main() {
                     "exact curve: {} points, {} modes dynamic, folds at W/w1 {folds:.5?}, {}",
                     e.points.len(),
                     e.modes,
-                    nlmodes_hb::driven_curve::driven_end_text(&e.end)
+                    nlmodes_boundary::driven_end_text(&e.end)
                 );
             }
         }

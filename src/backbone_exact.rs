@@ -115,8 +115,8 @@ pub fn pieces_text(e: &BoundaryBackbone, g: f64) -> String {
 
 /// Why a piece's end ended, in words; `first` for the first piece (whose lower end is q_start),
 /// `gap` for a piece seeded in a gap (whose upper range ends at the piece above).
-fn end_text(end: &nlmodes_hb::arc_length::CurveEnd, g: f64, first: bool, gap: bool) -> String {
-    use nlmodes_hb::arc_length::CurveEnd;
+fn end_text(end: &nlmodes_boundary::CurveEnd, g: f64, first: bool, gap: bool) -> String {
+    use nlmodes_boundary::CurveEnd;
     match end {
         CurveEnd::Complete if gap => "met the piece above".into(),
         CurveEnd::Complete => "q_max reached".into(),

@@ -5,7 +5,6 @@
 //! farther than `truncation_tolerance` from that orbit's. Stage `converged orbits`.
 
 use anyhow::{Context, Result};
-use rayon::prelude::*;
 use std::fmt::Write as _;
 
 use nlmodes_nnm::{
@@ -17,11 +16,9 @@ use crate::case::StabilitySection;
 use crate::results::{BackboneFile, Orbit};
 use crate::ui;
 
-/// The converged orbit of every main-branch point in contact, stored in
-/// [`BackbonePoint::converged`], and the "N too small" flag (`truncation_warning`) set from it:
-/// where the harmonic-balance w is farther than `settings.omega_tolerance` (relative) from the
-/// converged w, or no converged orbit was found. Nothing when the stability stage does not shoot
-/// (`[stability] enabled`, `shooting`).
+/// The converged orbit of every main-branch point in contact and the "N too small" flag set from
+/// it (`nlmodes_nnm::converge_points`), with the stage's progress bar and summary line. Nothing
+/// when the stability stage does not shoot (`[stability] enabled`, `shooting`).
 pub fn converge(
     system: &System,
     b: &mut Backbone,
@@ -42,30 +39,8 @@ pub fn converge(
     let floquet = nlmodes_nnm::FloquetAnalysis::new(system, analysis)
         .context("the modes of the massless contact boundary")?;
     let bar = ui::bar(chosen.len() as u64, "converged orbits");
-    let g = system.gap_reference();
-    let found: Vec<Option<ConvergedOrbit>> = chosen
-        .par_iter()
-        .map(|&i| {
-            let p = &b.points[i];
-            let harmonics = p.coefficients.len() - 1;
-            let out = floquet
-                .converged_orbit(p, harmonics, settings)
-                .unwrap_or_else(|e| {
-                    tracing::warn!(q_over_g0 = p.q / g, error = %e, "converged orbit failed");
-                    None
-                });
-            bar.inc(1);
-            out
-        })
-        .collect();
+    nlmodes_nnm::converge_points(&floquet, b, &chosen, settings, || bar.inc(1));
     bar.finish_and_clear();
-    for (&i, c) in chosen.iter().zip(found) {
-        let p = &mut b.points[i];
-        p.truncation_warning = c
-            .as_ref()
-            .is_none_or(|c| c.omega_error(p.omega) > settings.omega_tolerance);
-        p.converged = c;
-    }
     stage.done(&summary(b, &chosen, settings));
     Ok(())
 }

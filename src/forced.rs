@@ -5,11 +5,11 @@
 use anyhow::{Context, Result};
 use faer::Mat;
 use indicatif::ProgressBar;
+use nlmodes_boundary::CurveEnd;
 use nlmodes_forced::{
     modal_ratios, response_curve, synthesize, BoundaryCurve, ForcedSettings, ForcedSolver,
     FreeOrbit, FrequencyResponse, FrfSettings, HarmonicLoad, Load, Sweep, SynthesizedPoint,
 };
-use nlmodes_hb::arc_length::CurveEnd;
 use nlmodes_nnm::{ContactMethod, HarmonicSettings, System};
 use rayon::prelude::*;
 
@@ -410,7 +410,7 @@ fn exact_level(
                     "forced level {level}: the exact curve with the {} modes below (N + 1) W at \
                      the curve's N stopped ({}); the one with the base N's modes is kept",
                     e.modes,
-                    nlmodes_hb::driven_curve::driven_end_text(&e.end)
+                    nlmodes_boundary::driven_end_text(&e.end)
                 );
             }
             exact = base;
@@ -423,7 +423,7 @@ fn exact_level(
             e.modes,
             e.points.len(),
             e.points.iter().filter(|p| p.fold).count(),
-            nlmodes_hb::driven_curve::driven_end_text(&e.end)
+            nlmodes_boundary::driven_end_text(&e.end)
         ),
         None => tracing::info!(
             "forced level {level}: no exact curve (exact contact on a model whose modes are all \

@@ -87,7 +87,7 @@ pub struct ExactCurveRecord {
 pub fn record(e: &BoundaryCurve) -> ExactCurveRecord {
     ExactCurveRecord {
         modes_dynamic: e.modes,
-        end: nlmodes_hb::driven_curve::driven_end_text(&e.end),
+        end: nlmodes_boundary::driven_end_text(&e.end),
         points: e
             .points
             .iter()
@@ -200,7 +200,7 @@ pub fn summary(st: &ForcedStudy) -> String {
             folds.join(", "),
             e.points.len(),
             unstable,
-            nlmodes_hb::driven_curve::driven_end_text(&e.end)
+            nlmodes_boundary::driven_end_text(&e.end)
         );
     }
     out

@@ -247,7 +247,7 @@ fn exact_paragraph(st: &ForcedStudy) -> String {
             count(Verdict::Stable),
             count(Verdict::Unstable),
             count(Verdict::Undetermined),
-            nlmodes_hb::driven_curve::driven_end_text(&e.end)
+            nlmodes_boundary::driven_end_text(&e.end)
         );
     }
     s.push('\n');

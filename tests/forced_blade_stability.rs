@@ -21,7 +21,7 @@
 //! Sec. 9): the penalty contact of the Craig-Bampton contact nodes, which carry mass, rings far
 //! above the N harmonics (d_0 = 1e-2..1.6e-1 here), so the massive model's flow is not the one
 //! the verdict is about. For those points the oracle is the boundary model's own flow integrated
-//! by RK4 (`nlmodes_hb::boundary_rk4`: the contact problem solved at every stage, no pieces, no
+//! by RK4 (`nlmodes_boundary::rk4`: the contact problem solved at every stage, no pieces, no
 //! eigenvectors) from the shot orbit's start: its monodromy must give the command's largest |mu|
 //! to 1e-4 and bring the orbit back to its start to 1e-6.
 
@@ -483,13 +483,13 @@ fn boundary_point(
         .expect("the command shot this orbit");
     let r = b.modes;
     let period = 2.0 * std::f64::consts::PI / b.model.omega;
-    let start = nlmodes_hb::boundary_rk4::Rk4State {
+    let start = nlmodes_boundary::rk4::Rk4State {
         q: b.start[..r].to_vec(),
         v: b.start[r..].to_vec(),
     };
-    let steps = nlmodes_hb::boundary_rk4::rk4_steps(&b.model, period).expect("steps");
+    let steps = nlmodes_boundary::rk4::rk4_steps(&b.model, period).expect("steps");
     let (end, phi) =
-        nlmodes_hb::boundary_rk4::integrate(&b.model, &start, period, steps).expect("rk4");
+        nlmodes_boundary::rk4::integrate(&b.model, &start, period, steps).expect("rk4");
     let scale = start.q.iter().map(|v| v * v).sum::<f64>().sqrt();
     let periodic = (0..r)
         .map(|i| {

@@ -152,7 +152,8 @@ pub fn check_semidefinite(c: &Mat<f64>) -> Result<(), ForcedError> {
         return Ok(());
     }
     let identity = Mat::<f64>::identity(n, n);
-    let eigen = nlmodes_hb::dense::generalized_eigen(c.as_ref(), identity.as_ref(), "I")?;
+    let eigen = nlmodes_dense::generalized_eigen(c.as_ref(), identity.as_ref())
+        .map_err(nlmodes_hb::HbError::dense("I"))?;
     let values = &eigen.values;
     let largest = values.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
     let lowest = values[0];

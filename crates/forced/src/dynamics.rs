@@ -16,7 +16,7 @@
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef, Par};
-use nlmodes_hb::dense::DenseLu;
+use nlmodes_dense::DenseLu;
 use nlmodes_hb::{FullBasis, HbError, System};
 
 use crate::error::ForcedError;

@@ -18,7 +18,6 @@
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod boundary;
-mod boundary_curve;
 mod corner;
 mod curve;
 mod curve_harmonics;
@@ -43,10 +42,10 @@ mod speed_sweep;
 mod synthesis;
 mod trace;
 
+pub use boundary::boundary_curve;
 pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
-pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
     Sweep,
@@ -58,6 +57,7 @@ pub use frf::response_curve;
 pub use harmonic_check::HarmonicCheck;
 pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState, Parameter};
+pub use nlmodes_boundary::{BoundaryCurve, BoundaryCurvePoint};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};

@@ -12,8 +12,8 @@
 //! matrix stays regular at folds); its column is dR/dW = -dy_lin/dW or dR/ds = -y_F.
 
 use faer::Mat;
+use nlmodes_dense::DenseLu;
 use nlmodes_hb::contact::{apply_contact_law, Multipliers};
-use nlmodes_hb::dense::DenseLu;
 use nlmodes_hb::penalty_integral::{penalty_force, ContactPhases};
 use nlmodes_hb::FullBasis;
 

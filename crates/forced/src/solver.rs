@@ -316,14 +316,14 @@ impl<'s> ForcedSolver<'s> {
         points: &[ForcedPoint],
         end: f64,
         margin: f64,
-    ) -> Result<Option<crate::boundary_curve::BoundaryCurve>, ForcedError> {
+    ) -> Result<Option<crate::BoundaryCurve>, ForcedError> {
         let Some(first) = points.first() else {
             return Ok(None);
         };
         let load = self.load.scaled(first.level);
         let orbits: Vec<(&Mat<f64>, f64)> =
             points.iter().map(|p| (&p.coefficients, p.omega)).collect();
-        Ok(crate::boundary_curve::boundary_curve(
+        Ok(crate::boundary::boundary_curve(
             &self.boundary_inputs(&load, true),
             &orbits,
             end,

@@ -27,9 +27,9 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-use crate::dense::generalized_eigen;
 use crate::error::HbError;
 use crate::system::System;
+use nlmodes_dense::generalized_eigen;
 
 /// Relative singular-value threshold below which contact rows are treated as dependent.
 const RANK_TOLERANCE: f64 = 1e-10;
@@ -133,7 +133,8 @@ impl CondensedBasis {
         let m = system.mass();
         let k_oo = sym(q.transpose() * k * &q);
         let m_oo = sym(q.transpose() * m * &q);
-        let eig = generalized_eigen(k_oo.as_ref(), m_oo.as_ref(), "M restricted to the others")?;
+        let eig = generalized_eigen(k_oo.as_ref(), m_oo.as_ref())
+            .map_err(HbError::dense("M restricted to the others"))?;
         if eig.values.iter().any(|&l| l <= 0.0) {
             return Err(HbError::NotPositiveDefinite {
                 name: "K restricted to the others",

@@ -20,13 +20,13 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::condensation_basis::CondensedBasis;
-use crate::dense::DenseLu;
 use crate::error::HbError;
 use crate::harmonic_block::{BlockInputs, HarmonicBlock, ReducedRows, NOT_IN};
 use crate::layout::HarmonicLayout;
 use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::modal_tail::ModalTail;
 use crate::system::System;
+use nlmodes_dense::DenseLu;
 
 /// Relative linear residual above which a fast step is redone with the full kept system.
 const STEP_CHECK_TOLERANCE: f64 = 1e-9;

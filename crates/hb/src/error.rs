@@ -4,6 +4,8 @@
 //! Every message names the offending input (matrix, row, parameter) and what was expected, so that
 //! the command-line program can show it as is.
 
+use nlmodes_dense::{DenseError, SymmetryError, SYMMETRY_TOLERANCE};
+
 /// Errors returned by `nlmodes-hb` and the crates built on it (`nlmodes-nnm` calls it `NnmError`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum HbError {
@@ -254,6 +256,58 @@ pub enum HbError {
         /// What does not match.
         detail: String,
     },
+}
+
+impl HbError {
+    /// The error of a failure of `nlmodes_dense` whose Cholesky factor is that of the matrix
+    /// `name` (`M`, `K`, ...): `map_err(HbError::dense("M"))`.
+    pub fn dense(name: &'static str) -> impl Fn(DenseError) -> Self {
+        move |e| match e {
+            DenseError::NotPositiveDefinite(_) => HbError::NotPositiveDefinite {
+                name,
+                detail: e.to_string(),
+            },
+            DenseError::Eigen(detail) => HbError::Decomposition {
+                what: "symmetric eigen-decomposition",
+                detail: format!("{detail:?}"),
+            },
+            DenseError::NonFinite => HbError::NonFiniteResult {
+                what: "generalized eigenvalues",
+            },
+        }
+    }
+
+    /// The error of the matrix `name` of order `n` that fails `nlmodes_dense::check_symmetric`.
+    pub fn symmetry(name: &'static str, n: usize) -> impl Fn(SymmetryError) -> Self {
+        move |e| match e {
+            SymmetryError::NotSquare { rows, cols } => HbError::Shape {
+                name,
+                rows,
+                cols,
+                expected: n,
+            },
+            SymmetryError::NonFinite { row, col, value } => HbError::NonFinite {
+                name,
+                row,
+                col,
+                value,
+            },
+            SymmetryError::NotSymmetric {
+                row,
+                col,
+                a_ij,
+                a_ji,
+                scale,
+            } => HbError::NotSymmetric {
+                name,
+                row,
+                col,
+                difference: (a_ij - a_ji).abs(),
+                tolerance: SYMMETRY_TOLERANCE,
+                scale,
+            },
+        }
+    }
 }
 
 /// A parameter value as a person reads it: plain decimal (`35`, `0.25`) unless very large or

@@ -5,11 +5,11 @@
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 
-use crate::dense::DenseLu;
 use crate::error::HbError;
 use crate::layout::HarmonicLayout;
 use crate::linear_model::{contact_jacobian, JacobianData, LinearModel};
 use crate::system::System;
+use nlmodes_dense::DenseLu;
 
 pub struct FullModel {
     layout: HarmonicLayout,

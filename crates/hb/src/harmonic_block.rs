@@ -10,10 +10,10 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use crate::condensation_basis::CondensedBasis;
-use crate::dense::DenseLu;
 use crate::layout::HarmonicLayout;
 use crate::linear_model::JacobianData;
 use crate::modal_tail::ModalTail;
+use nlmodes_dense::DenseLu;
 
 /// Pivot ratio of a per-harmonic interior block below which the step is redone without it.
 const INTERIOR_PIVOT_RATIO: f64 = 1e-12;

@@ -28,19 +28,16 @@
 //! law, Powell's measure), `linear_model` (the linear part as the Newton solver sees it), `newton`
 //! (inner solve), `newton_fallback` (smoothing path), `condensation_basis` and `condensed_newton`
 //! (the exact condensation), `modal_tail` (series for the high modes), `full` (uncondensed
-//! validation model), `floquet` (multipliers from the sampled slopes), `augmented_lagrangian` (Algorithm 1), `solver_settings`, `dense` (faer
-//! helpers), `check` (parameter checks), `error`.
+//! validation model), `floquet` (multipliers from the sampled slopes), `augmented_lagrangian`
+//! (Algorithm 1), `solver_settings`, `check` (parameter checks), `error`. Dense linear algebra is
+//! `nlmodes-dense`'s; the massless contact boundary, shot and continued exactly beside the
+//! harmonic balance, is `nlmodes-boundary`'s (built on this engine).
 
-pub mod arc_length;
 pub mod augmented_lagrangian;
-pub mod boundary_rk4;
 pub mod check;
 pub mod condensation_basis;
 pub mod condensed_newton;
 pub mod contact;
-pub mod dense;
-pub mod driven_boundary;
-pub mod driven_curve;
 pub mod error;
 pub mod floquet;
 pub mod fourier;

@@ -10,8 +10,8 @@
 
 use faer::{Mat, MatRef};
 
-use crate::dense::{checked_symmetric, cholesky_lower, generalized_eigen};
 use crate::error::HbError;
+use nlmodes_dense::{check_symmetric, cholesky_lower, generalized_eigen, symmetrize};
 
 /// Energy shares of an orbit by linear mode and harmonic (see [`System::modal_shares`]).
 #[derive(Clone, Debug)]
@@ -134,9 +134,9 @@ impl System {
             return Err(HbError::MasterOutOfRange { master, dofs: n });
         }
         // SPD checks with named errors (the eigen-solver would only report M).
-        cholesky_lower("M", m.as_ref())?;
-        let lk = cholesky_lower("K", k.as_ref())?;
-        let eig = generalized_eigen(k.as_ref(), m.as_ref(), "M")?;
+        cholesky_lower(m.as_ref()).map_err(HbError::dense("M"))?;
+        let lk = cholesky_lower(k.as_ref()).map_err(HbError::dense("K"))?;
+        let eig = generalized_eigen(k.as_ref(), m.as_ref()).map_err(HbError::dense("M"))?;
         if eig.values.iter().any(|&v| v <= 0.0) {
             return Err(HbError::NotPositiveDefinite {
                 name: "K",
@@ -302,4 +302,21 @@ impl System {
         let n = self.n_dofs();
         (0..n).map(|i| self.contact_rows[(j, i)] * u[i]).sum()
     }
+}
+
+/// `a` checked to be n x n, finite and symmetric (`nlmodes_dense::check_symmetric`: 1e-10
+/// max|a|, the modal crate's bound too), symmetrized.
+fn checked_symmetric(name: &'static str, a: &Mat<f64>, n: usize) -> Result<Mat<f64>, HbError> {
+    if a.nrows() != n || a.ncols() != n {
+        return Err(HbError::Shape {
+            name,
+            rows: a.nrows(),
+            cols: a.ncols(),
+            expected: n,
+        });
+    }
+    check_symmetric(a.as_ref()).map_err(HbError::symmetry(name, n))?;
+    let mut symmetric = a.clone();
+    symmetrize(&mut symmetric);
+    Ok(symmetric)
 }

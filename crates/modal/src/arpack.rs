@@ -25,10 +25,11 @@ use sprs::CsMat;
 
 use crate::block_lanczos::block_lanczos;
 use crate::cholesky::{FactoredSolve, SparseCholesky};
-use crate::dense::{csmat_to_dense, dense_generalized_eigen};
 use crate::eigen_options::{auto_prefers_arpack, use_dense, EigenMethod, EigenOptions};
 use crate::error::ModalError;
+use crate::modes::dense_generalized_eigen;
 use crate::modes::{finalize_modes, Modes};
+use crate::sparse_ops::csmat_to_dense;
 use crate::sparse_ops::{check_symmetric_input, shifted, spmv_unchecked};
 
 /// ARPACK is not reentrant (Fortran SAVE state): one session at a time.

@@ -384,8 +384,9 @@ fn no_convergence(converged: usize, requested: usize, solves: usize, cap: usize)
 mod tests {
     use super::*;
     use crate::cholesky::SparseCholesky;
-    use crate::dense::{csmat_to_dense, dense_generalized_eigen};
+    use crate::modes::dense_generalized_eigen;
     use crate::modes::finalize_modes;
+    use crate::sparse_ops::csmat_to_dense;
     use sprs::TriMat;
 
     /// Fixed-free chain of n unit masses with springs 1 + i / n (no repeated eigenvalues).

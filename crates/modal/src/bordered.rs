@@ -66,7 +66,7 @@ impl<'a> BorderedSolve<'a> {
                 }
             }
         }
-        crate::dense::symmetrize(&mut s);
+        nlmodes_dense::symmetrize(&mut s);
         let schur = s
             .llt(Side::Lower)
             .map_err(|_| ModalError::NotPositiveDefinite {

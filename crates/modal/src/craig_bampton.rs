@@ -26,12 +26,13 @@ use sprs::CsMat;
 use crate::arpack::{check_pair, eigs_factored_deferred_k, eigs_factored_prechecked};
 use crate::bordered::BorderedSolve;
 use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
-use crate::dense::{dense_generalized_eigen, relative_asymmetry, symmetrize};
 use crate::eigen_options::{eigensolver_bytes, EigenOptions};
 use crate::error::ModalError;
 use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
+use crate::modes::dense_generalized_eigen;
 use crate::modes::Modes;
 use crate::sparse_ops::{spmm_symmetric, submatrix_unchecked};
+use nlmodes_dense::{relative_asymmetry, symmetrize};
 
 /// A Craig-Bampton reduced model and the basis that produced it.
 #[derive(Clone, Debug)]

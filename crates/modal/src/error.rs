@@ -3,6 +3,8 @@
 
 use std::path::PathBuf;
 
+use nlmodes_dense::{SymmetryError, SYMMETRY_TOLERANCE};
+
 /// Errors returned by the factorizations, eigensolvers, reduction and file I/O
 /// of this crate.
 #[derive(Debug, thiserror::Error)]
@@ -230,4 +232,38 @@ pub enum ModalError {
         /// Bytes available, formatted.
         available: String,
     },
+}
+
+impl ModalError {
+    /// The error of the dense matrix `what` that fails `nlmodes_dense::check_symmetric`:
+    /// `map_err(ModalError::symmetry(what))`.
+    pub fn symmetry(what: &str) -> impl Fn(SymmetryError) -> Self + '_ {
+        move |e| match e {
+            SymmetryError::NotSquare { rows, cols } => ModalError::NotSquare {
+                what: what.to_string(),
+                nrows: rows,
+                ncols: cols,
+            },
+            SymmetryError::NonFinite { row, col, value } => ModalError::NotFinite {
+                what: what.to_string(),
+                row,
+                col,
+                value,
+            },
+            SymmetryError::NotSymmetric {
+                row,
+                col,
+                a_ij,
+                a_ji,
+                ..
+            } => ModalError::NotSymmetric {
+                what: what.to_string(),
+                row,
+                col,
+                a_ij,
+                a_ji,
+                tolerance: SYMMETRY_TOLERANCE,
+            },
+        }
+    }
 }

@@ -13,7 +13,8 @@ pub mod bordered;
 pub mod cholesky;
 pub mod contact_geometry;
 pub mod craig_bampton;
-pub mod dense;
+/// The dense linear algebra this crate uses: `nlmodes-dense` (its old module path).
+pub use nlmodes_dense as dense;
 pub mod eigen_options;
 pub mod error;
 pub mod matrix_market;
@@ -37,12 +38,12 @@ pub use contact_geometry::{radial_unit_vector, RotorAxis};
 pub use craig_bampton::{
     craig_bampton, craig_bampton_with_check, craig_bampton_with_loads, reduced_eigen, CraigBampton,
 };
-pub use dense::{csmat_to_dense, dense_generalized_eigen};
 pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
-pub use modes::Modes;
+pub use modes::{dense_generalized_eigen, Modes};
 pub use ordering::FillOrdering;
 pub use parametric::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel};
 pub use reduced_model::{
     ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
 };
+pub use sparse_ops::csmat_to_dense;

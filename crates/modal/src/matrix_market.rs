@@ -30,7 +30,6 @@ use std::path::Path;
 use faer::{Mat, MatRef};
 use sprs::{CsMat, TriMat};
 
-use crate::dense::check_dense_symmetric;
 use crate::error::ModalError;
 use crate::matrix_market_io::{write_atomic, DataLines};
 use crate::sparse_ops::{as_csc, check_symmetric_input, SYMMETRY_TOLERANCE};
@@ -44,7 +43,8 @@ pub fn write_symmetric_dense(
     a: MatRef<'_, f64>,
     comment: &str,
 ) -> Result<(), ModalError> {
-    let n = check_dense_symmetric(a, &format!("matrix to write to {}", path.display()))?;
+    let what = format!("matrix to write to {}", path.display());
+    let n = nlmodes_dense::check_symmetric(a).map_err(ModalError::symmetry(&what))?;
     let count = n * (n + 1) / 2;
     write_atomic(path, |w| {
         write_header(w, comment, n, count)?;

@@ -11,8 +11,9 @@ use std::path::Path;
 use faer::{Mat, MatRef, Side};
 
 use crate::contact_geometry::RotorAxis;
-use crate::dense::{dense_generalized_eigen, max_abs_dense};
 use crate::error::ModalError;
+use crate::modes::dense_generalized_eigen;
+use nlmodes_dense::max_abs;
 
 /// One contact node as the checks see it: a label for messages (`contact node 3 (mesh node
 /// 812)`), its position (m) and its gap g0 (m).
@@ -78,7 +79,7 @@ fn bad(path: &Path, message: String) -> ModalError {
 
 /// max |A| within [`MAGNITUDE_RANGE`].
 fn check_magnitude(a: MatRef<'_, f64>, path: &Path, name: &str) -> Result<(), ModalError> {
-    let largest = max_abs_dense(a);
+    let largest = max_abs(a);
     let (lo, hi) = MAGNITUDE_RANGE;
     if !(lo..=hi).contains(&largest) {
         return Err(bad(

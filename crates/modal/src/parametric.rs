@@ -245,7 +245,8 @@ impl ParametricModel {
             ));
         }
         for (i, k) in self.stiffness.iter().enumerate() {
-            crate::dense::check_dense_symmetric(k.as_ref(), &format!("K_r at speed {i}"))
+            nlmodes_dense::check_symmetric(k.as_ref())
+                .map_err(ModalError::symmetry(&format!("K_r at speed {i}")))
                 .map_err(|e| e.to_string())?;
             if k.nrows() != n {
                 return Err(format!(

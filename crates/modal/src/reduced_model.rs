@@ -102,11 +102,12 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::contact_geometry::{norm, RotorAxis};
-use crate::dense::{check_dense_symmetric, dense_generalized_eigen};
 use crate::error::ModalError;
 use crate::matrix_market::{read_symmetric_dense, write_symmetric_dense};
 use crate::matrix_market_io::write_atomic;
 use crate::model_checks::{check_physics, ContactPoint};
+use crate::modes::dense_generalized_eigen;
+use nlmodes_dense::check_symmetric;
 
 /// Value of the `format` field.
 pub const FORMAT_NAME: &str = "nlmodes-reduced-model";
@@ -327,8 +328,10 @@ impl ReducedModel {
             path: path.to_path_buf(),
             message,
         };
-        let n = check_dense_symmetric(self.k.as_ref(), &format!("K ({})", k_path.display()))?;
-        let n_m = check_dense_symmetric(self.m.as_ref(), &format!("M ({})", m_path.display()))?;
+        let k_what = format!("K ({})", k_path.display());
+        let m_what = format!("M ({})", m_path.display());
+        let n = check_symmetric(self.k.as_ref()).map_err(ModalError::symmetry(&k_what))?;
+        let n_m = check_symmetric(self.m.as_ref()).map_err(ModalError::symmetry(&m_what))?;
         if n != n_m {
             return Err(bad(
                 dir,

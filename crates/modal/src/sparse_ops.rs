@@ -8,7 +8,7 @@
 use std::borrow::Cow;
 
 use faer::prelude::ReborrowMut;
-use faer::{MatMut, MatRef};
+use faer::{Mat, MatMut, MatRef};
 use rayon::prelude::*;
 use sprs::CsMat;
 
@@ -19,6 +19,15 @@ use crate::error::ModalError;
 /// ulps per entry (relative 1e-16 to 1e-14); 1e-10 leaves four orders of margin for round-off
 /// while catching any genuine asymmetry (a wrong sign, a missing triangle, a mis-assembled entry).
 pub use nlmodes_dense::SYMMETRY_TOLERANCE;
+
+/// Dense copy of a sparse matrix (any storage order).
+pub fn csmat_to_dense(a: &CsMat<f64>) -> Mat<f64> {
+    let mut out = Mat::<f64>::zeros(a.rows(), a.cols());
+    for (&v, (i, j)) in a.iter() {
+        out[(i, j)] += v;
+    }
+    out
+}
 
 /// Returns the matrix in CSC storage, borrowing when it already is.
 pub fn as_csc(a: &CsMat<f64>) -> Cow<'_, CsMat<f64>> {

@@ -11,8 +11,8 @@ use serde::Serialize;
 
 use crate::point::BackbonePoint;
 use crate::NnmError;
+use nlmodes_dense::{cholesky_lower, generalized_eigen};
 use nlmodes_hb::check::{at_least_one, require};
-use nlmodes_hb::dense::{cholesky_lower, generalized_eigen};
 use nlmodes_hb::system::System;
 
 /// Displacement and velocity.
@@ -36,7 +36,7 @@ pub(crate) fn check_rk4_step(
     h: f64,
     duration: f64,
 ) -> Result<(), NnmError> {
-    let eig = generalized_eigen(stiffness, system.mass(), "M")?;
+    let eig = generalized_eigen(stiffness, system.mass()).map_err(NnmError::dense("M"))?;
     let omega_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
     if h * omega_max > RK4_LIMIT {
         let max_step = RK4_LIMIT / omega_max;
@@ -141,7 +141,7 @@ struct PenaltyDynamics<'a> {
 impl<'a> PenaltyDynamics<'a> {
     fn new(system: &'a System, penalty: &'a [f64]) -> Result<Self, NnmError> {
         let a = system.contact_rows();
-        let l = cholesky_lower("M", system.mass())?;
+        let l = cholesky_lower(system.mass()).map_err(NnmError::dense("M"))?;
         let solve_m = |mut b: Mat<f64>| {
             faer::linalg::triangular_solve::solve_lower_triangular_in_place(
                 l.as_ref(),

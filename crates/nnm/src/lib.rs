@@ -6,24 +6,26 @@
 //!
 //! | paper | what | implemented in | DESIGN |
 //! |---|---|---|---|
-//! | Eqs. 3c, 7c, 11b | Signorini: g <= 0, lambda >= 0, lambda . g = 0 | `system::System`, `contact::apply_contact_law` | 3, 3.3 |
-//! | Eq. 6 | Fourier series, here even: u(t) = sum_n u_n cos(n w t) | `fourier::cosine_series`, `point::reconstruct`, `point::velocity` | 3.1 |
-//! | Eq. 9 | Rayleigh quotient: not used, see Eq. 20 | `newton` (module docs) | 3.4 |
-//! | Eqs. 12a, 15, 20 | (K - (n w)^2 M) u_n + A^T lambda_n = 0, n = 0..N | `linear_model::LinearModel::harmonic_residual` (`full::FullModel`, `condensed_newton::CondensedModel`), `newton::evaluate` | 3.4 |
-//! | Eq. 12b | complementarity at convergence (G <= epsilon) | `contact::powell_measure`, `augmented_lagrangian::run_algorithm1` | 3.5 |
-//! | Eq. 13 | augmented-Lagrangian variables theta, kappa | `contact::Multipliers` | 3.3 |
-//! | Eq. 14 | stationarity at fixed (theta, kappa): the inner solve | `newton::NewtonSolve::run`, `newton_fallback::solve_inner_robust`, `solver::InnerSolve`, `solver::Solver::solve_with_row` | 3.6 |
-//! | Eq. 15 (integrand) | lambda = kappa (g + theta)_+, slope kappa or 0 | `contact::apply_contact_law` | 3.3 |
-//! | Eq. 16 | theta <- theta + max(g, -theta) | `contact::violations`, `augmented_lagrangian::run_algorithm1` | 3.3, 3.5 |
-//! | Eq. 17 | g = A U - g0 | `system::System::new`, `System::contact_rows`, `System::gaps` | 3.3 |
-//! | Eq. 18 | time grid t_k = k T / m | `fourier::HarmonicSettings`, `fourier::Aft::synthesize`; layouts `layout::HarmonicLayout`, `layout::SignalLayout` | 2, 3.2 |
-//! | Eq. 19 | frequency <-> time (AFT) | `fourier::Aft::synthesize`, `fourier::Aft::analyze` | 3.2 |
-//! | Eq. 20 (Jacobian) | J_{n,n'} = D_{n+n'} + D_{abs(n-n')} from cosine moments | `fourier::Aft::cosine_moments`, `linear_model::contact_jacobian`, `linear_model::LinearModel::solve_step` | 3.6 |
-//! | Eq. 20 (linear algebra) | exact condensation onto contact coordinates and master | `condensation_basis::CondensedBasis`, `condensed_newton::CondensedModel`, `modal_tail::ModalTail`; dense: `full::FullModel` | 3.7 |
-//! | Eq. 21 | Powell's measure (entrywise by default) | `contact::PowellMeasure`, `contact::powell_measure`, `contact::powell_measure_of` | 3.5 |
-//! | Algorithm 1 | outer loop: multiplier and penalty updates | `augmented_lagrangian::run_algorithm1`, `AlgorithmParams`, `PenaltyUpdate` | 3.5 |
-//! | Sec. 2.6 | normalization e . u_1 = q | `newton::evaluate` (normalization row), `System::master`, `BackbonePoint::q` | 3.4 |
+//! | Eqs. 3c, 7c, 11b | Signorini: g <= 0, lambda >= 0, lambda . g = 0 | `nlmodes_hb::system::System`, `nlmodes_hb::contact::apply_contact_law` | 3, 3.3 |
+//! | Eq. 6 | Fourier series, here even: u(t) = sum_n u_n cos(n w t) | `nlmodes_hb::fourier::cosine_series`, `point::reconstruct`, `point::velocity` | 3.1 |
+//! | Eq. 9 | Rayleigh quotient: not used, see Eq. 20 | `nlmodes_hb::newton` (module docs) | 3.4 |
+//! | Eqs. 12a, 15, 20 | (K - (n w)^2 M) u_n + A^T lambda_n = 0, n = 0..N | `nlmodes_hb::linear_model::LinearModel::harmonic_residual` (`nlmodes_hb::full::FullModel`, `nlmodes_hb::condensed_newton::CondensedModel`), `nlmodes_hb::newton::evaluate` | 3.4 |
+//! | Eq. 12b | complementarity at convergence (G <= epsilon) | `nlmodes_hb::contact::powell_measure`, `nlmodes_hb::augmented_lagrangian::run_algorithm1` | 3.5 |
+//! | Eq. 13 | augmented-Lagrangian variables theta, kappa | `nlmodes_hb::contact::Multipliers` | 3.3 |
+//! | Eq. 14 | stationarity at fixed (theta, kappa): the inner solve | `nlmodes_hb::newton::NewtonSolve::run`, `nlmodes_hb::newton_fallback::solve_inner_robust`, `solver::InnerSolve`, `solver::Solver::solve_with_row` | 3.6 |
+//! | Eq. 15 (integrand) | lambda = kappa (g + theta)_+, slope kappa or 0 | `nlmodes_hb::contact::apply_contact_law` | 3.3 |
+//! | Eq. 16 | theta <- theta + max(g, -theta) | `nlmodes_hb::contact::violations`, `nlmodes_hb::augmented_lagrangian::run_algorithm1` | 3.3, 3.5 |
+//! | Eq. 17 | g = A U - g0 | `nlmodes_hb::system::System::new`, `System::contact_rows`, `System::gaps` | 3.3 |
+//! | Eq. 18 | time grid t_k = k T / m | `nlmodes_hb::fourier::HarmonicSettings`, `nlmodes_hb::fourier::Aft::synthesize`; layouts `nlmodes_hb::layout::HarmonicLayout`, `nlmodes_hb::layout::SignalLayout` | 2, 3.2 |
+//! | Eq. 19 | frequency <-> time (AFT) | `nlmodes_hb::fourier::Aft::synthesize`, `nlmodes_hb::fourier::Aft::analyze` | 3.2 |
+//! | Eq. 20 (Jacobian) | J_{n,n'} = D_{n+n'} + D_{abs(n-n')} from cosine moments | `nlmodes_hb::fourier::Aft::cosine_moments`, `nlmodes_hb::linear_model::contact_jacobian`, `nlmodes_hb::linear_model::LinearModel::solve_step` | 3.6 |
+//! | Eq. 20 (linear algebra) | exact condensation onto contact coordinates and master | `nlmodes_hb::condensation_basis::CondensedBasis`, `nlmodes_hb::condensed_newton::CondensedModel`, `nlmodes_hb::modal_tail::ModalTail`; dense: `nlmodes_hb::full::FullModel`, `nlmodes_dense::DenseLu` | 3.7 |
+//! | Eq. 21 | Powell's measure (entrywise by default) | `nlmodes_hb::contact::PowellMeasure`, `nlmodes_hb::contact::powell_measure`, `nlmodes_hb::contact::powell_measure_of` | 3.5 |
+//! | Algorithm 1 | outer loop: multiplier and penalty updates | `nlmodes_hb::augmented_lagrangian::run_algorithm1`, `AlgorithmParams`, `PenaltyUpdate` | 3.5 |
+//! | Sec. 2.6 | normalization e . u_1 = q | `nlmodes_hb::newton::evaluate` (normalization row), `System::master`, `BackbonePoint::q` | 3.4 |
 //! | Sec. 4, Fig. 3a | backbone w(q) and its branches | `trace::backbone`, `trace::Continuation`, `sweep::amplitude_sweep` | 3.8, 8 |
+//! | Sec. 5 | stability of the orbits (Hill, event-based monodromy) and bifurcations | `stability::FloquetAnalysis`, `stability::analyze_backbone`, `stability::classify` | 9 |
+//! | Sec. 5 | the massless contact boundary: shot orbits and their exact monodromy, the exact backbone, converged orbits, holes | `stability::boundary` (this crate's side), `nlmodes_boundary::shot_orbit`, `nlmodes_boundary::exact_backbone`, `nlmodes_boundary::converged_orbit` | 9, 10.6 |
 //! | (none) | time integration with a penalty law, independent check | `integrate::integrate_penalty`, `integrate::check_periodicity` | 5.4 |
 //!
 //! The crate knows nothing of meshes: a [`System`] is any SPD pair (M, K) with contact rows A and
@@ -63,12 +65,14 @@
 //!
 //! The harmonic-balance engine these modules drive (system, layouts, AFT, contact law, Powell's
 //! measure, Algorithm 1, the inner Newton solve and its exact condensation) is the crate
-//! `nlmodes-hb`, shared with the forced response; the paths `system::`, `contact::`, `newton::`,
-//! ... in the table above are its modules. Modules of this crate: `solver` (one point of the free
-//! mode, `InnerSolve`), `continuation` and `trace` (backbone), `stability`, `truncation`, `point`
-//! (outputs), `integrate` (time-integration cross-check), `sweep` (amplitude levels, tests only),
-//! `step_timing` (benchmarks only). Design: docs/DESIGN.md (sections cited as "DESIGN §k"), §10
-//! for the split.
+//! `nlmodes-hb`, shared with the forced response; the massless contact boundary is the crate
+//! `nlmodes-boundary`, shared likewise; dense linear algebra is `nlmodes-dense`. Paths without
+//! a crate in the table above are this crate's modules: `solver` (one point of the free mode,
+//! `InnerSolve`), `continuation` and `trace` (backbone), `stability` (its `boundary` module the
+//! free modes on `nlmodes-boundary`), `truncation`, `point` (outputs), `integrate`
+//! (time-integration cross-check), `sweep` (amplitude levels, tests only), `step_timing`
+//! (benchmarks only). Design: docs/DESIGN.md (sections cited as "DESIGN §k"), §1 for the crates,
+//! §10 for the split.
 
 mod continuation;
 mod integrate;
@@ -87,6 +91,12 @@ pub use continuation::{
     Termination,
 };
 pub use integrate::{check_periodicity, integrate_penalty, MotionState, PeriodicityCheck};
+/// The massless contact boundary's results as this crate returns them (`nlmodes-boundary`).
+pub use nlmodes_boundary::{
+    BoundaryBackbone, BoundaryBackbonePoint, BoundaryHistory, BoundaryPiece, ConvergedOrbit,
+    ConvergenceSettings, ConvergenceStop, ExactOrbitAtQ, HoleFollow, HoleFollowEnd, ShootingCheck,
+    SHOOTING_CHECK_LIMIT, SHOOTING_SHIFT_LIMIT,
+};
 /// The engine's error type: one type for the engine and the free-mode problem built on it.
 pub use nlmodes_hb::HbError as NnmError;
 pub use nlmodes_hb::{
@@ -97,14 +107,11 @@ pub use nlmodes_hb::{
 pub use point::{reconstruct, velocity, BackbonePoint};
 pub use solver::{solve_point, Solver, Start};
 pub use stability::{
-    analyze_backbone, boundary_backbone, boundary_history, classify, floquet,
-    monodromy_by_integration, verdict_word, Bifurcation, BoundaryBackbone, BoundaryBackbonePoint,
-    BoundaryHistory, BoundaryPiece, ConvergedOrbit, ConvergenceSettings, ConvergenceStop,
-    ExactOrbitAtQ, FloquetAnalysis, FloquetSettings, HoleFollow, HoleFollowEnd, JacobianInTime,
-    Monodromy, MonodromySettings, ShootingCheck, Stability, StabilityMethod, UnresolvedPair,
-    UnstableCounts, VerdictInputs, DECOUPLED_SHARE, SALTATION_TRIVIAL_LIMIT, SHOOTING_CHECK_LIMIT,
-    SHOOTING_SHIFT_LIMIT, TRIVIAL_PAIR_LIMIT, UNRESOLVED_ACCELERATION_LIMIT,
-    UNRESOLVED_SHARE_LIMIT,
+    analyze_backbone, boundary_backbone, boundary_history, classify, converge_points, floquet,
+    monodromy_by_integration, verdict_word, Bifurcation, FloquetAnalysis, FloquetSettings,
+    JacobianInTime, Monodromy, MonodromySettings, Stability, StabilityMethod, UnresolvedPair,
+    UnstableCounts, VerdictInputs, DECOUPLED_SHARE, SALTATION_TRIVIAL_LIMIT, TRIVIAL_PAIR_LIMIT,
+    UNRESOLVED_ACCELERATION_LIMIT, UNRESOLVED_SHARE_LIMIT,
 };
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};

@@ -4,10 +4,6 @@
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
 
-use super::boundary_flow::BoundaryModel;
-use super::boundary_shooting::{
-    boundary_model, check_by_rk4, exponents_of, modal_coordinates, shoot, ModalData, ShotOrbit,
-};
 use super::impact::impact_equivalent_pieces;
 use super::modal_basis::{DecoupledModes, ModalBasis};
 use super::monodromy::constant_pieces;
@@ -16,7 +12,7 @@ use super::{
 };
 use crate::point::BackbonePoint;
 use crate::NnmError;
-use nlmodes_hb::driven_boundary::residual_sum;
+use nlmodes_boundary::{check_by_rk4, exponents_of, residual_sum, ModalData};
 use nlmodes_hb::system::System;
 
 /// Precomputed modal data of a system for Hill's method; reuse it for every point of a backbone.
@@ -114,18 +110,15 @@ impl<'s> FloquetAnalysis<'s> {
         self.decoupled.omega.len()
     }
 
-    /// The linear modes' data the massless-boundary models are built from.
+    /// The coupled modes' data the massless-boundary models are built from.
     pub(super) fn modal_data(&self) -> ModalData<'_> {
         ModalData {
             omega: &self.modes.omega,
             contact_modal: self.modes.contact_modal.as_ref(),
             projection: self.modes.projection.as_ref(),
+            master: &self.modes.master,
+            gaps: self.system.gaps(),
         }
-    }
-
-    /// The master's row of Phi (n).
-    pub(super) fn master_modal(&self) -> &[f64] {
-        &self.modes.master
     }
 
     /// The coupled modes' basis (the event-based monodromy's).
@@ -193,50 +186,7 @@ impl<'s> FloquetAnalysis<'s> {
         self.analyze_by_hill(point, harmonics, samples)
     }
 
-    /// Modes kept dynamic on the massless boundary at circular frequency `omega` with
-    /// `harmonics` harmonics: w_k <= `shooting_cutoff` (N + 1) w, at least one. (Not Hill's
-    /// `min_modes` floor: a second mode far above the cutoff made dynamic would be the contact
-    /// node's own stiff mode on the light-contact model, leaving no boundary at all; before the
-    /// decoupled modes were left out, two decoupled pads filled that floor.)
-    pub(super) fn shooting_modes(&self, omega: f64, harmonics: usize) -> usize {
-        let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * omega;
-        let r = self.modes.omega.iter().filter(|&&w| w <= limit).count();
-        r.max(1).min(self.modes.omega.len())
-    }
-
-    /// The massless-boundary model of `point` (the modes up to `shooting_cutoff` (N + 1) w
-    /// dynamic, `point`'s contact law) and its periodic orbit next to `point`, by shooting; `None`
-    /// where the model does not apply (shooting off, no contact, every mode resolved, R not
-    /// positive definite) or Newton does not converge.
-    pub(super) fn shot_orbit(
-        &self,
-        point: &BackbonePoint,
-        harmonics: usize,
-    ) -> Result<Option<(BoundaryModel, ShotOrbit)>, NnmError> {
-        let r = self.shooting_modes(point.omega, harmonics);
-        let in_contact = point.contact_force.iter().flatten().any(|&f| f > 0.0);
-        if !self.settings.shooting || !in_contact || r == self.modes.omega.len() {
-            return Ok(None);
-        }
-        let modal = self.modal_data();
-        let penalty = penalty_of(point);
-        let Some(model) = boundary_model(&modal, self.system.gaps(), r, penalty.as_deref()) else {
-            return Ok(None);
-        };
-        let q0 = modal_coordinates(&modal, &point.displacement_at(0.0), r);
-        match shoot(&model, q0, point.period())? {
-            Some(orbit) => Ok(Some((model, orbit))),
-            None => {
-                tracing::debug!(
-                    w = point.omega,
-                    "massless-boundary shooting did not converge"
-                );
-                Ok(None)
-            }
-        }
-    }
-
-    /// The massless-boundary shooting (`boundary_shooting`) when it applies and converges.
+    /// The massless-boundary shooting (`nlmodes_boundary`) when it applies and converges.
     fn analyze_by_shooting(
         &self,
         point: &BackbonePoint,
@@ -766,19 +716,4 @@ pub(crate) fn stability_with_trivial(
         unresolved: Vec::new(),
         unresolved_acceleration: 0.0,
     }
-}
-
-/// The penalty stiffness of each row of a penalty orbit (theta = 0 everywhere: the largest kappa
-/// of the row's samples), `None` for an augmented-Lagrangian (rigid-contact) orbit.
-pub(super) fn penalty_of(point: &BackbonePoint) -> Option<Vec<f64>> {
-    let mult = &point.multipliers;
-    if mult.theta.iter().any(|&t| t != 0.0) || mult.samples == 0 {
-        return None;
-    }
-    Some(
-        mult.kappa
-            .chunks(mult.samples)
-            .map(|row| row.iter().fold(0.0_f64, |a, &k| a.max(k)))
-            .collect(),
-    )
 }

@@ -78,29 +78,17 @@
 //! unit circle to the same order). With every mode kept (a large `mode_cutoff`) nothing is
 //! approximated beyond N and m.
 
-mod backbone_curve;
 mod bifurcation;
-mod boundary_at_q;
-mod boundary_backbone;
-mod boundary_flow;
-mod boundary_history;
-mod boundary_holes;
-mod boundary_shooting;
+mod boundary;
 mod event_based;
 mod hill;
 mod impact;
 mod modal_basis;
 mod monodromy;
 mod saltation;
-#[cfg(test)]
-mod test_models;
 
-pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece};
 pub use bifurcation::{classify, Bifurcation};
-pub use boundary_at_q::{ConvergedOrbit, ConvergenceSettings, ConvergenceStop, ExactOrbitAtQ};
-pub use boundary_backbone::{boundary_backbone, BoundaryBackbone};
-pub use boundary_history::{boundary_history, BoundaryHistory};
-pub use boundary_holes::{HoleFollow, HoleFollowEnd};
+pub use boundary::{boundary_backbone, boundary_history, converge_points};
 pub use hill::FloquetAnalysis;
 pub use modal_basis::DECOUPLED_SHARE;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
@@ -112,6 +100,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use crate::continuation::Backbone;
 use crate::point::BackbonePoint;
 use crate::NnmError;
+use nlmodes_boundary::{ShootingCheck, SHOOTING_SHIFT_LIMIT};
 use nlmodes_hb::check::{at_least_one, require};
 use nlmodes_hb::system::System;
 
@@ -273,13 +262,6 @@ pub const TRIVIAL_PAIR_LIMIT: f64 = 0.05;
 /// largest multiplier within 1.1e-2 of the exact one (eps^2 |mu| = 1.2e-2 there).
 pub const SALTATION_TRIVIAL_LIMIT: f64 = 0.3;
 
-/// Largest relative distance |w_shot - w| / w between the harmonic-balance orbit and the shot
-/// orbit of the massless boundary at which the shot orbit's verdict is the point's. The two
-/// orbits differ by the truncation to N harmonics and by the inertia of the discarded modes
-/// (O(((N + 1) w / w_k)^2) of their quasi-static response); further apart, the shot orbit is
-/// another member of the family (or of a tongue) and says nothing of this point.
-pub const SHOOTING_SHIFT_LIMIT: f64 = 1e-2;
-
 /// Largest share of a contact row's inverse mass c_j = a_j M^-1 a_j^T that the modes above the
 /// event-based monodromy's cutoff (w_k > `mode_cutoff` (N + 1) w) may carry together for it to
 /// apply (docs/STABILITY.md, Sec. 10). Those modes take their state at the impacts from their
@@ -435,43 +417,6 @@ fn collision_radii(v: &VerdictInputs<'_>, eps: f64) -> Vec<f64> {
         }
     }
     radii
-}
-
-/// The independent check of a shooting verdict: one period of RK4 of the massless-boundary
-/// model from the shot orbit's start, with the contact problem solved afresh at every stage and
-/// the variational equation integrated alongside (docs/STABILITY.md, Sec. 9).
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct ShootingCheck {
-    /// RK4 steps over the period.
-    pub steps: usize,
-    /// Distance of the RK4 end state from the start in the scaled state (q / |q0|,
-    /// q' / (w |q0|)): 0 for an exact periodic orbit and an exact integrator.
-    pub periodicity: f64,
-    /// Largest distance from a non-trivial multiplier of the RK4 monodromy to the nearest
-    /// non-trivial exact one (the trivial pair, the two nearest +1, left out of both: a Jordan
-    /// block that any perturbation delta splits by sqrt(delta)).
-    pub multiplier_distance: f64,
-    /// Largest |mu| of the RK4 monodromy's non-trivial multipliers (1 if none is outside).
-    pub max_multiplier_abs: f64,
-    /// |max_multiplier_abs - the exact monodromy's|: the difference in the decision quantity.
-    pub max_multiplier_change: f64,
-}
-
-/// Largest [`ShootingCheck::max_multiplier_change`] (and periodicity) at which the RK4 check
-/// confirms a shooting verdict. The check cuts its steps at the contact switches, so RK4 keeps
-/// its fourth order with h s_max = 2 pi / 200: on the default blade its largest |mu| agrees with
-/// the exact monodromy's to 6e-7 and its end state with the start to 2e-7 (50 points;
-/// docs/STABILITY.md, Sec. 9). A disagreement past 1e-4 means the exact flow or the shot orbit
-/// is wrong, and the verdict is not given.
-pub const SHOOTING_CHECK_LIMIT: f64 = 1e-4;
-
-impl ShootingCheck {
-    /// The check confirms the exact monodromy: the shot orbit is periodic for RK4 and the
-    /// largest non-trivial |mu| is the same within [`SHOOTING_CHECK_LIMIT`].
-    pub fn agrees(&self) -> bool {
-        self.max_multiplier_change <= SHOOTING_CHECK_LIMIT
-            && self.periodicity <= SHOOTING_CHECK_LIMIT
-    }
 }
 
 /// Floquet stability of one orbit (Hill's method or the event-based monodromy).

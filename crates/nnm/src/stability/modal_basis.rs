@@ -15,7 +15,7 @@ use faer::{Mat, MatRef};
 
 use crate::point::BackbonePoint;
 use crate::NnmError;
-use nlmodes_hb::dense::generalized_eigen;
+use nlmodes_dense::generalized_eigen;
 use nlmodes_hb::system::System;
 
 /// Largest share b_jk^2 / c_j of a contact row's inverse mass at which a mode counts as decoupled
@@ -43,7 +43,8 @@ pub(crate) struct ModalBasis {
 impl ModalBasis {
     /// Every mode of `system`.
     pub fn of_system(system: &System) -> Result<Self, NnmError> {
-        let eig = generalized_eigen(system.stiffness(), system.mass(), "M")?;
+        let eig =
+            generalized_eigen(system.stiffness(), system.mass()).map_err(NnmError::dense("M"))?;
         let n = eig.vectors.ncols();
         Ok(Self {
             omega: eig.values.iter().map(|v| v.max(0.0).sqrt()).collect(),

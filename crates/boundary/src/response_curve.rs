@@ -1,8 +1,8 @@
 //! The exact response curve on the massless contact boundary (docs/STABILITY.md Sec. 9.2;
-//! DESIGN §10.6): the model of `boundary` (the modes up to (N + 1) W at the start of the range
+//! DESIGN §10.6): the model of `driven_model` (the modes up to (N + 1) W at the start of the range
 //! dynamic, the others static on the contact rows, a penalty law's spring in series; under a
 //! penalty law a model whose modes are all resolved is the penalty equation itself) continued
-//! over the range by shooting (`nlmodes_hb::driven_curve`). No harmonic is truncated, every
+//! over the range by shooting (`driven_curve`). No harmonic is truncated, every
 //! orbit is exact to the shooting tolerance and its multipliers are those of its own exact
 //! monodromy: the second method beside the harmonic-balance curve, which shows where N
 //! harmonics of the massive model hold and gives a verdict where the harmonic balance cannot.
@@ -15,10 +15,10 @@
 
 use faer::Mat;
 
-use crate::boundary::{driven_model, modal_start, BoundaryInputs};
-use nlmodes_hb::arc_length::{CurveEnd, CurveSettings};
-use nlmodes_hb::driven_boundary::{sample_orbit, DrivenBoundary};
-use nlmodes_hb::driven_curve::trace_driven_curve;
+use crate::arc_length::{CurveEnd, CurveSettings};
+use crate::driven_curve::trace_driven_curve;
+use crate::driven_flow::sample_orbit;
+use crate::driven_model::{driven_model, modal_start, DrivenBoundary, DrivenInputs};
 use nlmodes_hb::floquet::{multipliers_of, Verdict};
 use nlmodes_hb::HbError;
 
@@ -65,7 +65,7 @@ struct MasterRow {
 }
 
 impl MasterRow {
-    fn new(inputs: &BoundaryInputs<'_>, r: usize) -> Self {
+    fn new(inputs: &DrivenInputs<'_>, r: usize) -> Self {
         let system = inputs.system;
         let (phi, lambda) = (system.modes(), system.eigenvalues());
         let (n, m) = (lambda.len(), system.master());
@@ -81,13 +81,12 @@ impl MasterRow {
             contact: (0..b.nrows()).map(|j| discarded(&|k| b[(j, k)])).collect(),
             drive: inputs
                 .load
-                .harmonics
                 .iter()
                 .map(|h| {
                     (
                         h.harmonic,
-                        discarded(&|k| modal(&h.cos, k)),
-                        discarded(&|k| modal(&h.sin, k)),
+                        discarded(&|k| modal(h.cos, k)),
+                        discarded(&|k| modal(h.sin, k)),
                     )
                 })
                 .collect(),
@@ -111,10 +110,11 @@ impl MasterRow {
 /// The exact curve of the level of `inputs` from the first of the harmonic-balance orbits
 /// `orbits` ((coefficients n x (2N + 1), W in rad/s); the first the linear orbit at the start of
 /// the range) to W = `end` (rad/s), its modal coordinates scaled by the largest of those orbits';
-/// `margin` as `FrfSettings::stability_margin`. `None` where the boundary model does not apply
-/// (exact contact on a model with every mode resolved) or its first orbit does not converge.
+/// `margin` that of `SampledMonodromy::verdict` (the forced study's `stability_margin`). `None`
+/// where the boundary model does not apply (exact contact on a model with every mode resolved)
+/// or its first orbit does not converge.
 pub fn boundary_curve(
-    inputs: &BoundaryInputs<'_>,
+    inputs: &DrivenInputs<'_>,
     orbits: &[(&Mat<f64>, f64)],
     end: f64,
     margin: f64,

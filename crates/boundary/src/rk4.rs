@@ -14,9 +14,10 @@ use std::collections::HashMap;
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
-use crate::dense::generalized_eigen;
-use crate::driven_boundary::DrivenBoundary;
-use crate::error::HbError;
+use crate::driven_model::DrivenBoundary;
+use crate::switch_scan::settle_active_set;
+use nlmodes_dense::generalized_eigen;
+use nlmodes_hb::HbError;
 
 /// RK4 steps per period of the fastest motion of the model (all rows closed): h s_max = 2 pi /
 /// this, about 0.03, local error ~ 1e-9 per step on the smooth stretches.
@@ -70,10 +71,13 @@ pub fn contact_solution(
         .map(|j| row_dot(&model.contact_modal, j, q) + drive.contact[j] - model.gaps[j])
         .collect();
     let scale = model.gaps.iter().fold(0.0_f64, |a, &g| a.max(g)) * 1e-13;
-    let mut active = start;
-    for _ in 0..(4 * c * c + 16) {
-        let lambda = solve_on(model, &active, &free_gap)?;
-        let violator = (0..c).find(|&j| match active.iter().position(|&a| a == j) {
+    let mut mask = vec![false; c];
+    start.iter().for_each(|&j| mask[j] = true);
+    let mut lambda = Vec::new();
+    let settled = settle_active_set(c, mask, UNSETTLED, |mask| {
+        let active: Vec<usize> = (0..c).filter(|&j| mask[j]).collect();
+        lambda = solve_on(model, &active, &free_gap)?;
+        Ok((0..c).find(|&j| match active.iter().position(|&a| a == j) {
             Some(i) => lambda[i] * model.flexibility[(j, j)] < -scale,
             None => {
                 let p = free_gap[j]
@@ -82,25 +86,13 @@ pub fn contact_solution(
                         .sum::<f64>();
                 p > scale
             }
-        });
-        match violator {
-            None => return Ok((active, lambda)),
-            Some(j) => match active.iter().position(|&a| a == j) {
-                Some(i) => {
-                    active.remove(i);
-                }
-                None => {
-                    active.push(j);
-                    active.sort_unstable();
-                }
-            },
-        }
-    }
-    Err(HbError::StabilityInput {
-        detail: "the contact problem of the massless boundary did not settle (RK4 check)"
-            .to_string(),
-    })
+        }))
+    })?;
+    Ok(((0..c).filter(|&j| settled[j]).collect(), lambda))
 }
+
+/// The error of a contact problem that does not settle.
+const UNSETTLED: &str = "the contact problem of the massless boundary did not settle (RK4 check)";
 
 fn row_dot(m: &Mat<f64>, j: usize, x: &[f64]) -> f64 {
     (0..x.len()).map(|k| m[(j, k)] * x[k]).sum()
@@ -238,7 +230,7 @@ pub fn rk4_steps(model: &DrivenBoundary, duration: f64) -> Result<usize, HbError
     let k = stiffness_on(model, &all)?;
     let r = k.nrows();
     let identity = Mat::<f64>::identity(r, r);
-    let eig = generalized_eigen(k.as_ref(), identity.as_ref(), "I")?;
+    let eig = generalized_eigen(k.as_ref(), identity.as_ref()).map_err(HbError::dense("I"))?;
     let s_max = eig.values.last().copied().unwrap_or(0.0).max(0.0).sqrt();
     let periods = duration * s_max / (2.0 * std::f64::consts::PI);
     Ok(((periods * STEPS_PER_FAST_PERIOD).ceil() as usize).max(1000))

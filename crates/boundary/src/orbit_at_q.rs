@@ -1,10 +1,10 @@
-//! The converged orbit of a backbone point (issue 24 item 2; docs/STABILITY.md Sec. 9.4): the
-//! exact periodic orbit of the massless contact boundary at the point's own master amplitude q,
-//! with the number of dynamic modes chosen by accuracy.
+//! The exact periodic orbit of the massless contact boundary at a harmonic-balance point's own
+//! master amplitude q (issue 24 item 2; docs/STABILITY.md Sec. 9.4), one level of the converged
+//! orbit (`converged`).
 //!
-//! **At the point's q.** The stability's shot orbit is the exact orbit *nearest* the
-//! harmonic-balance state (a minimum-norm Newton step in (q0, T)); its amplitude differs from the
-//! point's by about as much as its frequency does. Here one equation is added: the master's first
+//! The stability's shot orbit is the exact orbit *nearest* the harmonic-balance state (a
+//! minimum-norm Newton step in (q0, T)); its amplitude differs from the point's by about as much
+//! as its frequency does. Here one equation is added: the master's first
 //! harmonic q(q0, T) = q_point, the harmonic balance's normalization e . u_1 = q (Sec. 2.6 of the
 //! paper). The square system in z = (q0 / s, T / T_ref),
 //!
@@ -16,25 +16,16 @@
 //! d u_m(t_i) / dT = (i / M) (d u_m / d q)(t_i) q'(t_i), with u_m the master's displacement
 //! (kept modes plus the discarded modes' static response to the contact forces, as the exact
 //! backbone's `MasterRow`), linear in q on each contact set.
-//!
-//! **Modes by accuracy.** The model keeps the modes w_k <= `shooting_cutoff` (N + 1) w dynamic
-//! and the rest static; the time integration is exact (switch instants by event location). The
-//! only knob left is N through that cutoff. The orbit is computed with the modes of N, then 2N,
-//! 4N, ... up to `max_harmonics`, until doubling N changes w by at most `omega_tolerance`
-//! (relative) and every row's contact share by at most `share_tolerance` (the 2N estimate of the
-//! converged orbit itself); the last orbit is the point's converged orbit.
 
 use faer::linalg::solvers::Solve;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use super::backbone_curve::{MasterRow, MASTER_SAMPLES};
-use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
-use super::boundary_shooting::{boundary_model, modal_coordinates, norm};
-use super::hill::penalty_of;
-use super::{FloquetAnalysis, SHOOTING_SHIFT_LIMIT};
-use crate::point::BackbonePoint;
-use crate::NnmError;
+use crate::backbone_curve::{MasterRow, MASTER_SAMPLES};
+use crate::free_flow::{BoundaryFlow, FlowState};
+use crate::free_shooting::OrbitGuess;
+use crate::model::{norm, BoundaryModel, ModalData};
+use nlmodes_hb::HbError;
 
 /// Newton's tolerance on the scaled residual (as the stability's shooting).
 const NEWTON_TOLERANCE: f64 = 1e-10;
@@ -71,197 +62,64 @@ pub struct ExactOrbitAtQ {
     pub q0: Vec<f64>,
 }
 
-/// Why the converged orbit's refinement stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ConvergenceStop {
-    /// Doubling N changed w and every share by less than the tolerances (or added no mode, so
-    /// the orbit is the same).
-    Converged,
-    /// `max_harmonics` reached first, or 2N would keep every mode dynamic.
-    MaxHarmonics,
-    /// The orbit at the next N was not found (Newton did not converge).
-    SolveFailed,
-}
-
-/// The converged orbit of a point and how it was reached (module docs).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ConvergedOrbit {
-    /// The orbits with the modes of N, 2N, ... in order; the last is the converged one.
-    pub levels: Vec<ExactOrbitAtQ>,
-    /// Relative change of w between the last two levels (None with one level).
-    pub omega_change: Option<f64>,
-    /// Largest change of a row's contact share between the last two levels.
-    pub share_change: Option<f64>,
-    pub stop: ConvergenceStop,
-}
-
-impl ConvergedOrbit {
-    /// The converged (finest) orbit.
-    pub fn orbit(&self) -> &ExactOrbitAtQ {
-        self.levels
-            .last()
-            .expect("a converged orbit has at least one level")
+/// The exact orbit at `point`'s q with the first `r` modes of `modal` dynamic (those of
+/// `harmonics`), from the point's state or from `start`; `None` where the model does not apply
+/// (every mode dynamic, R not positive definite) or Newton does not converge.
+pub(crate) fn exact_orbit_at_q(
+    modal: &ModalData<'_>,
+    r: usize,
+    point: &OrbitGuess,
+    harmonics: usize,
+    start: Option<Start<'_>>,
+) -> Result<Option<ExactOrbitAtQ>, HbError> {
+    if r == modal.omega.len() {
+        return Ok(None);
     }
-
-    /// Whether the 2N estimate met both tolerances.
-    pub fn converged(&self) -> bool {
-        self.stop == ConvergenceStop::Converged
+    let Some(model) = modal.model(r, point.penalty.as_deref()) else {
+        return Ok(None);
+    };
+    let mut q0 = modal.coordinates(&point.start, r);
+    let mut period = point.period();
+    match start {
+        Some(Start::Period(t)) => period = t,
+        Some(Start::Level(below)) => {
+            // The coarser orbit's modes, the new ones from the point's state.
+            q0[..below.q0.len()].copy_from_slice(&below.q0);
+            period = 2.0 * std::f64::consts::PI / below.omega;
+        }
+        None => {}
     }
-
-    /// |w - w_converged| / w_converged of a frequency w (rad/s), such as the harmonic-balance
-    /// point's: what the "N too small" flag reads.
-    pub fn omega_error(&self, omega: f64) -> f64 {
-        let w = self.orbit().omega;
-        (omega - w).abs() / w
-    }
-}
-
-/// Tolerances and the largest N of [`FloquetAnalysis::converged_orbit`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ConvergenceSettings {
-    /// Largest relative change of w when N is doubled (`[nnm] truncation_tolerance`).
-    pub omega_tolerance: f64,
-    /// Largest change of a row's contact share (fraction of the period) when N is doubled
-    /// (`[nnm] share_tolerance`).
-    pub share_tolerance: f64,
-    /// The largest N whose modes are kept dynamic (`[nnm] max_harmonics`).
-    pub max_harmonics: usize,
-}
-
-impl FloquetAnalysis<'_> {
-    /// The converged orbit of `point` (traced with `harmonics`): module docs. `None` where the
-    /// boundary model does not apply (shooting off, no contact, every mode dynamic) or no orbit
-    /// is found at the point's q with the modes of N.
-    pub fn converged_orbit(
-        &self,
-        point: &BackbonePoint,
-        harmonics: usize,
-        settings: &ConvergenceSettings,
-    ) -> Result<Option<ConvergedOrbit>, NnmError> {
-        // From the point's own state; failing that, at the period of the stability's shot
-        // orbit (the exact orbit nearest the point, at a slightly different q).
-        let shot_period = point
-            .stability
-            .as_ref()
-            .filter(|s| s.orbit_omega > 0.0)
-            .map(|s| 2.0 * std::f64::consts::PI / s.orbit_omega);
-        let mut first = self.exact_orbit_at_q(point, harmonics, None)?;
-        if let (None, Some(t)) = (&first, shot_period) {
-            first = self.exact_orbit_at_q(point, harmonics, Some(Start::Period(t)))?;
-        }
-        let Some(first) = first else {
-            return Ok(None);
-        };
-        // An orbit of the same q farther in w than the stability trusts a shot orbit to be from
-        // its point is another member of the family (a tongue's), not this point's.
-        if (first.omega / point.omega - 1.0).abs() > SHOOTING_SHIFT_LIMIT {
-            return Ok(None);
-        }
-        let mut out = ConvergedOrbit {
-            levels: vec![first],
-            omega_change: None,
-            share_change: None,
-            stop: ConvergenceStop::MaxHarmonics,
-        };
-        let mut n = harmonics;
-        while 2 * n <= settings.max_harmonics {
-            n *= 2;
-            let below = out.orbit().clone();
-            let modes = self.shooting_modes(point.omega, n);
-            if modes == below.modes {
-                // No new mode below the cutoff of 2N: the same model, the same orbit.
-                out.omega_change = Some(0.0);
-                out.share_change = Some(0.0);
-                out.stop = ConvergenceStop::Converged;
-                return Ok(Some(out));
-            }
-            if modes == self.modal_data().omega.len() {
-                // Every mode dynamic: no massless boundary left to refine.
-                return Ok(Some(out));
-            }
-            let Some(next) = self.exact_orbit_at_q(point, n, Some(Start::Level(&below)))? else {
-                out.stop = ConvergenceStop::SolveFailed;
-                return Ok(Some(out));
-            };
-            let omega_change = (next.omega - below.omega).abs() / below.omega;
-            let share_change = (next.contact_shares.iter().zip(&below.contact_shares))
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            out.levels.push(next);
-            out.omega_change = Some(omega_change);
-            out.share_change = Some(share_change);
-            if omega_change <= settings.omega_tolerance && share_change <= settings.share_tolerance
-            {
-                out.stop = ConvergenceStop::Converged;
-                return Ok(Some(out));
-            }
-        }
-        Ok(Some(out))
-    }
-
-    /// The exact orbit at `point`'s q with the modes of `harmonics` dynamic, from the point's
-    /// state or from `start`; `None` where the model does not apply or Newton does not converge.
-    fn exact_orbit_at_q(
-        &self,
-        point: &BackbonePoint,
-        harmonics: usize,
-        start: Option<Start<'_>>,
-    ) -> Result<Option<ExactOrbitAtQ>, NnmError> {
-        let r = self.shooting_modes(point.omega, harmonics);
-        let in_contact = point.contact_force.iter().flatten().any(|&f| f > 0.0);
-        let modal = self.modal_data();
-        if !self.settings().shooting || !in_contact || r == modal.omega.len() {
-            return Ok(None);
-        }
-        let penalty = penalty_of(point);
-        let Some(model) = boundary_model(&modal, self.system().gaps(), r, penalty.as_deref())
-        else {
-            return Ok(None);
-        };
-        let mut q0 = modal_coordinates(&modal, &point.displacement_at(0.0), r);
-        let mut period = point.period();
-        match start {
-            Some(Start::Period(t)) => period = t,
-            Some(Start::Level(below)) => {
-                // The coarser orbit's modes, the new ones from the point's state.
-                q0[..below.q0.len()].copy_from_slice(&below.q0);
-                period = 2.0 * std::f64::consts::PI / below.omega;
-            }
-            None => {}
-        }
-        let equations = AtQ {
-            model: &model,
-            master: MasterRow::new(self, r),
-            q_target: point.q,
-            q_scale: norm(&q0),
-            t_ref: point.period(),
-            evaluations: match start {
-                Some(Start::Level(_)) => REFINEMENT_EVALUATIONS,
-                _ => usize::MAX,
-            },
-        };
-        // One flow for the Newton iterations and the shares: its contact sets' pieces are cached.
-        let mut flow = BoundaryFlow::new(&model);
-        let Some((q0, period)) = equations.solve(&mut flow, q0, period)? else {
-            tracing::debug!(q = point.q, harmonics, "exact orbit at q: no convergence");
-            return Ok(None);
-        };
-        let (shares, switches) = equations.shares(&mut flow, &q0, period)?;
-        Ok(Some(ExactOrbitAtQ {
-            harmonics,
-            modes: r,
-            omega: 2.0 * std::f64::consts::PI / period,
-            contact_shares: shares,
-            switches,
-            q0,
-        }))
-    }
+    let equations = AtQ {
+        model: &model,
+        master: MasterRow::new(modal, r),
+        q_target: point.q,
+        q_scale: norm(&q0),
+        t_ref: point.period(),
+        evaluations: match start {
+            Some(Start::Level(_)) => REFINEMENT_EVALUATIONS,
+            _ => usize::MAX,
+        },
+    };
+    // One flow for the Newton iterations and the shares: its contact sets' pieces are cached.
+    let mut flow = BoundaryFlow::new(&model);
+    let Some((q0, period)) = equations.solve(&mut flow, q0, period)? else {
+        tracing::debug!(q = point.q, harmonics, "exact orbit at q: no convergence");
+        return Ok(None);
+    };
+    let (shares, switches) = equations.shares(&mut flow, &q0, period)?;
+    Ok(Some(ExactOrbitAtQ {
+        harmonics,
+        modes: r,
+        omega: 2.0 * std::f64::consts::PI / period,
+        contact_shares: shares,
+        switches,
+        q0,
+    }))
 }
 
 /// Where a level's Newton starts other than from the point's own state and period.
 #[derive(Clone, Copy)]
-enum Start<'a> {
+pub(crate) enum Start<'a> {
     /// The point's modal state at this period (s).
     Period(f64),
     /// The coarser level's orbit (its modes' state and its period; the new modes from the point).
@@ -299,7 +157,7 @@ impl AtQ<'_> {
         flow: &mut BoundaryFlow<'_>,
         q0: Vec<f64>,
         period: f64,
-    ) -> Result<Option<(Vec<f64>, f64)>, NnmError> {
+    ) -> Result<Option<(Vec<f64>, f64)>, HbError> {
         let r = self.r();
         if !(self.q_scale > 0.0 && self.q_scale.is_finite() && period > 0.0) {
             return Ok(None);
@@ -358,7 +216,7 @@ impl AtQ<'_> {
     /// harmonic is the trapezoid sum over t_i = i T / M, i = 0..M/2, with weights 2 at the
     /// interior instants, and q'(T/2) with its derivatives is where the same integration ends
     /// (d q'(T/2) / dT = q''(T/2) / 2).
-    fn residual(&self, flow: &mut BoundaryFlow<'_>, z: &[f64]) -> Result<AtQResidual, NnmError> {
+    fn residual(&self, flow: &mut BoundaryFlow<'_>, z: &[f64]) -> Result<AtQResidual, HbError> {
         let r = self.r();
         let (q0, period) = self.state(z);
         let (m, half) = (MASTER_SAMPLES, MASTER_SAMPLES / 2);
@@ -406,7 +264,7 @@ impl AtQ<'_> {
         flow: &mut BoundaryFlow<'_>,
         state: &FlowState,
         active: &[bool],
-    ) -> Result<f64, NnmError> {
+    ) -> Result<f64, HbError> {
         let lambda = flow.contact_force(state, active)?;
         Ok(self.master.at(&state.q, &lambda))
     }
@@ -419,7 +277,7 @@ impl AtQ<'_> {
         state: &FlowState,
         active: &[bool],
         u: f64,
-    ) -> Result<Vec<f64>, NnmError> {
+    ) -> Result<Vec<f64>, HbError> {
         let h = MASTER_DIFFERENCE * self.q_scale;
         (0..self.r())
             .map(|k| {
@@ -436,7 +294,7 @@ impl AtQ<'_> {
         flow: &mut BoundaryFlow<'_>,
         q0: &[f64],
         period: f64,
-    ) -> Result<(Vec<f64>, usize), NnmError> {
+    ) -> Result<(Vec<f64>, usize), HbError> {
         let mut active = flow.active_set_at(q0)?;
         let mut state = FlowState {
             q: q0.to_vec(),
@@ -453,8 +311,8 @@ impl AtQ<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_models::{bilinear, bilinear_period, three_modes};
     use super::*;
+    use crate::test_models::{bilinear, bilinear_period, three_modes};
 
     /// The master's first harmonic of the orbit from rest at q0, over the full period with 4096
     /// samples (independent of the solver's half-period sum of 65).

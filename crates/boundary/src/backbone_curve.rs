@@ -1,11 +1,12 @@
 //! The curve of the exact backbone of the massless contact boundary (docs/STABILITY.md Sec.
 //! 9.3): its orbits ([`BoundaryBackbonePoint`]) and pieces ([`BoundaryPiece`]), and the shooting
-//! equations continued by `nlmodes_hb::arc_length` ([`BackboneEquations`]): a backbone orbit is at
+//! equations continued by `arc_length` ([`BackboneEquations`]): a backbone orbit is at
 //! rest at t = 0 and again at T / 2, r equations q'(T/2) = 0 in the r + 1 scaled unknowns
 //! z = (q0 / s, T / T_ref); what each accepted orbit records (its master amplitude, exact
 //! contact shares and verdict, energy shares), and when a trace leaves the starting mode's
-//! family (`leaves`). The pieces are put together in `boundary_backbone`, the holes between them
-//! followed in `boundary_holes`.
+//! family (`leaves`). The pieces are put together in `exact_backbone`, the holes between them
+//! followed in `holes`. An orbit's verdict is the caller's ([`Judge`]: the stability analysis's
+//! rule for the shooting method).
 //!
 //! The master's displacement is u_m(t) = sum_{k < r} phi_mk q_k(t) - sum_j c_j lambda_j(t),
 //! c_j = sum_{k >= r} phi_mk b_jk / w_k^2: the kept modes and the discarded modes' static
@@ -14,20 +15,19 @@
 
 use std::cell::{Cell, RefCell};
 
-use faer::Mat;
+use faer::{c64, Mat};
 use serde::{Deserialize, Serialize};
 
-use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
-use super::boundary_shooting::{exponents_of, half_period, ShotOrbit};
-use super::hill::stability_from_exponents;
-use super::{verdict_word, FloquetAnalysis, StabilityMethod, VerdictInputs};
-use crate::NnmError;
-use nlmodes_hb::arc_length::{CurveEnd, CurveEquations};
+use crate::arc_length::{CurveEnd, CurveEquations};
+use crate::free_flow::{BoundaryFlow, FlowState};
+use crate::free_shooting::{exponents_of, half_period, ShotOrbit};
+use crate::model::{BoundaryModel, ModalData};
+use nlmodes_hb::HbError;
 
 /// Instants per period at which the master's displacement is sampled (its first harmonic by
 /// the trapezoid rule, exact for a smooth periodic function up to aliasing from harmonics 127
 /// and 129).
-pub(super) const MASTER_SAMPLES: usize = 128;
+pub(crate) const MASTER_SAMPLES: usize = 128;
 
 /// One exact orbit of the boundary's backbone.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -46,7 +46,7 @@ pub struct BoundaryBackbonePoint {
     pub switches: usize,
     /// Largest non-trivial multiplier modulus (`None` when the monodromy failed its checks).
     pub max_multiplier_abs: Option<f64>,
-    /// `stable`, `unstable` or `undetermined` (`verdict_word` of the shooting method).
+    /// `stable`, `unstable` or `undetermined` (the [`Judge`]'s word).
     pub verdict: String,
     /// w turned between the previous point and this one.
     pub fold: bool,
@@ -90,7 +90,7 @@ impl BoundaryPiece {
 }
 
 /// The q ranges (system length unit) the pieces cover, merged, ascending.
-pub(super) fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
+pub fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
     let mut ranges: Vec<(f64, f64)> = pieces
         .iter()
         .filter(|p| !p.points.is_empty())
@@ -107,17 +107,22 @@ pub(super) fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
     merged
 }
 
+/// How an exact orbit is judged: from the exponents s (1/s) of its monodromy and its period T
+/// (s), its largest non-trivial multiplier modulus and its verdict (`stable`, `unstable` or
+/// `undetermined`). The caller's rule: the stability analysis's for the shooting method.
+pub type Judge<'a> = dyn Fn(&[c64], f64) -> (f64, &'static str) + Sync + 'a;
+
 /// The master's displacement on the boundary from q and lambda (module docs).
 #[derive(Clone)]
-pub(super) struct MasterRow {
-    pub(super) kept: Vec<f64>,
-    pub(super) contact: Vec<f64>,
+pub struct MasterRow {
+    pub(crate) kept: Vec<f64>,
+    pub(crate) contact: Vec<f64>,
 }
 
 impl MasterRow {
-    pub(super) fn new(analysis: &FloquetAnalysis<'_>, r: usize) -> Self {
-        let modal = analysis.modal_data();
-        let phi_m = analysis.master_modal();
+    /// The master's row of the model keeping the first `r` modes of `modal`.
+    pub fn new(modal: &ModalData<'_>, r: usize) -> Self {
+        let phi_m = modal.master;
         let b = modal.contact_modal;
         let contact = (0..b.nrows())
             .map(|j| {
@@ -132,45 +137,47 @@ impl MasterRow {
         }
     }
 
-    pub(super) fn at(&self, q: &[f64], lambda: &[f64]) -> f64 {
+    /// u_m (m) at kept coordinates q and contact forces lambda (N).
+    pub fn at(&self, q: &[f64], lambda: &[f64]) -> f64 {
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         dot(&self.kept, q) - dot(&self.contact, lambda)
     }
 }
 
 /// The backbone's shooting equations (module docs) and what each accepted point records.
-pub(super) struct BackboneEquations<'m> {
-    pub(super) model: &'m BoundaryModel,
-    pub(super) flow: RefCell<BoundaryFlow<'m>>,
-    pub(super) master: MasterRow,
-    pub(super) q_scale: f64,
-    pub(super) t_ref: f64,
-    pub(super) tolerance: f64,
+pub(crate) struct BackboneEquations<'m> {
+    pub(crate) model: &'m BoundaryModel,
+    pub(crate) flow: RefCell<BoundaryFlow<'m>>,
+    pub(crate) master: MasterRow,
+    pub(crate) q_scale: f64,
+    pub(crate) t_ref: f64,
+    /// Each orbit's verdict.
+    pub(crate) judge: &'m Judge<'m>,
     /// The starting linear mode (0-based).
-    pub(super) mode: usize,
+    pub(crate) mode: usize,
     /// Whether the trace in progress goes toward larger q.
-    pub(super) growing: Cell<bool>,
+    pub(crate) growing: Cell<bool>,
     /// The largest (growing) or smallest q of the trace so far.
-    pub(super) extreme: Cell<f64>,
-    /// Whether a piece's end is being followed through its tongue (`boundary_holes`): then
+    pub(crate) extreme: Cell<f64>,
+    /// Whether a piece's end is being followed through its tongue (`holes`): then
     /// the curve leaves only where the starting mode's fundamental holds less than
     /// `OTHER_MODE_SHARE` of the energy.
-    pub(super) following: Cell<bool>,
+    pub(crate) following: Cell<bool>,
     /// The largest q traced (system length unit).
-    pub(super) ceiling: f64,
+    pub(crate) ceiling: f64,
 }
 
 impl BackboneEquations<'_> {
     /// The same equations and trace state with a flow of their own (for a trace on another
     /// thread).
-    pub(super) fn fork(&self) -> Self {
+    pub(crate) fn fork(&self) -> Self {
         Self {
             model: self.model,
             flow: RefCell::new(BoundaryFlow::new(self.model)),
             master: self.master.clone(),
             q_scale: self.q_scale,
             t_ref: self.t_ref,
-            tolerance: self.tolerance,
+            judge: self.judge,
             mode: self.mode,
             growing: Cell::new(self.growing.get()),
             extreme: Cell::new(self.extreme.get()),
@@ -184,12 +191,12 @@ impl BackboneEquations<'_> {
     }
 
     /// The largest q traced (system length unit).
-    pub(super) fn q_ceiling(&self) -> f64 {
+    pub(crate) fn q_ceiling(&self) -> f64 {
         self.ceiling
     }
 
     /// The scaled unknowns z = (q0 / s, T / T_ref) of an orbit of the curve.
-    pub(super) fn scaled(&self, p: &BoundaryBackbonePoint) -> Vec<f64> {
+    pub(crate) fn scaled(&self, p: &BoundaryBackbonePoint) -> Vec<f64> {
         let period = 2.0 * std::f64::consts::PI / p.omega;
         p.q0.iter()
             .map(|v| v / self.q_scale)
@@ -212,7 +219,7 @@ impl BackboneEquations<'_> {
     /// The orbit from rest at q0 over one period: its monodromy, switches and contact shares,
     /// and the master's displacement and the kept modal coordinates at `MASTER_SAMPLES`
     /// instants.
-    fn orbit(&self, q0: &[f64], period: f64) -> Result<SampledOrbit, NnmError> {
+    fn orbit(&self, q0: &[f64], period: f64) -> Result<SampledOrbit, HbError> {
         let r = self.r();
         let mut flow = self.flow.borrow_mut();
         let mut active = flow.active_set_at(q0)?;
@@ -303,7 +310,7 @@ impl CurveEquations for &BackboneEquations<'_> {
     type Point = BoundaryBackbonePoint;
 
     /// q'(T/2) / v_scale, and the scaled Jacobian [dq'/dq0 s, dq'/dT T_ref] / v_scale.
-    fn residual(&self, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>), NnmError> {
+    fn residual(&self, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>), HbError> {
         let r = self.r();
         let (q0, period) = self.state(z);
         if period.is_nan() || period <= 0.0 {
@@ -321,16 +328,11 @@ impl CurveEquations for &BackboneEquations<'_> {
         Ok((hp.velocity.iter().map(|x| x / v).collect(), jacobian))
     }
 
-    fn jacobian(&self, _: &[f64], _: &[f64], jacobian: &Mat<f64>) -> Result<Mat<f64>, NnmError> {
+    fn jacobian(&self, _: &[f64], _: &[f64], jacobian: &Mat<f64>) -> Result<Mat<f64>, HbError> {
         Ok(jacobian.clone())
     }
 
-    fn point(
-        &self,
-        z: &[f64],
-        _: &Mat<f64>,
-        fold: bool,
-    ) -> Result<BoundaryBackbonePoint, NnmError> {
+    fn point(&self, z: &[f64], _: &Mat<f64>, fold: bool) -> Result<BoundaryBackbonePoint, HbError> {
         let (q0, period) = self.state(z);
         let SampledOrbit {
             orbit,
@@ -343,12 +345,8 @@ impl CurveEquations for &BackboneEquations<'_> {
             energy_shares(&modal, &self.model.omega2, self.mode);
         let (max_multiplier_abs, verdict) = match exponents_of(&orbit)? {
             Some(exponents) => {
-                let mut s = stability_from_exponents(&exponents, period, self.tolerance);
-                s.method = StabilityMethod::Shooting;
-                (
-                    Some(s.max_multiplier_abs),
-                    verdict_word(&VerdictInputs::of(&s)),
-                )
+                let (largest, verdict) = (self.judge)(&exponents, period);
+                (Some(largest), verdict)
             }
             None => (None, "undetermined"),
         };
@@ -405,7 +403,7 @@ impl CurveEquations for &BackboneEquations<'_> {
 /// (or rise from its smallest toward smaller q) before the trace counts as turned into a tongue.
 const TURN_BACK: f64 = 0.05;
 
-/// While a piece's edge is followed through its tongue (`boundary_holes`), the trace leaves
+/// While a piece's edge is followed through its tongue (`holes`), the trace leaves
 /// only where the starting mode's fundamental holds less than this share of the kept modes'
 /// energy: the orbit is another mode's.
-pub(super) const OTHER_MODE_SHARE: f64 = 0.02;
+pub(crate) const OTHER_MODE_SHARE: f64 = 0.02;

@@ -2,11 +2,12 @@
 //! of its symmetric periodic orbits continued in amplitude by shooting, with no harmonic
 //! truncated, beside the harmonic-balance backbone.
 //!
-//! The model is the one the stability stage shoots on (`boundary_flow`): the modes up to
-//! `shooting_cutoff` (N + 1) w_max dynamic (w_max the largest w of the main branch), the others
-//! static on the contact rows, a penalty law's spring in series. A backbone orbit is at rest at
-//! t = 0 and again at T / 2 (`boundary_shooting`): r equations q'(T/2) = 0 in the r + 1 scaled
-//! unknowns z = (q0 / s, T / T_ref), continued by `nlmodes_hb::arc_length` with T as the
+//! The model is the caller's: `nlmodes-nnm` gives the one its stability stage shoots on (`model`,
+//! `free_flow`): the modes up to `shooting_cutoff` (N + 1) w_max dynamic (w_max the largest w of
+//! the main branch), the others static on the contact rows, a penalty law's spring in series. A
+//! backbone orbit is at rest at t = 0 and again at T / 2 (`free_shooting`): r equations
+//! q'(T/2) = 0 in the r + 1 scaled unknowns z = (q0 / s, T / T_ref), continued by `arc_length`
+//! with T as the
 //! parameter (kinks hopped at fixed T, folds where T turns). Every point is exact to the
 //! shooting tolerance, its contact shares come from the exact switch instants and its verdict
 //! from its own exact monodromy (Liouville-checked).
@@ -28,16 +29,12 @@ use std::cell::{Cell, RefCell};
 
 use serde::{Deserialize, Serialize};
 
-use super::backbone_curve::{covered_ranges, BackboneEquations, BoundaryPiece, MasterRow};
-use super::boundary_flow::{BoundaryFlow, BoundaryModel};
-use super::boundary_holes::{follow_holes, HoleFollow};
-use super::boundary_shooting::{boundary_model, modal_coordinates, norm};
-use super::hill::penalty_of;
-use super::FloquetAnalysis;
-use crate::continuation::{Backbone, BranchKind};
-use crate::point::BackbonePoint;
-use crate::NnmError;
-use nlmodes_hb::arc_length::{trace_curve, CurveEnd, CurveSettings};
+use crate::arc_length::{trace_curve, CurveEnd, CurveSettings};
+use crate::backbone_curve::{covered_ranges, BackboneEquations, BoundaryPiece, Judge, MasterRow};
+use crate::free_flow::BoundaryFlow;
+use crate::holes::{follow_holes, HoleFollow};
+use crate::model::{norm, BoundaryModel};
+use nlmodes_hb::HbError;
 
 /// The exact backbone of the massless contact boundary (module docs).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -46,7 +43,7 @@ pub struct BoundaryBackbone {
     /// Modes kept dynamic.
     pub modes: usize,
     /// The pieces' ends next to each hole between them, followed through their tongues
-    /// (`boundary_holes`): why the hole stays, or the orbits that cross it.
+    /// (`holes`): why the hole stays, or the orbits that cross it.
     #[serde(default)]
     pub hole_follows: Vec<HoleFollow>,
 }
@@ -67,110 +64,81 @@ const MAX_STEP: f64 = 0.01;
 /// Most points of one end of a piece.
 const MAX_PIECE_POINTS: usize = 600;
 
-/// The exact backbone of the massless contact boundary of `backbone`'s main branch, from its
-/// first point up to master amplitude `q_end` (system length unit), in pieces (module docs).
-/// `None` when the boundary model does not apply (no point in contact, every mode resolved, or
-/// R not positive definite).
-pub fn boundary_backbone(
-    analysis: &FloquetAnalysis<'_>,
-    backbone: &Backbone,
+/// A point of the harmonic-balance main branch, where a piece of the exact backbone may start.
+#[derive(Clone, Debug)]
+pub struct BranchStart {
+    /// Its master amplitude q (m).
+    pub q: f64,
+    /// Its kept modal coordinates at t = 0 (where the orbit is at rest).
+    pub q0: Vec<f64>,
+    /// Its period (s).
+    pub period: f64,
+}
+
+/// The exact backbone of the massless contact boundary `model` along the main branch `branch`
+/// (its points by increasing q, the first where the backbone starts), up to master amplitude
+/// `q_end` (m), in pieces (module docs): `master` the master's row of the model, `mode` the
+/// traced linear mode (0-based), `judge` each orbit's verdict. `None` when no piece is found.
+pub fn exact_backbone(
+    model: &BoundaryModel,
+    master: MasterRow,
+    branch: &[BranchStart],
+    mode: usize,
     q_end: f64,
-) -> Result<Option<BoundaryBackbone>, NnmError> {
-    let main: Vec<&BackbonePoint> = backbone
-        .points
-        .iter()
-        .filter(|p| {
-            backbone
-                .branches
-                .get(p.branch)
-                .is_none_or(|b| matches!(b.kind, BranchKind::Main | BranchKind::Linear))
-        })
-        .collect();
-    let Some(model) = backbone_model(analysis, &main) else {
+    judge: &Judge<'_>,
+) -> Result<Option<BoundaryBackbone>, HbError> {
+    let Some(first) = branch.first() else {
         return Ok(None);
     };
-    let r = model.omega2.len();
-    let modal = analysis.modal_data();
-    let start = |p: &BackbonePoint| modal_coordinates(&modal, &p.displacement_at(0.0), r);
-    let q_scale = main.iter().map(|p| norm(&start(p))).fold(0.0, f64::max);
-    let t_ref = main[0].period();
+    let q_scale = branch.iter().map(|p| norm(&p.q0)).fold(0.0, f64::max);
+    let t_ref = first.period;
     if !(q_scale.is_finite() && q_scale > 0.0 && t_ref.is_finite() && t_ref > 0.0) {
         return Ok(None);
     }
     let equations = BackboneEquations {
-        model: &model,
-        flow: RefCell::new(BoundaryFlow::new(&model)),
-        master: MasterRow::new(analysis, r),
+        model,
+        flow: RefCell::new(BoundaryFlow::new(model)),
+        master,
         q_scale,
         t_ref,
-        tolerance: analysis.settings().tolerance,
-        mode: main[0].mode,
+        judge,
+        mode,
         growing: Cell::new(true),
         extreme: Cell::new(0.0),
         following: Cell::new(false),
         ceiling: q_end,
     };
-    let seed_of = |p: &BackbonePoint| Seed {
-        z_q0: start(p).iter().map(|v| v / q_scale).collect(),
-        period: p.period() / t_ref,
-        q: p.q.abs(),
-    };
-    let pieces = trace_pieces(&equations, &main, &seed_of, q_end)?;
+    let main: Vec<Seed> = branch
+        .iter()
+        .map(|p| Seed {
+            z_q0: p.q0.iter().map(|v| v / q_scale).collect(),
+            period: p.period / t_ref,
+            q: p.q.abs(),
+        })
+        .collect();
+    let pieces = trace_pieces(&equations, &main, q_end)?;
     if pieces.is_empty() {
         return Ok(None);
     }
-    let hole_follows = follow_holes(&equations, &pieces, main[0].q.abs(), q_end)?;
+    let hole_follows = follow_holes(&equations, &pieces, main[0].q, q_end)?;
     Ok(Some(BoundaryBackbone {
         pieces,
-        modes: r,
+        modes: model.modes(),
         hole_follows,
     }))
-}
-
-/// The boundary model of the main branch `main` (module docs): the modes up to
-/// `shooting_cutoff` (N + 1) w_max dynamic, the harmonic balance's contact law. `None` where it
-/// does not apply.
-fn backbone_model(
-    analysis: &FloquetAnalysis<'_>,
-    main: &[&BackbonePoint],
-) -> Option<BoundaryModel> {
-    let in_contact: Vec<&BackbonePoint> = main
-        .iter()
-        .filter(|p| p.contact_force.iter().flatten().any(|&f| f > 0.0))
-        .copied()
-        .collect();
-    let deepest = in_contact
-        .iter()
-        .max_by(|a, b| a.q.abs().total_cmp(&b.q.abs()))?;
-    let harmonics = main[0].coefficients.len().saturating_sub(1);
-    let w_max = main.iter().map(|p| p.omega).fold(0.0, f64::max);
-    let modal = analysis.modal_data();
-    let r = analysis.shooting_modes(w_max, harmonics);
-    if r == modal.omega.len() {
-        return None;
-    }
-    // A penalty law's orbits all carry their spring and no multiplier; an augmented-Lagrangian
-    // orbit that barely touches may carry none yet either, so the law is read from them all.
-    let penalty = if in_contact.iter().all(|p| penalty_of(p).is_some()) {
-        penalty_of(deepest)
-    } else {
-        None
-    };
-    boundary_model(&modal, analysis.system().gaps(), r, penalty.as_deref())
 }
 
 /// The pieces from the main branch's first point (not traced below it) up to `q_end`, each
 /// seeded from the first main-branch point above the q reached so far (module docs).
 fn trace_pieces(
     equations: &BackboneEquations<'_>,
-    main: &[&BackbonePoint],
-    seed_of: &dyn Fn(&BackbonePoint) -> Seed,
+    main: &[Seed],
     q_end: f64,
-) -> Result<Vec<BoundaryPiece>, NnmError> {
-    let q_start = main[0].q.abs();
+) -> Result<Vec<BoundaryPiece>, HbError> {
+    let q_start = main[0].q;
     let mut pieces: Vec<BoundaryPiece> = Vec::new();
     let mut covered = q_start;
-    let mut seed = Some(main[0]);
+    let mut seed = Some(&main[0]);
     while let Some(p) = seed.filter(|_| pieces.len() < MAX_PIECES) {
         // The first piece starts at q_start; the others go down to the q reached so far.
         let range = PieceRange {
@@ -178,9 +146,9 @@ fn trace_pieces(
             floor_down: covered,
             ceiling: q_end,
         };
-        let piece = trace_piece(equations, seed_of(p), &range)?;
+        let piece = trace_piece(equations, p.clone(), &range)?;
         let top = piece.iter().flat_map(|x| &x.points).map(|x| x.q.abs());
-        covered = top.fold(covered.max(p.q.abs()), f64::max);
+        covered = top.fold(covered.max(p.q), f64::max);
         // A seed whose orbit is already in a tongue gives one orbit and no curve.
         pieces.extend(piece.filter(|x| x.points.len() > 1));
         if covered >= q_end {
@@ -191,7 +159,7 @@ fn trace_pieces(
     // Each pass may leave smaller gaps between its pieces and the others: a few more passes.
     for _ in 0..GAP_PASSES {
         let before = pieces.len();
-        fill_gaps(equations, main, seed_of, &mut pieces)?;
+        fill_gaps(equations, main, &mut pieces)?;
         if pieces.len() == before {
             break;
         }
@@ -211,26 +179,24 @@ const GAP_PASSES: usize = 3;
 /// model can lie between tongues there, out of reach of a continuation from either side.
 fn fill_gaps(
     equations: &BackboneEquations<'_>,
-    main: &[&BackbonePoint],
-    seed_of: &dyn Fn(&BackbonePoint) -> Seed,
+    main: &[Seed],
     pieces: &mut Vec<BoundaryPiece>,
-) -> Result<(), NnmError> {
-    let q_start = main[0].q.abs();
+) -> Result<(), HbError> {
+    let q_start = main[0].q;
     let ranges = covered_ranges(pieces);
     for pair in ranges.windows(2) {
         let (lo, hi) = (pair[0].1, pair[1].0);
         let below = main
             .iter()
-            .filter(|p| p.q.abs() <= lo)
-            .max_by(|a, b| a.q.abs().total_cmp(&b.q.abs()));
+            .filter(|p| p.q <= lo)
+            .max_by(|a, b| a.q.total_cmp(&b.q));
         let above = main
             .iter()
-            .filter(|p| p.q.abs() >= hi)
-            .min_by(|a, b| a.q.abs().total_cmp(&b.q.abs()));
-        let (Some(below), Some(above)) = (below, above) else {
+            .filter(|p| p.q >= hi)
+            .min_by(|a, b| a.q.total_cmp(&b.q));
+        let (Some(a), Some(b)) = (below, above) else {
             continue;
         };
-        let (a, b) = (seed_of(below), seed_of(above));
         for s in GAP_SEEDS {
             let q = a.q + s * (b.q - a.q);
             let filled = covered_ranges(pieces).iter().any(|r| r.0 <= q && q <= r.1);
@@ -280,14 +246,14 @@ struct PieceRange {
 }
 
 /// The main-branch point of smallest q above `covered` (by 0.1 %), where the next piece starts.
-fn next_seed<'b>(main: &[&'b BackbonePoint], covered: f64) -> Option<&'b BackbonePoint> {
+fn next_seed(main: &[Seed], covered: f64) -> Option<&Seed> {
     main.iter()
-        .filter(|p| p.q.abs() > covered * 1.001)
-        .min_by(|a, b| a.q.abs().total_cmp(&b.q.abs()))
-        .copied()
+        .filter(|p| p.q > covered * 1.001)
+        .min_by(|a, b| a.q.total_cmp(&b.q))
 }
 
 /// Where a piece starts: a harmonic-balance point's scaled modal start and period, and its q.
+#[derive(Clone)]
 struct Seed {
     /// q0 / s of the point's displacement at t = 0 (kept modes).
     z_q0: Vec<f64>,
@@ -307,7 +273,7 @@ fn trace_piece(
         q: seed_q,
     }: Seed,
     range: &PieceRange,
-) -> Result<Option<BoundaryPiece>, NnmError> {
+) -> Result<Option<BoundaryPiece>, HbError> {
     let n = norm(&z_q0);
     let growing: Vec<f64> = z_q0.iter().map(|v| v / n).chain([0.0]).collect();
     let shrinking: Vec<f64> = growing.iter().map(|v| -v).collect();
@@ -345,9 +311,10 @@ fn trace_piece(
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_models::{bilinear, bilinear_period, three_modes};
     use super::*;
-    use nlmodes_hb::boundary_rk4::{integrate, Rk4State};
+    use crate::driven_model::DrivenBoundary;
+    use crate::rk4::{integrate, Rk4State};
+    use crate::test_models::{bilinear, bilinear_period, judge, three_modes};
 
     fn equations(model: &BoundaryModel, master: MasterRow, q_scale: f64) -> BackboneEquations<'_> {
         BackboneEquations {
@@ -356,7 +323,7 @@ mod tests {
             master,
             q_scale,
             t_ref: 2.0 * std::f64::consts::PI,
-            tolerance: 1e-3,
+            judge: &judge,
             mode: 0,
             growing: Cell::new(true),
             extreme: Cell::new(0.0),
@@ -456,7 +423,13 @@ mod tests {
                 q: p.q0.clone(),
                 v: vec![0.0; 3],
             };
-            let (end, _) = integrate(&model.undriven(period), &start, period, 40_000).expect("rk4");
+            let (end, _) = integrate(
+                &DrivenBoundary::undriven(&model, period),
+                &start,
+                period,
+                40_000,
+            )
+            .expect("rk4");
             let gap = (0..3)
                 .map(|i| (end.q[i] - start.q[i]).abs() + (end.v[i] * period).abs())
                 .fold(0.0, f64::max);

@@ -1,7 +1,7 @@
 //! Why a hole between the exact backbone's pieces stays (issue 24 item 3; docs/STABILITY.md
 //! Sec. 9.3). The pieces on either side of a hole end where they turn into an internal-resonance
-//! tongue (`BackboneEquations::leaves`). Each is followed on through its tongue with that stop
-//! off, by the same arc-length shooting, until
+//! tongue (`BackboneEquations::leaves` of `backbone_curve`). Each is followed on through its
+//! tongue with that stop off, by the same arc-length shooting, until
 //! - it comes within `MEET_DISTANCE` of the piece on the other side: the main family crosses the
 //!   hole through the tongue, and the followed orbits give w(q) across it;
 //! - the traced mode's fundamental holds less than `backbone_curve::OTHER_MODE_SHARE` of the
@@ -17,12 +17,12 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::backbone_curve::{
+use crate::arc_length::{trace_curve, CurveEnd, CurveSettings};
+use crate::backbone_curve::{
     covered_ranges, BackboneEquations, BoundaryBackbonePoint, BoundaryPiece,
 };
-use super::boundary_shooting::norm;
-use crate::NnmError;
-use nlmodes_hb::arc_length::{trace_curve, CurveEnd, CurveSettings};
+use crate::model::norm;
+use nlmodes_hb::HbError;
 
 /// Most orbits followed from one end of a piece.
 const FOLLOW_POINTS: usize = 300;
@@ -66,12 +66,12 @@ pub enum HoleFollowEnd {
 /// The holes between `pieces` within [q_lo, q_hi] (system length unit), each side's piece that
 /// turned into a tongue followed on (module docs), the edges in parallel (each with a flow of its
 /// own: the same orbits as one after the other).
-pub(super) fn follow_holes(
+pub(crate) fn follow_holes(
     equations: &BackboneEquations<'_>,
     pieces: &[BoundaryPiece],
     q_lo: f64,
     q_hi: f64,
-) -> Result<Vec<HoleFollow>, NnmError> {
+) -> Result<Vec<HoleFollow>, HbError> {
     let mut edges = Vec::new();
     for hole in holes(pieces, q_lo, q_hi) {
         let below = pieces.iter().find(|p| {
@@ -112,7 +112,7 @@ fn follow(
     other: Option<&BoundaryPiece>,
     hole: [f64; 2],
     from_below: bool,
-) -> Result<HoleFollow, NnmError> {
+) -> Result<HoleFollow, HbError> {
     let n = piece.points.len();
     let (end, before) = if from_below {
         (&piece.points[n - 1], &piece.points[n - 2])

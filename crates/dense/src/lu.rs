@@ -1,98 +1,11 @@
-//! Small dense linear-algebra helpers on top of faer: symmetric checks, the generalized symmetric
-//! eigenproblem K phi = lambda M phi (`nlmodes_dense`, shared with the modal crate, with nnm's
-//! errors), and an in-place LU with partial pivoting that reuses its buffers (no allocation once the
-//! size has been seen).
+//! LU factorization with partial pivoting of small dense matrices, in place in a reusable buffer
+//! (no allocation once the size has been seen): the linear algebra of the harmonic-balance
+//! Newton steps and their condensation.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::{factor, solve};
 use faer::perm::PermRef;
-use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
-pub use nlmodes_dense::GeneralizedEigen;
-use nlmodes_dense::{DenseError, SYMMETRY_TOLERANCE};
-
-use crate::error::HbError;
-
-/// Checks that `a` is square of size `n`, finite and symmetric to `nlmodes_dense::SYMMETRY_TOLERANCE`
-/// (1e-10 max|a|, the modal crate's bound too); returns the symmetrized copy.
-pub fn checked_symmetric(name: &'static str, a: &Mat<f64>, n: usize) -> Result<Mat<f64>, HbError> {
-    if a.nrows() != n || a.ncols() != n {
-        return Err(HbError::Shape {
-            name,
-            rows: a.nrows(),
-            cols: a.ncols(),
-            expected: n,
-        });
-    }
-    let mut scale = 0.0_f64;
-    for j in 0..n {
-        for i in 0..n {
-            let v = a[(i, j)];
-            if !v.is_finite() {
-                return Err(HbError::NonFinite {
-                    name,
-                    row: i,
-                    col: j,
-                    value: v,
-                });
-            }
-            scale = scale.max(v.abs());
-        }
-    }
-    let mut worst = (0.0_f64, 0, 0);
-    for j in 0..n {
-        for i in (j + 1)..n {
-            let d = (a[(i, j)] - a[(j, i)]).abs();
-            if d > worst.0 {
-                worst = (d, i, j);
-            }
-        }
-    }
-    if worst.0 > SYMMETRY_TOLERANCE * scale {
-        return Err(HbError::NotSymmetric {
-            name,
-            row: worst.1,
-            col: worst.2,
-            difference: worst.0,
-            tolerance: SYMMETRY_TOLERANCE,
-            scale,
-        });
-    }
-    Ok(Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)])))
-}
-
-/// Lower Cholesky factor of a symmetric positive definite matrix.
-pub fn cholesky_lower(name: &'static str, a: MatRef<'_, f64>) -> Result<Mat<f64>, HbError> {
-    match a.llt(Side::Lower) {
-        Ok(llt) => Ok(llt.L().to_owned()),
-        Err(e) => Err(HbError::NotPositiveDefinite {
-            name,
-            detail: format!("Cholesky factorization failed ({e})"),
-        }),
-    }
-}
-
-/// Solves `K phi = lambda M phi` (K symmetric, M SPD of the same order, checked by the caller):
-/// eigenvalues ascending, eigenvectors mass-normalized (`Phi^T M Phi = I`). `m_name` names M in
-/// the error when it is not positive definite.
-pub fn generalized_eigen(
-    k: MatRef<'_, f64>,
-    m: MatRef<'_, f64>,
-    m_name: &'static str,
-) -> Result<GeneralizedEigen, HbError> {
-    nlmodes_dense::generalized_eigen(k, m).map_err(|e| match e {
-        DenseError::NotPositiveDefinite(_) => HbError::NotPositiveDefinite {
-            name: m_name,
-            detail: e.to_string(),
-        },
-        DenseError::Eigen(detail) => HbError::Decomposition {
-            what: "symmetric eigen-decomposition",
-            detail: format!("{detail:?}"),
-        },
-        DenseError::NonFinite => HbError::NonFiniteResult {
-            what: "generalized eigenvalues",
-        },
-    })
-}
+use faer::{Conj, MatMut, MatRef, Par};
 
 /// LU factorization with partial pivoting, in place in a reusable buffer.
 #[derive(Default)]
@@ -213,27 +126,6 @@ mod tests {
         let expected = [4.0 / 18.0, 2.0 / 18.0, 26.0 / 18.0];
         for i in 0..3 {
             assert!((x[i] - expected[i]).abs() < 1e-14, "{x:?}");
-        }
-    }
-
-    #[test]
-    fn generalized_eigen_of_a_two_mass_chain() {
-        // M = diag(1, 2), K = [[3,-1],[-1,1]]: det(K - l M) = 2 l^2 - 7 l + 2 = 0
-        // -> l = (7 -+ sqrt(33)) / 4.
-        let k = Mat::from_fn(2, 2, |i, j| [[3.0, -1.0], [-1.0, 1.0]][i][j]);
-        let m = Mat::from_fn(2, 2, |i, j| [[1.0, 0.0], [0.0, 2.0]][i][j]);
-        let e = generalized_eigen(k.as_ref(), m.as_ref(), "M").expect("eigen");
-        // Backward-stable Cholesky + symmetric eigensolver: errors of a few eps x |lambda_max|.
-        let (l0, l1) = ((7.0 - 33f64.sqrt()) / 4.0, (7.0 + 33f64.sqrt()) / 4.0);
-        assert!((e.values[0] - l0).abs() < 1e-13, "{:?}", e.values);
-        assert!((e.values[1] - l1).abs() < 1e-13, "{:?}", e.values);
-        let phi = &e.vectors;
-        let gram = phi.transpose() * &m * phi;
-        for i in 0..2 {
-            for j in 0..2 {
-                let target = if i == j { 1.0 } else { 0.0 };
-                assert!((gram[(i, j)] - target).abs() < 1e-13);
-            }
         }
     }
 }

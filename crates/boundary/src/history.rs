@@ -4,11 +4,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::boundary_flow::{BoundaryFlow, FlowState};
-use super::hill::penalty_of;
-use super::FloquetAnalysis;
-use crate::point::BackbonePoint;
-use crate::NnmError;
+use crate::free_flow::{BoundaryFlow, FlowState};
+use crate::free_shooting::ShotOrbit;
+use crate::model::BoundaryModel;
+use nlmodes_hb::HbError;
 
 /// One period of the exact orbit next to a point, sampled.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -26,25 +25,19 @@ pub struct BoundaryHistory {
     pub contact_displacement: Vec<Vec<f64>>,
 }
 
-/// The exact orbit of the massless boundary next to `point` sampled at `samples` + 1 instants
-/// over its period; `None` where the stability stage would not shoot it (no contact, every mode
-/// resolved, shooting off) or the shooting does not converge.
-pub fn boundary_history(
-    analysis: &FloquetAnalysis<'_>,
-    point: &BackbonePoint,
+/// The shot orbit `orbit` of `model` (next to the harmonic-balance point of master amplitude
+/// `q`, m) sampled at `samples` + 1 instants over its period; `penalty` the kc of each row of a
+/// penalty law (N/m), whose penetration lambda / kc is added to the stop side.
+pub fn contact_history(
+    model: &BoundaryModel,
+    orbit: ShotOrbit,
+    penalty: Option<&[f64]>,
+    q: f64,
     samples: usize,
-) -> Result<Option<BoundaryHistory>, NnmError> {
-    let harmonics = point.coefficients.len().saturating_sub(1);
-    if harmonics == 0 || samples == 0 {
-        return Ok(None);
-    }
-    let Some((model, orbit)) = analysis.shot_orbit(point, harmonics)? else {
-        return Ok(None);
-    };
-    let penalty = penalty_of(point);
+) -> Result<BoundaryHistory, HbError> {
     let r = model.omega2.len();
     let c = model.gaps.len();
-    let mut flow = BoundaryFlow::new(&model);
+    let mut flow = BoundaryFlow::new(model);
     let mut active = flow.active_set_at(&orbit.q0)?;
     let mut state = FlowState {
         q: orbit.q0.clone(),
@@ -56,18 +49,18 @@ pub fn boundary_history(
         let lambda = flow.contact_force(&state, &active)?;
         let stop_side = flow.stop_side_displacement(&state, &lambda);
         for j in 0..c {
-            let penetration = penalty.as_ref().map_or(0.0, |kc| lambda[j] / kc[j]);
+            let penetration = penalty.map_or(0.0, |kc| lambda[j] / kc[j]);
             rows[j].push(stop_side[j] + penetration);
         }
         if k < samples {
             flow.advance(&mut state, &mut active, dt, None)?;
         }
     }
-    Ok(Some(BoundaryHistory {
-        q: point.q,
+    Ok(BoundaryHistory {
+        q,
         omega: 2.0 * std::f64::consts::PI / orbit.period,
         modes: r,
         contact_shares: orbit.contact_shares,
         contact_displacement: rows,
-    }))
+    })
 }

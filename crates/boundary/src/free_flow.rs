@@ -1,18 +1,5 @@
-//! The massless contact boundary: its exact flow and transition matrices (docs/STABILITY.md,
-//! Sec. 9).
-//!
-//! # Model
-//! The linear modes of the system up to a cutoff are kept as dynamic coordinates q
-//! (mass-normalized: M = I, K = W^2, W in rad/s); every other mode acts quasi-statically on the
-//! contact rows through its residual flexibility R = sum_{k discarded} b_k b_k^T / w_k^2
-//! (c x c, m/N; b_k = A phi_k). The contact displacements carry no mass:
-//!
-//! ```text
-//! q'' + W^2 q = -B^T lambda,   u_c = B q - R lambda,   0 <= lambda  _|_  g0 - u_c >= 0
-//! ```
-//!
-//! (B = A Phi_kept, c x r; lambda in N, u_c and g0 in m). A penalty law kc adds 1 / kc to the
-//! diagonal of R (the spring in series with the stop).
+//! The exact flow of the free massless boundary (`model`; docs/STABILITY.md Sec. 9) and its
+//! transition matrices.
 //!
 //! On a piece of constant active set a the closed rows sit on the stop, u_a = g_a, so
 //! lambda_a = R_aa^-1 (B_a q - g_a) and
@@ -23,60 +10,32 @@
 //!
 //! a linear oscillator solved exactly in the eigenvectors of K_a (symmetric positive definite).
 //! A closed row opens when its force lambda_j falls to 0; an open row closes when its
-//! penetration p_j = u_j - g_j rises to 0. At either switch lambda_j = 0, so the contact force
-//! and the vector field are continuous: the flow is piecewise linear and Lipschitz, and its
-//! transition matrix is the product of the pieces' exact ones (no saltation term).
+//! penetration p_j = u_j - g_j rises to 0 (`switch_scan`). At either switch lambda_j = 0, so the
+//! contact force and the vector field are continuous: the flow is piecewise linear and
+//! Lipschitz, and its transition matrix is the product of the pieces' exact ones (no saltation
+//! term).
 
 use std::collections::HashMap;
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, MatRef, Side};
 
-use crate::NnmError;
-use nlmodes_hb::dense::generalized_eigen;
-use nlmodes_hb::driven_boundary::DrivenBoundary;
+use crate::model::BoundaryModel;
+use crate::switch_scan::{next_switch, settle_active_set, EventPath, RowsAt};
+use nlmodes_dense::generalized_eigen;
+use nlmodes_hb::HbError;
 
-/// Scan points per shortest period of a piece when looking for a switch.
-const SCAN_PER_PERIOD: f64 = 16.0;
-/// Bisection steps locating a switch (interval / 2^60: below round-off).
-const BISECTION_STEPS: usize = 60;
 /// Most switches in one call of [`BoundaryFlow::advance`] (a chattering set is an error).
 const MAX_SWITCHES: usize = 100_000;
-/// A row switches when its event function passes this fraction of the largest gap.
+/// A row switches when its event function passes this fraction of the largest gap (the pieces'
+/// eigenvectors are orthogonal: their event functions carry the round-off of q itself).
 const EVENT_THRESHOLD: f64 = 1e-12;
-
-/// The massless-boundary model of a system (see the module docs).
-pub(crate) struct BoundaryModel {
-    /// W^2 of the kept modes (rad^2/s^2).
-    pub omega2: Vec<f64>,
-    /// B = A Phi_kept (c x r).
-    pub contact_modal: Mat<f64>,
-    /// R (+ diag(1 / kc) for a penalty law), c x c, m/N.
-    pub flexibility: Mat<f64>,
-    /// g0 (m).
-    pub gaps: Vec<f64>,
-}
-
-impl BoundaryModel {
-    /// The same model as a [`DrivenBoundary`] without damping or drive (for the RK4 check;
-    /// `period` only sets its nominal frequency).
-    pub fn undriven(&self, period: f64) -> DrivenBoundary {
-        let r = self.omega2.len();
-        DrivenBoundary {
-            omega2: self.omega2.clone(),
-            damping: Mat::zeros(r, r),
-            contact_modal: self.contact_modal.clone(),
-            flexibility: self.flexibility.clone(),
-            gaps: self.gaps.clone(),
-            drive: Vec::new(),
-            omega: 2.0 * std::f64::consts::PI / period,
-        }
-    }
-}
+/// The error of an active set that does not settle.
+const UNSETTLED: &str = "the contact set of the massless boundary did not settle";
 
 /// The state (q, q') in the kept modal coordinates.
 #[derive(Clone, Debug)]
-pub(crate) struct FlowState {
+pub struct FlowState {
     pub q: Vec<f64>,
     pub v: Vec<f64>,
 }
@@ -174,7 +133,7 @@ impl Piece {
 }
 
 /// The exact flow of a [`BoundaryModel`], with the pieces of the active sets met so far cached.
-pub(crate) struct BoundaryFlow<'m> {
+pub struct BoundaryFlow<'m> {
     model: &'m BoundaryModel,
     pieces: HashMap<Vec<bool>, Piece>,
     threshold: f64,
@@ -199,26 +158,17 @@ impl<'m> BoundaryFlow<'m> {
     /// The active set of a state at rest on the contact law: the solution of the linear
     /// complementarity problem lambda = R_aa^-1 (B_a q - g_a) >= 0, p_f <= 0 by Murty's
     /// least-index principal pivoting (finite for the positive definite R).
-    pub fn active_set_at(&mut self, q: &[f64]) -> Result<Vec<bool>, NnmError> {
+    pub fn active_set_at(&mut self, q: &[f64]) -> Result<Vec<bool>, HbError> {
         let c = self.model.gaps.len();
-        let mut active = vec![false; c];
-        for _ in 0..(4 * c * c + 16) {
-            let threshold = self.threshold;
-            let piece = self.piece(&active)?;
-            let z: Vec<f64> = {
-                let state = FlowState {
-                    q: q.to_vec(),
-                    v: vec![0.0; q.len()],
-                };
-                piece.to_modal(&state).0
-            };
-            match (0..c).find(|&j| piece.event(j, &z) > threshold) {
-                Some(j) => active[j] = !active[j],
-                None => return Ok(active),
-            }
-        }
-        Err(NnmError::StabilityInput {
-            detail: "the contact set of the massless boundary did not settle".to_string(),
+        let threshold = self.threshold;
+        let state = FlowState {
+            q: q.to_vec(),
+            v: vec![0.0; q.len()],
+        };
+        settle_active_set(c, vec![false; c], UNSETTLED, |active| {
+            let piece = self.piece(active)?;
+            let z = piece.to_modal(&state).0;
+            Ok((0..c).find(|&j| piece.event(j, &z) > threshold))
         })
     }
 
@@ -231,14 +181,16 @@ impl<'m> BoundaryFlow<'m> {
         active: &mut [bool],
         duration: f64,
         mut transition: Option<&mut Mat<f64>>,
-    ) -> Result<Vec<f64>, NnmError> {
+    ) -> Result<Vec<f64>, HbError> {
         let mut left = duration;
         let mut switches = 0;
+        let mut toggled = None;
         loop {
             let threshold = self.threshold;
             let piece = self.piece(active)?;
             let (z0, zd0) = piece.to_modal(state);
-            let event = next_switch(piece, threshold, &z0, &zd0, left);
+            let path = FreePath::new(piece, &z0, &zd0);
+            let event = next_switch(&path, threshold, left, toggled);
             let dt = event.map_or(left, |(t, _)| t);
             let (z, zd) = piece.modal_at(&z0, &zd0, dt);
             if let Some(m) = transition.as_deref_mut() {
@@ -254,12 +206,13 @@ impl<'m> BoundaryFlow<'m> {
                 None => return Ok(accel),
                 Some((_, row)) => {
                     active[row] = !active[row];
+                    toggled = Some(row);
                     switches += 1;
                     self.switches += 1;
                 }
             }
             if switches > MAX_SWITCHES {
-                return Err(NnmError::StabilityInput {
+                return Err(HbError::StabilityInput {
                     detail: format!(
                         "the contact set of the massless boundary chattered ({MAX_SWITCHES} switches)"
                     ),
@@ -274,7 +227,7 @@ impl<'m> BoundaryFlow<'m> {
         &mut self,
         state: &FlowState,
         active: &[bool],
-    ) -> Result<Vec<f64>, NnmError> {
+    ) -> Result<Vec<f64>, HbError> {
         let model = self.model;
         let flex = model.flexibility.as_ref();
         let piece = self.piece(active)?;
@@ -304,7 +257,7 @@ impl<'m> BoundaryFlow<'m> {
             .collect()
     }
 
-    fn piece(&mut self, active: &[bool]) -> Result<&Piece, NnmError> {
+    fn piece(&mut self, active: &[bool]) -> Result<&Piece, HbError> {
         if !self.pieces.contains_key(active) {
             let piece = build_piece(self.model, active)?;
             self.pieces.insert(active.to_vec(), piece);
@@ -313,58 +266,78 @@ impl<'m> BoundaryFlow<'m> {
     }
 }
 
-/// The first switch within `horizon` of the piece's start: (time, row). A row whose event
-/// function is already positive at the start switches at once.
-fn next_switch(
-    piece: &Piece,
-    tol: f64,
-    z0: &[f64],
-    zd0: &[f64],
-    horizon: f64,
-) -> Option<(f64, usize)> {
-    let c = piece.event_offset.len();
-    if let Some(j) = (0..c).find(|&j| piece.event(j, z0) > tol) {
-        return Some((0.0, j));
-    }
-    let s_max = piece.freq.iter().fold(0.0_f64, |a, &s| a.max(s));
-    let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * s_max);
-    let mut t0 = 0.0;
-    while t0 < horizon {
-        let t1 = (t0 + step).min(horizon);
-        let (z1, _) = piece.modal_at(z0, zd0, t1);
-        let crossing = (0..c)
-            .filter(|&j| piece.event(j, &z1) > tol)
-            .map(|j| (bisect(piece, z0, zd0, j, t0, t1), j))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        if crossing.is_some() {
-            return crossing;
-        }
-        t0 = t1;
-    }
-    None
+/// A piece along the solution from the modal state (z0, z0'): what the switch scan reads. Each
+/// modal coordinate oscillates with amplitude A_i = (z0_i^2 + (z0'_i / s_i)^2)^1/2, so
+/// |f_j''| <= sum_i |rho_ji V| s_i^2 A_i at any time.
+struct FreePath<'p> {
+    piece: &'p Piece,
+    z0: &'p [f64],
+    zd0: &'p [f64],
+    /// s_i^2 A_i per modal coordinate.
+    curvatures: Vec<f64>,
 }
 
-/// The time in (a, b] where row j's event function rises through 0 (the end on the positive
-/// side, so that the switch happens with the row just past its boundary).
-fn bisect(piece: &Piece, z0: &[f64], zd0: &[f64], j: usize, a: f64, b: f64) -> f64 {
-    let (mut lo, mut hi) = (a, b);
-    for _ in 0..BISECTION_STEPS {
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi {
-            break;
-        }
-        let (z, _) = piece.modal_at(z0, zd0, mid);
-        if piece.event(j, &z) > 0.0 {
-            hi = mid;
-        } else {
-            lo = mid;
+impl<'p> FreePath<'p> {
+    fn new(piece: &'p Piece, z0: &'p [f64], zd0: &'p [f64]) -> Self {
+        let curvatures = (0..z0.len())
+            .map(|i| {
+                let s = piece.freq[i];
+                s * s * z0[i].hypot(zd0[i] / s)
+            })
+            .collect();
+        Self {
+            piece,
+            z0,
+            zd0,
+            curvatures,
         }
     }
-    hi
+
+    fn rate(&self, j: usize, zd: &[f64]) -> f64 {
+        (0..zd.len())
+            .map(|i| self.piece.event_rows[(j, i)] * zd[i])
+            .sum()
+    }
+}
+
+impl EventPath for FreePath<'_> {
+    fn event(&self, j: usize, tau: f64) -> f64 {
+        let (z, _) = self.piece.modal_at(self.z0, self.zd0, tau);
+        self.piece.event(j, &z)
+    }
+
+    fn event_rate(&self, j: usize, tau: f64) -> f64 {
+        let (_, zd) = self.piece.modal_at(self.z0, self.zd0, tau);
+        self.rate(j, &zd)
+    }
+
+    fn rows_at(&self, tau: f64) -> RowsAt {
+        let (z, zd) = self.piece.modal_at(self.z0, self.zd0, tau);
+        let c = self.rows();
+        RowsAt {
+            events: (0..c).map(|j| self.piece.event(j, &z)).collect(),
+            rates: (0..c).map(|j| self.rate(j, &zd)).collect(),
+            curvatures: self.curvatures.clone(),
+        }
+    }
+
+    fn curvature_bound(&self, j: usize, a: &RowsAt, _: &RowsAt) -> f64 {
+        (0..a.curvatures.len())
+            .map(|i| self.piece.event_rows[(j, i)].abs() * a.curvatures[i])
+            .sum()
+    }
+
+    fn fastest(&self) -> f64 {
+        self.piece.freq.iter().fold(0.0_f64, |a, &s| a.max(s))
+    }
+
+    fn rows(&self) -> usize {
+        self.piece.event_offset.len()
+    }
 }
 
 /// The exact solution data of the active set `active` (module docs).
-fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, NnmError> {
+fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, HbError> {
     let r = model.omega2.len();
     let c = model.gaps.len();
     let b = model.contact_modal.as_ref();
@@ -376,7 +349,7 @@ fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, NnmError
         (Mat::zeros(0, r), Mat::zeros(0, 1))
     } else {
         let r_aa = Mat::from_fn(na, na, |i, k| flex[(set[i], set[k])]);
-        let llt = r_aa.llt(Side::Lower).map_err(|e| NnmError::Decomposition {
+        let llt = r_aa.llt(Side::Lower).map_err(|e| HbError::Decomposition {
             what: "Cholesky of the massless boundary's flexibility on the closed rows",
             detail: format!("{e:?}"),
         })?;
@@ -398,9 +371,9 @@ fn build_piece(model: &BoundaryModel, active: &[bool]) -> Result<Piece, NnmError
     }
     let f_a = b_a.transpose() * &l_vec;
     let identity = Mat::<f64>::identity(r, r);
-    let eig = generalized_eigen(k_a.as_ref(), identity.as_ref(), "I")?;
+    let eig = generalized_eigen(k_a.as_ref(), identity.as_ref()).map_err(HbError::dense("I"))?;
     if eig.values.iter().any(|&s2| s2.is_nan() || s2 <= 0.0) {
-        return Err(NnmError::NotPositiveDefinite {
+        return Err(HbError::NotPositiveDefinite {
             name: "K_a",
             detail: "the massless boundary's stiffness on a contact set is not positive definite"
                 .to_string(),
@@ -464,4 +437,38 @@ fn event_functions(
         }
     }
     (rho, beta)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_models::bilinear;
+
+    /// A bilinear oscillator (w = 1, gap 1, R = 0.1) whose cosine peaks 1e-6 above the gap
+    /// half-way between two scan points (the scan steps 2 pi / 16): the contact lasts about
+    /// 2 (2 (A - 1))^1/2 = 2.8e-3 s, far shorter than a step, and the event function is below
+    /// the threshold at both scan points. The scan finds it from the rates and the curvature
+    /// bound: two switches, closed for that long.
+    #[test]
+    fn a_grazing_contact_shorter_than_a_scan_step_is_found() {
+        let model = bilinear(0.1);
+        let amplitude = 1.0 + 1e-6;
+        let peak = std::f64::consts::PI / 16.0;
+        let mut state = FlowState {
+            q: vec![amplitude * peak.cos()],
+            v: vec![amplitude * peak.sin()],
+        };
+        let mut flow = BoundaryFlow::new(&model);
+        let mut active = flow.active_set_at(&state.q).expect("set");
+        assert_eq!(active, [false]);
+        flow.advance(&mut state, &mut active, 2.0 * peak, None)
+            .expect("flow");
+        let expected = 2.0 * (2.0 * (amplitude - 1.0)).sqrt();
+        println!(
+            "{} switches, closed {:.3e} s (free cosine above the gap {expected:.3e} s)",
+            flow.switches, flow.closed_time[0]
+        );
+        assert_eq!(flow.switches, 2);
+        assert!((flow.closed_time[0] / expected - 1.0).abs() < 0.1);
+    }
 }

@@ -5,14 +5,15 @@
 //! The periodic orbits of `DrivenBoundary` at varying W are the zeros of the 2r shooting
 //! equations F(z) = x(T) - x(0) in the 2r + 1 scaled unknowns z = (q / s, q' / (s W_ref),
 //! W / W_ref) (`ShootingEquations`): a curve, followed by the pseudo-arc-length continuation of
-//! `crate::arc_length` with W as its parameter (kinks hopped at fixed W, folds where W turns).
+//! `arc_length` with W as its parameter (kinks hopped at fixed W, folds where W turns).
 //! The flow being exact, so is every point, to the shooting tolerance.
 
 use faer::Mat;
 
 use crate::arc_length::{trace_curve, Curve, CurveEnd, CurveEquations, CurveSettings};
-use crate::driven_boundary::{DrivenBoundary, ShootingEquations};
-use crate::error::HbError;
+use crate::driven_model::DrivenBoundary;
+use crate::driven_shooting::ShootingEquations;
+use nlmodes_hb::HbError;
 
 /// One exact periodic orbit of the curve.
 #[derive(Clone, Debug)]
@@ -85,8 +86,9 @@ pub fn trace_driven_curve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::boundary_rk4::{integrate, Rk4State};
-    use crate::driven_boundary::{shoot_driven, BoundaryDrive};
+    use crate::driven_model::BoundaryDrive;
+    use crate::driven_shooting::shoot_driven;
+    use crate::rk4::{integrate, Rk4State};
 
     /// One damped mode (w = 1, 2 zeta = 0.02) on a penalty spring of stiffness 20 behind a gap
     /// of 1, driven at 0.05 cos(W t): linear peak 2.5 gaps, a hardening resonance with two folds.

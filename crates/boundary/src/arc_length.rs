@@ -1,7 +1,7 @@
 //! Pseudo-arc-length continuation of m equations in m + 1 scaled unknowns, in the
 //! Moore-Penrose form (DESIGN §10.6; docs/STABILITY.md Sec. 9.2-9.3): the engine of the exact
-//! curves of the massless contact boundary, forced (`crate::driven_curve`, parameter W) and
-//! free (`nlmodes_nnm`'s exact backbone, parameter T).
+//! curves of the massless contact boundary, forced (`driven_curve`, parameter W) and free
+//! (`backbone_curve`, parameter T).
 //!
 //! From a point z of the curve F(z) = 0 the tangent t is the unit null vector of J = dF/dz (the
 //! last tangent projected onto that null space), the predictor z_p = z + h t, and the corrector
@@ -15,7 +15,7 @@
 use faer::linalg::solvers::Solve;
 use faer::Mat;
 
-use crate::error::HbError;
+use nlmodes_hb::HbError;
 
 /// A tangent whose last component is below this (in the unit tangent) leaves the parameter
 /// still: a stretch at constant T (a backbone out of contact) is not a fold.

@@ -13,10 +13,9 @@
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
-use super::boundary_flow::{BoundaryFlow, BoundaryModel, FlowState};
-use crate::NnmError;
-use nlmodes_hb::boundary_rk4::{self, Rk4State};
-use nlmodes_hb::driven_boundary::residual_flexibility;
+use crate::free_flow::{BoundaryFlow, FlowState};
+use crate::model::{norm, BoundaryModel, ModalData};
+use nlmodes_hb::HbError;
 
 /// Newton stops when |q'(T/2)| < this x w |q0| (the scaled residual).
 const NEWTON_TOLERANCE: f64 = 1e-10;
@@ -26,7 +25,7 @@ const NEWTON_ITERATIONS: usize = 30;
 const LINE_SEARCH_HALVINGS: usize = 10;
 
 /// A periodic orbit of the massless-boundary model and its monodromy.
-pub(crate) struct ShotOrbit {
+pub struct ShotOrbit {
     /// Modal displacement at t = 0 (at rest).
     pub q0: Vec<f64>,
     /// Period (s).
@@ -40,7 +39,7 @@ pub(crate) struct ShotOrbit {
 }
 
 /// Residual q'(T/2) of a start q0 and period T, with its Jacobian blocks.
-pub(super) struct HalfPeriod {
+pub(crate) struct HalfPeriod {
     pub velocity: Vec<f64>,
     /// d q'(T/2) / d q0 (r x r).
     pub d_q0: Mat<f64>,
@@ -49,11 +48,11 @@ pub(super) struct HalfPeriod {
 }
 
 /// The velocity at T / 2 of the motion released at rest from q0, and its derivatives.
-pub(super) fn half_period(
+pub(crate) fn half_period(
     flow: &mut BoundaryFlow<'_>,
     q0: &[f64],
     period: f64,
-) -> Result<HalfPeriod, NnmError> {
+) -> Result<HalfPeriod, HbError> {
     let r = q0.len();
     let mut active = flow.active_set_at(q0)?;
     let mut state = FlowState {
@@ -69,18 +68,13 @@ pub(super) fn half_period(
     })
 }
 
-/// Euclidean norm (shared by the boundary modules).
-pub(super) fn norm(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
-}
-
 /// The periodic orbit nearest (q0, T) and its monodromy, or `None` when Newton does not
 /// converge (the caller then has no shooting verdict for the point).
-pub(crate) fn shoot(
+pub fn shoot(
     model: &BoundaryModel,
     q0: Vec<f64>,
     period: f64,
-) -> Result<Option<ShotOrbit>, NnmError> {
+) -> Result<Option<ShotOrbit>, HbError> {
     let r = q0.len();
     let mut flow = BoundaryFlow::new(model);
     let (q_scale, t_scale) = (norm(&q0), period);
@@ -160,50 +154,66 @@ pub(crate) fn shoot(
     }))
 }
 
-/// What [`boundary_stability`] needs of the system's linear modes.
-pub(crate) struct ModalData<'a> {
-    /// w_k of every mode (rad/s), ascending.
-    pub omega: &'a [f64],
-    /// A Phi (c x n).
-    pub contact_modal: faer::MatRef<'a, f64>,
-    /// Phi^T M (n x n).
-    pub projection: faer::MatRef<'a, f64>,
+/// Largest relative distance |w_shot - w| / w between the harmonic-balance orbit and the shot
+/// orbit of the massless boundary at which the shot orbit's verdict is the point's. The two
+/// orbits differ by the truncation to N harmonics and by the inertia of the discarded modes
+/// (O(((N + 1) w / w_k)^2) of their quasi-static response); further apart, the shot orbit is
+/// another member of the family (or of a tongue) and says nothing of this point.
+pub const SHOOTING_SHIFT_LIMIT: f64 = 1e-2;
+
+/// A harmonic-balance orbit of the free problem, where the boundary's orbits start (a backbone
+/// point of `nlmodes-nnm`).
+#[derive(Clone, Debug)]
+pub struct OrbitGuess {
+    /// Its master amplitude q (m).
+    pub q: f64,
+    /// Its circular frequency w (rad/s).
+    pub omega: f64,
+    /// Its displacement u(0) (n), where it is at rest.
+    pub start: Vec<f64>,
+    /// The penalty stiffness kc of each row (N/m) of a penalty orbit; `None` for the augmented
+    /// Lagrangian (rigid contact).
+    pub penalty: Option<Vec<f64>>,
 }
 
-/// The massless-boundary model keeping the first `r` modes: R from the others, plus 1 / kc on
-/// the diagonal of a penalty orbit's rows. `None` when R is not positive definite (the discarded
-/// modes do not reach every contact row: no massless boundary to build).
-pub(crate) fn boundary_model(
+impl OrbitGuess {
+    /// Its period 2 pi / w (s).
+    pub fn period(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.omega
+    }
+}
+
+/// The massless-boundary model of `modal` with the first `r` modes dynamic and `guess`'s contact
+/// law, and its periodic orbit next to `guess`, by shooting; `None` where the model does not
+/// apply (every mode dynamic, R not positive definite) or Newton does not converge.
+pub fn shot_orbit(
     modal: &ModalData<'_>,
-    gaps: &[f64],
     r: usize,
-    penalty: Option<&[f64]>,
-) -> Option<BoundaryModel> {
-    let c = gaps.len();
-    let b = modal.contact_modal;
-    let omega = modal.omega;
-    let eigenvalues: Vec<f64> = omega.iter().map(|w| w * w).collect();
-    let flexibility = residual_flexibility(b, &eigenvalues, r, penalty)?;
-    Some(BoundaryModel {
-        omega2: omega[..r].iter().map(|w| w * w).collect(),
-        contact_modal: Mat::from_fn(c, r, |i, k| b[(i, k)]),
-        flexibility,
-        gaps: gaps.to_vec(),
-    })
-}
-
-/// Modal coordinates q = (Phi^T M u)_k, k < r, of a displacement u.
-pub(crate) fn modal_coordinates(modal: &ModalData<'_>, u: &[f64], r: usize) -> Vec<f64> {
-    let p = modal.projection;
-    (0..r)
-        .map(|k| (0..u.len()).map(|i| p[(k, i)] * u[i]).sum())
-        .collect()
+    guess: &OrbitGuess,
+) -> Result<Option<(BoundaryModel, ShotOrbit)>, HbError> {
+    if r == modal.omega.len() {
+        return Ok(None);
+    }
+    let Some(model) = modal.model(r, guess.penalty.as_deref()) else {
+        return Ok(None);
+    };
+    let q0 = modal.coordinates(&guess.start, r);
+    match shoot(&model, q0, guess.period())? {
+        Some(orbit) => Ok(Some((model, orbit))),
+        None => {
+            tracing::debug!(
+                w = guess.omega,
+                "massless-boundary shooting did not converge"
+            );
+            Ok(None)
+        }
+    }
 }
 
 /// The multipliers (as exponents, 1/s) of a shot orbit's monodromy; `None` when the monodromy
 /// or a multiplier is not a finite nonzero number, or its determinant is not 1 within 1e-6 (the
 /// flow is Hamiltonian: a monodromy that is not symplectic to that accuracy is not trusted).
-pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, NnmError> {
+pub fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, HbError> {
     let m = &orbit.monodromy;
     if m.col_iter().any(|col| col.iter().any(|v| !v.is_finite())) {
         return Ok(None);
@@ -211,7 +221,7 @@ pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, 
     let values = orbit
         .monodromy
         .eigenvalues()
-        .map_err(|e| NnmError::Decomposition {
+        .map_err(|e| HbError::Decomposition {
             what: "eigenvalues of the massless boundary's monodromy",
             detail: format!("{e:?}"),
         })?;
@@ -228,70 +238,12 @@ pub(crate) fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, 
     ))
 }
 
-/// The independent RK4 check of a shot orbit (`boundary_rk4`): one period from its start.
-pub(crate) fn check_by_rk4(
-    model: &BoundaryModel,
-    orbit: &ShotOrbit,
-) -> Result<super::ShootingCheck, NnmError> {
-    let r = orbit.q0.len();
-    let start = Rk4State {
-        q: orbit.q0.clone(),
-        v: vec![0.0; r],
-    };
-    let driven = model.undriven(orbit.period);
-    let steps = boundary_rk4::rk4_steps(&driven, orbit.period)?;
-    let (end, monodromy) = boundary_rk4::integrate(&driven, &start, orbit.period, steps)?;
-    let q_scale = norm(&orbit.q0);
-    let v_scale = q_scale * 2.0 * std::f64::consts::PI / orbit.period;
-    let periodicity = (0..r)
-        .map(|i| ((end.q[i] - start.q[i]) / q_scale).powi(2) + (end.v[i] / v_scale).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let eigenvalues = |m: &Mat<f64>, what: &'static str| {
-        m.eigenvalues()
-            .map(nontrivial)
-            .map_err(|e| NnmError::Decomposition {
-                what,
-                detail: format!("{e:?}"),
-            })
-    };
-    let exact = eigenvalues(
-        &orbit.monodromy,
-        "eigenvalues of the massless boundary's monodromy",
-    )?;
-    let integrated = eigenvalues(&monodromy, "eigenvalues of the RK4 monodromy")?;
-    let multiplier_distance = integrated
-        .iter()
-        .map(|mu| {
-            exact
-                .iter()
-                .map(|nu| (mu - nu).norm())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .fold(0.0, f64::max);
-    let largest = |v: &[faer::c64]| v.iter().map(|mu| mu.norm()).fold(1.0, f64::max);
-    let max_multiplier_abs = largest(&integrated);
-    let max_multiplier_change = (max_multiplier_abs - largest(&exact)).abs();
-    Ok(super::ShootingCheck {
-        steps,
-        periodicity,
-        multiplier_distance,
-        max_multiplier_abs,
-        max_multiplier_change,
-    })
-}
-
-/// The multipliers without the trivial pair (the two nearest +1).
-fn nontrivial(mut values: Vec<faer::c64>) -> Vec<faer::c64> {
-    let one = faer::c64::new(1.0, 0.0);
-    values.sort_by(|a, b| (a - one).norm().total_cmp(&(b - one).norm()));
-    values.split_off(2.min(values.len()))
-}
-
 #[cfg(test)]
 mod tests {
-    use super::super::test_models::{bilinear, bilinear_period, three_modes};
     use super::*;
+    use crate::driven_model::DrivenBoundary;
+    use crate::rk4::{integrate, Rk4State};
+    use crate::test_models::{bilinear, bilinear_period, three_modes};
 
     #[test]
     fn the_shot_bilinear_orbit_has_the_exact_period_and_a_trivial_pair_at_one() {
@@ -345,8 +297,13 @@ mod tests {
                 q: start.q.clone(),
                 v: start.v.clone(),
             };
-            let (rk, rk_transition) =
-                boundary_rk4::integrate(&model.undriven(7.0), &rk_start, 7.0, 20_000).expect("rk4");
+            let (rk, rk_transition) = integrate(
+                &DrivenBoundary::undriven(&model, 7.0),
+                &rk_start,
+                7.0,
+                20_000,
+            )
+            .expect("rk4");
             let state_error = (0..3)
                 .map(|i| (end.q[i] - rk.q[i]).abs().max((end.v[i] - rk.v[i]).abs()))
                 .fold(0.0, f64::max);

@@ -1,0 +1,459 @@
+//! The exact flow of the damped, driven massless boundary (`driven_model`; DESIGN §10.6): its
+//! pieces of constant active set solved in closed form, the contact switches between them and
+//! the orbit sampled in time.
+//!
+//! On a piece of constant active set a, lambda_a = R_aa^-1 (B_a q + D_a(t) - g_a), a linear
+//! system with constant coefficients driven by the harmonics of f. In the augmented state
+//! x = (q, q', cos(h W t), sin(h W t) for each h, 1) it is x' = X_a x, solved exactly in the
+//! eigenvectors of X_a (diagonalizable: the damped modes' eigenvalues lie off the imaginary axis,
+//! the drive's at +-i h W and the constant's at 0). A closed row opens when lambda_j falls to 0,
+//! an open row closes when its penetration rises to 0 (`switch_scan`); lambda_j = 0 at both, so
+//! the vector field is continuous and the monodromy is the product of the pieces' (q, q') blocks
+//! (no saltation).
+
+use std::collections::HashMap;
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat, MatRef, Side};
+
+use crate::driven_model::DrivenBoundary;
+use crate::switch_scan::{next_switch, settle_active_set, EventPath, RowsAt};
+use nlmodes_hb::HbError;
+
+/// Most switches over one period before the contact set is declared chattering.
+const MAX_SWITCHES: usize = 100_000;
+/// A row switches when its event function (m) passes this fraction of the largest gap: a
+/// penetration or force 1e-9 of the gap is below any physical meaning and above the round-off of
+/// the event functions through the (non-orthogonal) eigenvectors of a piece.
+const EVENT_THRESHOLD: f64 = 1e-9;
+/// The error of an active set that does not settle.
+const UNSETTLED: &str = "the contact set of the massless boundary did not settle";
+
+/// The exact solution on one active set: X_a = V diag(l) V^-1, the event functionals
+/// (c x size) through V, and the fastest frequency.
+struct Piece {
+    values: Vec<c64>,
+    vectors: Mat<c64>,
+    inverse: Mat<c64>,
+    events: Mat<c64>,
+    fastest: f64,
+}
+
+impl Piece {
+    /// Event function of row j at time tau from the piece's start, w0 = V^-1 x0.
+    fn event(&self, j: usize, w0: &[c64], tau: f64) -> f64 {
+        (0..w0.len())
+            .map(|k| (self.events[(j, k)] * (self.values[k] * tau).exp() * w0[k]).re)
+            .sum()
+    }
+
+    /// The time derivative of row j's event function at tau.
+    fn event_rate(&self, j: usize, w0: &[c64], tau: f64) -> f64 {
+        (0..w0.len())
+            .map(|k| {
+                let l = self.values[k];
+                (self.events[(j, k)] * l * (l * tau).exp() * w0[k]).re
+            })
+            .sum()
+    }
+
+    /// Every row's event function and its rate at tau, and the per-mode curvature terms
+    /// |l_k|^2 |e_k| of a bound on its second derivative (one exponential per eigenvalue, shared
+    /// by the rows).
+    fn rows_at(&self, w0: &[c64], tau: f64) -> RowsAt {
+        let e: Vec<c64> = (0..w0.len())
+            .map(|k| (self.values[k] * tau).exp() * w0[k])
+            .collect();
+        let c = self.events.nrows();
+        let mut rows = RowsAt {
+            events: vec![0.0; c],
+            rates: vec![0.0; c],
+            curvatures: vec![0.0; e.len()],
+        };
+        for (k, ek) in e.iter().enumerate() {
+            let l = self.values[k];
+            rows.curvatures[k] = l.norm_sqr() * ek.norm_sqr().sqrt();
+            for j in 0..c {
+                let v = self.events[(j, k)] * ek;
+                rows.events[j] += v.re;
+                rows.rates[j] += (v * l).re;
+            }
+        }
+        rows
+    }
+
+    /// A bound on |f_j''| over [t0, t1] from the mode terms at both ends (|exp(l t)| is monotone
+    /// in t, so each term's largest modulus is at one end).
+    fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64 {
+        (0..a.curvatures.len())
+            .map(|k| self.events[(j, k)].norm_sqr().sqrt() * a.curvatures[k].max(b.curvatures[k]))
+            .sum()
+    }
+
+    fn state_at(&self, w0: &[c64], tau: f64) -> Vec<f64> {
+        let m = w0.len();
+        let e: Vec<c64> = (0..m)
+            .map(|k| (self.values[k] * tau).exp() * w0[k])
+            .collect();
+        (0..m)
+            .map(|i| (0..m).map(|k| (self.vectors[(i, k)] * e[k]).re).sum())
+            .collect()
+    }
+
+    /// The (q, q') block (2r x 2r) of the transition over tau.
+    fn transition(&self, r: usize, tau: f64) -> Mat<f64> {
+        let m = self.values.len();
+        let e: Vec<c64> = (0..m).map(|k| (self.values[k] * tau).exp()).collect();
+        Mat::from_fn(2 * r, 2 * r, |i, j| {
+            (0..m)
+                .map(|k| (self.vectors[(i, k)] * e[k] * self.inverse[(k, j)]).re)
+                .sum()
+        })
+    }
+}
+
+/// A piece along the solution from w0 = V^-1 x0: what the switch scan reads.
+struct DrivenPath<'p> {
+    piece: &'p Piece,
+    w0: &'p [c64],
+}
+
+impl EventPath for DrivenPath<'_> {
+    fn event(&self, j: usize, tau: f64) -> f64 {
+        self.piece.event(j, self.w0, tau)
+    }
+
+    fn event_rate(&self, j: usize, tau: f64) -> f64 {
+        self.piece.event_rate(j, self.w0, tau)
+    }
+
+    fn rows_at(&self, tau: f64) -> RowsAt {
+        self.piece.rows_at(self.w0, tau)
+    }
+
+    fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64 {
+        self.piece.curvature_bound(j, a, b)
+    }
+
+    fn fastest(&self) -> f64 {
+        self.piece.fastest
+    }
+
+    fn rows(&self) -> usize {
+        self.piece.events.nrows()
+    }
+}
+
+/// The exact flow of a [`DrivenBoundary`], pieces cached by active set.
+pub struct DrivenFlow<'m> {
+    model: &'m DrivenBoundary,
+    pieces: HashMap<Vec<bool>, Piece>,
+    threshold: f64,
+}
+
+impl<'m> DrivenFlow<'m> {
+    pub fn new(model: &'m DrivenBoundary) -> Self {
+        let gmax = model.gaps.iter().fold(0.0_f64, |a, &g| a.max(g.abs()));
+        Self {
+            model,
+            pieces: HashMap::new(),
+            threshold: EVENT_THRESHOLD * gmax,
+        }
+    }
+
+    /// The active set at augmented state x: Murty's least-index pivoting on the event
+    /// functions (finite for the positive definite R).
+    pub fn active_set_at(&mut self, x: &[f64]) -> Result<Vec<bool>, HbError> {
+        let c = self.model.gaps.len();
+        let threshold = self.threshold;
+        settle_active_set(c, vec![false; c], UNSETTLED, |active| {
+            let piece = self.piece(active)?;
+            let w0 = solve_in(piece, x);
+            Ok((0..c).find(|&j| piece.event(j, &w0, 0.0) > threshold))
+        })
+    }
+
+    /// Advances the augmented state x over `duration` on the active set `active` (updated at
+    /// each switch); multiplies `transition` (2r x 2r) from the left by the (q, q') block of
+    /// the flow when given.
+    pub fn advance(
+        &mut self,
+        x: &mut Vec<f64>,
+        active: &mut [bool],
+        duration: f64,
+        mut transition: Option<&mut Mat<f64>>,
+    ) -> Result<(), HbError> {
+        let r = self.model.r();
+        let mut left = duration;
+        let mut toggled = None;
+        for _ in 0..MAX_SWITCHES {
+            let threshold = self.threshold;
+            let piece = self.piece(active)?;
+            let w0 = solve_in(piece, x);
+            let path = DrivenPath { piece, w0: &w0 };
+            let event = next_switch(&path, threshold, left, toggled);
+            let dt = event.map_or(left, |(t, _)| t);
+            *x = piece.state_at(&w0, dt);
+            if let Some(m) = transition.as_deref_mut() {
+                *m = piece.transition(r, dt) * &*m;
+            }
+            left -= dt;
+            match event {
+                None => return Ok(()),
+                Some((_, row)) => {
+                    active[row] = !active[row];
+                    toggled = Some(row);
+                }
+            }
+        }
+        Err(HbError::StabilityInput {
+            detail: format!(
+                "the contact set of the massless boundary chattered ({MAX_SWITCHES} switches)"
+            ),
+        })
+    }
+
+    /// The contact forces lambda (c, N) at augmented state x on the active set `active`:
+    /// lambda_j = -(event function of closed row j) / R_jj, 0 on open rows.
+    pub fn contact_force(&mut self, x: &[f64], active: &[bool]) -> Result<Vec<f64>, HbError> {
+        let model = self.model;
+        let piece = self.piece(active)?;
+        let w0 = solve_in(piece, x);
+        Ok((0..model.gaps.len())
+            .map(|j| {
+                if active[j] {
+                    -piece.event(j, &w0, 0.0) / model.flexibility[(j, j)]
+                } else {
+                    0.0
+                }
+            })
+            .collect())
+    }
+
+    fn piece(&mut self, active: &[bool]) -> Result<&Piece, HbError> {
+        if !self.pieces.contains_key(active) {
+            let piece = build_piece(self.model, active)?;
+            self.pieces.insert(active.to_vec(), piece);
+        }
+        Ok(&self.pieces[active])
+    }
+}
+
+/// w0 = V^-1 x.
+fn solve_in(piece: &Piece, x: &[f64]) -> Vec<c64> {
+    let m = x.len();
+    (0..m)
+        .map(|k| {
+            (0..m)
+                .map(|i| piece.inverse[(k, i)] * c64::new(x[i], 0.0))
+                .sum()
+        })
+        .collect()
+}
+
+/// X_a, its eigen-decomposition and the event functionals of the active set `active`.
+fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError> {
+    let (r, c, m) = (model.r(), model.gaps.len(), model.size());
+    let set: Vec<usize> = (0..c).filter(|&j| active[j]).collect();
+    let na = set.len();
+    let b = model.contact_modal.as_ref();
+    let flex = model.flexibility.as_ref();
+    // E = R_aa^-1 [B_a | D_a columns | -g_a] (na x (r + 2H + 1)): lambda_a = E (q, z, 1).
+    let cols = r + 2 * model.drive.len() + 1;
+    let rhs = Mat::from_fn(na, cols, |i, k| {
+        let j = set[i];
+        if k < r {
+            b[(j, k)]
+        } else if k + 1 < cols {
+            let (h, part) = ((k - r) / 2, (k - r) % 2);
+            model.drive[h].contact[part][j]
+        } else {
+            -model.gaps[j]
+        }
+    });
+    let e = if na == 0 {
+        Mat::zeros(0, cols)
+    } else {
+        let r_aa = Mat::from_fn(na, na, |i, k| flex[(set[i], set[k])]);
+        let llt = r_aa
+            .llt(Side::Lower)
+            .map_err(|err| HbError::Decomposition {
+                what: "Cholesky of the massless boundary's flexibility on the closed rows",
+                detail: format!("{err:?}"),
+            })?;
+        llt.solve(&rhs)
+    };
+    let x_a = generator(model, &set, e.as_ref());
+    let events = event_functionals(model, &set, e.as_ref());
+    let eig = x_a.eigen().map_err(|err| HbError::Decomposition {
+        what: "eigen-decomposition of a piece of the massless boundary",
+        detail: format!("{err:?}"),
+    })?;
+    let values: Vec<c64> = (0..m).map(|k| eig.S()[k]).collect();
+    let vectors = eig.U().to_owned();
+    let inverse = vectors.partial_piv_lu().solve(Mat::<c64>::identity(m, m));
+    if inverse
+        .col_iter()
+        .any(|col| col.iter().any(|z| !z.is_finite()))
+    {
+        return Err(HbError::NonFiniteResult {
+            what: "eigenvectors of a piece of the massless boundary",
+        });
+    }
+    let fastest = values.iter().map(|l| l.norm()).fold(model.omega, f64::max);
+    let events_c = Mat::from_fn(c, m, |i, k| c64::new(events[(i, k)], 0.0));
+    Ok(Piece {
+        values,
+        events: &events_c * &vectors,
+        vectors,
+        inverse,
+        fastest,
+    })
+}
+
+/// X_a (size x size): q' = v; v' = -W^2 q - C_q v + sum_h P_h z_h - B_a^T lambda_a; z_h rotating
+/// at h W; 1' = 0 (module docs).
+fn generator(model: &DrivenBoundary, set: &[usize], e: MatRef<'_, f64>) -> Mat<f64> {
+    let (r, m) = (model.r(), model.size());
+    let hh = model.drive.len();
+    let b = model.contact_modal.as_ref();
+    let mut x = Mat::zeros(m, m);
+    for i in 0..r {
+        x[(i, r + i)] = 1.0;
+        x[(r + i, i)] -= model.omega2[i];
+        for k in 0..r {
+            x[(r + i, r + k)] = -model.damping[(i, k)];
+        }
+        for (h, d) in model.drive.iter().enumerate() {
+            x[(r + i, 2 * r + 2 * h)] += d.modal[0][i];
+            x[(r + i, 2 * r + 2 * h + 1)] += d.modal[1][i];
+        }
+        // - B_a^T E over the (q, z, 1) columns.
+        for (a, &j) in set.iter().enumerate() {
+            for col in 0..e.ncols() {
+                let target = if col < r { col } else { r + col };
+                x[(r + i, target)] -= b[(j, i)] * e[(a, col)];
+            }
+        }
+    }
+    for (h, d) in model.drive.iter().enumerate() {
+        let w = d.harmonic as f64 * model.omega;
+        let (ic, is) = (2 * r + 2 * h, 2 * r + 2 * h + 1);
+        x[(ic, is)] = -w;
+        x[(is, ic)] = w;
+    }
+    debug_assert_eq!(m, 2 * r + 2 * hh + 1);
+    x
+}
+
+/// The event functions (c x size) on the augmented state: R_jj (-lambda_j) for a closed row,
+/// the penetration B_j q + D_j(t) - R_ja lambda_a - g_j for an open one (m).
+fn event_functionals(model: &DrivenBoundary, set: &[usize], e: MatRef<'_, f64>) -> Mat<f64> {
+    let (r, c, m) = (model.r(), model.gaps.len(), model.size());
+    let b = model.contact_modal.as_ref();
+    let flex = model.flexibility.as_ref();
+    // Column of the augmented state for column `col` of (q, z, 1).
+    let target = |col: usize| if col < r { col } else { r + col };
+    let mut ev = Mat::zeros(c, m);
+    for j in 0..c {
+        if let Some(a) = set.iter().position(|&s| s == j) {
+            for col in 0..e.ncols() {
+                ev[(j, target(col))] = -flex[(j, j)] * e[(a, col)];
+            }
+            continue;
+        }
+        for k in 0..r {
+            ev[(j, k)] = b[(j, k)];
+        }
+        for (h, d) in model.drive.iter().enumerate() {
+            ev[(j, 2 * r + 2 * h)] = d.contact[0][j];
+            ev[(j, 2 * r + 2 * h + 1)] = d.contact[1][j];
+        }
+        ev[(j, m - 1)] = -model.gaps[j];
+        for (a, &s) in set.iter().enumerate() {
+            for col in 0..e.ncols() {
+                ev[(j, target(col))] -= flex[(j, s)] * e[(a, col)];
+            }
+        }
+    }
+    ev
+}
+
+/// The state of an orbit at one instant.
+#[derive(Clone, Debug)]
+pub struct OrbitSample {
+    /// Time from the orbit's start (s).
+    pub time: f64,
+    /// Modal coordinates q.
+    pub q: Vec<f64>,
+    /// Contact forces lambda (c, N).
+    pub lambda: Vec<f64>,
+}
+
+/// The orbit from (q, q') = `start` at t = 0 at `samples` equally spaced instants of its period
+/// 2 pi / `model.omega` (the first at t = 0), by the exact flow.
+pub fn sample_orbit(
+    model: &DrivenBoundary,
+    start: &[f64],
+    samples: usize,
+) -> Result<Vec<OrbitSample>, HbError> {
+    let r = model.r();
+    let mut flow = DrivenFlow::new(model);
+    let mut x = model.augmented(&start[..r], &start[r..], 0.0);
+    let mut active = flow.active_set_at(&x)?;
+    let dt = 2.0 * std::f64::consts::PI / model.omega / samples as f64;
+    let mut out = Vec::with_capacity(samples);
+    for s in 0..samples {
+        if s > 0 {
+            flow.advance(&mut x, &mut active, dt, None)?;
+        }
+        out.push(OrbitSample {
+            time: s as f64 * dt,
+            q: x[..r].to_vec(),
+            lambda: flow.contact_force(&x, &active)?,
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rk4::{integrate, Rk4State};
+    use crate::test_models::driven_three_modes as model;
+
+    #[test]
+    fn the_driven_flow_agrees_with_rk4_and_keeps_liouville() {
+        let m = model(0.9);
+        let period = 2.0 * std::f64::consts::PI / m.omega;
+        let q0 = [2.5, 0.3, -0.2];
+        let v0 = [0.0, 0.5, 1.0];
+        let mut flow = DrivenFlow::new(&m);
+        let mut x = m.augmented(&q0, &v0, 0.0);
+        let mut active = flow.active_set_at(&x).expect("set");
+        let mut phi = Mat::<f64>::identity(6, 6);
+        flow.advance(&mut x, &mut active, period, Some(&mut phi))
+            .expect("flow");
+        let start = Rk4State {
+            q: q0.to_vec(),
+            v: v0.to_vec(),
+        };
+        let (rk, rk_phi) = integrate(&m, &start, period, 40_000).expect("rk4");
+        let state_error = (0..3)
+            .map(|i| (x[i] - rk.q[i]).abs().max((x[3 + i] - rk.v[i]).abs()))
+            .fold(0.0, f64::max);
+        let matrix_error = (0..6)
+            .flat_map(|i| (0..6).map(move |j| (i, j)))
+            .map(|(i, j)| (phi[(i, j)] - rk_phi[(i, j)]).abs())
+            .fold(0.0, f64::max);
+        // Liouville: det = exp(-T tr C_q) (the contact terms are a symmetric stiffness).
+        let det = phi.determinant();
+        let exact = (-period * 0.15).exp();
+        println!(
+            "state {state_error:.1e}, transition {matrix_error:.1e}, det {det:.12} vs {exact:.12}"
+        );
+        assert!(state_error < 1e-8, "{state_error}");
+        assert!(matrix_error < 1e-7, "{matrix_error}");
+        assert!((det / exact - 1.0).abs() < 1e-10);
+    }
+}

@@ -1,0 +1,221 @@
+//! The periodic orbit of the driven massless boundary next to a forced harmonic-balance orbit,
+//! by shooting with W free, and the shooting equations its exact response curve continues
+//! (`driven_curve`; DESIGN §10.6).
+//!
+//! The forced periodic orbits form a curve in (x0, W): the 2r equations x(T) - x(0) = 0 in the
+//! 2r + 1 scaled unknowns z = (q / s, q' / (s W_ref), W / W_ref). Their Jacobian is the exact
+//! monodromy of `driven_flow` minus the identity for the x0 columns (the flow is Lipschitz: no
+//! saltation) and a finite difference for the W column.
+
+use faer::Mat;
+
+use crate::arc_length::min_norm_step;
+use crate::driven_flow::DrivenFlow;
+use crate::driven_model::DrivenBoundary;
+use nlmodes_hb::HbError;
+
+/// Newton on x(T) = x(0) stops below this scaled residual.
+const SHOOTING_TOLERANCE: f64 = 1e-10;
+/// Newton iterations before giving up.
+const SHOOTING_ITERATIONS: usize = 20;
+
+/// A periodic orbit of the driven boundary and its monodromy.
+#[derive(Clone, Debug)]
+pub struct DrivenOrbit {
+    /// (q, q') at t = 0.
+    pub start: Vec<f64>,
+    /// Its excitation frequency W (rad/s).
+    pub omega: f64,
+    /// Monodromy in (q, q') (2r x 2r).
+    pub monodromy: Mat<f64>,
+    /// Newton iterations taken.
+    pub iterations: usize,
+    /// Distance from the guess in the scaled unknowns (q / |q|, q' / (W |q|), W / W_guess).
+    pub shift: f64,
+}
+
+/// x(T) - x(0) at (x0, W) in the scaled state, and the monodromy.
+fn period_map(
+    model: &DrivenBoundary,
+    x0: &[f64],
+    q_scale: f64,
+) -> Result<(Vec<f64>, Mat<f64>), HbError> {
+    let r = model.r();
+    let scale = |i: usize| {
+        if i < r {
+            q_scale
+        } else {
+            q_scale * model.omega
+        }
+    };
+    let mut flow = DrivenFlow::new(model);
+    let mut x = model.augmented(&x0[..r], &x0[r..], 0.0);
+    let mut active = flow.active_set_at(&x)?;
+    let mut phi = Mat::<f64>::identity(2 * r, 2 * r);
+    let period = 2.0 * std::f64::consts::PI / model.omega;
+    flow.advance(&mut x, &mut active, period, Some(&mut phi))?;
+    let residual = (0..2 * r).map(|i| (x[i] - x0[i]) / scale(i)).collect();
+    Ok((residual, phi))
+}
+
+/// Relative step of W for the finite-difference column d(x(T) - x0) / dW.
+const OMEGA_STEP: f64 = 1e-7;
+
+/// The shooting equations of a driven boundary in scaled unknowns z = (q / s, q' / (s W_ref),
+/// W / W_ref) (2r + 1 of them; s = `q_scale` in the modal coordinates' units, W_ref in rad/s)
+/// and scaled equations x(T) - x(0) (q part / s, q' part / (s W); 2r of them). Shared by the
+/// shooting next to a harmonic-balance orbit and the continuation of the exact response curve
+/// (`crate::driven_curve`).
+pub(crate) struct ShootingEquations<'m> {
+    pub model: &'m DrivenBoundary,
+    pub q_scale: f64,
+    pub w_ref: f64,
+}
+
+impl ShootingEquations<'_> {
+    fn scale(&self, i: usize) -> f64 {
+        if i < self.model.r() {
+            self.q_scale
+        } else {
+            self.q_scale * self.w_ref
+        }
+    }
+
+    /// z from (q, q') and W.
+    pub fn unknowns(&self, x0: &[f64], omega: f64) -> Vec<f64> {
+        let mut z: Vec<f64> = x0
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v / self.scale(i))
+            .collect();
+        z.push(omega / self.w_ref);
+        z
+    }
+
+    /// ((q, q'), W) from z.
+    pub fn state(&self, z: &[f64]) -> (Vec<f64>, f64) {
+        let n = z.len() - 1;
+        let x0 = (0..n).map(|i| z[i] * self.scale(i)).collect();
+        (x0, z[n] * self.w_ref)
+    }
+
+    /// The scaled residual at z and the monodromy (2r x 2r).
+    pub fn residual(&self, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>), HbError> {
+        let (x0, omega) = self.state(z);
+        period_map(&self.model.at(omega), &x0, self.q_scale)
+    }
+
+    /// The Jacobian (2r x (2r + 1)) at z, from its residual and monodromy: the exact monodromy
+    /// for the x0 columns, a finite difference of relative step `OMEGA_STEP` for the W column.
+    pub fn jacobian(
+        &self,
+        z: &[f64],
+        residual: &[f64],
+        phi: &Mat<f64>,
+    ) -> Result<Mat<f64>, HbError> {
+        let r = self.model.r();
+        let (x0, omega) = self.state(z);
+        let (res_w, _) = period_map(
+            &self.model.at(omega * (1.0 + OMEGA_STEP)),
+            &x0,
+            self.q_scale,
+        )?;
+        // The residual's velocity part is scaled by the current W, the unknowns by W_ref.
+        let vel = |i: usize| if i < r { 1.0 } else { self.w_ref / omega };
+        Ok(Mat::from_fn(2 * r, 2 * r + 1, |i, j| {
+            if j < 2 * r {
+                (phi[(i, j)] - if i == j { 1.0 } else { 0.0 }) * self.scale(j) / self.scale(i)
+                    * vel(i)
+            } else {
+                (res_w[i] - residual[i]) / (OMEGA_STEP * omega / self.w_ref)
+            }
+        }))
+    }
+}
+
+/// The periodic orbit of the driven boundary nearest the guess (q, q') at t = 0 and W =
+/// `model.omega`. The forced periodic orbits form a curve in (x0, W), so W is an unknown too and
+/// the minimum-norm Newton step (scaled unknowns q / |q|, q' / (W |q|), W / W_guess; the exact
+/// monodromy for the x0 columns, a finite difference of relative step 1e-7 for the W column)
+/// goes to the point of that curve nearest the harmonic-balance orbit: on a steep flank the
+/// boundary model's curve is reached by a small change of W, not of the amplitude. `None` when
+/// Newton does not converge.
+pub fn shoot_driven(model: &DrivenBoundary, guess: &[f64]) -> Result<Option<DrivenOrbit>, HbError> {
+    let r = model.r();
+    let q_scale = guess[..r].iter().map(|v| v * v).sum::<f64>().sqrt();
+    if q_scale.is_nan() || q_scale <= 0.0 {
+        return Ok(None);
+    }
+    let equations = ShootingEquations {
+        model,
+        q_scale,
+        w_ref: model.omega,
+    };
+    let z_guess = equations.unknowns(guess, model.omega);
+    let mut z = z_guess.clone();
+    for iteration in 0..=SHOOTING_ITERATIONS {
+        let (residual, phi) = equations.residual(&z)?;
+        let norm = residual.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if norm < SHOOTING_TOLERANCE {
+            let shift = z
+                .iter()
+                .zip(&z_guess)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>();
+            let (start, omega) = equations.state(&z);
+            return Ok(Some(DrivenOrbit {
+                start,
+                omega,
+                monodromy: phi,
+                iterations: iteration,
+                shift: shift.sqrt(),
+            }));
+        }
+        if iteration == SHOOTING_ITERATIONS || !norm.is_finite() {
+            break;
+        }
+        let jac = equations.jacobian(&z, &residual, &phi)?;
+        let Some(step) = min_norm_step(&jac, &residual) else {
+            break;
+        };
+        z.iter_mut().zip(&step).for_each(|(v, d)| *v += d);
+    }
+    Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rk4::{integrate, Rk4State};
+    use crate::test_models::driven_three_modes as model;
+
+    #[test]
+    fn the_shot_driven_orbit_is_periodic_for_rk4_and_lies_on_the_curve() {
+        let m = model(0.9);
+        // A start off the periodic orbit: Newton must find the curve nearby.
+        let guess = [2.0, 0.2, -0.1, 0.1, 0.3, 0.5];
+        let orbit = shoot_driven(&m, &guess)
+            .expect("shooting")
+            .expect("converges");
+        let mut at = m.clone();
+        at.omega = orbit.omega;
+        let period = 2.0 * std::f64::consts::PI / at.omega;
+        let start = Rk4State {
+            q: orbit.start[..3].to_vec(),
+            v: orbit.start[3..].to_vec(),
+        };
+        let (end, _) = integrate(&at, &start, period, 40_000).expect("rk4");
+        let gap = (0..3)
+            .map(|i| {
+                (end.q[i] - start.q[i])
+                    .abs()
+                    .max((end.v[i] - start.v[i]).abs())
+            })
+            .fold(0.0, f64::max);
+        println!(
+            "W = {:.6} (guess 0.9), {} iterations, shift {:.3}, RK4 period gap {gap:.1e}",
+            orbit.omega, orbit.iterations, orbit.shift
+        );
+        assert!(gap < 1e-8, "{gap}");
+    }
+}

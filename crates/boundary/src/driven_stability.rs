@@ -1,0 +1,76 @@
+//! The stability of a forced orbit on the massless contact boundary (docs/STABILITY.md,
+//! Sec. 9; DESIGN §10.6): the modes up to (N + 1) W stay dynamic, the others respond statically
+//! on the contact rows, the contact displacements carry no mass, and the multipliers are those of
+//! the exact monodromy of that model's periodic orbit next to the harmonic-balance orbit
+//! (`driven_model`, `driven_shooting`).
+
+use faer::Mat;
+
+use crate::driven_model::{driven_model, modal_start, DrivenBoundary, DrivenInputs};
+use crate::driven_shooting::shoot_driven;
+use nlmodes_hb::floquet::{multipliers_of, SampledMonodromy};
+use nlmodes_hb::HbError;
+
+/// Largest scaled distance between the harmonic-balance orbit's start and the shot orbit's at
+/// which the shot orbit's verdict is the point's (as `SHOOTING_SHIFT_LIMIT` of the free modes).
+pub const BOUNDARY_SHIFT_LIMIT: f64 = 1e-2;
+
+/// The monodromy of the shot orbit, how far that orbit lies from the harmonic-balance one, and
+/// the modes kept.
+#[derive(Clone, Debug)]
+pub struct BoundaryMonodromy {
+    pub monodromy: SampledMonodromy,
+    pub shift: f64,
+    pub modes: usize,
+    /// The model at the shot orbit's W (for an independent check).
+    pub model: DrivenBoundary,
+    /// (q, q') of the shot orbit at t = 0.
+    pub start: Vec<f64>,
+}
+
+/// The multipliers of the forced orbit `coefficients` (n x (2N + 1)) at W = `omega` on the
+/// massless boundary, or `None` when the model has no mode above the cutoff (unless
+/// `keep_all` under a penalty law: the boundary is then the penalty spring alone and the shot
+/// orbit the exact periodic solution of the penalty equation), the residual flexibility is not
+/// positive definite, or shooting does not converge.
+pub fn boundary_monodromy(
+    inputs: &DrivenInputs<'_>,
+    coefficients: &Mat<f64>,
+    omega: f64,
+) -> Result<Option<BoundaryMonodromy>, HbError> {
+    let Some(model) = driven_model(inputs, omega) else {
+        return Ok(None);
+    };
+    let r = model.omega2.len();
+    let guess = modal_start(inputs.system, coefficients, omega, r);
+    // A failure of the boundary model (a chattering contact set, a singular piece) leaves the
+    // point to the massive model's monodromy and its period check.
+    let orbit = match shoot_driven(&model, &guess) {
+        Ok(Some(orbit)) => orbit,
+        Ok(None) => {
+            tracing::debug!(omega, "massless-boundary shooting did not converge");
+            return Ok(None);
+        }
+        Err(e) => {
+            tracing::debug!(omega, error = %e, "massless-boundary shooting failed");
+            return Ok(None);
+        }
+    };
+    tracing::debug!(
+        omega,
+        shift = orbit.shift,
+        iterations = orbit.iterations,
+        "massless-boundary orbit"
+    );
+    let trace: f64 = (0..r).map(|i| model.damping[(i, i)]).sum();
+    let period = 2.0 * std::f64::consts::PI / orbit.omega;
+    let mut model = model;
+    model.omega = orbit.omega;
+    Ok(Some(BoundaryMonodromy {
+        monodromy: multipliers_of(orbit.monodromy, trace, period)?,
+        shift: orbit.shift,
+        modes: r,
+        model,
+        start: orbit.start,
+    }))
+}

@@ -1,0 +1,106 @@
+//! The independent check of a shooting verdict on the free massless boundary (docs/STABILITY.md
+//! Sec. 9; `[stability] verify_every`): one period of the RK4 integration of `rk4` from the shot
+//! orbit's start, compared with the exact flow's end state and monodromy.
+
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+
+use crate::driven_model::DrivenBoundary;
+use crate::free_shooting::ShotOrbit;
+use crate::model::{norm, BoundaryModel};
+use crate::rk4::{integrate, rk4_steps, Rk4State};
+use nlmodes_hb::HbError;
+
+/// The independent check of a shooting verdict: one period of RK4 of the massless-boundary
+/// model from the shot orbit's start, with the contact problem solved afresh at every stage and
+/// the variational equation integrated alongside (docs/STABILITY.md, Sec. 9).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ShootingCheck {
+    /// RK4 steps over the period.
+    pub steps: usize,
+    /// Distance of the RK4 end state from the start in the scaled state (q / |q0|,
+    /// q' / (w |q0|)): 0 for an exact periodic orbit and an exact integrator.
+    pub periodicity: f64,
+    /// Largest distance from a non-trivial multiplier of the RK4 monodromy to the nearest
+    /// non-trivial exact one (the trivial pair, the two nearest +1, left out of both: a Jordan
+    /// block that any perturbation delta splits by sqrt(delta)).
+    pub multiplier_distance: f64,
+    /// Largest |mu| of the RK4 monodromy's non-trivial multipliers (1 if none is outside).
+    pub max_multiplier_abs: f64,
+    /// |max_multiplier_abs - the exact monodromy's|: the difference in the decision quantity.
+    pub max_multiplier_change: f64,
+}
+
+/// Largest [`ShootingCheck::max_multiplier_change`] (and periodicity) at which the RK4 check
+/// confirms a shooting verdict. The check cuts its steps at the contact switches, so RK4 keeps
+/// its fourth order with h s_max = 2 pi / 200: on the default blade its largest |mu| agrees with
+/// the exact monodromy's to 6e-7 and its end state with the start to 2e-7 (50 points;
+/// docs/STABILITY.md, Sec. 9). A disagreement past 1e-4 means the exact flow or the shot orbit
+/// is wrong, and the verdict is not given.
+pub const SHOOTING_CHECK_LIMIT: f64 = 1e-4;
+
+impl ShootingCheck {
+    /// The check confirms the exact monodromy: the shot orbit is periodic for RK4 and the
+    /// largest non-trivial |mu| is the same within [`SHOOTING_CHECK_LIMIT`].
+    pub fn agrees(&self) -> bool {
+        self.max_multiplier_change <= SHOOTING_CHECK_LIMIT
+            && self.periodicity <= SHOOTING_CHECK_LIMIT
+    }
+}
+
+/// The independent RK4 check of a shot orbit (`rk4`): one period from its start.
+pub fn check_by_rk4(model: &BoundaryModel, orbit: &ShotOrbit) -> Result<ShootingCheck, HbError> {
+    let r = orbit.q0.len();
+    let start = Rk4State {
+        q: orbit.q0.clone(),
+        v: vec![0.0; r],
+    };
+    let driven = DrivenBoundary::undriven(model, orbit.period);
+    let steps = rk4_steps(&driven, orbit.period)?;
+    let (end, monodromy) = integrate(&driven, &start, orbit.period, steps)?;
+    let q_scale = norm(&orbit.q0);
+    let v_scale = q_scale * 2.0 * std::f64::consts::PI / orbit.period;
+    let periodicity = (0..r)
+        .map(|i| ((end.q[i] - start.q[i]) / q_scale).powi(2) + (end.v[i] / v_scale).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let eigenvalues = |m: &Mat<f64>, what: &'static str| {
+        m.eigenvalues()
+            .map(nontrivial)
+            .map_err(|e| HbError::Decomposition {
+                what,
+                detail: format!("{e:?}"),
+            })
+    };
+    let exact = eigenvalues(
+        &orbit.monodromy,
+        "eigenvalues of the massless boundary's monodromy",
+    )?;
+    let integrated = eigenvalues(&monodromy, "eigenvalues of the RK4 monodromy")?;
+    let multiplier_distance = integrated
+        .iter()
+        .map(|mu| {
+            exact
+                .iter()
+                .map(|nu| (mu - nu).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    let largest = |v: &[faer::c64]| v.iter().map(|mu| mu.norm()).fold(1.0, f64::max);
+    let max_multiplier_abs = largest(&integrated);
+    let max_multiplier_change = (max_multiplier_abs - largest(&exact)).abs();
+    Ok(ShootingCheck {
+        steps,
+        periodicity,
+        multiplier_distance,
+        max_multiplier_abs,
+        max_multiplier_change,
+    })
+}
+
+/// The multipliers without the trivial pair (the two nearest +1).
+fn nontrivial(mut values: Vec<faer::c64>) -> Vec<faer::c64> {
+    let one = faer::c64::new(1.0, 0.0);
+    values.sort_by(|a, b| (a - one).norm().total_cmp(&(b - one).norm()));
+    values.split_off(2.min(values.len()))
+}

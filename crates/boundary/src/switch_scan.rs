@@ -1,0 +1,153 @@
+//! The contact switches of a piece of the massless boundary's flow (docs/STABILITY.md Sec. 9):
+//! the one scan the free and the driven flows use, and the active set of a state.
+//!
+//! On a piece of constant active set every row has an event function f_j(t) (m): R_jj (-lambda_j)
+//! for a closed row, its penetration for an open one; a row switches where f_j rises through 0.
+//! The scan steps 1 / `SCAN_PER_PERIOD` of the piece's fastest period and bisects where a row has
+//! passed the threshold. A contact shorter than a step (a grazing excursion: f_j rises above the
+//! threshold and falls back between two scan points) is found from the rates: where f_j' changes
+//! sign from + to - within a step and f_j(t0) + f_j'(t0) h + |f_j''|max h^2 / 2 passes the
+//! threshold, the maximum is bisected on f_j' and, past the threshold, the switch on f_j before it.
+
+use nlmodes_hb::HbError;
+
+/// Scan points per shortest period of a piece when looking for a switch.
+const SCAN_PER_PERIOD: f64 = 16.0;
+/// Bisection steps locating a switch (interval / 2^60: below round-off).
+const BISECTION_STEPS: usize = 60;
+
+/// Every row's event function and its rate at one instant of a piece, and the per-term bounds
+/// [`EventPath::curvature_bound`] reads.
+pub(crate) struct RowsAt {
+    pub events: Vec<f64>,
+    pub rates: Vec<f64>,
+    pub curvatures: Vec<f64>,
+}
+
+/// The event functions of one piece of a flow along the solution from its start (tau = 0).
+pub(crate) trait EventPath {
+    /// Event function of row j at tau (s from the piece's start), m.
+    fn event(&self, j: usize, tau: f64) -> f64;
+    /// Its rate f_j'(tau) (m/s).
+    fn event_rate(&self, j: usize, tau: f64) -> f64;
+    /// Every row's event function and rate at tau, with the terms of the curvature bound.
+    fn rows_at(&self, tau: f64) -> RowsAt;
+    /// A bound on |f_j''| over [t0, t1] from the rows at both ends (m/s^2).
+    fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64;
+    /// The piece's fastest circular frequency (rad/s).
+    fn fastest(&self) -> f64;
+    /// The number of rows.
+    fn rows(&self) -> usize;
+}
+
+/// The first switch within `horizon` (s): (time, row). A row already past its boundary (event
+/// above `tol`, m) at the start switches at once, except the row `toggled` at this very instant
+/// (its event function is 0 there up to round-off: it switches again only on a crossing found by
+/// the scan).
+pub(crate) fn next_switch(
+    path: &impl EventPath,
+    tol: f64,
+    horizon: f64,
+    toggled: Option<usize>,
+) -> Option<(f64, usize)> {
+    let c = path.rows();
+    if let Some(j) = (0..c).find(|&j| Some(j) != toggled && path.event(j, 0.0) > tol) {
+        return Some((0.0, j));
+    }
+    let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * path.fastest());
+    let mut t0 = 0.0;
+    let mut before = path.rows_at(0.0);
+    while t0 < horizon {
+        let t1 = (t0 + step).min(horizon);
+        let after = path.rows_at(t1);
+        let crossing = (0..c)
+            .filter_map(|j| {
+                if after.events[j] > tol {
+                    return Some((bisect(path, j, t0, t1), j));
+                }
+                // A short excursion past the boundary between two scan points (a grazing
+                // contact, shorter than the scan step): the event function rises, then falls;
+                // its maximum, where its rate vanishes, is past the threshold. Within the step
+                // it stays below f(t0) + f'(t0) h + |f''| h^2 / 2: no excursion when that is
+                // below the threshold.
+                let h = t1 - t0;
+                let reach = || {
+                    before.events[j]
+                        + before.rates[j] * h
+                        + 0.5 * path.curvature_bound(j, &before, &after) * h * h
+                };
+                if before.rates[j] > 0.0 && after.rates[j] < 0.0 && reach() > tol {
+                    let top = bisect_rate(path, j, t0, t1);
+                    if path.event(j, top) > tol {
+                        return Some((bisect(path, j, t0, top), j));
+                    }
+                }
+                None
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if crossing.is_some() {
+            return crossing;
+        }
+        (t0, before) = (t1, after);
+    }
+    None
+}
+
+/// The time in (a, b) where row j's event rate falls through 0 (positive at a, negative at b):
+/// the event function's maximum.
+fn bisect_rate(path: &impl EventPath, j: usize, a: f64, b: f64) -> f64 {
+    let (mut lo, mut hi) = (a, b);
+    for _ in 0..BISECTION_STEPS {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if path.event_rate(j, mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The time in (a, b] where row j's event function rises through 0 (the end on the positive
+/// side, so that the switch happens with the row just past its boundary).
+fn bisect(path: &impl EventPath, j: usize, a: f64, b: f64) -> f64 {
+    let (mut lo, mut hi) = (a, b);
+    for _ in 0..BISECTION_STEPS {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if path.event(j, mid) > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
+/// The active set of `c` rows by Murty's least-index principal pivoting, from `start`:
+/// `first_violator(active)` names the first row whose event function on that set is past its
+/// boundary (`None`: the set is the solution). Finite for a P-matrix (the flexibility R is
+/// positive definite): at most 4 c^2 + 16 pivots are tried before the set is declared
+/// unsettled, with the error's `detail`.
+pub(crate) fn settle_active_set(
+    c: usize,
+    start: Vec<bool>,
+    detail: &str,
+    mut first_violator: impl FnMut(&[bool]) -> Result<Option<usize>, HbError>,
+) -> Result<Vec<bool>, HbError> {
+    let mut active = start;
+    for _ in 0..(4 * c * c + 16) {
+        match first_violator(&active)? {
+            Some(j) => active[j] = !active[j],
+            None => return Ok(active),
+        }
+    }
+    Err(HbError::StabilityInput {
+        detail: detail.to_string(),
+    })
+}
