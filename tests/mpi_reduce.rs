@@ -315,3 +315,116 @@ fn mpirun_modes_with_two_ranks_gives_the_serial_frequencies() {
     }
     assert!(mpi.join("modes.vtu").exists());
 }
+
+/// The coarse blade case (meshes/blade.geo at mesh_size 0.012, 8004 free DOFs, 20
+/// fixed-interface modes, 6 full-model modes) writing into `results`, with a short backbone
+/// (just past grazing at q/g0 = 6.0) and `extra` lines appended.
+fn coarse_case(dir: &Path, name: &str, results: &Path, extra: &str) -> std::path::PathBuf {
+    let geo = common::blade_geo();
+    let case = format!(
+        "name = \"coarse\"\nresults_dir = \"{}\"\n[mesh]\ngeo = \"{}\"\norder = 2\n\
+         [mesh.parameters]\nmesh_size = 0.012\n[model]\nfixed_interface_modes = 20\n\
+         linear_modes = 6\n[nnm]\nharmonics = 10\nsamples = 128\nkeep = [3.0]\nframes = 6\n\
+         [continuation]\nq_start = 0.5\nq_max = 7.0\n{extra}",
+        results.display(),
+        geo.display()
+    );
+    let path = dir.join(name);
+    std::fs::write(&path, case).unwrap();
+    path
+}
+
+/// `mpirun -n 2 nlmodes run`: rank 0 runs the pipeline and the other rank takes part in its
+/// modes and reduce stages (docs/LARGE_MODELS.md, "Over MPI"). Against the serial run of the
+/// same case: the reduced model as in `assert_same_model` (tolerances at the top of this file),
+/// the full model's 6 eigenvalues to 1e-8 relative (both converged to residuals of 1e-10 or
+/// less, measured 1.8e-10 at most), the later stages done on rank 0 (backbone, report), and
+/// their summary printed once.
+#[test]
+fn mpirun_run_distributes_modes_and_reduce_and_gives_the_serial_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let (serial, mpi) = (dir.path().join("serial"), dir.path().join("mpi"));
+    let forced_off = "[forced]\nenabled = false\n";
+    let serial_case = coarse_case(dir.path(), "serial.toml", &serial, forced_off);
+    let mpi_case = coarse_case(dir.path(), "mpi.toml", &mpi, forced_off);
+    common::nlmodes_ok(&["run", serial_case.to_str().unwrap()]);
+    let output = mpirun(2, &["run", mpi_case.to_str().unwrap()], MPIRUN_TIMEOUT)
+        .expect("mpirun -n 2 nlmodes run did not end");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let (serial, mpi) = (serial.join("coarse"), mpi.join("coarse"));
+    assert_same_model(&serial.join("model"), &mpi.join("model"), 2);
+    let (s, p) = (
+        eigenvalues_csv(&serial.join("modes/frequencies.csv")),
+        eigenvalues_csv(&mpi.join("modes/frequencies.csv")),
+    );
+    assert_eq!((s.len(), p.len()), (6, 6));
+    for (a, b) in s.iter().zip(&p) {
+        assert!(
+            ((a - b) / a).abs() < 1e-8,
+            "eigenvalue {a} (serial) vs {b} (MPI)"
+        );
+    }
+    for file in ["modes/modes.vtu", "backbone/backbone.csv", "report.md"] {
+        assert!(mpi.join(file).exists(), "{file} missing after mpirun");
+    }
+    assert_eq!(
+        stdout.matches("grazing at q/g0").count(),
+        1,
+        "the backbone's summary once:\n{stdout}"
+    );
+}
+
+/// `mpirun -n 2 nlmodes run --only reduce` of a case with a group load (`[forced] load =
+/// "group"`): its static correction joins the basis over MPI as in the serial run (the model
+/// as in `assert_same_model`, the one more coordinate), and F.mtx = T^T f agrees to 1e-8 of its
+/// largest entry (linear in the basis) once the signs of the modal coordinates are aligned.
+#[test]
+fn mpirun_run_reduces_with_a_static_correction_like_the_serial_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (serial, mpi) = (dir.path().join("serial"), dir.path().join("mpi"));
+    let load =
+        "[forced]\nload = \"group\"\nload_group = \"tip\"\nload_direction = [0.0, 2.0, 0.0]\n";
+    let serial_case = coarse_case(dir.path(), "serial.toml", &serial, load);
+    let mpi_case = coarse_case(dir.path(), "mpi.toml", &mpi, load);
+    common::nlmodes_ok(&["run", serial_case.to_str().unwrap(), "--only", "reduce"]);
+    let args = ["run", mpi_case.to_str().unwrap(), "--only", "reduce"];
+    let output = mpirun(2, &args, MPIRUN_TIMEOUT).expect("mpirun -n 2 did not end");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let (serial, mpi) = (serial.join("coarse/model"), mpi.join("coarse/model"));
+    assert_same_model(&serial, &mpi, 2);
+    let (s, p) = (
+        ReducedModel::read(&serial).unwrap(),
+        ReducedModel::read(&mpi).unwrap(),
+    );
+    assert_eq!(
+        s.k.nrows(),
+        3 * s.contact_nodes.len() + 21,
+        "one correction"
+    );
+    let read = |d: &Path| {
+        nlmodes_modal::matrix_market_general::read_dense_general(&d.join("F.mtx")).unwrap()
+    };
+    let (fs, fp) = (read(&serial), read(&mpi));
+    let n_b = 3 * s.contact_nodes.len();
+    let scale = (0..fs.nrows()).fold(0.0f64, |a, i| a.max(fs[(i, 0)].abs()));
+    for i in 0..fs.nrows() {
+        // The sign of modal coordinate i, from its mass coupling with the boundary.
+        let sign = if i < n_b {
+            1.0
+        } else {
+            let c: f64 = (0..n_b).map(|r| s.m[(r, i)] * p.m[(r, i)]).sum();
+            c.signum()
+        };
+        let d = (fs[(i, 0)] - sign * fp[(i, 0)]).abs() / scale;
+        assert!(d < 1e-8, "F.mtx row {i}: {} vs {}", fs[(i, 0)], fp[(i, 0)]);
+    }
+}

@@ -4,9 +4,10 @@
 //! its measured scaling.
 //!
 //! The binary starts a [`Session`] only when an MPI launcher started it ([`launch_variable`]);
-//! without one nothing here runs and the serial path is untouched. Rank 0 returns the results
-//! (the [`nlmodes_modal::CraigBampton`] of the serial path, or the full model's
-//! [`nlmodes_modal::Modes`]) and writes them; an error on any rank ends every rank
+//! without one nothing here runs and the serial path is untouched. Rank 0 runs the command and
+//! hands each distributed computation to the other ranks (`crew`: they wait for its tasks);
+//! rank 0 gets the results (the [`nlmodes_modal::CraigBampton`] of the serial path, or the full
+//! model's [`nlmodes_modal::Modes`]) and writes them; an error on any rank ends every rank
 //! ([`abort_if_parallel`]).
 //!
 //! Without the `petsc` feature the crate is a stub: [`start`] reports
@@ -37,6 +38,8 @@ pub mod bridge;
 #[cfg(feature = "petsc")]
 mod collective;
 #[cfg(feature = "petsc")]
+pub mod crew;
+#[cfg(feature = "petsc")]
 pub mod eigen;
 #[cfg(feature = "petsc")]
 pub mod layout;
@@ -54,11 +57,13 @@ pub mod static_solve;
 #[cfg(feature = "petsc")]
 pub use assembly::assemble;
 #[cfg(feature = "petsc")]
+pub use crew::abort_if_parallel;
+#[cfg(feature = "petsc")]
 pub use modes::full_modes;
 #[cfg(feature = "petsc")]
 pub use reduction::{craig_bampton, Reduction, ReductionInput};
 #[cfg(feature = "petsc")]
-pub use session::{abort_if_parallel, start, world, Session};
+pub use session::{start, world, Session};
 
 #[cfg(not(feature = "petsc"))]
 mod stub;

@@ -27,6 +27,38 @@ pub fn world() -> Option<World> {
 /// Nothing to end without a session.
 pub fn abort_if_parallel(_code: i32) {}
 
+/// As with the `petsc` feature; nothing to lead or serve without a session.
+pub mod crew {
+    use super::not_built;
+    use crate::error::Result;
+
+    /// Never constructed without the `petsc` feature.
+    pub enum Assignment {}
+
+    impl Assignment {
+        /// Unreachable: no assignment exists.
+        pub fn done(self) {
+            match self {}
+        }
+    }
+
+    /// Nothing to lead.
+    pub fn lead() {}
+
+    /// Nothing to release.
+    pub fn release() {}
+
+    /// Always [`crate::DistributedError::NotBuilt`].
+    pub fn assign(_task: &[u8]) -> Result<Assignment> {
+        Err(not_built())
+    }
+
+    /// Always [`crate::DistributedError::NotBuilt`].
+    pub fn next_task() -> Result<Option<Vec<u8>>> {
+        Err(not_built())
+    }
+}
+
 /// As with the `petsc` feature.
 pub struct ReductionInput<'a> {
     pub mesh: &'a Mesh,

@@ -1,0 +1,162 @@
+//! The finite-element stages over MPI (issue 40; docs/LARGE_MODELS.md, "Over MPI"). Under
+//! mpirun, rank 0 runs the command as the serial path does (reads and checks the input, runs
+//! the stages, prints, writes every file) and hands each distributed computation to the other
+//! ranks as a [`Task`] through `nlmodes_distributed::crew`; the other ranks [`serve`]: they
+//! read the mesh the task names, compute their part with rank 0, and wait for the next task
+//! until rank 0 ends. Only rank 0 prints and writes.
+
+use anyhow::{Context, Result};
+use nlmodes_fem::{DofMap, Isotropic, Mesh};
+use nlmodes_modal::Modes;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+use crate::fe_model::read_mesh;
+
+/// Where every rank finds the FE model: the mesh file (on a file system all ranks see), the
+/// Dirichlet specifications and the material.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FeSource {
+    pub mesh: PathBuf,
+    pub clamp: Vec<String>,
+    /// Young's modulus (Pa), Poisson's ratio, density (kg/m^3).
+    pub material: [f64; 3],
+}
+
+impl FeSource {
+    pub fn new(mesh: &Path, clamp: &[String], material: &Isotropic) -> Self {
+        Self {
+            mesh: mesh.to_path_buf(),
+            clamp: clamp.to_vec(),
+            material: [material.young, material.poisson, material.density],
+        }
+    }
+
+    fn material(&self) -> Result<Isotropic> {
+        let [e, nu, rho] = self.material;
+        Ok(Isotropic::new(e, nu, rho)?)
+    }
+}
+
+/// A distributed computation, run by every rank.
+#[derive(Debug, Serialize, Deserialize)]
+pub enum Task {
+    /// The Craig-Bampton reduction (`nlmodes_distributed::craig_bampton`) onto `boundary` (free
+    /// DOFs), with `modes` fixed-interface modes, the first `check_modes` full-model modes and
+    /// the static corrections of `loads` (free DOFs, N).
+    Reduce {
+        fe: FeSource,
+        boundary: Vec<usize>,
+        modes: usize,
+        check_modes: usize,
+        loads: Vec<Vec<f64>>,
+    },
+    /// The full model's `modes` modes nearest `sigma` (rad^2/s^2).
+    Modes {
+        fe: FeSource,
+        modes: usize,
+        sigma: f64,
+    },
+}
+
+/// What a task delivers on rank 0.
+pub enum Delivered {
+    Reduction(nlmodes_distributed::Reduction),
+    Modes(Modes),
+}
+
+impl Task {
+    fn fe(&self) -> &FeSource {
+        match self {
+            Self::Reduce { fe, .. } | Self::Modes { fe, .. } => fe,
+        }
+    }
+
+    /// This rank's part of the task on the mesh of [`Task::fe`] (read already): the result on
+    /// rank 0, `None` on the others.
+    fn run_on(&self, mesh: &Mesh, dofs: &DofMap) -> Result<Option<Delivered>> {
+        let material = self.fe().material()?;
+        Ok(match self {
+            Self::Reduce {
+                boundary,
+                modes,
+                check_modes,
+                loads,
+                ..
+            } => {
+                let input = nlmodes_distributed::ReductionInput {
+                    mesh,
+                    material: &material,
+                    dofs,
+                    boundary,
+                    n_modes: *modes,
+                    check_modes: *check_modes,
+                    loads,
+                };
+                nlmodes_distributed::craig_bampton(&input)?.map(Delivered::Reduction)
+            }
+            Self::Modes { modes, sigma, .. } => {
+                nlmodes_distributed::full_modes(mesh, &material, dofs, *modes, *sigma)
+                    .with_context(|| {
+                        format!("computing {modes} modes of the {}-DOF model", dofs.n_free())
+                    })?
+                    .map(Delivered::Modes)
+            }
+        })
+    }
+}
+
+/// The ranks other than 0: the tasks of rank 0, one after the other, until it releases them.
+pub fn serve() -> Result<()> {
+    while let Some(bytes) = nlmodes_distributed::crew::next_task()? {
+        let task: Task =
+            serde_json::from_slice(&bytes).context("a task from rank 0 that cannot be read")?;
+        let fe = task.fe();
+        let (mesh, dofs) = read_mesh(&fe.mesh, &fe.clamp)?;
+        task.run_on(&mesh, &dofs)?;
+    }
+    Ok(())
+}
+
+/// Rank 0: hands `task` to the other ranks and computes its part with them, on the mesh of
+/// [`Task::fe`] already read.
+pub fn lead(task: &Task, mesh: &Mesh, dofs: &DofMap) -> Result<Delivered> {
+    let bytes = serde_json::to_vec(task).context("encoding a task for the other ranks")?;
+    let assignment = nlmodes_distributed::crew::assign(&bytes)?;
+    let delivered = task
+        .run_on(mesh, dofs)?
+        .context("rank 0 receives the result of every task")?;
+    assignment.done();
+    Ok(delivered)
+}
+
+/// The full model's `modes` modes nearest `sigma` over the ranks (rank 0: `nlmodes modes`
+/// and the modes stage of `nlmodes run` under mpirun).
+pub fn full_modes(fe: FeSource, modes: usize, sigma: f64) -> Result<(Mesh, DofMap, Modes)> {
+    let (mesh, dofs) = read_mesh(&fe.mesh, &fe.clamp)?;
+    let task = Task::Modes { fe, modes, sigma };
+    match lead(&task, &mesh, &dofs)? {
+        Delivered::Modes(m) => Ok((mesh, dofs, m)),
+        Delivered::Reduction(_) => anyhow::bail!("a modes task delivered a reduction"),
+    }
+}
+
+/// `nlmodes modes` under mpirun and its stage in `nlmodes run`: the modes by SLEPc over the
+/// ranks, written to `out` (`frequencies.csv`, `modes.vtu`) and printed by rank 0.
+pub fn write_full_modes(source: FeSource, modes: usize, sigma: f64, out: &Path) -> Result<()> {
+    let stage = crate::ui::Stage::start("modes");
+    let (mesh, dofs, m) = full_modes(source, modes, sigma)?;
+    let worst = m.residuals.iter().cloned().fold(0.0, f64::max);
+    stage.done(&format!(
+        "{} modes, largest relative residual {worst:.2e}",
+        m.len()
+    ));
+    crate::fe_model::write_modes_of(&mesh, &dofs, &m, out)?;
+    crate::ui::say(&crate::fe_model::frequency_table(&m));
+    Ok(())
+}
+
+/// Whether this process runs under mpirun (the distributed path).
+pub fn distributed() -> bool {
+    nlmodes_distributed::world().is_some()
+}
