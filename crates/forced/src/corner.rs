@@ -102,7 +102,7 @@ impl FrfTrace<'_, '_, '_> {
         let (a, b) = (self.scaled(last), self.scaled(&p));
         let d: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
         let length = norm(&d);
-        if !(length > 0.0) {
+        if length.is_nan() || length <= 0.0 {
             return false;
         }
         let along = self.arc(&d.iter().map(|v| v / length).collect::<Vec<_>>(), 0.0);

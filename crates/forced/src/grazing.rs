@@ -45,7 +45,7 @@ pub(crate) fn series_max(series: &[f64]) -> (f64, f64) {
     let (mut lo, mut hi) = ((k as f64 - 1.0) * h, (k as f64 + 1.0) * h);
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
-        if FullBasis::rate_at(series, 1.0, mid) > 0.0 {
+        if FullBasis::value_and_slope_at(series, mid).1 > 0.0 {
             lo = mid;
         } else {
             hi = mid;
@@ -190,7 +190,7 @@ impl FrfTrace<'_, '_, '_> {
         let (a, b) = (self.scaled(last), self.scaled(&p));
         let d: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();
         let length = norm(&d);
-        if !(length > 0.0) {
+        if length.is_nan() || length <= 0.0 {
             return false;
         }
         let secant: Vec<f64> = d.iter().map(|v| v / length).collect();

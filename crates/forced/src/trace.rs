@@ -230,11 +230,12 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
         let mut reason = String::from("no step tried");
         let mut grazing_tried = false;
         loop {
-            if !exact && self.step < CORNER_STEP {
-                if self.hop(tangent[tangent.len() - 1].signum()) || self.phase_hop() {
-                    self.step = CORNER_STEP;
-                    return Ok(());
-                }
+            if !exact
+                && self.step < CORNER_STEP
+                && (self.hop(tangent[tangent.len() - 1].signum()) || self.phase_hop())
+            {
+                self.step = CORNER_STEP;
+                return Ok(());
             }
             if exact && self.step < GRAZING_STEP && !grazing_tried {
                 grazing_tried = true;

@@ -135,6 +135,22 @@ impl FullBasis {
         v
     }
 
+    /// Value and phase derivative (d/d(w t)) of a series at the phase w t, by the angle-addition
+    /// recurrence of [`FullBasis::value_at`] (one `sin_cos` per call).
+    pub fn value_and_slope_at(coeffs: &[f64], phase: f64) -> (f64, f64) {
+        let nh = coeffs.len() / 2;
+        let (mut v, mut d) = (coeffs[0], 0.0);
+        let (s1, c1) = phase.sin_cos();
+        let (mut s, mut c) = (s1, c1);
+        for n in 1..=nh {
+            let (a, b) = (coeffs[Self::cos_index(n)], coeffs[Self::sin_index(n)]);
+            v += a * c + b * s;
+            d += n as f64 * (b * c - a * s);
+            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+        }
+        (v, d)
+    }
+
     /// Time derivative of a series at the phase w t, for the fundamental w (rad/s).
     pub fn rate_at(coeffs: &[f64], omega: f64, phase: f64) -> f64 {
         let nh = coeffs.len() / 2;
@@ -205,6 +221,16 @@ mod tests {
             for p in 0..7 {
                 assert!((col[p] - j[(p, q)]).abs() < 1e-14);
             }
+        }
+    }
+
+    #[test]
+    fn value_and_slope_agree_with_value_and_rate() {
+        let c = [0.1, 1.0, -0.5, 0.25, 0.75, -0.3, 0.2];
+        for ph in [0.0, 0.4, 2.9, 5.5] {
+            let (v, d) = FullBasis::value_and_slope_at(&c, ph);
+            assert!((v - FullBasis::value_at(&c, ph)).abs() < 1e-14);
+            assert!((d - FullBasis::rate_at(&c, 1.0, ph)).abs() < 1e-13);
         }
     }
 

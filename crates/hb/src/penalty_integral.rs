@@ -54,13 +54,17 @@ impl ContactPhases {
     /// when it never drops to the level.
     pub fn above(&self, series: &[f64], level: f64) -> Vec<(f64, f64)> {
         let f = |th: f64| FullBasis::value_at(series, th) - level;
-        let df = |th: f64| FullBasis::rate_at(series, 1.0, th);
+        let df = |th: f64| FullBasis::value_and_slope_at(series, th).1;
+        let both = |th: f64| {
+            let (v, d) = FullBasis::value_and_slope_at(series, th);
+            (v - level, d)
+        };
         let h = std::f64::consts::TAU / self.grid as f64;
         let mut switches: Vec<(f64, bool)> = Vec::new();
-        let (mut a, mut fa, mut da) = (0.0, f(0.0), df(0.0));
+        let (mut a, (mut fa, mut da)) = (0.0, both(0.0));
         for k in 1..=self.grid {
             let b = k as f64 * h;
-            let (fb, db) = (f(b), df(b));
+            let (fb, db) = both(b);
             if (fa > 0.0) != (fb > 0.0) {
                 switches.push((bisect(&f, a, b), fb > 0.0));
             } else if da.signum() != db.signum() && da != 0.0 && db != 0.0 {
