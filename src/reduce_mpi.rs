@@ -61,7 +61,7 @@ pub enum Task {
 
 /// What a task delivers on rank 0.
 pub enum Delivered {
-    Reduction(nlmodes_distributed::Reduction),
+    Reduction(Box<nlmodes_distributed::Reduction>),
     Modes(Modes),
 }
 
@@ -93,7 +93,8 @@ impl Task {
                     check_modes: *check_modes,
                     loads,
                 };
-                nlmodes_distributed::craig_bampton(&input)?.map(Delivered::Reduction)
+                nlmodes_distributed::craig_bampton(&input)?
+                    .map(|r| Delivered::Reduction(Box::new(r)))
             }
             Self::Modes { modes, sigma, .. } => {
                 nlmodes_distributed::full_modes(mesh, &material, dofs, *modes, *sigma)
