@@ -7,7 +7,8 @@
 //! Errors end every rank and never hang: a rank that fails inside a task may leave the others
 //! in a collective, so it ends the job ([`abort_if_parallel`]); rank 0 failing between tasks
 //! releases the others (they end with status 0) and ends with its own status, so that mpirun
-//! returns it without MPI_Abort's banner. Waiting ranks sleep between probes (about 0 CPU)
+//! returns it without MPI_Abort's banner; a panic ends the job as an error inside a task does
+//! ([`abort_on_panic`]). Waiting ranks sleep between probes (about 0 CPU)
 //! instead of spinning in a blocking receive: the serial stages of rank 0 (gmsh, the backbone)
 //! keep the cores.
 
@@ -117,3 +118,17 @@ pub fn abort_if_parallel(code: i32) {
         SimpleCommunicator::world().abort(code);
     }
 }
+
+/// From now on a panic on this rank, once its message is printed, ends the job like an error
+/// ([`abort_if_parallel`], status 101 as Rust's panics): unwinding would reach MPI_Finalize,
+/// which waits for ranks that may be waiting for this one in a collective.
+pub(crate) fn abort_on_panic() {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        previous(info);
+        abort_if_parallel(PANIC_STATUS);
+    }));
+}
+
+/// The exit status of a Rust panic.
+const PANIC_STATUS: i32 = 101;

@@ -5,13 +5,71 @@
 //! ||K x - lambda M x|| / (|lambda| ||M x||).
 //!
 //! Building block of the fixed-interface modes, the full-model modes and, later, the
-//! Campbell diagram's solves at each speed ([`EigenSolver::solve`] on the matrices at speed).
+//! Campbell diagram's solves at each speed ([`nearest_modes`] on the matrices at speed).
+//!
+//! [`nearest_modes`] chooses the method: the block Lanczos of [`crate::block_eigen`] on a
+//! MUMPS factor (sigma = 0, at most [`crate::block_eigen::BLOCK_MAX_NEV`] pairs; the serial
+//! path's method, with block solves), SLEPc's Krylov-Schur otherwise, when block Lanczos does
+//! not converge, or when PETSC_OPTIONS holds `-nlmodes_eigensolver krylovschur`.
 
+use crate::block_eigen::{block_modes, BLOCK_MAX_NEV};
 use crate::collective::gather_to_all;
 use crate::error::{DistributedError, Result};
 use crate::ffi;
-use crate::petsc::{check, comm, int, Matrix, Vector, PETSC_DEFAULT};
-use crate::static_solve::{direct_cholesky, Factor};
+use crate::petsc::{check, comm, int, option_string, Matrix, Vector, PETSC_DEFAULT};
+use crate::static_solve::{direct_cholesky, Factor, StaticSolver};
+
+/// The PETSc option that chooses the eigensolver: `block_lanczos` (default) or `krylovschur`.
+pub const EIGENSOLVER_OPTION: &std::ffi::CStr = c"-nlmodes_eigensolver";
+
+/// The solver that holds the factor of K - sigma M after an eigen-solve.
+pub enum ShiftInvert {
+    /// Block Lanczos on the factor of K (sigma = 0).
+    BlockLanczos(StaticSolver),
+    /// SLEPc's Krylov-Schur, which holds the factor in its spectral transformation.
+    KrylovSchur(EigenSolver),
+}
+
+impl ShiftInvert {
+    /// The factor of K - sigma M, for solves with the same operator.
+    pub fn factor(&self) -> Result<Factor<'_>> {
+        match self {
+            Self::BlockLanczos(s) => s.factor(),
+            Self::KrylovSchur(e) => e.factor(),
+        }
+    }
+}
+
+/// The `nev` eigenpairs of K x = lambda M x nearest `sigma` (rad^2/s^2) with the solver that
+/// holds the factor (module documentation for the method). `serial_index`: the serial index of
+/// each local row (the block method's starting block); `what` names the problem in errors.
+pub fn nearest_modes(
+    k: &Matrix,
+    m: &Matrix,
+    nev: usize,
+    sigma: f64,
+    serial_index: &[usize],
+    what: &str,
+) -> Result<(ShiftInvert, LocalModes)> {
+    let choice = option_string(EIGENSOLVER_OPTION)?;
+    let block = match choice.as_deref() {
+        None | Some("block_lanczos") => sigma == 0.0 && nev <= BLOCK_MAX_NEV,
+        Some("krylovschur") => false,
+        Some(other) => {
+            return Err(DistributedError::Invalid(format!(
+                "PETSc option -nlmodes_eigensolver {other}: expected block_lanczos or \
+                 krylovschur"
+            )))
+        }
+    };
+    if block {
+        if let Some((solver, modes)) = block_modes(k, m, nev, serial_index, what)? {
+            return Ok((ShiftInvert::BlockLanczos(solver), modes));
+        }
+    }
+    let (solver, modes) = EigenSolver::solve(k, m, nev, sigma, what)?;
+    Ok((ShiftInvert::KrylovSchur(solver), modes))
+}
 
 /// Relative tolerance of SLEPc's convergence test (||r|| / |lambda|) unless PETSC_OPTIONS sets
 /// `-eps_tol`: the serial block Lanczos converges its Ritz estimates to 1e-10 too.
@@ -130,8 +188,7 @@ impl EigenSolver {
 
     /// The first `nev` converged pairs, post-processed (module documentation).
     fn pairs(&self, k: &Matrix, m: &Matrix, nev: usize) -> Result<LocalModes> {
-        let x = k.row_vector()?;
-        let (mx, kx) = (k.row_vector()?, k.row_vector()?);
+        let work = Finisher::new(k, m)?;
         let mut found = Vec::with_capacity(nev);
         for i in 0..nev {
             let (mut re, mut im) = (0.0, 0.0);
@@ -142,28 +199,16 @@ impl EigenSolver {
                         int(i)?,
                         &mut re,
                         &mut im,
-                        x.0,
+                        work.x.0,
                         std::ptr::null_mut(),
                     )
                 },
                 "EPSGetEigenpair",
             )?;
-            m.mult(&x, &mx)?;
-            let scale = 1.0 / dot(&x, &mx)?.sqrt();
-            let local = x.local()?;
-            let sign = largest_entry_sign(&local);
-            let local: Vec<f64> = local.iter().map(|v| v * scale * sign).collect();
-            x.set_local(&local)?;
-            let residual = residual(k, m, &x, re, &mx, &kx)?;
+            let (local, residual) = work.finish(re)?;
             found.push((re, local, residual));
         }
-        found.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let rows = found.first().map_or(0, |f| f.1.len());
-        Ok(LocalModes {
-            eigenvalues: found.iter().map(|f| f.0).collect(),
-            vectors: faer::Mat::from_fn(rows, nev, |r, j| found[j].1[r]),
-            residuals: found.iter().map(|f| f.2).collect(),
-        })
+        Ok(sorted_modes(found))
     }
 
     /// The factor of K - sigma M (MUMPS), for solves with the same operator.
@@ -173,6 +218,70 @@ impl EigenSolver {
         let mut ksp = std::ptr::null_mut();
         check(unsafe { ffi::STGetKSP(st, &mut ksp) }, "STGetKSP")?;
         Factor::of(ksp)
+    }
+}
+
+/// Eigenpairs with the vectors' local rows in `vectors` (one column per value, not yet
+/// normalized), post-processed as SLEPc's (module documentation).
+pub fn finish_pairs(
+    k: &Matrix,
+    m: &Matrix,
+    values: &[f64],
+    vectors: &faer::Mat<f64>,
+) -> Result<LocalModes> {
+    let work = Finisher::new(k, m)?;
+    let mut found = Vec::with_capacity(values.len());
+    for (j, &lambda) in values.iter().enumerate() {
+        let col: Vec<f64> = (0..vectors.nrows()).map(|r| vectors[(r, j)]).collect();
+        work.x.set_local(&col)?;
+        let (local, residual) = work.finish(lambda)?;
+        found.push((lambda, local, residual));
+    }
+    Ok(sorted_modes(found))
+}
+
+/// Pairs (eigenvalue, local rows, residual) in ascending order of eigenvalue.
+fn sorted_modes(mut found: Vec<(f64, Vec<f64>, f64)>) -> LocalModes {
+    found.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rows = found.first().map_or(0, |f| f.1.len());
+    LocalModes {
+        eigenvalues: found.iter().map(|f| f.0).collect(),
+        vectors: faer::Mat::from_fn(rows, found.len(), |r, j| found[j].1[r]),
+        residuals: found.iter().map(|f| f.2).collect(),
+    }
+}
+
+/// The post-processing of one eigenvector at a time, in `x`: M-normalized, its sign fixed,
+/// its relative residual.
+struct Finisher<'a> {
+    k: &'a Matrix,
+    m: &'a Matrix,
+    x: Vector,
+    mx: Vector,
+    kx: Vector,
+}
+
+impl<'a> Finisher<'a> {
+    fn new(k: &'a Matrix, m: &'a Matrix) -> Result<Self> {
+        Ok(Self {
+            k,
+            m,
+            x: k.row_vector()?,
+            mx: k.row_vector()?,
+            kx: k.row_vector()?,
+        })
+    }
+
+    /// The local rows of the finished vector in `x` (eigenvalue `lambda`) and its residual.
+    fn finish(&self, lambda: f64) -> Result<(Vec<f64>, f64)> {
+        self.m.mult(&self.x, &self.mx)?;
+        let scale = 1.0 / dot(&self.x, &self.mx)?.sqrt();
+        let local = self.x.local()?;
+        let sign = largest_entry_sign(&local);
+        let local: Vec<f64> = local.iter().map(|v| v * scale * sign).collect();
+        self.x.set_local(&local)?;
+        let residual = residual(self.k, self.m, &self.x, lambda, &self.mx, &self.kx)?;
+        Ok((local, residual))
     }
 }
 

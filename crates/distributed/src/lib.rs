@@ -34,6 +34,8 @@ mod ffi {
 #[cfg(feature = "petsc")]
 mod assembly;
 #[cfg(feature = "petsc")]
+mod block_eigen;
+#[cfg(feature = "petsc")]
 pub mod bridge;
 #[cfg(feature = "petsc")]
 mod collective;

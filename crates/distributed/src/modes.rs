@@ -7,7 +7,7 @@ use nlmodes_modal::Modes;
 
 use crate::assembly::assemble;
 use crate::collective::gather_to_root;
-use crate::eigen::EigenSolver;
+use crate::eigen::nearest_modes;
 use crate::error::{DistributedError, Result};
 use crate::layout::Layout;
 use crate::session::world;
@@ -25,7 +25,7 @@ pub fn full_modes(
     let layout = Layout::new(mesh, dofs, world)?;
     let (k, m) = assemble(mesh, material, dofs, &layout)?;
     let what = format!("the full model ({} free DOFs)", dofs.n_free());
-    let (solver, local) = EigenSolver::solve(&k, &m, nev, sigma, &what)?;
+    let (solver, local) = nearest_modes(&k, &m, nev, sigma, &layout.serial_free_index(), &what)?;
     drop((solver, k, m));
     let frees: Vec<u64> = layout
         .owned()

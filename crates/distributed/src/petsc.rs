@@ -330,6 +330,32 @@ impl Matrix {
     }
 }
 
+/// The value of a string option of the PETSc options database (PETSC_OPTIONS, the command
+/// line), `None` when it is not set.
+pub fn option_string(name: &std::ffi::CStr) -> Result<Option<String>> {
+    let mut buffer = [0 as std::os::raw::c_char; 256];
+    let mut set = ffi::PetscBool::PETSC_FALSE;
+    check(
+        unsafe {
+            ffi::PetscOptionsGetString(
+                std::ptr::null_mut(),
+                std::ptr::null(),
+                name.as_ptr(),
+                buffer.as_mut_ptr(),
+                buffer.len(),
+                &mut set,
+            )
+        },
+        "PetscOptionsGetString",
+    )?;
+    if set != ffi::PetscBool::PETSC_TRUE {
+        return Ok(None);
+    }
+    // SAFETY: PETSc wrote a NUL-terminated string into the buffer.
+    let value = unsafe { std::ffi::CStr::from_ptr(buffer.as_ptr()) };
+    Ok(Some(value.to_string_lossy().into_owned()))
+}
+
 /// Peak resident memory of this process so far (VmHWM of /proc/self/status), GB; 0 if unknown.
 pub fn peak_rss_gb() -> f64 {
     std::fs::read_to_string("/proc/self/status")

@@ -13,7 +13,7 @@ use nlmodes_modal::CraigBampton;
 
 use crate::assembly::assemble;
 use crate::collective::{gather_to_root, max_all, sum_all};
-use crate::eigen::EigenSolver;
+use crate::eigen::{nearest_modes, ShiftInvert};
 use crate::error::{DistributedError, Result};
 use crate::ffi;
 use crate::layout::Layout;
@@ -75,7 +75,7 @@ pub fn craig_bampton(input: &ReductionInput) -> Result<Option<Reduction>> {
         .filter(|&r| position[layout.free_of_row[r]].is_none())
         .collect();
     let (psi, phi, eigenvalues) = interior_solves(input, &layout, &k, &m, &interior_rows)?;
-    let full_check_hz = full_check(input, &k, &m)?;
+    let full_check_hz = full_check(input, &layout, &k, &m)?;
     let t = std::time::Instant::now();
     let basis = Basis {
         layout: &layout,
@@ -178,31 +178,22 @@ fn interior_solves(
     logged("K_ii, M_ii and the right-hand sides extracted", t);
     let t = std::time::Instant::now();
     let n_b = input.boundary.len();
-    let (eigen, static_solver, mut phi, mut eigenvalues);
+    let (solver, mut phi, mut eigenvalues);
     if input.n_modes > 0 {
         let what = format!("K_ii (the {} interior DOFs)", k_ii.size()?.0);
-        let (solver, modes) = EigenSolver::solve(&k_ii, &m_ii, input.n_modes, 0.0, &what)?;
+        let serial_index = interior_serial_index(input, layout, interior_rows);
+        let (s, modes) = nearest_modes(&k_ii, &m_ii, input.n_modes, 0.0, &serial_index, &what)?;
         (phi, eigenvalues) = (modes.vectors, modes.eigenvalues);
-        (eigen, static_solver) = (Some(solver), None);
+        solver = s;
     } else {
         (phi, eigenvalues) = (Mat::zeros(interior_rows.len(), 0), Vec::new());
-        (eigen, static_solver) = (None, Some(StaticSolver::new(&k_ii)?));
+        solver = ShiftInvert::BlockLanczos(StaticSolver::new(&k_ii)?);
     }
-    logged(
-        &format!("{} fixed-interface modes (SLEPc)", input.n_modes),
-        t,
-    );
+    logged(&format!("{} fixed-interface modes", input.n_modes), t);
     let t = std::time::Instant::now();
-    let x = {
-        let factor = match (&eigen, &static_solver) {
-            (Some(e), _) => e.factor()?,
-            (_, Some(s)) => s.factor()?,
-            _ => unreachable!("one of the two solvers is set above"),
-        };
-        factor.solve_many(&rhs)?.dense_local()?
-    };
+    let x = solver.factor()?.solve_many(&rhs)?.dense_local()?;
     // The factor of K_ii is freed before the full-model check and the projection.
-    drop((rhs, eigen, static_solver));
+    drop((rhs, solver));
     let psi = Mat::from_fn(x.nrows(), n_b, |r, j| x[(r, j)]);
     for l in 0..input.loads.len() {
         let f_max = max_all((0..x.nrows()).fold(0.0, |a: f64, r| {
@@ -231,6 +222,31 @@ fn interior_solves(
         t,
     );
     Ok((psi, phi, eigenvalues))
+}
+
+/// The serial index of each local row of K_ii: the rank of its free DOF among the interior
+/// DOFs (the serial path's K_ii has the interior free DOFs in ascending order).
+fn interior_serial_index(
+    input: &ReductionInput,
+    layout: &Layout,
+    interior_rows: &[usize],
+) -> Vec<usize> {
+    let mut boundary = vec![false; input.dofs.n_free()];
+    for &b in input.boundary {
+        boundary[b] = true;
+    }
+    let index_of_free: Vec<usize> = boundary
+        .iter()
+        .scan(0, |next, &is_boundary| {
+            let i = *next;
+            *next += usize::from(!is_boundary);
+            Some(i)
+        })
+        .collect();
+    interior_rows
+        .iter()
+        .map(|&r| index_of_free[layout.free_of_row[r]])
+        .collect()
 }
 
 /// Load `l` at local interior row `r`, N.
@@ -323,13 +339,25 @@ fn static_correction(
 
 /// The frequencies (Hz) of the full model's first `check_modes` modes (a second MUMPS
 /// factorization, of K), when asked.
-fn full_check(input: &ReductionInput, k: &Matrix, m: &Matrix) -> Result<Option<Vec<f64>>> {
+fn full_check(
+    input: &ReductionInput,
+    layout: &Layout,
+    k: &Matrix,
+    m: &Matrix,
+) -> Result<Option<Vec<f64>>> {
     if input.check_modes == 0 {
         return Ok(None);
     }
     let t = std::time::Instant::now();
     let what = format!("the full model ({} free DOFs)", input.dofs.n_free());
-    let (_, modes) = EigenSolver::solve(k, m, input.check_modes, 0.0, &what)?;
+    let (_, modes) = nearest_modes(
+        k,
+        m,
+        input.check_modes,
+        0.0,
+        &layout.serial_free_index(),
+        &what,
+    )?;
     logged(&format!("full-model check, {} modes", input.check_modes), t);
     Ok(Some(
         modes
