@@ -14,10 +14,12 @@ use nlmodes_modal::block_lanczos::{block_lanczos_on, starting_block, BlockProble
 use nlmodes_modal::{EigenOptions, ModalError};
 
 use crate::collective::{broadcast, sum_all};
-use crate::eigen::{finish_pairs, LocalModes, EIGEN_TOLERANCE};
+use crate::eigen::EIGEN_TOLERANCE;
 use crate::error::Result;
+use crate::finish::{finish_pairs, LocalModes};
 use crate::petsc::Matrix;
-use crate::static_solve::{Factor, StaticSolver};
+use crate::restricted::Restricted;
+use crate::static_solve::Factor;
 
 /// Largest number of pairs asked of block Lanczos: above, SLEPc's Krylov-Schur
 /// (`nlmodes_modal`'s Auto uses ARPACK above the same count).
@@ -25,8 +27,8 @@ pub const BLOCK_MAX_NEV: usize = nlmodes_modal::eigen_options::AUTO_MAX_NEV;
 
 /// The eigenproblem (K, M) at sigma = 0 as block Lanczos sees it on this rank.
 struct RankBlocks<'a> {
-    m: &'a Matrix,
-    factor: Factor<'a>,
+    m: &'a Restricted<'a>,
+    factor: &'a Factor<'a>,
     order: usize,
     /// The serial index (the caller's numbering of the whole problem) of each local row.
     serial_index: &'a [usize],
@@ -34,15 +36,6 @@ struct RankBlocks<'a> {
 
 fn operator_error(e: crate::error::DistributedError) -> ModalError {
     ModalError::Operator(e.to_string())
-}
-
-impl RankBlocks<'_> {
-    /// `w` as a dense PETSc matrix with the row layout of M.
-    fn dense(&self, w: MatRef<'_, f64>) -> Result<Matrix> {
-        let d = self.m.dense_like_rows(w.ncols())?;
-        d.set_dense_local(w)?;
-        Ok(d)
-    }
 }
 
 impl BlockProblem for RankBlocks<'_> {
@@ -57,17 +50,16 @@ impl BlockProblem for RankBlocks<'_> {
         w: MatRef<'_, f64>,
         mut mw: MatMut<'_, f64>,
     ) -> std::result::Result<(), ModalError> {
-        let product = self
-            .dense(w)
-            .and_then(|d| self.m.times_dense(&d)?.dense_local())
-            .map_err(operator_error)?;
+        let product = self.m.apply_block(w).map_err(operator_error)?;
         mw.copy_from(&product);
         Ok(())
     }
     fn solve_block(&self, mut w: MatMut<'_, f64>) -> std::result::Result<(), ModalError> {
-        let x = self
-            .dense(w.as_ref())
-            .and_then(|b| self.factor.solve_many(&b)?.dense_local())
+        let x = Matrix::dense(w.nrows(), w.ncols())
+            .and_then(|b| {
+                b.set_dense_local(w.as_ref())?;
+                self.factor.solve_many(&b)?.dense_local()
+            })
             .map_err(operator_error)?;
         w.copy_from(&x);
         Ok(())
@@ -91,22 +83,23 @@ impl BlockProblem for RankBlocks<'_> {
 }
 
 /// The `nev` lowest eigenpairs of K x = lambda M x (K positive definite, shift sigma = 0) by
-/// block Lanczos on the MUMPS factor of K, which is returned for further solves (the
-/// constraint modes). `serial_index`: the serial index of each local row of K; `order`: the
-/// problem's order. `Ok(None)` when block Lanczos does not converge (the caller uses SLEPc).
-pub fn block_modes(
-    k: &Matrix,
-    m: &Matrix,
-    nev: usize,
+/// block Lanczos on `factor`, the MUMPS factor of K. `serial_index`: the serial index of each
+/// local row (the order of the problem is their count over the ranks). `Ok(None)` when block
+/// Lanczos does not converge (the caller uses SLEPc).
+pub fn block_lanczos_modes(
+    factor: &Factor,
+    k: &Restricted,
+    m: &Restricted,
     serial_index: &[usize],
+    nev: usize,
     what: &str,
-) -> Result<Option<(StaticSolver, LocalModes)>> {
-    let solver = StaticSolver::new(k)?;
-    let (order, _) = k.size()?;
+) -> Result<Option<LocalModes>> {
+    let mut order = [serial_index.len() as f64];
+    sum_all(&mut order);
     let problem = RankBlocks {
         m,
-        factor: solver.factor()?,
-        order,
+        factor,
+        order: order[0] as usize,
         serial_index,
     };
     let options = EigenOptions {
@@ -121,10 +114,10 @@ pub fn block_modes(
         }
         Err(e) => return Err(e.into()),
     };
-    let modes = finish_pairs(k, m, &values, &vectors)?;
+    let modes = finish_pairs(k, m, &values, vectors)?;
     tracing::info!(
         "block Lanczos over MPI: {nev} eigenpairs of {what}, largest residual {:.1e}",
         modes.residuals.iter().copied().fold(0.0, f64::max)
     );
-    Ok(Some((solver, modes)))
+    Ok(Some(modes))
 }

@@ -44,13 +44,19 @@ pub mod crew;
 #[cfg(feature = "petsc")]
 pub mod eigen;
 #[cfg(feature = "petsc")]
+mod finish;
+#[cfg(feature = "petsc")]
 pub mod layout;
 #[cfg(feature = "petsc")]
 mod modes;
 #[cfg(feature = "petsc")]
+pub mod pencil;
+#[cfg(feature = "petsc")]
 pub mod petsc;
 #[cfg(feature = "petsc")]
 pub mod reduction;
+#[cfg(feature = "petsc")]
+pub mod restricted;
 #[cfg(feature = "petsc")]
 mod session;
 #[cfg(feature = "petsc")]

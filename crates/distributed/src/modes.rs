@@ -7,9 +7,9 @@ use nlmodes_modal::Modes;
 
 use crate::assembly::assemble;
 use crate::collective::gather_to_root;
-use crate::eigen::nearest_modes;
 use crate::error::{DistributedError, Result};
 use crate::layout::Layout;
+use crate::pencil::{nearest_modes, Pencil};
 use crate::session::world;
 
 /// The `nev` modes of the free model nearest `sigma` (rad^2/s^2), on rank 0 (`None` on the
@@ -25,7 +25,9 @@ pub fn full_modes(
     let layout = Layout::new(mesh, dofs, world)?;
     let (k, m) = assemble(mesh, material, dofs, &layout)?;
     let what = format!("the full model ({} free DOFs)", dofs.n_free());
-    let (solver, local) = nearest_modes(&k, &m, nev, sigma, &layout.serial_free_index(), &what)?;
+    let pencil = Pencil::whole(&k, &m, layout.serial_free_index())?;
+    let (solver, local) = nearest_modes(&pencil, nev, sigma, &what)?;
+    drop(pencil);
     drop((solver, k, m));
     let frees: Vec<u64> = layout
         .owned()

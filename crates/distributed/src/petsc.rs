@@ -96,13 +96,17 @@ impl Matrix {
 
     /// A dense matrix with the row layout of this one and `ncols` columns, zeroed.
     pub fn dense_like_rows(&self, ncols: usize) -> Result<Matrix> {
-        let rows = self.owned_rows()?;
+        Matrix::dense(self.owned_rows()?.len(), ncols)
+    }
+
+    /// A dense matrix with `local_rows` rows on this rank and `ncols` columns, zeroed.
+    pub fn dense(local_rows: usize, ncols: usize) -> Result<Matrix> {
         let mut d = std::ptr::null_mut();
         check(
             unsafe {
                 ffi::MatCreateDense(
                     comm(),
-                    int(rows.len())?,
+                    int(local_rows)?,
                     PETSC_DECIDE,
                     PETSC_DECIDE,
                     int(ncols)?,

@@ -13,13 +13,12 @@ use nlmodes_modal::CraigBampton;
 
 use crate::assembly::assemble;
 use crate::collective::{gather_to_root, max_all, sum_all};
-use crate::eigen::{nearest_modes, ShiftInvert};
 use crate::error::{DistributedError, Result};
-use crate::ffi;
 use crate::layout::Layout;
+use crate::pencil::{nearest_modes, Pencil, ShiftInvert};
 use crate::petsc::{peak_rss_gb, IndexSet, Matrix};
+use crate::restricted::dot_all;
 use crate::session::world;
-use crate::static_solve::StaticSolver;
 
 /// What the reduction needs: the mesh side of the FE model and the reduction's settings.
 pub struct ReductionInput<'a> {
@@ -166,31 +165,24 @@ fn interior_solves(
     m: &Matrix,
     interior_rows: &[usize],
 ) -> Result<(Mat<f64>, Mat<f64>, Vec<f64>)> {
+    let serial_index = interior_serial_index(input, layout, interior_rows);
+    let pencil = Pencil::restricted(k, m, interior_rows, serial_index)?;
     let t = std::time::Instant::now();
-    let is_i = IndexSet::new(interior_rows)?;
-    let k_ii = k.submatrix(&is_i, &is_i)?;
-    let m_ii = m.submatrix(&is_i, &is_i)?;
-    for a in [&k_ii, &m_ii] {
-        a.set_option(ffi::MatOption::MAT_SYMMETRIC)?;
-    }
-    let rhs = right_hand_sides(input, layout, k, &k_ii, interior_rows)?;
-    drop(is_i);
-    logged("K_ii, M_ii and the right-hand sides extracted", t);
-    let t = std::time::Instant::now();
-    let n_b = input.boundary.len();
-    let (solver, mut phi, mut eigenvalues);
-    if input.n_modes > 0 {
-        let what = format!("K_ii (the {} interior DOFs)", k_ii.size()?.0);
-        let serial_index = interior_serial_index(input, layout, interior_rows);
-        let (s, modes) = nearest_modes(&k_ii, &m_ii, input.n_modes, 0.0, &serial_index, &what)?;
-        (phi, eigenvalues) = (modes.vectors, modes.eigenvalues);
-        solver = s;
+    let (solver, mut phi, mut eigenvalues) = if input.n_modes > 0 {
+        let what = format!(
+            "K_ii (the {} interior DOFs)",
+            input.dofs.n_free() - input.boundary.len()
+        );
+        let (solver, modes) = nearest_modes(&pencil, input.n_modes, 0.0, &what)?;
+        (solver, modes.vectors, modes.eigenvalues)
     } else {
-        (phi, eigenvalues) = (Mat::zeros(interior_rows.len(), 0), Vec::new());
-        solver = ShiftInvert::BlockLanczos(StaticSolver::new(&k_ii)?);
-    }
+        let solver = ShiftInvert::Static(pencil.factor_k()?);
+        (solver, Mat::zeros(interior_rows.len(), 0), Vec::new())
+    };
     logged(&format!("{} fixed-interface modes", input.n_modes), t);
     let t = std::time::Instant::now();
+    let n_b = input.boundary.len();
+    let rhs = right_hand_sides(input, layout, k, interior_rows)?;
     let x = solver.factor()?.solve_many(&rhs)?.dense_local()?;
     // The factor of K_ii is freed before the full-model check and the projection.
     drop((rhs, solver));
@@ -203,7 +195,7 @@ fn interior_solves(
             continue;
         }
         let col: Vec<f64> = (0..x.nrows()).map(|r| x[(r, n_b + l)]).collect();
-        if let Some((c, kcc)) = static_correction(&k_ii, &m_ii, &phi, col)? {
+        if let Some((c, kcc)) = static_correction(&pencil, &phi, col)? {
             phi = Mat::from_fn(phi.nrows(), phi.ncols() + 1, |r, j| {
                 if j < phi.ncols() {
                     phi[(r, j)]
@@ -265,7 +257,6 @@ fn right_hand_sides(
     input: &ReductionInput,
     layout: &Layout,
     k: &Matrix,
-    k_ii: &Matrix,
     interior_rows: &[usize],
 ) -> Result<Matrix> {
     let n_b = input.boundary.len();
@@ -288,7 +279,7 @@ fn right_hand_sides(
                 .expect("every boundary row is in the sorted list")
         })
         .collect();
-    let rhs = k_ii.dense_like_rows(n_b + input.loads.len())?;
+    let rhs = Matrix::dense(interior_rows.len(), n_b + input.loads.len())?;
     let local = Mat::from_fn(interior_rows.len(), n_b + input.loads.len(), |r, j| {
         if j < n_b {
             -k_ib[(r, column_of[j])]
@@ -300,26 +291,18 @@ fn right_hand_sides(
     Ok(rhs)
 }
 
-/// x^T y over all ranks (local entries).
-fn dot_all(x: &[f64], y: &[f64]) -> f64 {
-    let mut s = [x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>()];
-    sum_all(&mut s);
-    s[0]
-}
-
 /// The static correction of one load (serial: `craig_bampton_with_loads`): x = K_ii^-1 f_i,
 /// M_ii-orthogonalized twice against Phi, M_ii-normalized; with its K_ii Rayleigh quotient;
 /// None when less than 1e-10 of its M_ii-norm is left.
 fn static_correction(
-    k_ii: &Matrix,
-    m_ii: &Matrix,
+    pencil: &Pencil,
     phi: &Mat<f64>,
     mut x: Vec<f64>,
 ) -> Result<Option<(Vec<f64>, f64)>> {
-    let m_norm = |x: &[f64]| -> Result<f64> { Ok(dot_all(x, &m_ii.apply_local(x)?).sqrt()) };
+    let m_norm = |x: &[f64]| -> Result<f64> { Ok(dot_all(x, &pencil.m().apply(x)?).sqrt()) };
     let before = m_norm(&x)?;
     for _ in 0..2 {
-        let mx = m_ii.apply_local(&x)?;
+        let mx = pencil.m().apply(&x)?;
         for j in 0..phi.ncols() {
             let col: Vec<f64> = (0..phi.nrows()).map(|r| phi[(r, j)]).collect();
             let c = dot_all(&col, &mx);
@@ -333,7 +316,7 @@ fn static_correction(
         return Ok(None);
     }
     let x: Vec<f64> = x.iter().map(|v| v / after).collect();
-    let kxx = dot_all(&x, &k_ii.apply_local(&x)?);
+    let kxx = dot_all(&x, &pencil.k().apply(&x)?);
     Ok(Some((x, kxx)))
 }
 
@@ -350,14 +333,8 @@ fn full_check(
     }
     let t = std::time::Instant::now();
     let what = format!("the full model ({} free DOFs)", input.dofs.n_free());
-    let (_, modes) = nearest_modes(
-        k,
-        m,
-        input.check_modes,
-        0.0,
-        &layout.serial_free_index(),
-        &what,
-    )?;
+    let pencil = Pencil::whole(k, m, layout.serial_free_index())?;
+    let (_, modes) = nearest_modes(&pencil, input.check_modes, 0.0, &what)?;
     logged(&format!("full-model check, {} modes", input.check_modes), t);
     Ok(Some(
         modes
