@@ -468,7 +468,7 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
             clamp: &a.fix,
         };
         let source = reduce_mpi::FeSource::new(&a.mesh, &a.fix, &material);
-        reduce::reduce_distributed(&side, source, &settings)?
+        reduce::reduce_distributed(&side, source, &settings, reduce_mpi::RootData::default())?
     } else {
         let fe = fe_model::FeModel::build(&a.mesh, &material, &a.fix)?;
         reduce::reduce(&fe, &reduce_settings(&a, axis, fe.dofs.n_free()))?

@@ -190,10 +190,13 @@ pub struct MeshSide<'a> {
 /// [`reduce`] over the ranks of an MPI job (`mpirun -n P nlmodes reduce`, the reduce stage of
 /// `nlmodes run`), on rank 0: K and M assembled, factorized and reduced by PETSc, MUMPS and
 /// SLEPc (`nlmodes_distributed`) with the other ranks, which read the mesh of `source`.
+/// K and M are assembled over the ranks, or sent by this process when `root` holds them (the
+/// model at speed, K(Omega)).
 pub fn reduce_distributed(
     fe_side: &MeshSide,
     source: crate::reduce_mpi::FeSource,
     s: &ReduceSettings,
+    root: crate::reduce_mpi::RootData,
 ) -> Result<(ReducedModel, Option<Vec<f64>>)> {
     reduce_with(fe_side, s, |boundary| {
         let task = crate::reduce_mpi::Task::Reduce {
@@ -202,12 +205,11 @@ pub fn reduce_distributed(
             modes: s.modes,
             check_modes: s.check_modes,
             loads: s.loads.clone(),
+            from_root: root.k.is_some(),
         };
-        match crate::reduce_mpi::lead(&task, fe_side.mesh, fe_side.dofs)? {
+        match crate::reduce_mpi::lead(&task, fe_side.mesh, fe_side.dofs, root)? {
             crate::reduce_mpi::Delivered::Reduction(r) => Ok((r.cb, r.full_check_hz)),
-            crate::reduce_mpi::Delivered::Modes(_) => {
-                anyhow::bail!("a reduction task delivered modes")
-            }
+            _ => anyhow::bail!("a reduction task delivered something else"),
         }
     })
 }

@@ -150,7 +150,13 @@ impl<'a> ReduceStage<'a> {
             let source =
                 crate::reduce_mpi::FeSource::new(&self.layout.mesh(), clamp, self.material);
             (
-                reduce::reduce_distributed(&side, source, &settings)?.0,
+                reduce::reduce_distributed(
+                    &side,
+                    source,
+                    &settings,
+                    crate::reduce_mpi::RootData::default(),
+                )?
+                .0,
                 full_load,
             )
         } else {

@@ -1,7 +1,9 @@
 //! The finite-element stages over MPI with the engines HPC users know: PETSc matrices
-//! assembled in parallel over a METIS partition, static solves by MUMPS, eigenproblems by
-//! SLEPc (Krylov-Schur, shift-invert). docs/LARGE_MODELS.md, "Over MPI", describes the path and
-//! its measured scaling.
+//! assembled in parallel over a METIS partition (or assembled on rank 0 and sent by rows: the
+//! blade at speed, [`Operators`]), static solves by MUMPS, eigenproblems by the serial path's
+//! shift-invert block Lanczos on MUMPS block solves or by SLEPc's Krylov-Schur
+//! ([`pencil::nearest_modes`]). docs/LARGE_MODELS.md, "Over MPI", describes the path and its
+//! measured scaling.
 //!
 //! The binary starts a [`Session`] only when an MPI launcher started it ([`launch_variable`]);
 //! without one nothing here runs and the serial path is untouched. Rank 0 runs the command and
@@ -50,6 +52,8 @@ pub mod layout;
 #[cfg(feature = "petsc")]
 mod modes;
 #[cfg(feature = "petsc")]
+mod operators;
+#[cfg(feature = "petsc")]
 pub mod pencil;
 #[cfg(feature = "petsc")]
 pub mod petsc;
@@ -69,9 +73,13 @@ pub use crew::abort_if_parallel;
 #[cfg(feature = "petsc")]
 pub use modes::full_modes;
 #[cfg(feature = "petsc")]
+pub use operators::Operators;
+#[cfg(feature = "petsc")]
 pub use reduction::{craig_bampton, Reduction, ReductionInput};
 #[cfg(feature = "petsc")]
 pub use session::{start, world, Session};
+#[cfg(feature = "petsc")]
+pub use static_solve::solve_from_root;
 
 #[cfg(not(feature = "petsc"))]
 mod stub;

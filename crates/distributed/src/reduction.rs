@@ -7,14 +7,14 @@
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
-use nlmodes_fem::{DofMap, Isotropic, Mesh};
+use nlmodes_fem::{DofMap, Mesh};
 use nlmodes_modal::dense::{relative_asymmetry, symmetrize};
 use nlmodes_modal::CraigBampton;
 
-use crate::assembly::assemble;
 use crate::collective::{gather_to_root, max_all, sum_all};
 use crate::error::{DistributedError, Result};
 use crate::layout::Layout;
+use crate::operators::Operators;
 use crate::pencil::{nearest_modes, Pencil, ShiftInvert};
 use crate::petsc::{peak_rss_gb, IndexSet, Matrix};
 use crate::restricted::dot_all;
@@ -23,7 +23,8 @@ use crate::session::world;
 /// What the reduction needs: the mesh side of the FE model and the reduction's settings.
 pub struct ReductionInput<'a> {
     pub mesh: &'a Mesh,
-    pub material: &'a Isotropic,
+    /// K and M: assembled over the ranks, or K(Omega) and M sent by rank 0.
+    pub operators: Operators<'a>,
     pub dofs: &'a DofMap,
     /// Boundary DOFs (free numbering, the caller's order).
     pub boundary: &'a [usize],
@@ -59,7 +60,7 @@ pub fn craig_bampton(input: &ReductionInput) -> Result<Option<Reduction>> {
     let position = boundary_positions(input, n_free)?;
     let t = std::time::Instant::now();
     let layout = Layout::new(input.mesh, input.dofs, world)?;
-    let (k, m) = assemble(input.mesh, input.material, input.dofs, &layout)?;
+    let (k, m) = input.operators.build(input.mesh, input.dofs, &layout)?;
     logged(
         &format!(
             "partition and assembly of {} of {} elements, rows {:?} of {n_free}",

@@ -6,9 +6,15 @@
 //! the speed stage: [`StaticSolver::new`] on K, then [`StaticSolver::solve`]). SLEPc's
 //! Krylov-Schur factorizes through its KSP ([`direct_cholesky`]) and lends its [`Factor`].
 
-use crate::error::Result;
+use nlmodes_fem::{DofMap, Mesh};
+use sprs::CsMat;
+
+use crate::bridge::{gather_free, scatter_matrix, scatter_vector};
+use crate::error::{DistributedError, Result};
 use crate::ffi;
+use crate::layout::Layout;
 use crate::petsc::{check, Matrix, Vector};
+use crate::session::world;
 
 /// The options prefix of the static solver's factor, for PETSC_OPTIONS
 /// (`-nlmodes_static_mat_mumps_icntl_4 2`).
@@ -133,4 +139,24 @@ impl StaticSolver {
             _owner: std::marker::PhantomData,
         })
     }
+}
+
+/// x = A^-1 b for the free-DOF matrix `a` and vector `b` held by rank 0 (`Some` there, `None`
+/// on the others; collective): A sent by rows ([`scatter_matrix`]), factorized by MUMPS, x
+/// gathered on rank 0 (`None` on the others). One factorization per call: the tangents of a
+/// Newton solve share their pattern, but MUMPS's analysis is redone (docs/LARGE_MODELS.md).
+/// The ranks share the partition of `mesh` (its free DOFs `dofs`) computed for the call.
+pub fn solve_from_root(
+    mesh: &Mesh,
+    dofs: &DofMap,
+    a: Option<&CsMat<f64>>,
+    b: Option<&[f64]>,
+) -> Result<Option<Vec<f64>>> {
+    let world = world().ok_or_else(|| DistributedError::Invalid("no MPI session".into()))?;
+    let layout = Layout::new(mesh, dofs, world)?;
+    let a = scatter_matrix(a, &layout)?;
+    let b = scatter_vector(&a, b, &layout)?;
+    let x = a.row_vector()?;
+    StaticSolver::new(&a)?.solve(&b, &x)?;
+    gather_free(&x, &layout)
 }

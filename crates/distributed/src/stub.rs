@@ -2,6 +2,7 @@
 
 use nlmodes_fem::{DofMap, Isotropic, Mesh};
 use nlmodes_modal::{CraigBampton, Modes};
+use sprs::CsMat;
 
 use crate::error::{DistributedError, Result};
 use crate::launch::{launch_variable, World};
@@ -60,9 +61,16 @@ pub mod crew {
 }
 
 /// As with the `petsc` feature.
+#[derive(Clone, Copy)]
+pub enum Operators<'a> {
+    Assembled(&'a Isotropic),
+    FromRoot(Option<(&'a CsMat<f64>, &'a CsMat<f64>)>),
+}
+
+/// As with the `petsc` feature.
 pub struct ReductionInput<'a> {
     pub mesh: &'a Mesh,
-    pub material: &'a Isotropic,
+    pub operators: Operators<'a>,
     pub dofs: &'a DofMap,
     pub boundary: &'a [usize],
     pub n_modes: usize,
@@ -90,10 +98,20 @@ pub fn craig_bampton(_input: &ReductionInput) -> Result<Option<Reduction>> {
 /// Always [`DistributedError::NotBuilt`].
 pub fn full_modes(
     _mesh: &Mesh,
-    _material: &Isotropic,
+    _operators: Operators,
     _dofs: &DofMap,
     _nev: usize,
     _sigma: f64,
 ) -> Result<Option<Modes>> {
+    Err(not_built())
+}
+
+/// Always [`DistributedError::NotBuilt`].
+pub fn solve_from_root(
+    _mesh: &Mesh,
+    _dofs: &DofMap,
+    _a: Option<&CsMat<f64>>,
+    _b: Option<&[f64]>,
+) -> Result<Option<Vec<f64>>> {
     Err(not_built())
 }
