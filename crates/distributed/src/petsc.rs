@@ -300,11 +300,10 @@ impl IndexSet {
 }
 
 impl Matrix {
-    /// The local rows of a sparse matrix as a dense block (`local rows x columns`).
-    pub fn sparse_local_to_dense(&self) -> Result<faer::Mat<f64>> {
+    /// `visit(local row, column, value)` for every stored entry of this rank's rows of a
+    /// sparse matrix.
+    pub fn for_each_local_entry(&self, mut visit: impl FnMut(usize, usize, f64)) -> Result<()> {
         let rows = self.owned_rows()?;
-        let (_, ncols) = self.size()?;
-        let mut out = faer::Mat::<f64>::zeros(rows.len(), ncols);
         for (li, row) in rows.enumerate() {
             let row = int(row)?;
             let (mut n, mut cols, mut vals) = (0, std::ptr::null(), std::ptr::null());
@@ -315,22 +314,14 @@ impl Matrix {
             for t in 0..n as usize {
                 // SAFETY: PETSc gives n column indices and values.
                 let (c, v) = unsafe { (*cols.add(t), *vals.add(t)) };
-                out[(li, c as usize)] = v;
+                visit(li, c as usize, v);
             }
             check(
                 unsafe { ffi::MatRestoreRow(self.0, row, &mut n, &mut cols, &mut vals) },
                 "MatRestoreRow",
             )?;
         }
-        Ok(out)
-    }
-
-    /// self * x for the local entries `x` of a vector with this matrix's column layout.
-    pub fn apply_local(&self, x: &[f64]) -> Result<Vec<f64>> {
-        let (xv, yv) = (self.row_vector()?, self.row_vector()?);
-        xv.set_local(x)?;
-        self.mult(&xv, &yv)?;
-        yv.local()
+        Ok(())
     }
 }
 

@@ -19,6 +19,7 @@ use crate::pencil::{nearest_modes, Pencil, ShiftInvert};
 use crate::petsc::{peak_rss_gb, IndexSet, Matrix};
 use crate::restricted::dot_all;
 use crate::session::world;
+use crate::static_solve::Factor;
 
 /// What the reduction needs: the mesh side of the FE model and the reduction's settings.
 pub struct ReductionInput<'a> {
@@ -183,10 +184,10 @@ fn interior_solves(
     logged(&format!("{} fixed-interface modes", input.n_modes), t);
     let t = std::time::Instant::now();
     let n_b = input.boundary.len();
-    let rhs = right_hand_sides(input, layout, k, interior_rows)?;
-    let x = solver.factor()?.solve_many(&rhs)?.dense_local()?;
+    let mut x = right_hand_sides(input, layout, k, interior_rows)?;
+    solve_in_chunks(&solver.factor()?, &mut x)?;
     // The factor of K_ii is freed before the full-model check and the projection.
-    drop((rhs, solver));
+    drop(solver);
     let psi = Mat::from_fn(x.nrows(), n_b, |r, j| x[(r, j)]);
     for l in 0..input.loads.len() {
         let f_max = max_all((0..x.nrows()).fold(0.0, |a: f64, r| {
@@ -253,42 +254,52 @@ fn rhs_load(
     input.loads[l][layout.free_of_row[interior_rows[r]]]
 }
 
-/// The dense right-hand sides [-K_ib | f_i] with the row layout of K_ii.
+/// Right-hand sides solved per MUMPS solve: 72 at once added 1.2 GB per rank at 1M DOFs on
+/// 2 ranks (PETSc's dense copies and MUMPS's solve workspace), the peak of the reduction;
+/// chunks of 24 cost two more passes over the factor (docs/LARGE_MODELS.md, "Over MPI").
+const SOLVE_CHUNK: usize = 24;
+
+/// `x` <- K_ii^-1 `x` (local rows of K_ii, any number of columns), [`SOLVE_CHUNK`] columns per
+/// MUMPS solve.
+fn solve_in_chunks(factor: &Factor, x: &mut Mat<f64>) -> Result<()> {
+    for start in (0..x.ncols()).step_by(SOLVE_CHUNK) {
+        let width = SOLVE_CHUNK.min(x.ncols() - start);
+        let b = Matrix::dense(x.nrows(), width)?;
+        b.set_dense_local(x.get(.., start..start + width))?;
+        let solved = factor.solve_many(&b)?.dense_local()?;
+        x.get_mut(.., start..start + width).copy_from(&solved);
+    }
+    Ok(())
+}
+
+/// The right-hand sides [-K_ib | f_i], local rows of K_ii (the boundary columns of K_ib in the
+/// order of the boundary DOFs, from rank 0's extraction of the sorted columns).
 fn right_hand_sides(
     input: &ReductionInput,
     layout: &Layout,
     k: &Matrix,
     interior_rows: &[usize],
-) -> Result<Matrix> {
+) -> Result<Mat<f64>> {
     let n_b = input.boundary.len();
-    // The columns of K_ib on rank 0, ascending (PETSc numbering), then put in boundary order.
-    let mut sorted: Vec<usize> = input
+    let mut sorted: Vec<(usize, usize)> = input
         .boundary
         .iter()
-        .map(|&b| layout.row_of_free[b])
+        .enumerate()
+        .map(|(j, &b)| (layout.row_of_free[b], j))
         .collect();
     sorted.sort_unstable();
+    let rows: Vec<usize> = sorted.iter().map(|&(row, _)| row).collect();
     let is_i = IndexSet::new(interior_rows)?;
-    let is_b = IndexSet::new(if layout.world.is_root() { &sorted } else { &[] })?;
-    let k_ib = k.submatrix(&is_i, &is_b)?.sparse_local_to_dense()?;
-    let column_of: Vec<usize> = input
-        .boundary
-        .iter()
-        .map(|&b| {
-            sorted
-                .binary_search(&layout.row_of_free[b])
-                .expect("every boundary row is in the sorted list")
-        })
-        .collect();
-    let rhs = Matrix::dense(interior_rows.len(), n_b + input.loads.len())?;
-    let local = Mat::from_fn(interior_rows.len(), n_b + input.loads.len(), |r, j| {
+    let is_b = IndexSet::new(if layout.world.is_root() { &rows } else { &[] })?;
+    let k_ib = k.submatrix(&is_i, &is_b)?;
+    let mut rhs = Mat::from_fn(interior_rows.len(), n_b + input.loads.len(), |r, j| {
         if j < n_b {
-            -k_ib[(r, column_of[j])]
+            0.0
         } else {
             rhs_load(input, layout, interior_rows, j - n_b, r)
         }
     });
-    rhs.set_dense_local(local.as_ref())?;
+    k_ib.for_each_local_entry(|r, c, v| rhs[(r, sorted[c].1)] = -v)?;
     Ok(rhs)
 }
 
