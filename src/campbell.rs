@@ -20,12 +20,12 @@
 
 use anyhow::{Context, Result};
 use faer::Mat;
-use nlmodes_fem::rotation::{LinearSolver, RotatingModel, RotorAxis, StaticSolution};
+use nlmodes_fem::rotation::{RotatingModel, RotorAxis, StaticSolution};
 use nlmodes_fem::Isotropic;
 use sprs::CsMat;
 
 use crate::fe_model::FeModel;
-use crate::reduce_mpi::FullSolves;
+use crate::prestress::MetisCholesky;
 
 /// How the stiffness at speed is known.
 enum Stiffness {
@@ -47,9 +47,6 @@ pub struct SpeedFamily<'m> {
     model: RotatingModel<'m>,
     stiffness: Stiffness,
     pub m: CsMat<f64>,
-    fe: &'m FeModel,
-    /// The full-model solves: serial, or over the ranks under mpirun.
-    solves: &'m FullSolves,
 }
 
 impl<'m> SpeedFamily<'m> {
@@ -61,19 +58,18 @@ impl<'m> SpeedFamily<'m> {
         fe: &'m FeModel,
         material: &Isotropic,
         axis: &RotorAxis,
-        (nonlinear, speeds): (bool, &[f64]),
-        solves: &'m FullSolves,
+        nonlinear: bool,
+        speeds: &[f64],
     ) -> Result<Self> {
         let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
             .context("the rotating model")?;
         let top = speeds.iter().copied().fold(0.0, f64::max);
-        let mut solver = solves.linear_solver(fe);
         let stiffness = if nonlinear {
-            Stiffness::Nonlinear(march(&model, speeds, &mut *solver)?)
+            Stiffness::Nonlinear(march(&model, speeds)?)
         } else {
             let top = if top > 0.0 { top } else { 1.0 };
             let state = model
-                .solve_linearized(top, false, &mut *solver)
+                .solve_linearized(top, false, &mut MetisCholesky::default())
                 .context("the linear centrifugal static solve")?;
             Stiffness::Linear {
                 k_e: model.linear_operator(0.0)?,
@@ -81,27 +77,11 @@ impl<'m> SpeedFamily<'m> {
                 x_top: top * top,
             }
         };
-        drop(solver);
         Ok(Self {
             model,
             stiffness,
             m: fe.m.clone(),
-            fe,
-            solves,
         })
-    }
-
-    /// The `n` lowest modes of (`k`, M) for a stiffness `k` of the family (N/m): over the
-    /// ranks under mpirun, else by `serial`; `what` names them in errors.
-    pub fn lowest_modes(
-        &self,
-        k: &CsMat<f64>,
-        n: usize,
-        what: &str,
-        serial: impl FnOnce() -> Result<nlmodes_modal::Modes>,
-    ) -> Result<nlmodes_modal::Modes> {
-        self.solves
-            .lowest_modes(self.fe, (k, &self.m), n, what, serial)
     }
 
     /// K(Omega), N/m; with the nonlinear prestress `omega` must be one of the family's speeds.
@@ -157,11 +137,7 @@ fn predictor(
 
 /// The nonlinear static states at `speeds` (rad/s, any order; computed ascending, each from the
 /// previous one).
-fn march(
-    model: &RotatingModel<'_>,
-    speeds: &[f64],
-    solver: &mut dyn LinearSolver,
-) -> Result<Vec<StaticSolution>> {
+fn march(model: &RotatingModel<'_>, speeds: &[f64]) -> Result<Vec<StaticSolution>> {
     let mut sorted = speeds.to_vec();
     sorted.sort_by(f64::total_cmp);
     sorted.dedup();
@@ -171,10 +147,16 @@ fn march(
     };
     let bar = crate::ui::bar(sorted.len() as u64, "prestress");
     let mut states: Vec<StaticSolution> = Vec::with_capacity(sorted.len());
+    let mut solver = MetisCholesky::default();
     for &omega in &sorted {
         let start = predictor(&states, omega, model)?;
         let state = model
-            .solve_nonlinear_from(start.as_ref().or(states.last()), omega, &options, solver)
+            .solve_nonlinear_from(
+                start.as_ref().or(states.last()),
+                omega,
+                &options,
+                &mut solver,
+            )
             .map_err(|e| crate::prestress::not_converged("rotation.campbell_range", omega, e))?;
         tracing::info!(
             "prestress at {:.1} rpm: {}",
@@ -229,17 +211,14 @@ impl RitzCampbell {
         let mut v = Mat::<f64>::zeros(d, speeds.len() * per_speed);
         for (s, &omega) in speeds.iter().enumerate() {
             let k = family.at(omega)?;
-            let what = format!("K(Omega) at {omega:.3} rad/s");
-            let modes = family.lowest_modes(&k, per_speed, &what, || {
-                let factor = nlmodes_modal::SparseCholesky::new(&k)
-                    .with_context(|| format!("factorizing K(Omega) at {omega:.3} rad/s"))?;
-                crate::ui::with_solve_spinner("campbell", |opts| {
-                    nlmodes_modal::eigs_shift_invert_factored(
-                        &k, &family.m, 0.0, &factor, per_speed, opts,
-                    )
-                })
-                .with_context(|| format!("the modes at {omega:.3} rad/s"))
-            })?;
+            let factor = nlmodes_modal::SparseCholesky::new(&k)
+                .with_context(|| format!("factorizing K(Omega) at {omega:.3} rad/s"))?;
+            let modes = crate::ui::with_solve_spinner("campbell", |opts| {
+                nlmodes_modal::eigs_shift_invert_factored(
+                    &k, &family.m, 0.0, &factor, per_speed, opts,
+                )
+            })
+            .with_context(|| format!("the modes at {omega:.3} rad/s"))?;
             for j in 0..per_speed {
                 for i in 0..d {
                     v[(i, s * per_speed + j)] = modes.vectors[(i, j)];
@@ -372,7 +351,6 @@ fn m_orthonormal(v: &Mat<f64>, m: &CsMat<f64>) -> (Mat<f64>, Mat<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::prestress::MetisCholesky;
     use nlmodes_fem::{assemble, fixed_dofs, DofMap, TetKind};
 
     /// A clamped TET10 beam, 1 m x 4 cm x 4 cm (steel), 8 cells along.
@@ -435,14 +413,7 @@ mod tests {
         let axis = RotorAxis::new([0.0, 0.02, 0.02], [0.0, 0.0, 1.0]).unwrap();
         let basis = [0.0, 60.0, 120.0];
         let speeds = [0.0, 30.0, 60.0, 95.0, 120.0];
-        let family = SpeedFamily::of(
-            &fe,
-            &material,
-            &axis,
-            (nonlinear, &speeds),
-            &FullSolves::Serial,
-        )
-        .unwrap();
+        let family = SpeedFamily::of(&fe, &material, &axis, nonlinear, &speeds).unwrap();
         let k0_err = (&family.at(0.0).unwrap() - &fe.k)
             .data()
             .iter()

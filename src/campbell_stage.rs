@@ -18,7 +18,6 @@ use crate::campbell::{RitzCampbell, SpeedFamily, SpeedModes};
 use crate::case::Case;
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
-use crate::reduce_mpi::FullSolves;
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
@@ -161,9 +160,7 @@ impl<'a> CampbellStage<'a> {
         let speeds = r.campbell_rpm();
         let mut all: Vec<f64> = speeds.iter().map(|s| s * RPM_TO_RAD_S).collect();
         all.extend(&basis);
-        // Over the ranks under mpirun (K(Omega) and the tangents sent by this process).
-        let solves = FullSolves::of(&self.mesh, &m.clamp, material);
-        let family = SpeedFamily::of(&fe, material, &axis, (r.nonlinear(), &all), &solves)?;
+        let family = SpeedFamily::of(&fe, material, &axis, r.nonlinear(), &all)?;
         // A few modes beyond those drawn, so that a mode entering from above is in the basis.
         let ritz = RitzCampbell::new(&family, &basis, r.campbell_modes + 4)?;
         let bar = crate::ui::bar(speeds.len() as u64, "campbell");
@@ -257,11 +254,8 @@ fn direct_check(
         return Ok(None);
     };
     let k = family.at(speeds[s] * RPM_TO_RAD_S)?;
-    let what = format!("K(Omega) at {:.0} rpm", speeds[s]);
-    let direct = family.lowest_modes(&k, n, &what, || {
-        Ok(crate::ui::with_solve_spinner("campbell check", |opts| {
-            nlmodes_modal::eigs_shift_invert(&k, &family.m, n, 0.0, opts)
-        })?)
+    let direct = crate::ui::with_solve_spinner("campbell check", |opts| {
+        nlmodes_modal::eigs_shift_invert(&k, &family.m, n, 0.0, opts)
     })?;
     let frequency_hz: Vec<f64> = direct.eigenvalues.iter().map(|&l| hz(l)).collect();
     let max_relative_error = frequency_hz

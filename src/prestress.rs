@@ -96,19 +96,19 @@ pub fn radial_growth(fe: &FeModel, axis: &RotorAxis, u: &[f64], nodes: &[usize])
 /// from it; `contact` are the contact nodes (mesh indices), `cold_gap` the gap at rest (m).
 /// Bad input, naming the key and the speed: a speed at which a contact node's growth closes the
 /// gap (with the node and the estimated closure speed), and one at which the static solve does
-/// not converge (with the load step at which it stopped and why). `solver` solves the Newton
-/// steps (`crate::reduce_mpi::FullSolves::linear_solver`).
+/// not converge (with the load step at which it stopped and why).
 pub fn at_speed(
     fe: &FeModel,
     material: &Isotropic,
     axis: &RotorAxis,
     (omega, key): (f64, &str),
     nonlinear: bool,
-    (contact, cold_gap): (&[usize], f64),
-    solver: &mut dyn LinearSolver,
+    contact: &[usize],
+    cold_gap: f64,
 ) -> Result<Prestress> {
     let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
         .context("the rotating model")?;
+    let mut solver = MetisCholesky::default();
     let solution = if nonlinear {
         // One nominal load step: the blade's strains are about 1e-3, Newton converges from the
         // unstressed tangent in 3-4 iterations; the cutbacks catch harder cases.
@@ -116,9 +116,9 @@ pub fn at_speed(
             load_steps: 1,
             ..NewtonOptions::default()
         };
-        model.solve_nonlinear(omega, &options, solver)
+        model.solve_nonlinear(omega, &options, &mut solver)
     } else {
-        model.solve_linearized(omega, false, solver)
+        model.solve_linearized(omega, false, &mut solver)
     }
     .map_err(|e| not_converged(key, omega, e))?;
     let growth = radial_growth(fe, axis, &solution.displacement, contact);

@@ -5,20 +5,18 @@
 //! read the mesh the task names, compute their part with rank 0, and wait for the next task
 //! until rank 0 ends. Only rank 0 prints and writes.
 //!
-//! The model at rest is assembled over the ranks; the operators of the blade at speed (the
-//! prestress's tangents, K(Omega) and M of the reduction at speed and of the Campbell diagram)
-//! are assembled on rank 0 by `nlmodes_fem::rotation` and sent to the ranks by rows
-//! ([`RootData`], [`FullSolves`]).
+//! The model at rest is assembled over the ranks; the model at speed (K(Omega) of the speed
+//! stage's reduction) is assembled on rank 0 by `nlmodes_fem::rotation` and sent to the ranks
+//! by rows ([`RootData`]).
 
 use anyhow::{Context, Result};
-use nlmodes_fem::rotation::{LinearSolveError, LinearSolver};
 use nlmodes_fem::{DofMap, Isotropic, Mesh};
 use nlmodes_modal::Modes;
 use serde::{Deserialize, Serialize};
 use sprs::CsMat;
 use std::path::{Path, PathBuf};
 
-use crate::fe_model::{read_mesh, FeModel};
+use crate::fe_model::read_mesh;
 
 /// Where every rank finds the FE model: the mesh file (on a file system all ranks see), the
 /// Dirichlet specifications and the material.
@@ -60,39 +58,32 @@ pub enum Task {
         loads: Vec<Vec<f64>>,
         from_root: bool,
     },
-    /// The full model's `modes` modes nearest `sigma` (rad^2/s^2); of K and M sent by rank 0
-    /// when `from_root`.
+    /// The full model's `modes` modes nearest `sigma` (rad^2/s^2).
     Modes {
         fe: FeSource,
         modes: usize,
         sigma: f64,
-        from_root: bool,
     },
-    /// x = A^-1 b for the matrix A and vector b that rank 0 sends (a Newton step of the
-    /// prestress).
-    StaticSolve { fe: FeSource },
 }
 
-/// What rank 0 sends with a task: K (or the matrix of a static solve), M and the right-hand
-/// side, assembled on rank 0 (`None` on the other ranks, and for what the task does not use).
+/// What rank 0 sends with a task: K and M assembled on rank 0 (`None` on the other ranks and
+/// when the task assembles them over the ranks).
 #[derive(Clone, Copy, Default)]
 pub struct RootData<'a> {
     pub k: Option<&'a CsMat<f64>>,
     pub m: Option<&'a CsMat<f64>>,
-    pub rhs: Option<&'a [f64]>,
 }
 
 /// What a task delivers on rank 0.
 pub enum Delivered {
     Reduction(Box<nlmodes_distributed::Reduction>),
     Modes(Modes),
-    Solution(Vec<f64>),
 }
 
 impl Task {
     fn fe(&self) -> &FeSource {
         match self {
-            Self::Reduce { fe, .. } | Self::Modes { fe, .. } | Self::StaticSolve { fe } => fe,
+            Self::Reduce { fe, .. } | Self::Modes { fe, .. } => fe,
         }
     }
 
@@ -100,13 +91,6 @@ impl Task {
     /// rank 0, `None` on the others.
     fn run_on(&self, mesh: &Mesh, dofs: &DofMap, root: RootData) -> Result<Option<Delivered>> {
         let material = self.fe().material()?;
-        let operators = |from_root: bool| {
-            if from_root {
-                nlmodes_distributed::Operators::FromRoot(root.k.zip(root.m))
-            } else {
-                nlmodes_distributed::Operators::Assembled(&material)
-            }
-        };
         Ok(match self {
             Self::Reduce {
                 boundary,
@@ -116,9 +100,14 @@ impl Task {
                 from_root,
                 ..
             } => {
+                let operators = if *from_root {
+                    nlmodes_distributed::Operators::FromRoot(root.k.zip(root.m))
+                } else {
+                    nlmodes_distributed::Operators::Assembled(&material)
+                };
                 let input = nlmodes_distributed::ReductionInput {
                     mesh,
-                    operators: operators(*from_root),
+                    operators,
                     dofs,
                     boundary,
                     n_modes: *modes,
@@ -128,19 +117,13 @@ impl Task {
                 nlmodes_distributed::craig_bampton(&input)?
                     .map(|r| Delivered::Reduction(Box::new(r)))
             }
-            Self::Modes {
-                modes,
-                sigma,
-                from_root,
-                ..
-            } => nlmodes_distributed::full_modes(mesh, operators(*from_root), dofs, *modes, *sigma)
-                .with_context(|| {
-                    format!("computing {modes} modes of the {}-DOF model", dofs.n_free())
-                })?
-                .map(Delivered::Modes),
-            Self::StaticSolve { .. } => {
-                nlmodes_distributed::solve_from_root(mesh, dofs, root.k, root.rhs)?
-                    .map(Delivered::Solution)
+            Self::Modes { modes, sigma, .. } => {
+                let operators = nlmodes_distributed::Operators::Assembled(&material);
+                nlmodes_distributed::full_modes(mesh, operators, dofs, *modes, *sigma)
+                    .with_context(|| {
+                        format!("computing {modes} modes of the {}-DOF model", dofs.n_free())
+                    })?
+                    .map(Delivered::Modes)
             }
         })
     }
@@ -153,7 +136,7 @@ pub fn serve() -> Result<()> {
         let task: Task =
             serde_json::from_slice(&bytes).context("a task from rank 0 that cannot be read")?;
         let fe = task.fe();
-        // The mesh of the previous task is kept (a Newton solve's steps share it).
+        // The mesh of the previous task is kept (the tasks of one `nlmodes run` share it).
         if !last
             .as_ref()
             .is_some_and(|(path, clamp, ..)| *path == fe.mesh && *clamp == fe.clamp)
@@ -185,12 +168,7 @@ pub fn lead(task: &Task, mesh: &Mesh, dofs: &DofMap, root: RootData) -> Result<D
 /// and the modes stage of `nlmodes run` under mpirun).
 pub fn full_modes(fe: FeSource, modes: usize, sigma: f64) -> Result<(Mesh, DofMap, Modes)> {
     let (mesh, dofs) = read_mesh(&fe.mesh, &fe.clamp)?;
-    let task = Task::Modes {
-        fe,
-        modes,
-        sigma,
-        from_root: false,
-    };
+    let task = Task::Modes { fe, modes, sigma };
     match lead(&task, &mesh, &dofs, RootData::default())? {
         Delivered::Modes(m) => Ok((mesh, dofs, m)),
         _ => anyhow::bail!("a modes task delivered something else"),
@@ -215,95 +193,4 @@ pub fn write_full_modes(source: FeSource, modes: usize, sigma: f64, out: &Path) 
 /// Whether this process runs under mpirun (the distributed path).
 pub fn distributed() -> bool {
     nlmodes_distributed::world().is_some()
-}
-
-/// The full-model solves of the blade at speed (the prestress's Newton steps, the Campbell
-/// diagram's modes): over the ranks under mpirun, the matrices assembled on this process and
-/// sent by rows; serial otherwise (`crate::prestress::MetisCholesky`, shift-invert on a
-/// METIS-ordered Cholesky).
-pub enum FullSolves {
-    Serial,
-    /// Under mpirun: where the other ranks read the mesh.
-    OverRanks(FeSource),
-}
-
-impl FullSolves {
-    /// The solves of the model of `mesh` clamped on `clamp`.
-    pub fn of(mesh: &Path, clamp: &[String], material: &Isotropic) -> Self {
-        if distributed() {
-            Self::OverRanks(FeSource::new(mesh, clamp, material))
-        } else {
-            Self::Serial
-        }
-    }
-
-    /// The linear solver of the static Newton steps on `fe`.
-    pub fn linear_solver<'a>(&'a self, fe: &'a FeModel) -> Box<dyn LinearSolver + 'a> {
-        match self {
-            Self::Serial => Box::<crate::prestress::MetisCholesky>::default(),
-            Self::OverRanks(source) => Box::new(RanksSolver { source, fe }),
-        }
-    }
-
-    /// The `nev` lowest modes of (K, M) over the free DOFs of `fe`: over the ranks, or by
-    /// `serial` (`what` names them in errors).
-    pub fn lowest_modes(
-        &self,
-        fe: &FeModel,
-        (k, m): (&CsMat<f64>, &CsMat<f64>),
-        nev: usize,
-        what: &str,
-        serial: impl FnOnce() -> Result<Modes>,
-    ) -> Result<Modes> {
-        let Self::OverRanks(source) = self else {
-            return serial();
-        };
-        let task = Task::Modes {
-            fe: source.clone(),
-            modes: nev,
-            sigma: 0.0,
-            from_root: true,
-        };
-        let root = RootData {
-            k: Some(k),
-            m: Some(m),
-            rhs: None,
-        };
-        match lead(&task, &fe.mesh, &fe.dofs, root)
-            .with_context(|| format!("the modes of {what}"))?
-        {
-            Delivered::Modes(modes) => Ok(modes),
-            _ => anyhow::bail!("a modes task delivered something else"),
-        }
-    }
-}
-
-/// The static solves of a Newton iteration over the ranks: each tangent sent by rows,
-/// factorized by MUMPS, the solution gathered on rank 0.
-struct RanksSolver<'a> {
-    source: &'a FeSource,
-    fe: &'a FeModel,
-}
-
-impl LinearSolver for RanksSolver<'_> {
-    fn solve(&mut self, a: &CsMat<f64>, b: &[f64]) -> Result<Vec<f64>, LinearSolveError> {
-        let task = Task::StaticSolve {
-            fe: self.source.clone(),
-        };
-        let root = RootData {
-            k: Some(a),
-            m: None,
-            rhs: Some(b),
-        };
-        match lead(&task, &self.fe.mesh, &self.fe.dofs, root) {
-            Ok(Delivered::Solution(x)) if x.iter().all(|v| v.is_finite()) => Ok(x),
-            Ok(Delivered::Solution(_)) => Err(LinearSolveError(
-                "the MUMPS solve over the ranks gave a non-finite solution".into(),
-            )),
-            Ok(_) => Err(LinearSolveError(
-                "a static-solve task delivered something else".into(),
-            )),
-            Err(e) => Err(LinearSolveError(format!("{e:#}"))),
-        }
-    }
 }

@@ -1,7 +1,8 @@
 //! The building blocks of nlmodes-distributed on two ranks against the serial code, on a
 //! clamped TET10 beam (box 1 x 0.2 x 0.1 m, 10 x 2 x 2 cells, steel, `xmin` clamped):
 //! distributed assembly and the bridge of a serial matrix (K x to 1e-12 of |K x|), the MUMPS
-//! static solve (to 1e-10 of |u|: both direct solves are accurate to cond(K) eps ~ 1e-11 here)
+//! static solve (to 1e-10 of |u|: both direct solves are accurate to cond(K) eps ~ 1e-11 here),
+//! also with K and the load sent by rank 0 (`solve_from_root`),
 //! and the eigen-solves, SLEPc's and block Lanczos over the ranks (5 eigenvalues to 1e-9
 //! relative: all converge to 1e-10; the block method's shapes to 1e-8).
 //!
@@ -15,6 +16,7 @@ use nlmodes_distributed::bridge::{distributed_matrix, distributed_vector, gather
 use nlmodes_distributed::eigen::EigenSolver;
 use nlmodes_distributed::layout::Layout;
 use nlmodes_distributed::pencil::{nearest_modes, Pencil, ShiftInvert};
+use nlmodes_distributed::solve_from_root;
 use nlmodes_distributed::static_solve::StaticSolver;
 use nlmodes_fem::generate::box_mesh;
 use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, TetKind};
@@ -114,16 +116,24 @@ fn on_every_rank() {
         kd.row_vector().unwrap(),
     );
     solver.solve(&b, &u).unwrap();
+    let mut reference = x.clone();
+    SparseCholesky::new(&k)
+        .unwrap()
+        .solve_in_place(&mut reference)
+        .unwrap();
     if let Some(u) = gather_free(&u, &layout).unwrap() {
-        let mut reference = x.clone();
-        SparseCholesky::new(&k)
-            .unwrap()
-            .solve_in_place(&mut reference)
-            .unwrap();
         let e = relative(&u, &reference);
         assert!(e < 1e-10, "static solve differs by {e:e}");
     }
     drop(solver);
+    // The same solve with K and the load held by rank 0 only, sent by rows.
+    let root = world.is_root();
+    let sent = solve_from_root(&mesh, &dofs, root.then_some(&k), root.then_some(&x[..])).unwrap();
+    assert_eq!(sent.is_some(), root);
+    if let Some(u) = sent {
+        let e = relative(&u, &reference);
+        assert!(e < 1e-10, "static solve from rank 0 differs by {e:e}");
+    }
     // Five modes, by SLEPc's Krylov-Schur and by block Lanczos over the ranks.
     let reference = eigs_shift_invert(&k, &m, 5, 0.0, &EigenOptions::default()).unwrap();
     let (_, by_slepc) = EigenSolver::solve(&kd, &md, 5, 0.0, "the beam").unwrap();
