@@ -338,6 +338,8 @@ fn main() -> std::process::ExitCode {
     };
     let rank = nlmodes_distributed::world().map(|w| w.rank);
     ui::init(cli.quiet || rank.is_some_and(|r| r > 0));
+    // A panic on any rank ends every rank (unwinding would wait in MPI_Finalize for the others).
+    nlmodes_distributed::crew::abort_on_panic();
     // Under mpirun rank 0 runs the command and the other ranks serve its distributed tasks.
     let result = match rank {
         Some(r) if r > 0 => reduce_mpi::serve(),

@@ -121,8 +121,12 @@ pub fn abort_if_parallel(code: i32) {
 
 /// From now on a panic on this rank, once its message is printed, ends the job like an error
 /// ([`abort_if_parallel`], status 101 as Rust's panics): unwinding would reach MPI_Finalize,
-/// which waits for ranks that may be waiting for this one in a collective.
-pub(crate) fn abort_on_panic() {
+/// which waits for ranks that may be waiting for this one in a collective. Every rank calls it
+/// after [`crate::start`]; nothing happens without a session of more than one rank.
+pub fn abort_on_panic() {
+    if !world().is_some_and(|w| w.size > 1) {
+        return;
+    }
     let previous = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         previous(info);

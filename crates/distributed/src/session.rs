@@ -47,9 +47,6 @@ pub fn start() -> Result<Option<Session>> {
         "SlepcInitialize",
     )?;
     let _ = WORLD.set(world);
-    if world.size > 1 {
-        crate::crew::abort_on_panic();
-    }
     tracing::info!(
         "MPI: rank {} of {} (PETSc, SLEPc, MUMPS)",
         world.rank,

@@ -46,6 +46,9 @@ pub mod crew {
     /// Nothing to lead.
     pub fn lead() {}
 
+    /// Nothing to end without a session.
+    pub fn abort_on_panic() {}
+
     /// Nothing to release.
     pub fn release() {}
 

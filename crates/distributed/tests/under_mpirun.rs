@@ -79,6 +79,7 @@ fn on_every_rank() {
     let _session = nlmodes_distributed::start()
         .unwrap()
         .expect("started by mpirun");
+    nlmodes_distributed::crew::abort_on_panic();
     let world = nlmodes_distributed::world().unwrap();
     assert_eq!(world.size, 2);
     let mesh = box_mesh([1.0, 0.2, 0.1], [10, 2, 2], TetKind::Tet10).unwrap();
