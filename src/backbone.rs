@@ -231,7 +231,7 @@ fn checks_text(b: &Backbone) -> String {
 }
 
 /// Columns of `backbone.csv` (units in the names).
-pub const CSV_COLUMNS: [&str; 44] = [
+pub const CSV_COLUMNS: [&str; 43] = [
     "point",
     "q_over_g0",
     "q_m",
@@ -258,7 +258,6 @@ pub const CSV_COLUMNS: [&str; 44] = [
     "branch",
     "branch_kind",
     "pre_fold",
-    "stable",
     "max_multiplier_abs",
     "trivial_pair_error",
     "bifurcation",
@@ -319,7 +318,6 @@ pub fn backbone_csv(b: &Backbone) -> Result<CsvTable> {
         let stab = p.stability.as_ref();
         let text = |v: Option<String>| CsvValue::Text(v.unwrap_or_default());
         let mut row = row;
-        row.push(text(stab.map(|s| u8::from(s.stable).to_string())));
         row.push(text(stab.map(|s| s.max_multiplier_abs.to_string())));
         row.push(text(stab.map(|s| s.trivial_pair_error.to_string())));
         row.push(text(p.bifurcation.map(bifurcation_name)));

@@ -1,173 +1,66 @@
 //! The linear modes of the rotating blade over a speed range, for the Campbell diagram (issue
-//! 23, item 5; docs/ROTATION.md, "Campbell diagram").
-//!
-//! The stiffness at speed ([`SpeedFamily`]) is that of the total-Lagrangian static state at
-//! each speed, K_T(u0(Omega)) - Omega^2 M_spin, marched from rest through the speeds (the
-//! default), or of the linear prestress (u = Omega^2 u_1, K = K_e + K_sigma(u) - Omega^2
-//! M_spin, one static solve). On the twisted blade they differ by 1-2 % on the second and
-//! third modes at 8000 rpm: the linear static state overestimates the lateral bending of the
-//! blade under the centrifugal load (the centrifugal stiffening that limits it appears only in
-//! the nonlinear solve) and with it the stresses. For the same reason K_T is not a low-order
-//! polynomial in Omega^2 (a quadratic through three speeds was 0.6 % off between them): each
-//! speed gets its own static state.
+//! 23, item 5; docs/ROTATION.md, "Campbell diagram"), on the stiffness at speed of
+//! [`crate::campbell_march::SpeedFamily`].
 //!
 //! The eigenproblems (K(Omega), M) at every speed are solved by Rayleigh-Ritz on a multi-speed
 //! basis ([`RitzCampbell`]): the lowest modes at three speeds of the range (first, middle,
-//! last), M-orthonormalized. The Ritz values are exact at those speeds and upper bounds
+//! last; [`BasisModes`], solved during the march with the factorization of the march's
+//! analysis), M-orthonormalized. The Ritz values are exact at those speeds and upper bounds
 //! everywhere; each Ritz pair's residual ||K(Omega) x - lambda M x|| / (lambda ||M x||) is
 //! computed on the full model with the true K(Omega) and reported at every speed, so the
 //! accuracy is measured, not assumed. Three eigen-solves serve any number of speeds.
 
 use anyhow::{Context, Result};
 use faer::Mat;
-use nlmodes_fem::rotation::{RotatingModel, RotorAxis, StaticSolution};
-use nlmodes_fem::Isotropic;
+use nlmodes_modal::sparse_ops::spmm_symmetric;
 use sprs::CsMat;
 
-use crate::fe_model::FeModel;
-use crate::prestress::MetisCholesky;
+use crate::campbell_march::{SpeedFamily, SpeedPoint};
 
-/// How the stiffness at speed is known.
-enum Stiffness {
-    /// Linear prestress: K(x) = K_e + (x / x_top) (K_top - K_e), x = Omega^2, exact (the
-    /// static state is Omega^2 times one state); through the highest speed, not 1 rad/s, where
-    /// K - K_e is 1e-6 of K and the extrapolation would lose its digits.
-    Linear {
-        k_e: CsMat<f64>,
-        k_top: CsMat<f64>,
-        x_top: f64,
-    },
-    /// Nonlinear prestress: the total-Lagrangian static states at the speeds of the diagram,
-    /// K(Omega) = K_T(u0(Omega)) - Omega^2 M_spin assembled from them on demand.
-    Nonlinear(Vec<StaticSolution>),
+/// The lowest modes at the basis speeds of a [`RitzCampbell`], collected at those speeds of
+/// the march.
+pub struct BasisModes {
+    /// The basis speeds, rad/s.
+    speeds: Vec<f64>,
+    per_speed: usize,
+    /// The modes (n x per_speed) at each basis speed met so far.
+    vectors: Vec<Option<Mat<f64>>>,
 }
 
-/// K(Omega) on the free DOFs (N/m) along the speeds of a diagram, and M (kg).
-pub struct SpeedFamily<'m> {
-    model: RotatingModel<'m>,
-    stiffness: Stiffness,
-    pub m: CsMat<f64>,
-}
-
-impl<'m> SpeedFamily<'m> {
-    /// The family of the clamped model `fe` turning about `axis` at `speeds` (rad/s): with the
-    /// nonlinear prestress the static states are marched from rest through the speeds in
-    /// ascending order (each Newton solve starts from the previous state); with the linear one
-    /// a single static solve at the highest speed serves every speed.
-    pub fn of(
-        fe: &'m FeModel,
-        material: &Isotropic,
-        axis: &RotorAxis,
-        nonlinear: bool,
-        speeds: &[f64],
-    ) -> Result<Self> {
-        let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
-            .context("the rotating model")?;
-        let top = speeds.iter().copied().fold(0.0, f64::max);
-        let stiffness = if nonlinear {
-            Stiffness::Nonlinear(march(&model, speeds)?)
-        } else {
-            let top = if top > 0.0 { top } else { 1.0 };
-            let state = model
-                .solve_linearized(top, false, &mut MetisCholesky::default())
-                .context("the linear centrifugal static solve")?;
-            Stiffness::Linear {
-                k_e: model.linear_operator(0.0)?,
-                k_top: model.stiffness_at_speed(&state)?,
-                x_top: top * top,
-            }
-        };
-        Ok(Self {
-            model,
-            stiffness,
-            m: fe.m.clone(),
-        })
+impl BasisModes {
+    /// The modes collected so far (n x per_speed each), in the order of the basis speeds.
+    pub fn modes(&self) -> impl Iterator<Item = &Mat<f64>> {
+        self.vectors.iter().flatten()
     }
 
-    /// K(Omega), N/m; with the nonlinear prestress `omega` must be one of the family's speeds.
-    pub fn at(&self, omega: f64) -> Result<CsMat<f64>> {
-        match &self.stiffness {
-            Stiffness::Linear { k_e, k_top, x_top } => {
-                let t = omega * omega / x_top;
-                Ok(&k_e.map(|v| (1.0 - t) * v) + &k_top.map(|v| t * v))
-            }
-            Stiffness::Nonlinear(states) => {
-                let state = states
-                    .iter()
-                    .find(|s| s.omega == omega)
-                    .with_context(|| format!("no static state at {omega} rad/s"))?;
-                Ok(self.model.stiffness_at_speed(state)?)
-            }
+    /// The lowest `per_speed` modes at each of `speeds` (rad/s, speeds of the march).
+    pub fn new(speeds: &[f64], per_speed: usize) -> Self {
+        Self {
+            speeds: speeds.to_vec(),
+            per_speed,
+            vectors: vec![None; speeds.len()],
         }
     }
-}
 
-/// The first Newton iterate at `omega` from the last two states: the secant extrapolation in
-/// Omega^2 of their displacements, as a start state at the last state's speed (the Newton
-/// iterations of `solve_nonlinear_from` begin at a start's displacement). On the default blade
-/// the plain previous state overshoots (residual 0.2 -> 1.4 of the load after the first
-/// iteration: the lateral bending is stiffened by the very stress the step adds); from the
-/// secant the march saves about one iteration per speed. `None` with fewer than two states.
-fn predictor(
-    states: &[StaticSolution],
-    omega: f64,
-    model: &RotatingModel<'_>,
-) -> Result<Option<StaticSolution>> {
-    let [.., a, b] = states else {
-        return Ok(None);
-    };
-    let (xa, xb, x) = (a.omega * a.omega, b.omega * b.omega, omega * omega);
-    if xb <= xa {
-        return Ok(None);
+    /// At a speed of the march: the modes of (K(Omega), M) if it is a basis speed (shift-invert
+    /// at 0 on the factor of K(Omega), the march's analysis reused).
+    pub fn visit(&mut self, point: &mut SpeedPoint<'_>, m: &CsMat<f64>) -> Result<()> {
+        let omega = point.omega;
+        let Some(s) = self.speeds.iter().position(|&b| b == omega) else {
+            return Ok(());
+        };
+        let k = point.stiffness;
+        let factor = point
+            .solver
+            .factorize(k, "K(Omega)")
+            .with_context(|| format!("factorizing K(Omega) at {omega:.3} rad/s"))?;
+        let modes = crate::ui::with_solve_spinner("campbell", |opts| {
+            nlmodes_modal::eigs_shift_invert_factored(k, m, 0.0, factor, self.per_speed, opts)
+        })
+        .with_context(|| format!("the modes at {omega:.3} rad/s"))?;
+        self.vectors[s] = Some(modes.vectors);
+        Ok(())
     }
-    let t = (x - xb) / (xb - xa);
-    let free: Vec<f64> = b
-        .displacement_free
-        .iter()
-        .zip(&a.displacement_free)
-        .map(|(ub, ua)| ub + t * (ub - ua))
-        .collect();
-    Ok(Some(StaticSolution {
-        displacement: model.dofs().try_expand(&free)?,
-        displacement_free: free,
-        steps: Vec::new(),
-        ..b.clone()
-    }))
-}
-
-/// The nonlinear static states at `speeds` (rad/s, any order; computed ascending, each from the
-/// previous one).
-fn march(model: &RotatingModel<'_>, speeds: &[f64]) -> Result<Vec<StaticSolution>> {
-    let mut sorted = speeds.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    sorted.dedup();
-    let options = nlmodes_fem::rotation::NewtonOptions {
-        load_steps: 1,
-        ..Default::default()
-    };
-    let bar = crate::ui::bar(sorted.len() as u64, "prestress");
-    let mut states: Vec<StaticSolution> = Vec::with_capacity(sorted.len());
-    let mut solver = MetisCholesky::default();
-    for &omega in &sorted {
-        let start = predictor(&states, omega, model)?;
-        let state = model
-            .solve_nonlinear_from(
-                start.as_ref().or(states.last()),
-                omega,
-                &options,
-                &mut solver,
-            )
-            .map_err(|e| crate::prestress::not_converged("rotation.campbell_range", omega, e))?;
-        tracing::info!(
-            "prestress at {:.1} rpm: {}",
-            omega * 30.0 / std::f64::consts::PI,
-            crate::prestress::newton_history(&state.steps).join("; ")
-        );
-        states.push(state);
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    Ok(states)
 }
 
 /// The Ritz model on a multi-speed basis: Q, M-orthonormal, spanning the lowest modes at a few
@@ -188,7 +81,16 @@ pub struct SpeedModes {
     pub residuals: Vec<f64>,
 }
 
-/// y = A x for a sparse A and the columns of a dense x.
+/// y = A x for an exactly symmetric sparse A (K(Omega) and M are, by construction) and the
+/// columns of a dense x, in parallel over the rows. Row r sums A[r, c] x[c] in increasing c,
+/// as the sequential scatter of A's columns ([`sparse_times`]) does: the same bits.
+fn symmetric_times(a: &CsMat<f64>, x: &Mat<f64>) -> Mat<f64> {
+    let mut y = Mat::<f64>::zeros(a.rows(), x.ncols());
+    spmm_symmetric(a, x.as_ref(), y.as_mut());
+    y
+}
+
+/// y = A x for a sparse A (any, e.g. the skew Coriolis matrix) and the columns of a dense x.
 fn sparse_times(a: &CsMat<f64>, x: &Mat<f64>) -> Mat<f64> {
     let mut y = Mat::<f64>::zeros(a.rows(), x.ncols());
     for j in 0..x.ncols() {
@@ -205,33 +107,28 @@ fn sparse_times(a: &CsMat<f64>, x: &Mat<f64>) -> Mat<f64> {
 }
 
 impl RitzCampbell {
-    /// The basis of the lowest `per_speed` modes at each of `speeds` (rad/s).
-    pub fn new(family: &SpeedFamily<'_>, speeds: &[f64], per_speed: usize) -> Result<Self> {
-        let d = family.m.rows();
-        let mut v = Mat::<f64>::zeros(d, speeds.len() * per_speed);
-        for (s, &omega) in speeds.iter().enumerate() {
-            let k = family.at(omega)?;
-            let factor = nlmodes_modal::SparseCholesky::new(&k)
-                .with_context(|| format!("factorizing K(Omega) at {omega:.3} rad/s"))?;
-            let modes = crate::ui::with_solve_spinner("campbell", |opts| {
-                nlmodes_modal::eigs_shift_invert_factored(
-                    &k, &family.m, 0.0, &factor, per_speed, opts,
-                )
-            })
-            .with_context(|| format!("the modes at {omega:.3} rad/s"))?;
+    /// The basis of the modes collected in `basis` (every basis speed visited), M (kg).
+    pub fn new(basis: &BasisModes, m: &CsMat<f64>) -> Result<Self> {
+        let d = m.rows();
+        let per_speed = basis.per_speed;
+        let mut v = Mat::<f64>::zeros(d, basis.speeds.len() * per_speed);
+        for (s, (modes, omega)) in basis.vectors.iter().zip(&basis.speeds).enumerate() {
+            let modes = modes
+                .as_ref()
+                .with_context(|| format!("no modes at {omega:.3} rad/s"))?;
             for j in 0..per_speed {
                 for i in 0..d {
-                    v[(i, s * per_speed + j)] = modes.vectors[(i, j)];
+                    v[(i, s * per_speed + j)] = modes[(i, j)];
                 }
             }
         }
-        let (q, m_q) = m_orthonormal(&v, &family.m);
+        let (q, m_q) = m_orthonormal(&v, m);
         Ok(Self { q, m_q })
     }
 
     /// The lowest `n` modes of (K, M) for the stiffness `k` at one speed (N/m).
     pub fn solve(&self, k: &CsMat<f64>, n: usize) -> Result<SpeedModes> {
-        let k_q = sparse_times(k, &self.q);
+        let k_q = symmetric_times(k, &self.q);
         let k_r = self.q.transpose() * &k_q;
         let k_r = (&k_r + k_r.transpose()) * faer::Scale(0.5);
         let r = k_r.nrows();
@@ -270,10 +167,8 @@ pub fn coriolis_frequencies(
     omega: f64,
     n: usize,
 ) -> Result<Vec<f64>> {
-    let g = family
-        .model
-        .dofs()
-        .try_restrict(&family.model.coriolis_matrix(omega)?)?;
+    let model = family.model();
+    let g = model.dofs().try_restrict(&model.coriolis_matrix(omega)?)?;
     let n = n.min(modes.eigenvalues.len());
     let x = &ritz.q * modes.coordinates.subcols(0, n);
     let g_r = x.transpose() * sparse_times(&g, &x);
@@ -321,11 +216,8 @@ fn m_orthonormal(v: &Mat<f64>, m: &CsMat<f64>) -> (Mat<f64>, Mat<f64>) {
     let mut q: Vec<Vec<f64>> = Vec::new();
     let mut mq: Vec<Vec<f64>> = Vec::new();
     let m_times = |x: &[f64]| {
-        let mut y = vec![0.0; d];
-        for (&a, (r, c)) in m.iter() {
-            y[r] += a * x[c];
-        }
-        y
+        let y = symmetric_times(m, &Mat::from_fn(d, 1, |i, _| x[i]));
+        (0..d).map(|i| y[(i, 0)]).collect::<Vec<f64>>()
     };
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
     for j in 0..v.ncols() {
@@ -351,28 +243,13 @@ fn m_orthonormal(v: &Mat<f64>, m: &CsMat<f64>) -> (Mat<f64>, Mat<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nlmodes_fem::{assemble, fixed_dofs, DofMap, TetKind};
+    use crate::fe_model::FeModel;
+    use crate::prestress::MetisCholesky;
+    use nlmodes_fem::rotation::{RotatingModel, RotorAxis};
+    use nlmodes_fem::Isotropic;
 
-    /// A clamped TET10 beam, 1 m x 4 cm x 4 cm (steel), 8 cells along.
     fn beam() -> FeModel {
-        let mesh = nlmodes_fem::generate::box_mesh([1.0, 0.04, 0.04], [8, 1, 1], TetKind::Tet10)
-            .expect("mesh");
-        let material = Isotropic::new(200e9, 0.3, 7800.0).expect("material");
-        let clamp = vec!["xmin".to_string()];
-        let fixed = fixed_dofs(&mesh, &clamp).expect("fixed");
-        let dofs = DofMap::new(mesh.n_nodes(), &fixed).expect("dofs");
-        let (k, m) = assemble(&mesh, &material).expect("assembly");
-        let (k, m) = (
-            dofs.try_restrict(&k).unwrap(),
-            dofs.try_restrict(&m).unwrap(),
-        );
-        FeModel {
-            mesh,
-            dofs,
-            k,
-            m,
-            clamp,
-        }
+        crate::campbell_march::fixtures::beam([8, 1, 1])
     }
 
     /// The stiffness at speed of the true static state at `omega` (rad/s), N/m.
@@ -413,14 +290,23 @@ mod tests {
         let axis = RotorAxis::new([0.0, 0.02, 0.02], [0.0, 0.0, 1.0]).unwrap();
         let basis = [0.0, 60.0, 120.0];
         let speeds = [0.0, 30.0, 60.0, 95.0, 120.0];
-        let family = SpeedFamily::of(&fe, &material, &axis, nonlinear, &speeds).unwrap();
+        let mut basis_modes = BasisModes::new(&basis, 8);
+        let family = SpeedFamily::of(
+            &fe,
+            &material,
+            &axis,
+            nonlinear,
+            (&speeds, &[]),
+            &mut |mut p| basis_modes.visit(&mut p, &fe.m),
+        )
+        .unwrap();
         let k0_err = (&family.at(0.0).unwrap() - &fe.k)
             .data()
             .iter()
             .fold(0.0_f64, |a, v| a.max(v.abs()));
         let k_max = fe.k.data().iter().fold(0.0_f64, |a, v| a.max(v.abs()));
         assert!(k0_err <= 1e-12 * k_max, "K(0) differs from K by {k0_err:e}");
-        let ritz = RitzCampbell::new(&family, &basis, 8).unwrap();
+        let ritz = RitzCampbell::new(&basis_modes, &family.m).unwrap();
         for (omega, tol) in [
             (0.0, 1e-9),
             (30.0, 1e-6),

@@ -14,13 +14,16 @@ use faer::Mat;
 use nlmodes_fem::Isotropic;
 use serde::{Deserialize, Serialize};
 
-use crate::campbell::{RitzCampbell, SpeedFamily, SpeedModes};
+use crate::campbell::{BasisModes, RitzCampbell, SpeedModes};
+use crate::campbell_march::SpeedFamily;
+use crate::campbell_parametric::{check_speeds, ParametricBuilder, ParametricSummary};
 use crate::case::Case;
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
+use nlmodes_modal::ParametricModel;
 
 /// Tracked modes below this MAC with their predecessor are flagged (veering or a mode
 /// entering from above: the curve's identity is uncertain there).
@@ -70,6 +73,9 @@ pub struct CampbellData {
     /// The Ritz frequencies against a direct shift-invert eigen-solve of the full model at the
     /// Campbell speed with the largest residual (not a basis speed).
     pub direct_check: Option<DirectCheck>,
+    /// The parametric reduced model built from the same static states (`parametric/`).
+    #[serde(default)]
+    pub parametric: Option<ParametricSummary>,
 }
 
 /// The drawn modes' frequencies at one speed without and with the Coriolis matrix (projected
@@ -113,12 +119,13 @@ impl<'a> CampbellStage<'a> {
         fe_hash: &str,
     ) -> Self {
         // Not the operating speed nor the map amplitudes: they are drawn by [`draw`].
-        let r = rotation;
+        let (r, m) = (rotation, &case.model);
         let inputs = serde_json::to_vec(&(
             (&r.kinematics, r.campbell_range, r.campbell_speeds),
-            (r.campbell_modes, &r.engine_orders),
-            case.model.rotor_axis_point,
-            case.model.rotor_axis_direction,
+            (r.campbell_modes, &r.engine_orders, r.parametric_checks),
+            (m.rotor_axis_point, m.rotor_axis_direction),
+            // The parametric model's basis and contact (as the reduced model at speed's).
+            (&m.contact_group, m.gap, m.fixed_interface_modes, &m.master),
         ))
         .unwrap_or_default();
         Self {
@@ -132,12 +139,18 @@ impl<'a> CampbellStage<'a> {
         }
     }
 
-    /// Computes the diagram and writes its tables.
+    /// The parametric reduced model's directory, `results/<case>/parametric/`.
+    fn parametric_dir(&self) -> PathBuf {
+        self.layout.shared.join("parametric")
+    }
+
+    /// Computes the diagram and the parametric model and writes them.
     fn write(&self) -> Result<()> {
         let json = self.out.join("campbell.json");
         let st = crate::ui::Stage::start("campbell");
-        let data = self.compute(self.material)?;
+        let (data, parametric) = self.compute(self.material)?;
         std::fs::create_dir_all(&self.out)?;
+        crate::campbell_parametric::write(&parametric, &self.parametric_dir(), &self.mesh)?;
         write_tables(&data, &self.out)?;
         nlmodes_output::write_json(&json, &data)?;
         st.done(&format!(
@@ -149,7 +162,7 @@ impl<'a> CampbellStage<'a> {
         Ok(())
     }
 
-    fn compute(&self, material: &Isotropic) -> Result<CampbellData> {
+    fn compute(&self, material: &Isotropic) -> Result<(CampbellData, ParametricModel)> {
         let r = self.rotation;
         let fe = FeModel::build(&self.mesh, material, &self.case.model.clamp)?;
         let m = &self.case.model;
@@ -158,24 +171,56 @@ impl<'a> CampbellStage<'a> {
         let basis_rpm = vec![a, 0.5 * (a + b), b];
         let basis: Vec<f64> = basis_rpm.iter().map(|s| s * RPM_TO_RAD_S).collect();
         let speeds = r.campbell_rpm();
-        let mut all: Vec<f64> = speeds.iter().map(|s| s * RPM_TO_RAD_S).collect();
-        all.extend(&basis);
-        let family = SpeedFamily::of(&fe, material, &axis, r.nonlinear(), &all)?;
+        let campbell: Vec<f64> = speeds.iter().map(|s| s * RPM_TO_RAD_S).collect();
+        let mut marched = [campbell.as_slice(), &basis].concat();
+        marched.sort_by(f64::total_cmp);
+        marched.dedup();
+        let side = check_speeds(&marched, r.parametric_checks);
         // A few modes beyond those drawn, so that a mode entering from above is in the basis.
-        let ritz = RitzCampbell::new(&family, &basis, r.campbell_modes + 4)?;
-        let bar = crate::ui::bar(speeds.len() as u64, "campbell");
+        let mut basis_modes = BasisModes::new(&basis, r.campbell_modes + 4);
+        let settings = crate::reduce_stage::reduce_settings(self.case)?;
+        let mut builder = ParametricBuilder::new(&fe, settings, axis, basis[1], r.campbell_modes)?;
+        let mut family = SpeedFamily::of(
+            &fe,
+            material,
+            &axis,
+            r.nonlinear(),
+            (&marched, &side),
+            &mut |mut p| {
+                basis_modes.visit(&mut p, &fe.m)?;
+                builder.visit(&p)
+            },
+        )?;
+        let ritz = RitzCampbell::new(&basis_modes, &family.m)?;
+        builder.enrich(&basis_modes.modes().collect::<Vec<_>>(), &family.m)?;
+        let bar = crate::ui::bar((marched.len() + side.len()) as u64, "campbell");
         let mut modes = Vec::with_capacity(speeds.len());
-        for &rpm in &speeds {
-            let k = family.at(rpm * RPM_TO_RAD_S)?;
-            modes.push(ritz.solve(&k, r.campbell_modes + 2)?);
+        for (&omega, is_sample) in marched
+            .iter()
+            .map(|w| (w, true))
+            .chain(side.iter().map(|w| (w, false)))
+        {
+            let k = family.at(omega)?;
+            let at = ritz.solve(&k, r.campbell_modes + 2)?;
+            let full_hz = at.eigenvalues.iter().map(|&l| hz(l)).collect();
+            if is_sample {
+                builder.sample(omega, &k, full_hz)?;
+            } else {
+                builder.check(omega, &k, full_hz)?;
+            }
+            if campbell.contains(&omega) {
+                modes.push(at);
+            }
             bar.inc(1);
         }
         bar.finish_and_clear();
-        let direct_check = direct_check(&family, &speeds, &basis_rpm, &modes, r.campbell_modes)?;
+        let parametric = builder.finish(&r.kinematics, &self.mesh)?;
+        let direct_check =
+            direct_check(&mut family, &speeds, &basis_rpm, &modes, r.campbell_modes)?;
         let coriolis = coriolis_shift(&family, &ritz, &speeds, &modes, r.campbell_modes)?;
         let curves = track(&speeds, &modes, r.campbell_modes);
         let crossings = crossings(&speeds, &curves, &r.engine_orders);
-        Ok(CampbellData {
+        let data = CampbellData {
             speeds_rpm: speeds,
             basis_speeds_rpm: basis_rpm,
             kinematics: r.kinematics.clone(),
@@ -184,7 +229,9 @@ impl<'a> CampbellStage<'a> {
             crossings,
             direct_check,
             coriolis,
-        })
+            parametric: Some(ParametricSummary::of(&parametric)),
+        };
+        Ok((data, parametric))
     }
 }
 
@@ -202,7 +249,11 @@ impl Stage for CampbellStage<'_> {
         self.layout
     }
     fn outputs(&self) -> Vec<PathBuf> {
-        vec![self.out.join("campbell.json")]
+        vec![
+            self.out.join("campbell.json"),
+            self.parametric_dir()
+                .join(nlmodes_modal::parametric::PARAMETRIC_FILE),
+        ]
     }
     fn work(&self) -> Result<()> {
         self.write()
@@ -238,9 +289,10 @@ fn coriolis_shift(
     }))
 }
 
-/// The direct check at the non-basis speed whose drawn modes have the largest residual.
+/// The direct check at the non-basis speed whose drawn modes have the largest residual (the
+/// factorization of K(Omega) reuses the march's analysis).
 fn direct_check(
-    family: &SpeedFamily<'_>,
+    family: &mut SpeedFamily<'_>,
     speeds: &[f64],
     basis: &[f64],
     modes: &[SpeedModes],
@@ -254,8 +306,10 @@ fn direct_check(
         return Ok(None);
     };
     let k = family.at(speeds[s] * RPM_TO_RAD_S)?;
+    let (m, solver) = family.mass_and_solver();
+    let factor = solver.factorize(&k, "K(Omega)")?;
     let direct = crate::ui::with_solve_spinner("campbell check", |opts| {
-        nlmodes_modal::eigs_shift_invert(&k, &family.m, n, 0.0, opts)
+        nlmodes_modal::eigs_shift_invert_factored(&k, m, 0.0, factor, n, opts)
     })?;
     let frequency_hz: Vec<f64> = direct.eigenvalues.iter().map(|&l| hz(l)).collect();
     let max_relative_error = frequency_hz

@@ -37,6 +37,10 @@ pub struct Case {
     /// blade is at rest and every stage gives today's results.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rotation: Option<crate::rotation_settings::RotationSection>,
+    /// The speed sweeps through the Campbell crossings (issue 39):
+    /// `crate::speed_sweep_settings::SpeedSweepSection`; absent, none run. Needs `[rotation]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed_sweep: Option<crate::speed_sweep_settings::SpeedSweepSection>,
 }
 
 /// `[stability]`: Floquet multipliers of every backbone point by Hill's method.
@@ -153,7 +157,8 @@ pub struct NnmSection {
     /// is doubled (a fraction of the period).
     pub share_tolerance: f64,
     /// Converged orbits: the largest N whose modes (w_k <= shooting_cutoff (N + 1) w) are kept
-    /// dynamic; N, 2N, 4N, ... are tried up to it. Default (absent): 2 x `harmonics`.
+    /// dynamic; N, 2N, 4N, ... are tried up to it, each only for the points the level below left
+    /// unconverged. Default (absent): 4 x `harmonics` (docs/BENCHMARKS.md: what 4N and 8N cost).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_harmonics: Option<usize>,
 }
@@ -164,7 +169,7 @@ impl NnmSection {
         nlmodes_nnm::ConvergenceSettings {
             omega_tolerance: self.truncation_tolerance,
             share_tolerance: self.share_tolerance,
-            max_harmonics: self.max_harmonics.unwrap_or(2 * self.harmonics),
+            max_harmonics: self.max_harmonics.unwrap_or(4 * self.harmonics),
         }
     }
 }
@@ -185,6 +190,7 @@ impl Default for Case {
             stability: StabilitySection::default(),
             forced: crate::forced_settings::ForcedSection::default(),
             rotation: None,
+            speed_sweep: None,
         }
     }
 }

@@ -133,7 +133,7 @@ pub fn report_paragraph(b: &BackboneFile, settings: &ConvergenceSettings) -> Str
         .count();
     let mut s = format!(
         "\nConverged orbits (docs/STABILITY.md Sec. 9.4; columns `converged_*` of \
-         `backbone/backbone.csv`, black dots in Fig. 3a): each main-branch point in contact is \
+         `backbone/backbone.csv`, `backbone_diagnostics.png`): each main-branch point in contact is \
          given the exact periodic orbit of the massless contact boundary at its own q where one \
          is found within 1 % of its w, no harmonic truncated in time; N only sets the modes kept dynamic (w_k <= shooting_cutoff (N + 1) \
          w) and is doubled up to N = {} until w changes by at most {:.0e} and every contact \

@@ -193,6 +193,28 @@ pub(crate) fn force_of(
     Ok(level * q.abs() / unit_peak)
 }
 
+/// The harmonic balance and contact law of `[forced]` on `system`: N, m, and the penalty law's
+/// kc = `penalty_factor` x the median static contact stiffness of the rows (N/m; `None` for
+/// exact contact).
+pub(crate) fn solver_settings(
+    system: &System,
+    s: &ForcedSection,
+) -> Result<(ForcedSettings, Option<f64>)> {
+    let mut settings = ForcedSettings::new(s.harmonics)?;
+    if s.samples > 0 {
+        settings.harmonics = HarmonicSettings::new(s.harmonics, s.samples)?;
+    }
+    let penalty_stiffness = (s.contact == ForcedContact::Penalty).then(|| {
+        let mut ks = system.contact_stiffness().to_vec();
+        ks.sort_by(f64::total_cmp);
+        s.penalty_factor * ks[ks.len() / 2]
+    });
+    if let Some(stiffness) = penalty_stiffness {
+        settings.algorithm.method = ContactMethod::Penalty { stiffness };
+    }
+    Ok((settings, penalty_stiffness))
+}
+
 /// Runs every level of the study (in parallel), with the backbone's synthesis when given.
 pub fn run(
     system: &System,
@@ -208,22 +230,12 @@ pub fn run(
     let ratios = modal_ratios(system, &c);
     let pattern = pattern(system, s, file_load)?;
     let excitation = pattern.excitation;
-    let mut settings = ForcedSettings::new(s.harmonics)?;
-    if s.samples > 0 {
-        settings.harmonics = HarmonicSettings::new(s.harmonics, s.samples)?;
-    }
-    let penalty_stiffness = (s.contact == ForcedContact::Penalty).then(|| {
-        let mut ks = system.contact_stiffness().to_vec();
-        ks.sort_by(f64::total_cmp);
-        s.penalty_factor * ks[ks.len() / 2]
-    });
-    if let Some(stiffness) = penalty_stiffness {
-        settings.algorithm.method = ContactMethod::Penalty { stiffness };
-    }
+    let (settings, penalty_stiffness) = solver_settings(system, s)?;
     let w = system.linear_frequencies()[s.mode];
     let frf = FrfSettings {
         stability: s.stability,
         max_harmonics: Some(s.top_harmonics()),
+        follow_harmonics: s.adapt_harmonics.follows(system.n_contacts()),
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
@@ -310,6 +322,7 @@ impl LevelSweeps<'_> {
                     sweep: Sweep::Level { omega: ratio * w },
                     stability: s.stability,
                     max_harmonics: Some(s.top_harmonics()),
+                    follow_harmonics: s.adapt_harmonics.follows(self.system.n_contacts()),
                     harmonic_tolerance: s.harmonic_tolerance,
                     ..FrfSettings::new(s.level_range[0], s.level_range[1])
                 };
@@ -452,17 +465,9 @@ pub fn stopped_early(st: &ForcedStudy, dir: &std::path::Path) -> Result<()> {
     if stopped.is_empty() {
         return Ok(());
     }
-    let hint = if st.settings.contact == ForcedContact::Penalty {
-        format!(
-            ". A light damping under a stiff penalty law (penalty_factor = {}) makes the sampled \
-             curve turn at corners near its folds and at grazing, where the continuation can \
-             lose it: more harmonics, a smaller penalty_factor or contact = \"exact\" may carry \
-             it through (README, known limits)",
-            st.settings.penalty_factor
-        )
-    } else {
-        String::new()
-    };
+    let hint = ". frf.png marks the branch not computed and report.md's forced section names \
+                it; a narrower range (forced.range) or a larger max_harmonics may carry the \
+                trace through";
     Err(anyhow::Error::new(crate::exit::StoppedEarly(format!(
         "forced response stopped before the end of its range ({}); the points computed are in \
          {}{hint}",

@@ -16,13 +16,13 @@ use crate::forced::{ForcedCurve, ForcedStudy};
 use crate::results::BackboneFile;
 
 /// Amplitude and phase (rad) of harmonic h of coordinate i: a cos + b sin = r cos(h W t - phi).
-fn harmonic(p: &ForcedPoint, i: usize, h: usize) -> (f64, f64) {
+pub(crate) fn harmonic(p: &ForcedPoint, i: usize, h: usize) -> (f64, f64) {
     let (a, b) = (p.coefficients[(i, 2 * h - 1)], p.coefficients[(i, 2 * h)]);
     (a.hypot(b), b.atan2(a))
 }
 
 /// max over the period of |u_i(t)| on 512 points.
-fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
+pub(crate) fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
     let t = p.coefficients.ncols();
     let c: Vec<f64> = (0..t).map(|k| p.coefficients[(i, k)]).collect();
     (0..512)
@@ -31,7 +31,7 @@ fn max_abs_over_period(p: &ForcedPoint, i: usize) -> f64 {
 }
 
 /// Contact share of samples x rows, rows touching at some sample, largest force (N).
-fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
+pub(crate) fn contact_summary(p: &ForcedPoint, rows: usize) -> (f64, usize, f64) {
     let m = p.contact_force.len() / rows.max(1);
     let touching = (0..rows)
         .filter(|&j| p.contact_force[j * m..(j + 1) * m].iter().any(|&f| f > 0.0))
@@ -52,17 +52,17 @@ pub(crate) fn harmonic_check(c: &HarmonicCheck) -> (&'static str, Option<[f64; 2
         HarmonicCheck::Unchecked => ("", None),
         HarmonicCheck::Linear => ("linear", None),
         HarmonicCheck::Converged { change } => ("converged", Some(*change)),
-        HarmonicCheck::NotConverged { change: Some(c) } => ("max_harmonics", Some(*c)),
+        HarmonicCheck::NotConverged { change: Some(c) } => ("not_converged", Some(*c)),
         HarmonicCheck::NotConverged { change: None } => ("check_failed", None),
     }
 }
 
 /// A number, or an empty cell (never a NaN).
-fn opt(v: Option<f64>) -> CsvValue {
+pub(crate) fn opt(v: Option<f64>) -> CsvValue {
     v.map_or(CsvValue::Text(String::new()), CsvValue::from)
 }
 
-fn verdict_word(s: Option<&PointStability>) -> String {
+pub(crate) fn verdict_word(s: Option<&PointStability>) -> String {
     match s.map(|s| s.verdict) {
         Some(Verdict::Stable) => "stable",
         Some(Verdict::Unstable) => "unstable",
@@ -419,6 +419,21 @@ fn frf_figure(
             };
             labelled = true;
             plot = plot.with_series(Series::new(label, x, y).color(color).style(style));
+        }
+        if let Some((from, to)) = c.response.gap() {
+            // The ends of the branch not computed, joined by a dotted line when both are known.
+            let ends: Vec<usize> = std::iter::once(from).chain(to).collect();
+            let x: Vec<f64> = ends
+                .iter()
+                .map(|&i| c.response.points[i].omega / w)
+                .collect();
+            let y: Vec<f64> = ends.iter().map(|&i| amp(&c.response.points[i])).collect();
+            plot = plot.with_series(
+                Series::new(format!("level {}: branch not computed", c.level), x, y)
+                    .color(Color(200, 0, 0))
+                    .style(LineStyle::Dotted)
+                    .markers(true),
+            );
         }
         if !max_abs {
             let pts: Vec<((f64, f64), f64)> = c

@@ -98,27 +98,54 @@ fn write_one(
 
 /// Writes the chosen orbits of every level into `out/orbits/`; returns how many.
 pub fn write_orbits(st: &ForcedStudy, model_dir: &Path, out: &Path) -> Result<usize> {
-    let wanted: Vec<(usize, Vec<(String, usize)>)> = st
-        .curves
-        .iter()
-        .enumerate()
-        .map(|(c, curve)| (c, chosen(st, curve)))
-        .filter(|(_, v)| !v.is_empty())
-        .collect();
+    let wanted = chosen_orbits(st);
     if wanted.is_empty() {
         return Ok(0);
     }
     let model = crate::backbone::load_model(model_dir)?;
-    let Some(full) = FullMesh::of(&model)? else {
+    write_orbits_of(st, &model, &wanted, out)
+}
+
+/// The orbits of every level chosen by `forced.keep_peaks` and `forced.keep` (as
+/// [`write_orbits`]), drawn with `model` (its recovery basis and contact nodes) on its mesh.
+pub fn write_chosen_orbits(
+    st: &ForcedStudy,
+    model: &nlmodes_modal::ReducedModel,
+    out: &Path,
+) -> Result<usize> {
+    write_orbits_of(st, model, &chosen_orbits(st), out)
+}
+
+/// Each curve's chosen orbits: (curve, [(name, point)]), curves without any left out.
+fn chosen_orbits(st: &ForcedStudy) -> Vec<(usize, Vec<(String, usize)>)> {
+    st.curves
+        .iter()
+        .enumerate()
+        .map(|(c, curve)| (c, chosen(st, curve)))
+        .filter(|(_, v)| !v.is_empty())
+        .collect()
+}
+
+/// Writes the `wanted` orbits with `model` into `out/orbits/`; returns how many.
+fn write_orbits_of(
+    st: &ForcedStudy,
+    model: &nlmodes_modal::ReducedModel,
+    wanted: &[(usize, Vec<(String, usize)>)],
+    out: &Path,
+) -> Result<usize> {
+    if wanted.is_empty() {
+        return Ok(0);
+    }
+    let Some(full) = FullMesh::of(model)? else {
         tracing::info!("forced orbits: the reduced model has no mesh to draw them on");
         return Ok(0);
     };
     let dir = out.join("orbits");
     std::fs::create_dir_all(&dir)?;
     let mut count = 0;
-    for (c, points) in &wanted {
+    for (c, points) in wanted {
         for chosen in points {
-            write_one(&model, &full, st, &st.curves[*c], chosen, &dir)?;
+            write_one(model, &full, st, &st.curves[*c], chosen, &dir)?;
             count += 1;
         }
     }

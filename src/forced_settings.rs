@@ -6,6 +6,35 @@ use serde::{Deserialize, Serialize};
 
 use crate::problems::Problems;
 
+/// Whether the trace follows the N a point needs (`[forced] adapt_harmonics`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HarmonicAdaptation {
+    /// Follow N on models with at most `AUTO_FOLLOW_ROWS` contact rows, check it on larger ones.
+    Auto,
+    /// The trace raises N where a point needs it, up to `max_harmonics`.
+    Follow,
+    /// The trace keeps `harmonics`; each point in contact is checked once at 2N.
+    Check,
+}
+
+/// The most contact rows on which `adapt_harmonics = "auto"` follows N: on the default blade (24
+/// rows) following N costs 11x (level 2) to 70x (level 5) the fixed-N curve and its switching
+/// adds folds (docs/BENCHMARKS.md, session 17); the small systems of the acceptance tests (1 row)
+/// need it to be right.
+pub const AUTO_FOLLOW_ROWS: usize = 8;
+
+impl HarmonicAdaptation {
+    /// Whether the trace follows N on a model with `rows` contact rows.
+    pub fn follows(self, rows: usize) -> bool {
+        match self {
+            Self::Auto => rows <= AUTO_FOLLOW_ROWS,
+            Self::Follow => true,
+            Self::Check => false,
+        }
+    }
+}
+
 /// The contact law of the forced study.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -103,6 +132,10 @@ pub struct ForcedSection {
     pub harmonics: usize,
     /// The largest N a point in contact may be raised to (0: four times `harmonics`).
     pub max_harmonics: usize,
+    /// "follow": the trace raises N where a point needs it (up to `max_harmonics`); "check":
+    /// the trace keeps `harmonics` and every point in contact is checked once at 2N; "auto"
+    /// (the default): follow on models with at most `AUTO_FOLLOW_ROWS` contact rows.
+    pub adapt_harmonics: HarmonicAdaptation,
     /// A point's N is enough when doubling it moves the master's first harmonic and W by at
     /// most this (relative).
     pub harmonic_tolerance: f64,
@@ -170,6 +203,7 @@ impl Default for ForcedSection {
             range: [0.9, 1.2],
             harmonics: 10,
             max_harmonics: 0,
+            adapt_harmonics: HarmonicAdaptation::Auto,
             harmonic_tolerance: 1e-3,
             samples: 0,
             harmonic: 1,

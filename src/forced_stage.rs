@@ -1,7 +1,9 @@
 //! The `forced` stage of `nlmodes run` (issue 22): the forced study of `[forced]` on the
 //! reduced model, crowned by the backbone of the same mode when the case traced it. Reruns when
 //! the reduced model, `[forced]` or that backbone change. Writes `results/<case>/forced/`
-//! (frf.csv, frf.json, figures) and `forced/section.md`, the report's section.
+//! (frf.csv, frf.json, figures) and `forced/section.md`, the report's section. With
+//! `[rotation]` it runs again on the reduced model at the operating speed (K(Omega), running
+//! gaps; issue 39, item 1), laid out in `results/<case>/speed/forced/`.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -27,7 +29,8 @@ pub struct ForcedStage<'a> {
 }
 
 impl<'a> ForcedStage<'a> {
-    /// The stage of `case` on the model of hash `reduce_hash`.
+    /// The stage of `case` on the model of `layout` (`layout.model()`, at rest or at a speed)
+    /// of hash `reduce_hash`, crowned by that layout's backbone.
     pub fn new(case: &'a Case, layout: &'a Layout, reduce_hash: &str) -> Self {
         let mode = case.forced.mode;
         let modes = case.continuation.modes_to_trace();
@@ -58,13 +61,13 @@ impl<'a> ForcedStage<'a> {
     /// it `StoppedEarly` (no stamp).
     fn study(&self) -> Result<()> {
         let st = crate::ui::Stage::start("forced");
-        let model = crate::backbone::load_model(&self.case.out_dir().join("model"))?;
+        let model = crate::backbone::load_model(&self.layout.model())?;
         let system = crate::backbone::system_of(&model, None)?;
         let backbone: Option<BackboneFile> = match &self.backbone {
             Some(p) => Some(crate::results::read_json(p)?),
             None => None,
         };
-        let model_dir = self.case.out_dir().join("model");
+        let model_dir = self.layout.model();
         let checked = crate::forced_inputs::ForcedModel {
             dir: &model_dir,
             reduced: &model,

@@ -6,6 +6,8 @@ mod backbone_exact;
 mod backbone_holes;
 mod backbone_stage;
 mod campbell;
+mod campbell_march;
+mod campbell_parametric;
 mod campbell_stage;
 mod case;
 mod child;
@@ -19,6 +21,12 @@ mod forced_inputs;
 mod forced_output;
 mod forced_paraview;
 mod forced_settings;
+mod forced_speed;
+mod forced_speed_command;
+mod forced_speed_figure;
+mod forced_speed_output;
+mod forced_speed_report;
+mod forced_speed_stage;
 mod forced_stage;
 mod gmsh;
 mod layout;
@@ -37,6 +45,7 @@ mod results;
 mod rotation_settings;
 mod run;
 mod speed_stage;
+mod speed_sweep_settings;
 mod stage;
 mod stage_hash;
 mod study;
@@ -222,7 +231,7 @@ struct BackboneArgs {
     #[arg(long, default_value_t = NnmSection::default().samples)]
     samples: usize,
     /// Converged orbits of the main-branch points in contact: the largest N whose modes are kept
-    /// dynamic (docs/STABILITY.md Sec. 9.4) [default: 2 x harmonics].
+    /// dynamic (docs/STABILITY.md Sec. 9.4) [default: 4 x harmonics].
     #[arg(long)]
     max_harmonics: Option<usize>,
     /// Master coordinate (reduced DOF index); default: the model's.
@@ -252,6 +261,16 @@ struct ForcedArgs {
     /// the single-nonlinear-mode synthesis computed from it.
     #[arg(long)]
     backbone: Option<PathBuf>,
+    /// The forced study at this speed (rpm) on a parametric reduced model (the model
+    /// directory is `results/<case>/parametric/`): K_r and the running gaps interpolated there.
+    #[arg(long, conflicts_with = "speed_sweep")]
+    speed: Option<f64>,
+    /// The speed sweeps of the settings file's `[speed_sweep]` table on a parametric reduced
+    /// model (W = EO x speed through the Campbell crossings) instead of the frequency sweeps;
+    /// `[rotation] engine_orders` of the file (default 1..8) when `speed_sweep.engine_orders`
+    /// is empty.
+    #[arg(long, conflicts_with = "backbone")]
+    speed_sweep: bool,
     /// Output directory.
     #[arg(long, short)]
     out: PathBuf,
@@ -533,7 +552,7 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     });
     validate::check_nnm(a.harmonics, a.samples, &mut problems);
     let convergence = nlmodes_nnm::ConvergenceSettings {
-        max_harmonics: a.max_harmonics.unwrap_or(2 * a.harmonics),
+        max_harmonics: a.max_harmonics.unwrap_or(4 * a.harmonics),
         ..NnmSection::default().convergence()
     };
     validate::check_convergence(&convergence, a.harmonics, &mut problems);
@@ -583,17 +602,10 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
 /// `nlmodes forced`: settings, backbone and output path checked before the model is read, then
 /// every input against the model (`forced_inputs`) before anything is computed.
 fn forced_command(a: ForcedArgs) -> Result<()> {
-    let (section, source) = match &a.settings {
-        Some(p) => (forced_settings::load(p)?, p.display().to_string()),
-        None => (
-            forced_settings::ForcedSection::default(),
-            "defaults".to_string(),
-        ),
-    };
-    let label = source.clone();
-    let mut problems = validate::Problems::new(move |key| format!("{label}: {key}"));
-    section.check(&mut problems);
-    problems.finish()?;
+    let (section, source) = forced_section(a.settings.as_deref())?;
+    if a.speed_sweep {
+        return forced_speed_command::sweep(&a.model, a.settings.as_deref(), section, &a.out);
+    }
     let backbone = match &a.backbone {
         Some(p) => Some(
             results::read_json::<results::BackboneFile>(p)
@@ -602,7 +614,15 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
         None => None,
     };
     validate::check_output_dir(&a.out, "--out")?;
-    let reduced = load_model(&a.model)?;
+    let reduced = match a.speed {
+        Some(rpm) => forced_speed::model_at_speed(
+            &forced_speed::read_parametric(&a.model)?,
+            &a.model,
+            rpm,
+            "--speed",
+        )?,
+        None => load_model(&a.model)?,
+    };
     // System::new refuses only the model's own matrices and contact data (a K that is not
     // positive definite: a rigid-body mode the loader only warned of).
     let system = backbone::system_of(&reduced, None).map_err(|e| {
@@ -622,13 +642,30 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
     let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
     forced_output::write(&study, backbone.as_ref(), &a.out)?;
     level_sweep::write(&study, &a.out)?;
-    let orbits = forced_paraview::write_orbits(&study, &a.model, &a.out)?;
+    let orbits = forced_paraview::write_chosen_orbits(&study, &reduced, &a.out)?;
     tracing::info!(
         "{orbits} orbits written for ParaView in {}",
         a.out.join("orbits").display()
     );
     ui::say(&(forced_output::summary(&study) + &level_sweep::summary(&study)));
     forced::stopped_early(&study, &a.out)
+}
+
+/// The `[forced]` table of `--settings` (the defaults without it), checked, and its source's
+/// name for messages.
+fn forced_section(settings: Option<&Path>) -> Result<(forced_settings::ForcedSection, String)> {
+    let (section, source) = match settings {
+        Some(p) => (forced_settings::load(p)?, p.display().to_string()),
+        None => (
+            forced_settings::ForcedSection::default(),
+            "defaults".to_string(),
+        ),
+    };
+    let label = source.clone();
+    let mut problems = validate::Problems::new(move |key| format!("{label}: {key}"));
+    section.check(&mut problems);
+    problems.finish()?;
+    Ok((section, source))
 }
 
 /// Reads a reduced model; any failure is bad input naming the directory.

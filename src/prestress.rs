@@ -25,25 +25,33 @@ pub struct MetisCholesky {
     factor: Option<nlmodes_modal::SparseCholesky>,
 }
 
-impl LinearSolver for MetisCholesky {
-    fn solve(&mut self, a: &CsMat<f64>, b: &[f64]) -> Result<Vec<f64>, LinearSolveError> {
-        let failed = |e: nlmodes_modal::ModalError| {
-            LinearSolveError(format!("Cholesky factorization failed: {e}"))
-        };
+impl MetisCholesky {
+    /// The factorization of `a` (`what` names it in messages), reusing the ordering and symbolic
+    /// analysis of the last matrix factorized when `a` has its pattern. With the same ordering
+    /// and analysis the factor is the one a fresh analysis would give, bit for bit.
+    pub fn factorize(
+        &mut self,
+        a: &CsMat<f64>,
+        what: &str,
+    ) -> Result<&nlmodes_modal::SparseCholesky, nlmodes_modal::ModalError> {
         match &mut self.factor {
-            Some(f) if f.same_pattern(a) => f.refactorize(a, "tangent").map_err(failed)?,
+            Some(f) if f.same_pattern(a) => f.refactorize(a, what)?,
             _ => {
                 self.factor = None;
-                let f = nlmodes_modal::SparseCholesky::with_options(
-                    a,
-                    "tangent",
-                    nlmodes_modal::CholeskyOptions::default(),
-                )
-                .map_err(failed)?;
+                let options = nlmodes_modal::CholeskyOptions::default();
+                let f = nlmodes_modal::SparseCholesky::with_options(a, what, options)?;
                 self.factor = Some(f);
             }
         }
-        let factor = self.factor.as_ref().expect("factorized above");
+        Ok(self.factor.as_ref().expect("factorized above"))
+    }
+}
+
+impl LinearSolver for MetisCholesky {
+    fn solve(&mut self, a: &CsMat<f64>, b: &[f64]) -> Result<Vec<f64>, LinearSolveError> {
+        let factor = self
+            .factorize(a, "tangent")
+            .map_err(|e| LinearSolveError(format!("Cholesky factorization failed: {e}")))?;
         let mut x = b.to_vec();
         factor
             .solve_in_place(&mut x)
@@ -109,24 +117,29 @@ pub fn at_speed(
     let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
         .context("the rotating model")?;
     let mut solver = MetisCholesky::default();
-    let solution = if nonlinear {
+    let (solution, stiffness) = if nonlinear {
         // One nominal load step: the blade's strains are about 1e-3, Newton converges from the
-        // unstressed tangent in 3-4 iterations; the cutbacks catch harder cases.
+        // unstressed tangent in 3-4 iterations; the cutbacks catch harder cases. The stiffness
+        // at speed is the last Newton tangent.
         let options = NewtonOptions {
             load_steps: 1,
             ..NewtonOptions::default()
         };
-        model.solve_nonlinear(omega, &options, &mut solver)
+        model
+            .solve_nonlinear_with_stiffness(None, omega, &options, &mut solver)
+            .map_err(|e| not_converged(key, omega, e))?
     } else {
-        model.solve_linearized(omega, false, &mut solver)
-    }
-    .map_err(|e| not_converged(key, omega, e))?;
+        let s = model
+            .solve_linearized(omega, false, &mut solver)
+            .map_err(|e| not_converged(key, omega, e))?;
+        let k = model
+            .stiffness_at_speed(&s)
+            .context("the stiffness at speed")?;
+        (s, k)
+    };
     let growth = radial_growth(fe, axis, &solution.displacement, contact);
     let running_gaps: Vec<f64> = growth.iter().map(|g| cold_gap - g).collect();
     check_open((omega, key), &growth, &running_gaps, contact, cold_gap)?;
-    let stiffness = model
-        .stiffness_at_speed(&solution)
-        .context("the stiffness at speed")?;
     let von_mises = model.nodal_von_mises(&solution)?;
     let root_stress = root_stress(&model, &von_mises, &fe.clamp)?;
     Ok(Prestress {

@@ -443,12 +443,12 @@ fn boundary_history_text(
     )
 }
 
-/// The sections written by the stages that run before post (forced; speed and campbell for a
-/// rotating case, in the case-root report only): links are relative to the case root.
+/// The sections written by the stages that run before post (forced; speed, campbell and
+/// speed_sweep for a rotating case, in the case-root report only): links are relative to the case root.
 fn stage_sections(r: &ReportInputs<'_>) -> String {
     let layout = r.layout;
     let rotating = r.case.rotation.is_some() && layout.root == layout.shared;
-    ["forced", "speed", "campbell"]
+    ["forced", "speed", "campbell", "speed_sweep"]
         .iter()
         .filter(|&&stage| stage == "forced" || rotating)
         .filter_map(|stage| {

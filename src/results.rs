@@ -91,6 +91,12 @@ pub struct StabilityRecord {
     /// The shot orbit's per-row contact shares (shooting method only).
     #[serde(default)]
     pub contact_shares: Vec<f64>,
+    /// The event-based monodromy's modes above the orbit's harmonics (absent: none).
+    #[serde(default)]
+    pub unresolved: Vec<nlmodes_nnm::UnresolvedPair>,
+    /// Their share of an impact's normal acceleration (absent: 0).
+    #[serde(default)]
+    pub unresolved_acceleration: f64,
 }
 
 impl Orbit {
@@ -107,6 +113,8 @@ impl Orbit {
                 trivial: s.trivial,
                 orbit_shift: s.orbit_shift,
                 check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
+                unresolved: &s.unresolved,
+                unresolved_acceleration: s.unresolved_acceleration,
             })
         })
     }

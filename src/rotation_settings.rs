@@ -37,6 +37,10 @@ pub struct RotationSection {
     /// model and the backbone are computed too (`results/<case>/speeds/<rpm>rpm/`), each adding
     /// a band to the interaction map. Within `campbell_range`.
     pub map_speeds: Vec<f64>,
+    /// Speeds midway between those of the parametric reduced model (the Campbell speeds) at
+    /// which it is checked against a direct solve (`results/<case>/parametric/`; each costs a
+    /// static solve): the first, the last and evenly spread intervals.
+    pub parametric_checks: usize,
 }
 
 impl Default for RotationSection {
@@ -53,6 +57,7 @@ impl Default for RotationSection {
             engine_orders: (1..=8).collect(),
             map_amplitudes: vec![5.0, 10.0],
             map_speeds: vec![4_000.0],
+            parametric_checks: 3,
         }
     }
 }
@@ -157,6 +162,12 @@ impl RotationSection {
                 "finite amplitudes q/g0 > 0",
             );
         }
+        p.check(
+            self.parametric_checks <= 100,
+            "rotation.parametric_checks",
+            self.parametric_checks,
+            "between 0 and 100 speeds",
+        );
         for v in &self.map_speeds {
             let ok = speed_ok(*v) && (!range_ok || (a..=b).contains(v));
             p.check(
@@ -228,6 +239,7 @@ mod tests {
             engine_orders: vec![0, 2],
             map_amplitudes: vec![f64::NAN],
             map_speeds: vec![-1.0],
+            parametric_checks: 1000,
         };
         let msg = problems_of(&s);
         for want in [
@@ -239,6 +251,7 @@ mod tests {
             "rotation.engine_orders = 0",
             "rotation.map_amplitudes = NaN",
             "rotation.map_speeds = -1.0",
+            "rotation.parametric_checks = 1000",
         ] {
             assert!(msg.contains(want), "missing `{want}` in:\n{msg}");
         }

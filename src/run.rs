@@ -3,7 +3,8 @@
 //! changed (`crate::stage`). In order: mesh, reduce (the full model's modes then run beside the
 //! stages up to forced), the prestress and reduced model at each speed and the Campbell diagram
 //! (`[rotation]`), the backbone of each traced mode and at each speed, the forced response
-//! (`[forced]`), the interaction map, post and report.
+//! (`[forced]`, at rest and at the operating speed), the speed sweeps (`[speed_sweep]`), the
+//! interaction map, post and report.
 
 use anyhow::{Context, Result};
 use nlmodes_fem::Isotropic;
@@ -11,6 +12,7 @@ use nlmodes_fem::Isotropic;
 use crate::backbone_stage::BackboneStage;
 use crate::campbell_stage::CampbellStage;
 use crate::case::Case;
+use crate::forced_speed_stage::SpeedSweepStage;
 use crate::forced_stage::ForcedStage;
 use crate::layout::Layout;
 use crate::mesh_stage::MeshStage;
@@ -112,11 +114,13 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
     )?;
     let speeds = speed_stages(&case, &material, &layout, &fe_hash);
     for stage in &speeds {
-        sel.run(stage, &[Only::Backbone, Only::Post])?;
+        sel.run(stage, &[Only::Backbone, Only::Forced, Only::Post])?;
     }
+    let mut campbell_hash = None;
     if let Some(r) = &case.rotation {
         let campbell = CampbellStage::new(&case, r, &material, &layout, &fe_hash);
-        sel.run(&campbell, &[Only::Post])?;
+        sel.run(&campbell, &[Only::SpeedSweep, Only::Post])?;
+        campbell_hash = Some(campbell.hash().to_string());
     }
     let mut stops = Stops::default();
     let mut traced = Vec::new();
@@ -125,19 +129,36 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
             traced.push(stage.results().clone());
         }
     }
+    let mut speed_posts = Vec::new();
     for speed in &speeds {
         let stage = speed_backbone_stage(&case, speed);
         if stops.absorb(sel.run(&stage, &[Only::Post]))? && sel.wants(Only::Post) {
-            post::post(&case, stage.results())?;
+            speed_posts.push(stage.results().clone());
         }
     }
     // The modes child ran beside the single-threaded backbones; the forced stage uses both
     // cores (its levels in parallel), so the child ends first.
     pending_modes.finish()?;
-    // forced (issue 22): after the backbone it is crowned by, before the report that shows it
+    // forced (issue 22): after the backbone it is crowned by, before the report that shows it;
+    // at rest, then at the operating speed (issue 39, item 1)
     if case.forced.enabled {
         let stage = ForcedStage::new(&case, &layout, reduce.hash());
         stops.absorb(sel.run(&stage, &[Only::Post]))?;
+        if let Some(operating) = speeds.first() {
+            let stage = ForcedStage::new(&case, operating.layout(), operating.hash());
+            stops.absorb(sel.run(&stage, &[Only::Post]))?;
+        }
+    }
+    for results in &speed_posts {
+        post::post(&case, results)?;
+    }
+    // the speed sweeps (issue 39, item 2) on the Campbell stage's parametric model
+    if let (Some(r), Some(sweep), Some(hash)) = (&case.rotation, &case.speed_sweep, &campbell_hash)
+    {
+        if sweep.enabled {
+            let stage = SpeedSweepStage::new(&case, r, sweep, &layout, hash);
+            stops.absorb(sel.run(&stage, &[Only::Post]))?;
+        }
     }
     if let Some(r) = &case.rotation {
         if sel.wants_any(&[Only::Campbell, Only::Post]) {

@@ -23,6 +23,8 @@ pub enum Only {
     Speed,
     /// The Campbell diagram (`[rotation]`).
     Campbell,
+    /// The speed sweeps through the Campbell crossings (`[speed_sweep]`).
+    SpeedSweep,
     Post,
 }
 

@@ -89,8 +89,30 @@ pub fn check_case(case: &Case, path: &Path) -> Result<()> {
         r.check(&mut p);
         r.check_map_amplitudes(&case.continuation, &mut p);
     }
+    check_speed_sweep(case, &mut p);
     p.finish()?;
     check_output_dir(&case.out_dir(), &format!("{}: results_dir", path.display()))
+}
+
+/// `[speed_sweep]`: its keys, its speed range within the Campbell range, `[rotation]` present
+/// (the Campbell stage builds the parametric model it runs on), `[forced]` checked even when the
+/// frequency sweeps are off, and its penalty law.
+fn check_speed_sweep(case: &Case, p: &mut Problems) {
+    let Some(sweep) = case.speed_sweep.as_ref().filter(|s| s.enabled) else {
+        return;
+    };
+    match &case.rotation {
+        Some(r) => sweep.check(p, Some(r.campbell_range), "rotation.campbell_range"),
+        None => p.note(
+            "speed_sweep",
+            "needs a [rotation] table: the sweeps run on the parametric reduced model of the \
+             Campbell stage",
+        ),
+    }
+    if !case.forced.enabled {
+        check_forced(case, p);
+    }
+    crate::speed_sweep_settings::check_forced_for_sweeps(&case.forced, p);
 }
 
 fn check_mesh(case: &Case, p: &mut Problems) {

@@ -278,8 +278,9 @@ fn coarse_blade_study_end_to_end() {
     );
     assert!(report.contains("radial_boundary_q12.0.png"));
     // Converged orbits (docs/STABILITY.md Sec. 9.4): every main-branch point in contact has
-    // one or is named in the report; each converged one was checked at 2N (two levels, or one
-    // where 2N adds no mode, its change then 0) and its last change is within the tolerances.
+    // one or is named in the report; each converged one was checked at the next N (two levels
+    // or more: N, 2N and, by default, 4N; or one where 2N adds no mode, its change then 0) and
+    // its last change is within the tolerances.
     let bj: serde_json::Value =
         serde_json::from_slice(&std::fs::read(res.join("backbone/backbone.json")).unwrap())
             .unwrap();
@@ -294,7 +295,7 @@ fn coarse_blade_study_end_to_end() {
             let dw = c["omega_change"].as_f64().unwrap();
             let ds = c["share_change"].as_f64().unwrap();
             assert!(dw <= 1e-3 && ds <= 0.02, "{c}");
-            assert!(levels.len() == 2 || (dw == 0.0 && ds == 0.0), "{c}");
+            assert!(levels.len() >= 2 || (dw == 0.0 && ds == 0.0), "{c}");
         }
     }
     assert!(with_orbit > 0, "no converged orbit computed");

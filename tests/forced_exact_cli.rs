@@ -12,7 +12,8 @@
 //! transient decays like exp(-zeta w t) = exp(-47); the fixed step T / 8000 (contact frequency
 //! sqrt(kc) = 38.7 rad/s, so h w_c = 0.03) loses O(h^2) at each kink of the contact force
 //! (about 1e-6 relative); the boundary curve's master is sampled at 128 instants (exact for its
-//! first harmonic up to aliasing). Tolerance 1e-4 relative; measured below 2e-6.
+//! first harmonic up to aliasing). Tolerance 1e-4 relative; measured 6.6e-6 at W/w1 = 1.197 and
+//! at most 1.5e-6 at the other five (main at ba2b8b2).
 
 mod common;
 
@@ -158,74 +159,4 @@ fn the_exact_curve_of_the_penalty_chain_is_the_time_integrated_response() {
     }
     println!("{checked} points, worst relative difference {worst:.1e}");
     assert!(worst < 1e-4, "{worst}");
-}
-
-/// (omega_ratio, q1_over_g0, piece, contact_fraction) of frf.csv's rows.
-fn hb_rows(csv: &str) -> Vec<(f64, f64, usize, f64)> {
-    columns(
-        csv,
-        &["omega_ratio", "q1_over_g0", "piece", "contact_fraction"],
-    )
-    .into_iter()
-    .map(|r| (num(&r[0]), num(&r[1]), r[2].parse().unwrap(), num(&r[3])))
-    .collect()
-}
-
-/// The light chain at every `[forced]` default (0.3 %, level 2 x grazing, N = 10, kc = 1000 x
-/// the static contact stiffness): the trace from the start of the range turns at a tip of the
-/// truncated problem (W/w1 = 1.1307) and stops where its returning branch meets the rising one
-/// at grazing; the trace from the end of the range goes down the linear branch, through grazing
-/// at W/w1 = 1.0052 and up the upper branch the first trace missed. The two pieces cover the
-/// range, so the command succeeds, and the upper branch lies on the exact curve within the
-/// truncation error of N = 10 harmonics on a contact coordinate as heavy as the master
-/// (measured 1.3e-2 relative; bound 5e-2).
-#[test]
-fn the_light_chain_at_every_default_is_covered_from_both_ends_of_its_range() {
-    let (run, out_dir, _dir) = forced_chain("[forced]\nlevels = [2.0]\n");
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    assert!(
-        run.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    assert!(stdout.contains("two pieces"), "{stdout}");
-    let hb = hb_rows(&std::fs::read_to_string(out_dir.join("frf.csv")).unwrap());
-    let exact = exact_rows(&std::fs::read_to_string(out_dir.join("frf_boundary.csv")).unwrap());
-    let top = |piece: usize| {
-        hb.iter()
-            .filter(|r| r.2 == piece)
-            .map(|r| r.0)
-            .fold(f64::NEG_INFINITY, f64::max)
-    };
-    let low = |piece: usize| {
-        hb.iter()
-            .filter(|r| r.2 == piece)
-            .map(|r| r.0)
-            .fold(f64::INFINITY, f64::min)
-    };
-    println!(
-        "piece 1: W/w1 {:.4} .. {:.4}; piece 2: {:.4} .. {:.4}",
-        low(1),
-        top(1),
-        low(2),
-        top(2)
-    );
-    assert!(low(1) <= 0.9 + 1e-12 && low(2) <= top(1) && top(2) >= 1.2 - 1e-12);
-    let on_exact = |w: f64| {
-        let k = exact.partition_point(|r| r.0 < w).clamp(1, exact.len() - 1);
-        let (a, b) = (&exact[k - 1], &exact[k]);
-        a.1 + (b.1 - a.1) * (w - a.0) / (b.0 - a.0)
-    };
-    let upper: Vec<f64> = hb
-        .iter()
-        .filter(|r| r.2 == 2 && r.3 > 0.0 && r.0 >= 1.05)
-        .map(|r| (r.1 / on_exact(r.0) - 1.0).abs())
-        .collect();
-    let worst = upper.iter().copied().fold(0.0, f64::max);
-    println!(
-        "{} points of the second piece in contact above W/w1 = 1.05: largest relative distance to \
-         the exact curve {worst:.2e}",
-        upper.len()
-    );
-    assert!(upper.len() >= 20 && worst < 5e-2, "{worst}");
 }

@@ -19,9 +19,13 @@
 //! for y = the first-harmonic amplitude of DOF 1 and of DOF 2 and the mean of DOF 1 (the mean
 //! tells which side the stop is on, which the amplitudes cannot: the system is odd).
 //!
-//! Measured (this commit): largest distance 1.10e-4 (a1), 1.10e-4 (a2), 1.09e-4 (mean), all at
-//! the grazing corner W = 0.6535 where the peer's polyline cuts the corner of the curve; median
-//! 6.2e-7, 6.5e-7, 1.2e-7. Tolerances: largest 3e-4 (about 3x the measured corner chord; the
+//! Both run at H = 21 (`max_harmonics = 21`: the `[forced]` default would raise N where an
+//! orbit needs it, and the distance to the peer's H = 21 curve is then its truncation, 6.9e-4).
+//! nlmodes integrates the penalty force exactly over the contact phases (DESIGN §10.9) where
+//! NLvib samples it at 1024 points: measured (session 17) largest distance 1.69e-4 (a1), 1.68e-4
+//! (a2), 1.66e-4 (mean), all at the grazing corner W = 0.6534 where the peer's polyline cuts the
+//! corner of the curve; median 2.0e-6, 3.0e-6, 1.8e-6 (the sampled law's kinks; session 16, with
+//! the sampled law in both codes: largest 1.10e-4, median 6.2e-7). Tolerances: largest 3e-4 (about 3x the measured corner chord; the
 //! sampled problem's curve also wiggles by up to 6e-4 in a1 near the peak, a kink each time a time
 //! sample enters or leaves contact, which both codes follow); median 1e-5 (16x the measured; the
 //! peer's interpolation on the smooth parts). What these catch (measured by rerunning with one
@@ -153,7 +157,7 @@ fn forced_curve_of_nlvibs_unilateral_spring_example_matches_nlvib() {
     write(
         &settings,
         &format!(
-            "[forced]\nmode = 0\nrange = [{}, {}]\nharmonics = 21\nsamples = 1024\n\
+            "[forced]\nmode = 0\nrange = [{}, {}]\nharmonics = 21\nmax_harmonics = 21\nsamples = 1024\n\
              damping_matrix = true\nload = \"file\"\nlevels = [0.1]\nlevel_unit = \"N\"\n\
              contact = \"penalty\"\npenalty_factor = 200.0\nstability = false\n\
              keep_peaks = false\n",

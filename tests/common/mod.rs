@@ -404,3 +404,96 @@ pub fn two_dof_frequencies(eps: f64, ks: f64) -> (f64, f64) {
     let (l1, l2) = ((b - disc) / (2.0 * eps), (b + disc) / (2.0 * eps));
     (l1.sqrt(), l2.sqrt())
 }
+
+/// Writes the symmetric matrix `a` (n x n) as a Matrix Market coordinate file (lower triangle,
+/// 17 significant digits).
+pub fn write_symmetric(path: &Path, a: &[Vec<f64>]) {
+    use std::fmt::Write as _;
+    let n = a.len();
+    let mut s = format!(
+        "%%MatrixMarket matrix coordinate real symmetric\n{n} {n} {}\n",
+        n * (n + 1) / 2
+    );
+    for j in 0..n {
+        for (i, row) in a.iter().enumerate().skip(j) {
+            let _ = writeln!(s, "{} {} {:.17e}", i + 1, j + 1, row[j]);
+        }
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+/// Stiffness (N/m) of the two coordinates that complete a small system's contact node in
+/// `padded_contact_model`; with their unit mass they lie at 1000 rad/s.
+pub const PAD_STIFFNESS: f64 = 1e6;
+
+/// The reduced-model directory of a small system with one unilateral contact, laid out as an FE
+/// code's model would be: coordinates 0..n are the system (`mass` in kg, `stiffness` in N/m,
+/// n x n, symmetric), the contact node is the coordinate `contact` (radial direction, gap 1 m)
+/// completed by two decoupled pads n, n + 1 (m = 1 kg, k = `PAD_STIFFNESS`), the master is
+/// `master`. `omega` are the system's circular frequencies (rad/s, ascending), written to
+/// model.json with the pads'.
+pub fn padded_contact_model(
+    dir: &Path,
+    mass: &[Vec<f64>],
+    stiffness: &[Vec<f64>],
+    (contact, master): (usize, usize),
+    omega: &[f64],
+) {
+    std::fs::create_dir_all(dir).unwrap();
+    let n = mass.len();
+    let padded = |a: &[Vec<f64>], pad: f64| -> Vec<Vec<f64>> {
+        (0..n + 2)
+            .map(|i| {
+                (0..n + 2)
+                    .map(|j| match (i < n && j < n, i == j) {
+                        (true, _) => a[i][j],
+                        (false, true) => pad,
+                        (false, false) => 0.0,
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    write_symmetric(&dir.join("M.mtx"), &padded(mass, 1.0));
+    write_symmetric(&dir.join("K.mtx"), &padded(stiffness, PAD_STIFFNESS));
+    let pad_omega = PAD_STIFFNESS.sqrt();
+    let hz: Vec<f64> = omega
+        .iter()
+        .chain([pad_omega, pad_omega].iter())
+        .map(|w| w / (2.0 * std::f64::consts::PI))
+        .collect();
+    let model = serde_json::json!({
+        "format": "nlmodes-reduced-model",
+        "format_version": 1,
+        "units": "SI: m, kg, s; K in N/m, M in kg",
+        "n": n + 2,
+        "contact_nodes": [{"dofs": [contact, n, n + 1], "position": [1.0, 0.0, 0.0],
+                           "radial": [1.0, 0.0, 0.0], "gap": 1.0}],
+        "rotor_axis": {"point": [0.0, 0.0, 0.0], "direction": [0.0, 0.0, 1.0]},
+        "master": {"dof": master, "description": "the exact system's master"},
+        "linear_frequencies_hz": hz,
+    });
+    std::fs::write(dir.join("model.json"), model.to_string()).unwrap();
+}
+
+/// The named columns of a CSV text (header line first, comma-separated, no quoting), one
+/// `Vec<String>` per row; panics naming a missing column.
+pub fn csv_columns(csv: &str, names: &[&str]) -> Vec<Vec<String>> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("a header line").split(',').collect();
+    let at: Vec<usize> = names
+        .iter()
+        .map(|n| {
+            header
+                .iter()
+                .position(|h| h == n)
+                .unwrap_or_else(|| panic!("no column {n} in {header:?}"))
+        })
+        .collect();
+    lines
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            at.iter().map(|&i| v[i].to_string()).collect()
+        })
+        .collect()
+}

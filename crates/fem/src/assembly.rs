@@ -81,13 +81,13 @@ impl NodeAdjacency {
     }
 
     /// Start of node `v`'s three columns in the DOF value array: 9 * offsets[v].
-    fn column_block_start(&self, v: usize) -> usize {
+    pub(crate) fn column_block_start(&self, v: usize) -> usize {
         9 * self.offsets[v]
     }
 
     /// Node ranges `bounds[p]..bounds[p + 1]` whose DOF columns hold about `entries`
     /// stored entries each (at least one node per range; covers all nodes).
-    fn partition(&self, entries: usize) -> Vec<usize> {
+    pub(crate) fn partition(&self, entries: usize) -> Vec<usize> {
         let n = self.offsets.len() - 1;
         let mut bounds = vec![0usize];
         let step = (entries / 9).max(1);
@@ -144,7 +144,7 @@ const CHUNK: usize = 512;
 
 /// Target size of one column partition of a value array for the parallel scatter (entries):
 /// 64k f64 = 512 kB for K and as much for M, so that a partition's writes stay in L2 cache.
-const PARTITION_ENTRIES: usize = 1 << 16;
+pub(crate) const PARTITION_ENTRIES: usize = 1 << 16;
 
 /// Assembles the global stiffness K (N/m) and consistent mass M (kg), both 3n x 3n CSC with
 /// full symmetric storage, global DOF = 3 * node + component.
@@ -297,7 +297,7 @@ pub fn assemble(mesh: &Mesh, mat: &Isotropic) -> Result<(CsMat<f64>, CsMat<f64>)
 }
 
 /// Splits a value array into the column ranges of the node partitions `bounds`.
-fn split_by_nodes<'a, T>(
+pub(crate) fn split_by_nodes<'a, T>(
     vals: &'a mut [T],
     bounds: &[usize],
     adj: &NodeAdjacency,

@@ -5,7 +5,7 @@
 //! fixed phase lag a little larger. The exactly integrated penalty law has no corners and never
 //! hops.
 
-use crate::frf::Sweep;
+use crate::curve::Sweep;
 use crate::ladder::start_at;
 use crate::newton::{ArcRow, OrbitState, Parameter};
 use crate::solver::{ForcedPoint, ForcedStart};

@@ -55,4 +55,13 @@ pub enum ForcedError {
         /// Why (the engine's words, with the last Powell measure where known).
         reason: String,
     },
+    /// The forced problem at a rotation speed could not be built (a speed sweep's family:
+    /// outside its range, a running gap closed there, a model that does not assemble).
+    #[error("no forced problem at the speed {speed:.6e} rad/s: {reason}")]
+    Speed {
+        /// The rotation speed (rad/s).
+        speed: f64,
+        /// Why.
+        reason: String,
+    },
 }

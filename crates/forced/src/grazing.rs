@@ -1,4 +1,4 @@
-//! Passing grazing (DESIGN §10.7): where a contact phase appears or vanishes, the exactly
+//! Passing grazing (DESIGN §10.5): where a contact phase appears or vanishes, the exactly
 //! integrated penalty law's Jacobian changes like k sqrt(penetration), so next to a lightly
 //! damped resonance under a stiff law Newton's basin in the arc-length step shrinks with the
 //! penetration (on the 2-DOF chain at 0.3 % damping and k = 1000 x the static contact

@@ -6,13 +6,14 @@
 //! harmonic of the master and W move by at most the tolerance (relative), N is enough
 //! ([`HarmonicCheck::Converged`]); otherwise the point at 2N replaces it and is checked at 4N,
 //! and so on up to the ladder's top ([`HarmonicCheck::NotConverged`]). A point above the base
-//! is first compared with N / 2: when that agrees, the point is converged and the next steps
-//! go down to N / 2. Out of contact the equation is linear and its harmonic balance exact at any
+//! is first compared with N / 2: when that agrees, its solve at N / 2 is kept (converged) and
+//! the next steps go down to N / 2. Out of contact the equation is linear and its harmonic balance exact at any
 //! N ([`HarmonicCheck::Linear`]).
 
 use nlmodes_hb::contact::Multipliers;
 
 use crate::error::ForcedError;
+pub use crate::harmonic_check::HarmonicCheck;
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 
@@ -21,32 +22,14 @@ use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 /// change from N = 10 to 20 is at most 4e-3).
 const REFINE_REACH: f64 = 0.05;
 
-/// What the check of a point's N found.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum HarmonicCheck {
-    /// Not checked (the default of a solve).
-    Unchecked,
-    /// No contact: the orbit is exact at any N.
-    Linear,
-    /// Doubling N moved the master's first harmonic and W by the relative `change` = [q, W],
-    /// both within the tolerance.
-    Converged {
-        /// [|dq1| / q1, |dW| / W] at 2N.
-        change: [f64; 2],
-    },
-    /// Still moving at the top of the ladder (`change` at its last doubling), or the solve at
-    /// 2N failed (`change` None).
-    NotConverged {
-        /// [|dq1| / q1, |dW| / W] at the last doubling, when that solve converged.
-        change: Option<[f64; 2]>,
-    },
-}
-
 /// The forced problem at N0 2^k, k = 0, 1, ..., N0 2^k <= `max_harmonics`.
 pub struct HarmonicLadder<'a, 's> {
     base: &'a ForcedSolver<'s>,
     finer: Vec<ForcedSolver<'s>>,
     tolerance: f64,
+    /// Whether the trace follows the N a point needed (else every point stays at the base and
+    /// is checked once, at 2N).
+    follow: bool,
 }
 
 impl<'a, 's> HarmonicLadder<'a, 's> {
@@ -67,7 +50,15 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
             base,
             finer,
             tolerance,
+            follow: true,
         })
+    }
+
+    /// The ladder that raises the trace's N (`true`, the default of `new`) or only checks each
+    /// point at 2N and keeps the base N (`false`).
+    pub fn following(mut self, follow: bool) -> Self {
+        self.follow = follow;
+        self
     }
 
     /// Number of levels (1 for the base alone).
@@ -110,12 +101,18 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
             point.harmonic_check = HarmonicCheck::Linear;
             return (point, level);
         }
+        if !self.follow {
+            return (self.checked(point, level, arc), level);
+        }
         let mut last_change = None;
         if level > 0 {
-            if let Some((_, change)) = self.same_orbit(&point, level - 1, arc) {
+            if let Some((mut coarser, change)) = self.same_orbit(&point, level - 1, arc) {
                 if change.iter().all(|&c| c <= self.tolerance) {
-                    point.harmonic_check = HarmonicCheck::Converged { change };
-                    return (point, level - 1);
+                    // The coarser solve is kept: the next steps start from a point that solves
+                    // their own N (a point of the finer N is off their curve by up to the
+                    // tolerance, which a short step's corrector reads as a jump).
+                    coarser.harmonic_check = HarmonicCheck::Converged { change };
+                    return (coarser, level - 1);
                 }
                 last_change = Some(change);
             }
@@ -136,6 +133,24 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
             change: last_change,
         };
         (point, level)
+    }
+
+    /// `point` (in contact, solved at `level`) with the verdict of one solve at the next level,
+    /// the point itself kept.
+    fn checked(&self, mut point: ForcedPoint, level: usize, arc: Option<&ArcRow>) -> ForcedPoint {
+        if level + 1 >= self.levels() {
+            return point;
+        }
+        point.harmonic_check = match self.same_orbit(&point, level + 1, arc) {
+            Some((_, change)) if change.iter().all(|&c| c <= self.tolerance) => {
+                HarmonicCheck::Converged { change }
+            }
+            Some((_, change)) => HarmonicCheck::NotConverged {
+                change: Some(change),
+            },
+            None => HarmonicCheck::NotConverged { change: None },
+        };
+        point
     }
 
     /// The orbit of `point` solved again at `level` on the same row (or at the same W), and the

@@ -13,24 +13,32 @@
 //!
 //! Entry points: [`ForcedSolver`] (one orbit at W, or on an arc-length row),
 //! [`response_curve`] (the curve over a frequency range, or over the load at a fixed
-//! frequency, through its folds), [`synthesize`]
+//! frequency, through its folds), [`speed_sweep`] (the response along the rotation speed at
+//! an engine order, the structure following the speed), [`synthesize`]
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod boundary;
 mod boundary_curve;
 mod corner;
+mod curve;
+mod curve_stability;
 mod damping;
 mod dynamics;
 mod error;
 mod fold;
 mod frf;
 mod grazing;
+mod harmonic_check;
 mod ladder;
 mod load;
 mod newton;
 mod period_check;
 mod point_stability;
 mod solver;
+mod speed_curve;
+mod speed_grazing;
+mod speed_step;
+mod speed_sweep;
 mod synthesis;
 mod trace;
 
@@ -38,18 +46,20 @@ pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
 };
 pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
+pub use curve::{Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
-pub use frf::{
-    response_curve, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep,
-};
-pub use ladder::HarmonicCheck;
+pub use frf::response_curve;
+pub use harmonic_check::HarmonicCheck;
 pub use load::{HarmonicLoad, Load};
 pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+pub use speed_curve::{SpeedPoint, SpeedSweepSettings};
+pub use speed_step::{SpeedFamily, SpeedProblem};
+pub use speed_sweep::{speed_sweep, SpeedFold, SpeedSweep};
 pub use synthesis::{
     check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
     SynthesizedPoint,

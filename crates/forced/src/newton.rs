@@ -17,7 +17,7 @@ use nlmodes_hb::dense::DenseLu;
 use nlmodes_hb::penalty_integral::{penalty_force, ContactPhases};
 use nlmodes_hb::FullBasis;
 
-use crate::dynamics::{product, ContactCompliance, ModalDynamics};
+use crate::dynamics::{ContactCompliance, ModalDynamics};
 use crate::error::ForcedError;
 
 /// An orbit as the Newton solve sees it: contact coordinates y (signal-major, length unit), W
@@ -96,7 +96,7 @@ pub enum ForceIntegration {
     /// law of Algorithm 1, whose multipliers live on the samples.
     Sampled,
     /// The plain penalty law lambda = k (g)_+ integrated exactly between its switch instants
-    /// (`nlmodes_hb::penalty_integral`, DESIGN §10.7): no corners where a sample enters contact.
+    /// (`nlmodes_hb::penalty_integral`, DESIGN §10.9): no corners where a sample enters contact.
     ExactPenalty {
         /// k (force per length), the same on every row.
         stiffness: f64,
@@ -162,8 +162,13 @@ pub fn contact_samples_smoothed(
 ) -> ContactSamples {
     let (c, m, t) = (g0.len(), basis.samples(), basis.terms());
     let mut gaps = vec![0.0; c * m];
+    let mut rates = vec![0.0; c * m];
+    basis.synthesize_signals(&y[..c * t], &mut gaps, Some(&mut rates));
+    // The phase derivatives d g / d(W t) at the samples bracket short contact phases of the
+    // exact law's switch search.
+    let sampled_rates = std::mem::take(&mut rates);
+    let raw_gaps = gaps.clone();
     for j in 0..c {
-        basis.synthesize(&y[j * t..(j + 1) * t], &mut gaps[j * m..(j + 1) * m]);
         gaps[j * m..(j + 1) * m]
             .iter_mut()
             .for_each(|g| *g -= g0[j]);
@@ -183,17 +188,29 @@ pub fn contact_samples_smoothed(
             }
         }
         ForceIntegration::ExactPenalty { stiffness, phases } => {
-            for j in 0..c {
-                let mut block = Mat::zeros(t, t);
-                let (lambda, contact) = penalty_force(
-                    &phases,
-                    &y[j * t..(j + 1) * t],
-                    g0[j],
+            for (j, &gap) in g0.iter().enumerate() {
+                let (rows, samples) = (j * t..(j + 1) * t, j * m..(j + 1) * m);
+                let series = &y[rows.clone()];
+                let contact = if m >= phases.grid() {
+                    phases.above_sampled(
+                        series,
+                        &raw_gaps[samples.clone()],
+                        &sampled_rates[samples],
+                        gap,
+                    )
+                } else {
+                    phases.above(series, gap)
+                };
+                let mut block = (!contact.is_empty()).then(|| Mat::zeros(t, t));
+                let lambda = penalty_force(
+                    &contact,
+                    series,
+                    gap,
                     stiffness,
-                    Some(block.as_mut()),
+                    block.as_mut().map(|b| b.as_mut()),
                 );
-                coefficients[j * t..(j + 1) * t].copy_from_slice(&lambda);
-                blocks.push((!contact.is_empty()).then_some(block));
+                coefficients[rows].copy_from_slice(&lambda);
+                blocks.push(block);
             }
         }
     }
@@ -277,10 +294,9 @@ impl InnerNewton<'_> {
             self.integration,
         );
         let comp = self.compliance(s.omega)?;
-        let lambda = faer::MatRef::from_column_major_slice(&cs.coefficients, s.y.len(), 1);
-        let g_lambda = product(comp.g.as_ref(), lambda);
+        let g_lambda = comp.apply(&cs.coefficients);
         let r = (0..s.y.len())
-            .map(|i| s.y[i] - s.level * comp.y_load[i] + g_lambda[(i, 0)])
+            .map(|i| s.y[i] - s.level * comp.y_load[i] + g_lambda[i])
             .collect();
         Ok((r, cs))
     }
@@ -333,7 +349,7 @@ impl InnerNewton<'_> {
         }
     }
 
-    /// The exactly integrated penalty law's rescue (DESIGN §10.7): its Jacobian is continuous
+    /// The exactly integrated penalty law's rescue (DESIGN §10.9): its Jacobian is continuous
     /// but, where a contact phase appears, changes like k sqrt(penetration), and with a stiff law
     /// on a lightly damped resonance Newton's basin can be narrower than the distance from a
     /// prediction (or from the orbit at another N) to the orbit. At a soft stiffness
@@ -594,8 +610,8 @@ impl InnerNewton<'_> {
         let (t, m) = (self.basis.terms(), self.basis.samples());
         let mut projected = Mat::zeros(t, t);
         let basis = self.basis;
-        let g = &self.compliance(omega)?.g;
-        let mut gj = Mat::zeros(g.nrows(), active.len() * t);
+        let comp = self.compliance(omega)?;
+        let mut gj = Mat::zeros(comp.g.nrows(), active.len() * t);
         for (ai, &j) in active.iter().enumerate() {
             let block = match cs.blocks.get(j) {
                 Some(Some(exact)) => exact.as_ref(),
@@ -604,7 +620,7 @@ impl InnerNewton<'_> {
                     projected.as_ref()
                 }
             };
-            let prod = product(g.subcols(j * t, t), block);
+            let prod = comp.times_row_block(j, block);
             gj.subcols_mut(ai * t, t).copy_from(&prod);
         }
         Ok(gj)

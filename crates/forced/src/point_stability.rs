@@ -7,8 +7,7 @@
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 
 use crate::error::ForcedError;
-use crate::frf::{FrequencyResponse, FrfSettings};
-use crate::ladder::HarmonicLadder;
+use crate::solver::{ForcedPoint, ForcedSolver};
 
 /// What a change of stability between two points is, from the multiplier that crossed the unit
 /// circle (its argument within 0.05 rad of 0 or pi, else a complex pair).
@@ -57,7 +56,7 @@ impl PointStability {
         st
     }
 
-    fn of(mono: &SampledMonodromy, margin: f64) -> Self {
+    pub(crate) fn of(mono: &SampledMonodromy, margin: f64) -> Self {
         let first = mono.multipliers.first().copied().unwrap_or([0.0, 0.0]);
         Self {
             verdict: mono.verdict(margin),
@@ -71,7 +70,7 @@ impl PointStability {
     }
 
     /// Undetermined without a monodromy (see [`FrfSettings::period_tolerance`]).
-    fn unchecked() -> Self {
+    pub(crate) fn unchecked() -> Self {
         Self {
             verdict: Verdict::Undetermined,
             largest_multiplier: None,
@@ -85,7 +84,7 @@ impl PointStability {
 
     /// The bifurcation between `previous` (the last determined point before this one) and this
     /// point, when this one is determined and differs.
-    fn classify(&mut self, previous: &PointStability) {
+    pub(crate) fn classify(&mut self, previous: &PointStability) {
         let determined = |v: Verdict| v != Verdict::Undetermined;
         if !(determined(self.verdict) && determined(previous.verdict))
             || self.verdict == previous.verdict
@@ -108,69 +107,40 @@ impl PointStability {
     }
 }
 
-/// Floquet stability of the points not assessed yet (when asked for): each point's period
-/// check and monodromy in parallel (they depend on the point alone, so the result is the
-/// same in any order), then the changes of stability in order.
-pub(crate) fn assess_stability(
-    ladder: &HarmonicLadder<'_, '_>,
-    settings: &FrfSettings,
-    curve: &mut FrequencyResponse,
-) -> Result<(), ForcedError> {
-    use rayon::prelude::*;
-    if !settings.stability {
-        return Ok(());
-    }
-    let from = curve.stability.len();
-    let assessed: Vec<Result<PointStability, ForcedError>> = curve.points[from..]
-        .par_iter()
-        .map(|point| {
-            let solver = ladder.solver_of(point);
-            let touching = point.touches();
-            if touching {
-                if let Some(b) = solver.boundary_monodromy(point, false)? {
-                    return Ok(PointStability::on_boundary(&b, settings.stability_margin));
-                }
-            }
-            let residual = solver.period_residual(point);
-            let mut st = if residual.is_some_and(|r| r > settings.period_tolerance) {
-                // Not a periodic solution of the equation the monodromy linearizes. Under a
-                // penalty law on a model whose modes are all resolved, the exact periodic
-                // orbit of that equation next to the point answers (its verdict, unless
-                // farther than the shift limit); otherwise no verdict to compute.
-                let exact = if touching && solver.every_mode_resolved(point.omega) {
-                    solver.boundary_monodromy(point, true)?
-                } else {
-                    None
-                };
-                exact.map_or_else(PointStability::unchecked, |b| {
-                    PointStability::on_boundary(&b, settings.stability_margin)
-                })
-            } else {
-                let mono = solver.monodromy(point)?;
-                PointStability::of(&mono, settings.stability_margin)
-            };
-            st.period_residual = residual;
-            Ok(st)
-        })
-        .collect();
-    for st in assessed {
-        let mut st = st?;
-        // A change of stability is between points of one piece.
-        let piece = curve
-            .pieces
-            .iter()
-            .copied()
-            .filter(|&k| k <= curve.stability.len())
-            .max()
-            .unwrap_or(0);
-        let determined = curve.stability[piece..]
-            .iter()
-            .rev()
-            .find(|p| p.verdict != Verdict::Undetermined);
-        if let Some(prev) = determined {
-            st.classify(prev);
+/// The Floquet stability of one converged `point` of `solver` (module docs): the massless
+/// contact boundary's exact monodromy in contact, else the harmonic-balance orbit's backed by
+/// one period of time integration. `margin`: around |mu| = 1, undetermined inside;
+/// `period_tolerance`: the largest period residual given a verdict (`FrfSettings`).
+pub(crate) fn assess_point(
+    solver: &ForcedSolver<'_>,
+    point: &ForcedPoint,
+    margin: f64,
+    period_tolerance: f64,
+) -> Result<PointStability, ForcedError> {
+    let touching = point.touches();
+    if touching {
+        if let Some(b) = solver.boundary_monodromy(point, false)? {
+            return Ok(PointStability::on_boundary(&b, margin));
         }
-        curve.stability.push(st);
     }
-    Ok(())
+    let residual = solver.period_residual(point);
+    let mut st = if residual.is_some_and(|r| r > period_tolerance) {
+        // Not a periodic solution of the equation the monodromy linearizes. Under a
+        // penalty law on a model whose modes are all resolved, the exact periodic
+        // orbit of that equation next to the point answers (its verdict, unless
+        // farther than the shift limit); otherwise no verdict to compute.
+        let exact = if touching && solver.every_mode_resolved(point.omega) {
+            solver.boundary_monodromy(point, true)?
+        } else {
+            None
+        };
+        exact.map_or_else(PointStability::unchecked, |b| {
+            PointStability::on_boundary(&b, margin)
+        })
+    } else {
+        let mono = solver.monodromy(point)?;
+        PointStability::of(&mono, margin)
+    };
+    st.period_residual = residual;
+    Ok(st)
 }

@@ -10,7 +10,7 @@ use nlmodes_hb::{
 
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
-use crate::ladder::HarmonicCheck;
+use crate::harmonic_check::HarmonicCheck;
 use crate::load::Load;
 use crate::newton::{
     contact_samples, ArcRow, ForceIntegration, InnerNewton, InnerTolerance, OrbitState,

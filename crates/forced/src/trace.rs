@@ -18,9 +18,9 @@
 //! contact): there a turn is accepted at the smallest step, and below `CORNER_STEP` the step
 //! gives way to a hop at fixed p or at fixed phase (`corner`).
 
+use crate::curve::{Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
 use crate::error::ForcedError;
 use crate::fold::fold_between;
-use crate::frf::{Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
 use crate::ladder::{resize_signals, start_at, HarmonicLadder};
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};

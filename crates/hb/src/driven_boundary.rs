@@ -138,6 +138,13 @@ impl DrivenBoundary {
     }
 }
 
+/// Event functions, rates and per-mode curvature terms |l_k|^2 |e_k| at one instant of a piece.
+struct RowsAt {
+    events: Vec<f64>,
+    rates: Vec<f64>,
+    curvatures: Vec<f64>,
+}
+
 /// The exact solution on one active set: X_a = V diag(l) V^-1, the event functionals
 /// (c x size) through V, and the fastest frequency.
 struct Piece {
@@ -166,14 +173,36 @@ impl Piece {
             .sum()
     }
 
-    /// Every row's event function at tau (one exponential per eigenvalue, shared by the rows).
-    fn events_at(&self, w0: &[c64], tau: f64) -> Vec<f64> {
+    /// Every row's event function and its rate at tau, and a bound on the modes' contribution
+    /// to its second derivative (one exponential per eigenvalue, shared by the rows).
+    fn rows_at(&self, w0: &[c64], tau: f64) -> RowsAt {
         let e: Vec<c64> = (0..w0.len())
             .map(|k| (self.values[k] * tau).exp() * w0[k])
             .collect();
-        (0..self.events.nrows())
-            .map(|j| (0..e.len()).map(|k| (self.events[(j, k)] * e[k]).re).sum())
-            .collect()
+        let c = self.events.nrows();
+        let mut rows = RowsAt {
+            events: vec![0.0; c],
+            rates: vec![0.0; c],
+            curvatures: vec![0.0; e.len()],
+        };
+        for (k, ek) in e.iter().enumerate() {
+            let l = self.values[k];
+            rows.curvatures[k] = l.norm_sqr() * ek.norm_sqr().sqrt();
+            for j in 0..c {
+                let v = self.events[(j, k)] * ek;
+                rows.events[j] += v.re;
+                rows.rates[j] += (v * l).re;
+            }
+        }
+        rows
+    }
+
+    /// A bound on |f_j''| over [t0, t1] from the mode terms at both ends (|exp(l t)| is monotone
+    /// in t, so each term's largest modulus is at one end).
+    fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64 {
+        (0..a.curvatures.len())
+            .map(|k| self.events[(j, k)].norm_sqr().sqrt() * a.curvatures[k].max(b.curvatures[k]))
+            .sum()
     }
 
     fn state_at(&self, w0: &[c64], tau: f64) -> Vec<f64> {
@@ -327,20 +356,27 @@ fn next_switch(
     }
     let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * piece.fastest);
     let mut t0 = 0.0;
-    let mut rates: Vec<f64> = (0..c).map(|j| piece.event_rate(j, w0, 0.0)).collect();
+    let mut before = piece.rows_at(w0, 0.0);
     while t0 < horizon {
         let t1 = (t0 + step).min(horizon);
-        let events = piece.events_at(w0, t1);
-        let rates_after: Vec<f64> = (0..c).map(|j| piece.event_rate(j, w0, t1)).collect();
+        let after = piece.rows_at(w0, t1);
         let crossing = (0..c)
             .filter_map(|j| {
-                if events[j] > tol {
+                if after.events[j] > tol {
                     return Some((bisect(piece, w0, j, t0, t1), j));
                 }
                 // A short excursion past the boundary between two scan points (a grazing
                 // contact, shorter than the scan step): the event function rises, then falls;
-                // its maximum, where its rate vanishes, is past the threshold.
-                if rates[j] > 0.0 && rates_after[j] < 0.0 {
+                // its maximum, where its rate vanishes, is past the threshold. Within the step
+                // it stays below f(t0) + f'(t0) h + |f''| h^2 / 2: no excursion when that is
+                // below the threshold.
+                let h = t1 - t0;
+                let reach = || {
+                    before.events[j]
+                        + before.rates[j] * h
+                        + 0.5 * piece.curvature_bound(j, &before, &after) * h * h
+                };
+                if before.rates[j] > 0.0 && after.rates[j] < 0.0 && reach() > tol {
                     let top = bisect_rate(piece, w0, j, t0, t1);
                     if piece.event(j, w0, top) > tol {
                         return Some((bisect(piece, w0, j, t0, top), j));
@@ -352,7 +388,7 @@ fn next_switch(
         if crossing.is_some() {
             return crossing;
         }
-        (t0, rates) = (t1, rates_after);
+        (t0, before) = (t1, after);
     }
     None
 }

@@ -23,6 +23,8 @@ pub struct FullBasis {
     synthesis: Mat<f64>,
     /// P[(p, k)]: coefficient p from sample k (1/m for the mean, 2/m cos or sin otherwise).
     analysis: Mat<f64>,
+    /// D[(k, p)]: the phase derivative d phi_p / d(w t) at sample k.
+    slope: Mat<f64>,
 }
 
 impl FullBasis {
@@ -40,14 +42,24 @@ impl FullBasis {
             _ if p % 2 == 1 => phase(k, p.div_ceil(2)).cos(),
             _ => phase(k, p / 2).sin(),
         };
+        let derivative = |k: usize, p: usize| {
+            let n = Self::harmonic_of(p) as f64;
+            match p {
+                0 => 0.0,
+                _ if p % 2 == 1 => -n * value(k, p + 1),
+                _ => n * value(k, p - 1),
+            }
+        };
         let synthesis = Mat::from_fn(m, terms, value);
         let weight = |p: usize| if p == 0 { 1.0 } else { 2.0 } / m as f64;
         let analysis = Mat::from_fn(terms, m, |p, k| weight(p) * value(k, p));
+        let slope = Mat::from_fn(m, terms, derivative);
         Ok(Self {
             harmonics: nh,
             samples: m,
             synthesis,
             analysis,
+            slope,
         })
     }
 
@@ -84,21 +96,54 @@ impl FullBasis {
         p.div_ceil(2)
     }
 
-    /// Samples of one signal from its 2N + 1 coefficients.
+    /// Samples of one signal from its 2N + 1 coefficients (E c, column by column: contiguous).
     pub fn synthesize(&self, coeffs: &[f64], out: &mut [f64]) {
-        let terms = self.terms();
-        for (k, o) in out.iter_mut().enumerate().take(self.samples) {
-            *o = (0..terms).map(|p| self.synthesis[(k, p)] * coeffs[p]).sum();
+        combine_columns(self.synthesis.as_ref(), coeffs, &mut out[..self.samples]);
+    }
+
+    /// Samples of one signal and of its phase derivative d/d(w t) (E c and D c).
+    pub fn synthesize_with_slope(&self, coeffs: &[f64], values: &mut [f64], slopes: &mut [f64]) {
+        combine_columns(self.synthesis.as_ref(), coeffs, &mut values[..self.samples]);
+        combine_columns(self.slope.as_ref(), coeffs, &mut slopes[..self.samples]);
+    }
+
+    /// Samples of several signals at once, E Y (and D Y into `slopes` when given): `coeffs`
+    /// holds 2N + 1 coefficients per signal, `values` and `slopes` m samples per signal, both
+    /// signal after signal (one matrix product instead of a loop over signals).
+    pub fn synthesize_signals(
+        &self,
+        coeffs: &[f64],
+        values: &mut [f64],
+        slopes: Option<&mut [f64]>,
+    ) {
+        let (t, m) = (self.terms(), self.samples);
+        let signals = coeffs.len() / t;
+        let y = faer::MatRef::from_column_major_slice(coeffs, t, signals);
+        let product = |table: &Mat<f64>, out: &mut [f64]| {
+            let out =
+                faer::MatMut::from_column_major_slice_mut(&mut out[..m * signals], m, signals);
+            faer::linalg::matmul::matmul(
+                out,
+                faer::Accum::Replace,
+                table.as_ref(),
+                y,
+                1.0,
+                faer::Par::Seq,
+            );
+        };
+        product(&self.synthesis, values);
+        if let Some(slopes) = slopes {
+            product(&self.slope, slopes);
         }
     }
 
     /// The 2N + 1 coefficients of one signal from its m samples (the AFT's forward half).
     pub fn analyze(&self, samples: &[f64], out: &mut [f64]) {
-        for (p, o) in out.iter_mut().enumerate().take(self.terms()) {
-            *o = (0..self.samples)
-                .map(|k| self.analysis[(p, k)] * samples[k])
-                .sum();
-        }
+        combine_columns(
+            self.analysis.as_ref(),
+            &samples[..self.samples],
+            &mut out[..self.terms()],
+        );
     }
 
     /// The harmonic-balance Jacobian of a sampled law with slopes s_k = d lambda / d g at the
@@ -171,6 +216,23 @@ impl FullBasis {
     }
 }
 
+/// out = A x, as a sum of A's columns (contiguous in faer's column-major storage).
+fn combine_columns(a: faer::MatRef<'_, f64>, x: &[f64], out: &mut [f64]) {
+    out.fill(0.0);
+    for (j, &xj) in x.iter().enumerate() {
+        if xj == 0.0 {
+            continue;
+        }
+        let column = a
+            .col(j)
+            .try_as_col_major()
+            .expect("faer matrices are column-major");
+        for (o, v) in out.iter_mut().zip(column.as_slice()) {
+            *o += v * xj;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -220,6 +282,39 @@ mod tests {
             b.analyze(&s, &mut col);
             for p in 0..7 {
                 assert!((col[p] - j[(p, q)]).abs() < 1e-14);
+            }
+        }
+    }
+
+    #[test]
+    fn sampled_slopes_are_the_series_derivative() {
+        let b = basis(3, 20);
+        let c = [0.1, 1.0, -0.5, 0.25, 0.75, -0.3, 0.2];
+        let (mut v, mut d) = (vec![0.0; 20], vec![0.0; 20]);
+        b.synthesize_with_slope(&c, &mut v, &mut d);
+        for k in 0..20 {
+            let (value, slope) =
+                FullBasis::value_and_slope_at(&c, std::f64::consts::TAU * k as f64 / 20.0);
+            assert!(
+                (v[k] - value).abs() < 1e-13 && (d[k] - slope).abs() < 1e-13,
+                "{k}"
+            );
+        }
+    }
+
+    #[test]
+    fn signals_at_once_equal_signals_one_by_one() {
+        let b = basis(3, 20);
+        let c: Vec<f64> = (0..21).map(|p| (0.3 * p as f64).cos()).collect();
+        let (mut v, mut d) = (vec![0.0; 60], vec![0.0; 60]);
+        b.synthesize_signals(&c, &mut v, Some(&mut d));
+        for j in 0..3 {
+            let (mut vj, mut dj) = (vec![0.0; 20], vec![0.0; 20]);
+            b.synthesize_with_slope(&c[7 * j..7 * (j + 1)], &mut vj, &mut dj);
+            for k in 0..20 {
+                assert!(
+                    (v[20 * j + k] - vj[k]).abs() < 1e-14 && (d[20 * j + k] - dj[k]).abs() < 1e-13
+                );
             }
         }
     }

@@ -1,5 +1,5 @@
 //! The penalty law lambda = k (y - g0)_+ integrated exactly over one period of a series of the
-//! full basis (DESIGN §10.7), instead of sampled on the time grid (Eqs. 18-19).
+//! full basis (DESIGN §10.9), instead of sampled on the time grid (Eqs. 18-19).
 //!
 //! Sampled (AFT), the harmonic-balance residual of a penalty law is continuous but its Jacobian
 //! P diag(slope) E jumps by k / m each time a sample enters or leaves contact. Next to a lightly
@@ -15,8 +15,10 @@
 //! where y > g0 the union of intervals [theta_1, theta_2] (switch instants located on the series
 //! itself to round-off), the coefficients of the force are
 //!
-//!     Lambda_p = w_p int_contact k (y - g0) phi_p dtheta = sum_q J_pq y_q - k g0 w_p int_contact phi_p,
-//!     J_pq     = k w_p int_contact phi_p phi_q dtheta                      (the exact Jacobian),
+//! ```text
+//! Lambda_p = w_p int_contact k (y - g0) phi_p dtheta = sum_q J_pq y_q - k g0 w_p int_contact phi_p,
+//! J_pq     = k w_p int_contact phi_p phi_q dtheta                      (the exact Jacobian),
+//! ```
 //!
 //! with phi_0 = 1, phi_{2n-1} = cos n theta, phi_{2n} = sin n theta, w_0 = 1 / (2 pi) and
 //! w_p = 1 / pi (the analysis of `FullBasis`). Products of basis functions reduce to
@@ -28,14 +30,19 @@ use faer::{Mat, MatMut};
 
 use crate::full_basis::FullBasis;
 
-/// Bisection steps for a switch instant: 2 pi / 2^60 is below round-off of a phase.
+/// Bisection steps for an extremum between two grid points: 2 pi / 2^60 is below round-off of a
+/// phase.
 const BISECTIONS: usize = 60;
+
+/// Iterations of the safeguarded Newton search of a switch instant (each one either a Newton
+/// step inside the bracket or a bisection: 60 bisections reach round-off).
+const SWITCH_ITERATIONS: usize = 80;
 
 /// Locates the phases where a series exceeds a level: the series is bracketed on a uniform grid
 /// of `grid` points per period (at least 4 (2N + 1), so that between two grid points the series
 /// is close to its quadratic Taylor polynomial), a contact phase shorter than the grid spacing
-/// is caught by the sign change of the derivative, and every switch is refined by bisection on
-/// the series.
+/// is caught by the sign change of the derivative, and every switch is refined on the series
+/// by Newton steps kept inside the bracket (bisection where a step would leave it).
 #[derive(Clone, Copy, Debug)]
 pub struct ContactPhases {
     grid: usize,
@@ -49,40 +56,108 @@ impl ContactPhases {
         }
     }
 
+    /// Points per period of the bracketing grid.
+    pub fn grid(&self) -> usize {
+        self.grid
+    }
+
     /// The intervals [theta_1, theta_2] (radians, theta_1 in [0, 2 pi), theta_1 < theta_2 <=
     /// theta_1 + 2 pi) where `series` > `level`, in increasing theta_1; one interval [0, 2 pi]
-    /// when it never drops to the level.
+    /// when it never drops to the level. The grid values are summed here; see
+    /// [`ContactPhases::above_sampled`] when they are at hand.
     pub fn above(&self, series: &[f64], level: f64) -> Vec<(f64, f64)> {
+        let h = std::f64::consts::TAU / self.grid as f64;
+        let (values, slopes): (Vec<f64>, Vec<f64>) = (0..self.grid)
+            .map(|k| FullBasis::value_and_slope_at(series, k as f64 * h))
+            .unzip();
+        self.above_sampled(series, &values, &slopes, level)
+    }
+
+    /// [`ContactPhases::above`] from the series' values and phase derivatives on the uniform
+    /// grid theta_k = 2 pi k / m, k < m (m = `values.len()`, at least the search's grid).
+    pub fn above_sampled(
+        &self,
+        series: &[f64],
+        values: &[f64],
+        slopes: &[f64],
+        level: f64,
+    ) -> Vec<(f64, f64)> {
+        let m = values.len();
+        debug_assert!(m >= self.grid && slopes.len() == m);
         let f = |th: f64| FullBasis::value_at(series, th) - level;
         let df = |th: f64| FullBasis::value_and_slope_at(series, th).1;
-        let both = |th: f64| {
-            let (v, d) = FullBasis::value_and_slope_at(series, th);
-            (v - level, d)
-        };
-        let h = std::f64::consts::TAU / self.grid as f64;
+        let h = std::f64::consts::TAU / m as f64;
+        let at = |k: usize| (values[k % m] - level, slopes[k % m]);
+        // |y''| <= sum n^2 |c_n|: within h of a grid point the series lies within
+        // |f'| h + curvature h^2 / 2 of its value there.
+        let curvature: f64 = (1..=series.len() / 2)
+            .map(|n| {
+                let c =
+                    series[FullBasis::cos_index(n)].abs() + series[FullBasis::sin_index(n)].abs();
+                (n * n) as f64 * c
+            })
+            .sum();
+        let may_cross = |fa: f64, da: f64| fa.abs() <= da.abs() * h + 0.5 * curvature * h * h;
         let mut switches: Vec<(f64, bool)> = Vec::new();
-        let (mut a, (mut fa, mut da)) = (0.0, both(0.0));
-        for k in 1..=self.grid {
-            let b = k as f64 * h;
-            let (fb, db) = both(b);
+        let (mut fa, mut da) = at(0);
+        for k in 1..=m {
+            let (a, b) = ((k - 1) as f64 * h, k as f64 * h);
+            let (fb, db) = at(k);
             if (fa > 0.0) != (fb > 0.0) {
-                switches.push((bisect(&f, a, b), fb > 0.0));
-            } else if da.signum() != db.signum() && da != 0.0 && db != 0.0 {
+                switches.push((switch_between(series, level, (a, fa), (b, fb)), fb > 0.0));
+            } else if da.signum() != db.signum() && da != 0.0 && db != 0.0 && may_cross(fa, da) {
                 // An extremum between the grid points on the same side of the level: a short
                 // excursion across it when the extremum's value has the other sign.
                 let t = bisect(&df, a, b);
-                if (f(t) > 0.0) != (fa > 0.0) {
-                    switches.push((bisect(&f, a, t), fa <= 0.0));
-                    switches.push((bisect(&f, t, b), fa > 0.0));
+                let ft = f(t);
+                if (ft > 0.0) != (fa > 0.0) {
+                    switches.push((switch_between(series, level, (a, fa), (t, ft)), fa <= 0.0));
+                    switches.push((switch_between(series, level, (t, ft), (b, fb)), fa > 0.0));
                 }
             }
-            (a, fa, da) = (b, fb, db);
+            (fa, da) = (fb, db);
         }
-        intervals(&switches, f(0.0) > 0.0)
+        intervals(&switches, values[0] - level > 0.0)
     }
 }
 
-/// A root of `f` in [a, b] where f(a) and f(b) differ in sign (or an extremum of the function
+/// The phase in [a, b] where the series crosses `level`, given y - level at both ends (of
+/// different signs): Newton steps on the series, each kept inside the shrinking bracket (a
+/// bisection where it would leave it), to round-off.
+fn switch_between(
+    series: &[f64],
+    level: f64,
+    (mut a, fa): (f64, f64),
+    (mut b, _): (f64, f64),
+) -> f64 {
+    let positive_at_a = fa > 0.0;
+    let mut t = 0.5 * (a + b);
+    for _ in 0..SWITCH_ITERATIONS {
+        let (v, d) = FullBasis::value_and_slope_at(series, t);
+        let v = v - level;
+        if v == 0.0 {
+            return t;
+        }
+        if (v > 0.0) == positive_at_a {
+            a = t;
+        } else {
+            b = t;
+        }
+        let newton = t - v / d;
+        let next = if d != 0.0 && newton > a && newton < b {
+            newton
+        } else {
+            0.5 * (a + b)
+        };
+        if (next - t).abs() <= 4.0 * f64::EPSILON * t.abs().max(1.0) || b - a <= f64::EPSILON {
+            return next;
+        }
+        t = next;
+    }
+    t
+}
+
+/// A root of `f` in [a, b] where f(a) and f(b) differ in sign (here: an extremum of the function
 /// whose derivative `f` is), to round-off.
 fn bisect(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     let positive_at_a = f(a) > 0.0;
@@ -211,22 +286,28 @@ fn weight(p: usize) -> f64 {
     }
 }
 
-/// One contact row's penalty force integrated exactly (module docs): its coefficients
-/// Lambda (2N + 1, force units) and the phases in contact. When `jacobian` is given ((2N+1)^2),
-/// J = d Lambda / d y is written into it (zero when the row never touches).
+/// One contact row's penalty force integrated exactly (module docs) over the phases `contact`
+/// where the row touches ([`ContactPhases::above`]): its coefficients Lambda (2N + 1, force
+/// units). When `jacobian` is given ((2N+1)^2), J = d Lambda / d y is written into it (zero when
+/// the row never touches).
 pub fn penalty_force(
-    phases: &ContactPhases,
+    contact: &[(f64, f64)],
     series: &[f64],
     gap: f64,
     stiffness: f64,
     jacobian: Option<MatMut<'_, f64>>,
-) -> (Vec<f64>, Vec<(f64, f64)>) {
+) -> Vec<f64> {
     let terms = series.len();
     let harmonics = terms / 2;
-    let contact = phases.above(series, gap);
+    if contact.is_empty() {
+        if let Some(mut out) = jacobian {
+            out.fill(0.0);
+        }
+        return vec![0.0; terms];
+    }
     let mut j = Mat::<f64>::zeros(terms, terms);
     let mut offset = vec![0.0; terms];
-    for &interval in &contact {
+    for &interval in contact {
         let moments = TrigMoments::over(harmonics, interval);
         for p in 0..terms {
             offset[p] += moments.single(p);
@@ -252,7 +333,7 @@ pub fn penalty_force(
     if let Some(mut out) = jacobian {
         out.copy_from(&j);
     }
-    (force, contact)
+    force
 }
 
 #[cfg(test)]
@@ -292,7 +373,7 @@ mod tests {
         let y = series();
         let phases = ContactPhases::new(3, 0);
         for gap in [-2.0, -0.1, 0.3, 0.9, 1.2, 1.35, 5.0] {
-            let (exact, _) = penalty_force(&phases, &y, gap, 7.0, None);
+            let exact = penalty_force(&phases.above(&y, gap), &y, gap, 7.0, None);
             let fine = quadrature(&y, gap, 7.0, 400_000);
             for (a, b) in exact.iter().zip(&fine) {
                 // Midpoint error at the kinks: O(k h^2) = 7 (1.6e-5)^2, far below 1e-8.
@@ -308,14 +389,14 @@ mod tests {
         let t = y.len();
         for gap in [0.3, 0.9, 1.2] {
             let mut j = Mat::zeros(t, t);
-            let (f0, _) = penalty_force(&phases, &y, gap, 3.0, Some(j.as_mut()));
+            let f0 = penalty_force(&phases.above(&y, gap), &y, gap, 3.0, Some(j.as_mut()));
             for q in 0..t {
                 let h = 1e-7;
                 let (mut up, mut down) = (y.clone(), y.clone());
                 up[q] += h;
                 down[q] -= h;
-                let (fu, _) = penalty_force(&phases, &up, gap, 3.0, None);
-                let (fd, _) = penalty_force(&phases, &down, gap, 3.0, None);
+                let fu = penalty_force(&phases.above(&up, gap), &up, gap, 3.0, None);
+                let fd = penalty_force(&phases.above(&down, gap), &down, gap, 3.0, None);
                 for p in 0..t {
                     let fd_pq = (fu[p] - fd[p]) / (2.0 * h);
                     assert!(
@@ -370,7 +451,7 @@ mod tests {
         assert_eq!(phases.above(&y, 0.5), vec![(0.0, std::f64::consts::TAU)]);
         assert!(phases.above(&y, 2.0).is_empty());
         // Always in contact: the force is the linear law k (y - g0), coefficient by coefficient.
-        let (f, _) = penalty_force(&phases, &y, 0.5, 2.0, None);
+        let f = penalty_force(&phases.above(&y, 0.5), &y, 0.5, 2.0, None);
         assert!((f[0] - 1.0).abs() < 1e-14 && (f[1] - 0.2).abs() < 1e-14 && f[2].abs() < 1e-14);
     }
 }

@@ -414,15 +414,15 @@ impl SparseCholesky {
     }
 }
 
-/// FNV-1a over the CSC column pointers and row indices of `a` (its sparsity pattern).
+/// FNV-1a over the CSC column pointers and row indices of `a` (its sparsity pattern), one
+/// 64-bit word per index (byte by byte it took 50 ms at 93k DOFs, and a Newton solve checks
+/// the pattern at every refactorization).
 fn pattern_fingerprint(a: &CsMat<f64>) -> u64 {
     let a = as_csc(a);
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut eat = |v: usize| {
-        for b in (v as u64).to_le_bytes() {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
+        h ^= v as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
     };
     a.proper_indptr().iter().for_each(|&v| eat(v));
     a.indices().iter().for_each(|&v| eat(v));

@@ -1,5 +1,6 @@
 //! nlmodes-modal: sparse SPD factorization, the ARPACK shift-invert
-//! generalized eigensolver, Craig-Bampton reduction and the reduced-model files.
+//! generalized eigensolver, Craig-Bampton reduction, the reduced-model files and the
+//! parametric reduced model in the rotation speed.
 //!
 //! This crate knows nothing of meshes: it works on sparse symmetric matrices
 //! (`sprs::CsMat<f64>`, CSC with both triangles stored) and index lists.
@@ -22,9 +23,11 @@ pub mod memory;
 pub mod model_checks;
 pub mod modes;
 pub mod ordering;
+pub mod parametric;
 mod recovery_codec;
 pub mod reduced_model;
 pub mod sparse_ops;
+pub mod spline;
 mod tall;
 
 pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored};
@@ -39,6 +42,7 @@ pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
 pub use modes::Modes;
 pub use ordering::FillOrdering;
+pub use parametric::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel};
 pub use reduced_model::{
     ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
 };

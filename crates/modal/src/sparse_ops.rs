@@ -305,7 +305,7 @@ pub fn norm_one(a: &CsMat<f64>) -> f64 {
 /// out = A x for a block x and a symmetric sparse A, in one pass over A: x is copied to a
 /// row-major buffer so that each stored entry a_ij updates all b columns at once (A's storage,
 /// CSR or CSC, is read as rows, which is the same matrix because A is symmetric).
-pub(crate) fn spmm_symmetric(a: &CsMat<f64>, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
+pub fn spmm_symmetric(a: &CsMat<f64>, x: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
     let (n, b) = (x.nrows(), x.ncols());
     let mut xr = vec![0.0; n * b];
     for j in 0..b {

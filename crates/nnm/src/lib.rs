@@ -101,9 +101,10 @@ pub use stability::{
     monodromy_by_integration, verdict_word, Bifurcation, BoundaryBackbone, BoundaryBackbonePoint,
     BoundaryHistory, BoundaryPiece, ConvergedOrbit, ConvergenceSettings, ConvergenceStop,
     ExactOrbitAtQ, FloquetAnalysis, FloquetSettings, HoleFollow, HoleFollowEnd, JacobianInTime,
-    Monodromy, MonodromySettings, ShootingCheck, Stability, StabilityMethod, UnstableCounts,
-    VerdictInputs, SALTATION_TRIVIAL_LIMIT, SHOOTING_CHECK_LIMIT, SHOOTING_SHIFT_LIMIT,
-    TRIVIAL_PAIR_LIMIT,
+    Monodromy, MonodromySettings, ShootingCheck, Stability, StabilityMethod, UnresolvedPair,
+    UnstableCounts, VerdictInputs, DECOUPLED_SHARE, SALTATION_TRIVIAL_LIMIT, SHOOTING_CHECK_LIMIT,
+    SHOOTING_SHIFT_LIMIT, TRIVIAL_PAIR_LIMIT, UNRESOLVED_ACCELERATION_LIMIT,
+    UNRESOLVED_SHARE_LIMIT,
 };
 pub use trace::backbone;
 pub use truncation::{truncation_estimate, TruncationEstimate};

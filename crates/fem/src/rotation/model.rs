@@ -2,10 +2,11 @@
 //! rotation terms (3n DOFs, [`crate::assemble`]'s numbering and pattern) and the free-DOF
 //! residual and tangent of the static centrifugal equilibrium.
 
+use rayon::prelude::*;
 use sprs::CsMat;
 
 use crate::dofs::DofMap;
-use crate::element::element_matrices;
+use crate::element::{element_matrices, TabulatedRule};
 use crate::error::FemError;
 use crate::material::Isotropic;
 use crate::mesh::Mesh;
@@ -16,9 +17,10 @@ use crate::rotation::centrifugal::{
 use crate::rotation::element_ref::ElementRef;
 use crate::rotation::error::RotationError;
 use crate::rotation::global::{assemble_global, gather, BlockPattern};
+use crate::rotation::points::nonlinear_rule;
 use crate::rotation::points::PointGeometry;
-use crate::rotation::stress_stiffness::stress_stiffness_element;
-use crate::rotation::total_lagrangian::internal_force_and_tangent_element;
+use crate::rotation::stress_stiffness::stress_stiffness_with_rule;
+use crate::rotation::total_lagrangian::internal_force_and_tangent_with_rule;
 
 /// A stress field for [`RotatingModel::stress_stiffness`]: S (Pa) at a quadrature point of
 /// element `e` (0-based mesh index).
@@ -43,6 +45,10 @@ pub struct RotatingModel<'m> {
     axis: RotorAxis,
     dofs: DofMap,
     pattern: BlockPattern,
+    /// The rule of the total-Lagrangian terms and of the stress stiffness of each element
+    /// ([`nonlinear_rule`]: a curved TET10's is chosen by a convergence test, done once here
+    /// rather than at every assembly).
+    rules: Vec<&'static TabulatedRule>,
 }
 
 impl<'m> RotatingModel<'m> {
@@ -74,12 +80,21 @@ impl<'m> RotatingModel<'m> {
             ))
             .into());
         }
+        let rules = (0..mesh.n_elements())
+            .into_par_iter()
+            .map(|e| {
+                let mut coords = [[0.0; 3]; 10];
+                mesh.element_coords_into(e, &mut coords);
+                nonlinear_rule(mesh.kind, &coords[..mesh.kind.nodes_per_element()])
+            })
+            .collect();
         Ok(RotatingModel {
             mesh,
             material,
             axis,
             dofs,
             pattern: BlockPattern::new(mesh),
+            rules,
         })
     }
 
@@ -161,17 +176,18 @@ impl<'m> RotatingModel<'m> {
         u: &[f64],
     ) -> Result<(Vec<f64>, CsMat<f64>), RotationError> {
         self.check_global(u)?;
-        let (mesh, lame, rho, axis) = (
+        let (mesh, lame, rho, axis, rules) = (
             self.mesh,
             self.material.lame(),
             self.material.density,
             self.axis,
+            &self.rules,
         );
         let (v, m) = assemble_global(mesh, &self.pattern, true, true, &|e, el, f, k| {
             let n = el.ndof();
             let mut u_e = [0.0; 30];
             gather(mesh, e, u, &mut u_e[..n]);
-            internal_force_and_tangent_element(el, &u_e[..n], lame, f, Some(k))?;
+            internal_force_and_tangent_with_rule(el, rules[e], &u_e[..n], lame, f, Some(k))?;
             if omega != 0.0 {
                 let mut spin = [0.0; 900];
                 spin_softening_element(el, rho, &axis, &mut spin)?;
@@ -189,7 +205,10 @@ impl<'m> RotatingModel<'m> {
 
     /// Global stress stiffness K_sigma (N/m, 3n x 3n) of the stress field `stress`.
     pub fn stress_stiffness(&self, stress: &StressField<'_>) -> Result<CsMat<f64>, RotationError> {
-        Ok(self.matrix(&|e, el, _, k| stress_stiffness_element(el, |pt| stress(e, pt), k))?)
+        let rules = &self.rules;
+        Ok(self.matrix(&|e, el, _, k| {
+            stress_stiffness_with_rule(el, rules[e], |pt| stress(e, pt), k)
+        })?)
     }
 
     /// Free-DOF residual r = f_int(u) - f_c(u), load f_c(u) and tangent K_T(u) - Omega^2 M_spin
@@ -211,6 +230,11 @@ impl<'m> RotatingModel<'m> {
             load,
             tangent: self.dofs.try_restrict(&k)?,
         })
+    }
+
+    /// The rule of the total-Lagrangian terms and the stress stiffness of element `e`.
+    pub(crate) fn nonlinear_rule_of(&self, e: usize) -> &'static TabulatedRule {
+        self.rules[e]
     }
 
     /// Element reference to element `e`'s coordinates in `buf`.

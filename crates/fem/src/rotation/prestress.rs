@@ -2,6 +2,8 @@
 //! linearized one), von Mises per element and per node, the largest von Mises stress over a
 //! node group, and the radial displacement of nodes.
 
+use rayon::prelude::*;
+
 use crate::error::FemError;
 use crate::geometry::{check_det_j, det3, inverse3, longest_vertex_edge, AffineJacobian};
 use crate::rotation::axis::{dot, Mat3};
@@ -90,9 +92,15 @@ impl RotatingModel<'_> {
         let mut sum = vec![[[0.0; 3]; 3]; mesh.n_nodes()];
         let mut count = vec![0usize; mesh.n_nodes()];
         let reference = shape::reference_nodes(mesh.kind);
+        let npe = mesh.kind.nodes_per_element();
+        // The elements' stresses at their nodes in parallel, summed per node in element order.
+        let at_nodes: Vec<Mat3> = (0..mesh.n_elements() * npe)
+            .into_par_iter()
+            .map(|i| self.stress_at(solution, i / npe, reference[i % npe]))
+            .collect::<Result<_, _>>()?;
         for e in 0..mesh.n_elements() {
             for (la, &a) in mesh.element(e).iter().enumerate() {
-                let s = self.stress_at(solution, e, reference[la])?;
+                let s = at_nodes[e * npe + la];
                 for i in 0..3 {
                     for j in 0..3 {
                         sum[a][i][j] += s[i][j];

@@ -34,7 +34,7 @@ use crate::FemError;
 use crate::rotation::error::{NewtonIteration, RotationError, StopReason};
 use crate::rotation::linear_solver::LinearSolver;
 use crate::rotation::model::RotatingModel;
-use crate::rotation::stress_stiffness::{linear_stress_at, stress_stiffness_element};
+use crate::rotation::stress_stiffness::{linear_stress_at, stress_stiffness_with_rule};
 
 /// Kinematics of a static solution (and of the stress and stiffness derived from it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,6 +139,9 @@ pub struct StaticSolution {
     pub steps: Vec<LoadStep>,
 }
 
+/// A Newton solve's history and converged tangent, or why it stopped with the history so far.
+type NewtonOutcome = Result<(Vec<NewtonIteration>, CsMat<f64>), (StopReason, Vec<NewtonIteration>)>;
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -168,6 +171,20 @@ impl RotatingModel<'_> {
         options: &NewtonOptions,
         solver: &mut dyn LinearSolver,
     ) -> Result<StaticSolution, RotationError> {
+        self.solve_nonlinear_with_stiffness(start, omega, options, solver)
+            .map(|(solution, _)| solution)
+    }
+
+    /// [`RotatingModel::solve_nonlinear_from`], and the stiffness at speed of the solution
+    /// (N/m, free DOFs): the tangent of the last Newton iteration, evaluated at the converged
+    /// state, so bit for bit what [`RotatingModel::stiffness_at_speed`] assembles again.
+    pub fn solve_nonlinear_with_stiffness(
+        &self,
+        start: Option<&StaticSolution>,
+        omega: f64,
+        options: &NewtonOptions,
+        solver: &mut dyn LinearSolver,
+    ) -> Result<(StaticSolution, CsMat<f64>), RotationError> {
         options.validate()?;
         check_speed(omega)?;
         let target = omega * omega;
@@ -202,6 +219,7 @@ impl RotatingModel<'_> {
         let smallest = nominal * 0.5_f64.powi(options.max_cutbacks as i32);
         let (mut level, mut increment, mut cutbacks) = (level0, nominal, 0);
         let mut steps = Vec::with_capacity(options.load_steps);
+        let mut stiffness = None;
         while steps.is_empty() || level < target {
             // The last step lands exactly on the target (no sliver step from round-off).
             let next = if level + increment >= target * (1.0 - 1e-12) {
@@ -212,13 +230,14 @@ impl RotatingModel<'_> {
             let omega_k = next.sqrt();
             let mut trial = u.clone();
             match self.newton_step(omega_k, &mut trial, options, solver) {
-                Ok(iterations) => {
+                Ok((iterations, tangent)) => {
                     steps.push(LoadStep {
                         step: steps.len() + 1,
                         omega: omega_k,
                         cutbacks,
                         iterations,
                     });
+                    stiffness = Some(tangent);
                     (u, level, cutbacks) = (trial, next, 0);
                     increment = (2.0 * increment).min(nominal);
                 }
@@ -240,25 +259,27 @@ impl RotatingModel<'_> {
                 }
             }
         }
-        Ok(StaticSolution {
+        let solution = StaticSolution {
             omega,
             kinematics: Kinematics::GreenLagrange,
             spin_softening_in_operator: true,
             displacement: self.dofs().try_expand(&u)?,
             displacement_free: u,
             steps,
-        })
+        };
+        let stiffness = stiffness.expect("the loop ends after a converged step");
+        Ok((solution, stiffness))
     }
 
-    /// Newton iterations at speed `omega` from `u` (updated in place); the history, or why it
-    /// stopped with the history so far.
+    /// Newton iterations at speed `omega` from `u` (updated in place); the history and the
+    /// tangent at the converged `u`, or why it stopped with the history so far.
     fn newton_step(
         &self,
         omega: f64,
         u: &mut [f64],
         options: &NewtonOptions,
         solver: &mut dyn LinearSolver,
-    ) -> Result<Vec<NewtonIteration>, (StopReason, Vec<NewtonIteration>)> {
+    ) -> NewtonOutcome {
         let mut history: Vec<NewtonIteration> = Vec::new();
         let mut correction = None;
         let mut initial = 0.0;
@@ -279,7 +300,7 @@ impl RotatingModel<'_> {
             }
             let tolerance = options.relative_tolerance * load_norm;
             if residual <= tolerance {
-                return Ok(history);
+                return Ok((history, rt.tangent));
             }
             if iteration == 0 {
                 initial = residual;
@@ -407,7 +428,8 @@ impl RotatingModel<'_> {
                 let k_sigma = self.matrix(&|e, el, _, k| {
                     let mut u_e = [0.0; 30];
                     crate::rotation::global::gather(mesh, e, u, &mut u_e[..el.ndof()]);
-                    stress_stiffness_element(el, |pt| linear_stress_at(pt, el.npe(), &u_e, lame), k)
+                    let stress = |pt: &_| linear_stress_at(pt, el.npe(), &u_e, lame);
+                    stress_stiffness_with_rule(el, self.nonlinear_rule_of(e), stress, k)
                 })?;
                 let k_sigma = self.dofs().try_restrict(&k_sigma)?;
                 Ok(&self.linear_operator(omega)? + &k_sigma)

@@ -4,6 +4,7 @@
 //! linear prestress the small-strain stress). It is the geometric part of the
 //! total-Lagrangian tangent ([`crate::rotation::total_lagrangian`]).
 
+use crate::element::TabulatedRule;
 use crate::error::FemError;
 use crate::material::Lame;
 use crate::rotation::axis::{dot, mat_vec, Mat3};
@@ -31,13 +32,24 @@ pub(crate) fn add_geometric_blocks(pt: &PointGeometry, npe: usize, s: &Mat3, k: 
 /// [`crate::rotation::points::nonlinear_rule`].
 pub fn stress_stiffness_element(
     element: &ElementRef<'_>,
+    stress: impl FnMut(&PointGeometry) -> Mat3,
+    out: &mut [f64],
+) -> Result<(), FemError> {
+    let tab = nonlinear_rule(element.kind, element.coords);
+    stress_stiffness_with_rule(element, tab, stress, out)
+}
+
+/// [`stress_stiffness_element`] with the element's rule `tab` given (its [`nonlinear_rule`],
+/// chosen once per mesh by the global assembly).
+pub(crate) fn stress_stiffness_with_rule(
+    element: &ElementRef<'_>,
+    tab: &TabulatedRule,
     mut stress: impl FnMut(&PointGeometry) -> Mat3,
     out: &mut [f64],
 ) -> Result<(), FemError> {
     element.check_matrix(out, "element stress stiffness")?;
     let (npe, n) = (element.npe(), element.ndof());
     out[..n * n].fill(0.0);
-    let tab = nonlinear_rule(element.kind, element.coords);
     for_each_point(element.coords, tab, element.tag, |pt| {
         let s = stress(pt);
         add_geometric_blocks(pt, npe, &s, out);

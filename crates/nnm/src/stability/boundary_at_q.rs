@@ -42,6 +42,13 @@ const NEWTON_TOLERANCE: f64 = 1e-10;
 const NEWTON_ITERATIONS: usize = 30;
 /// Step halvings of the line search at most.
 const LINE_SEARCH_HALVINGS: usize = 10;
+/// Residual evaluations (each an integration over half the period) at most when a finer level
+/// starts from the coarser level's orbit: where it converges it takes 2-9 (default blade, 95
+/// refinements to N = 40); a
+/// level that does not converge within this is reported `solve_failed` instead of running the
+/// 30 iterations x 11 trial steps of the first level (up to 20 s for one point of the default
+/// blade at 4N; docs/BENCHMARKS.md).
+const REFINEMENT_EVALUATIONS: usize = 40;
 /// Relative step of the finite difference of the master's displacement in q (exact on a contact
 /// set, where it is linear, to rounding).
 const MASTER_DIFFERENCE: f64 = 1e-7;
@@ -229,6 +236,10 @@ impl FloquetAnalysis<'_> {
             q_target: point.q,
             q_scale: norm(&q0),
             t_ref: point.period(),
+            evaluations: match start {
+                Some(Start::Level(_)) => REFINEMENT_EVALUATIONS,
+                _ => usize::MAX,
+            },
         };
         // One flow for the Newton iterations and the shares: its contact sets' pieces are cached.
         let mut flow = BoundaryFlow::new(&model);
@@ -267,6 +278,8 @@ struct AtQ<'m> {
     q_scale: f64,
     /// T_ref (s).
     t_ref: f64,
+    /// Residual evaluations Newton may spend.
+    evaluations: usize,
 }
 
 /// The residual and Jacobian of the square system at one z.
@@ -295,6 +308,7 @@ impl AtQ<'_> {
         z.push(period / self.t_ref);
         let mut at = self.residual(flow, &z)?;
         let mut res = norm(&at.value);
+        let mut spent = 1;
         for _ in 0..NEWTON_ITERATIONS {
             if res < NEWTON_TOLERANCE {
                 let (q, t) = self.state(&z);
@@ -309,7 +323,11 @@ impl AtQ<'_> {
             let mut factor = 1.0;
             for _ in 0..=LINE_SEARCH_HALVINGS {
                 let trial_z: Vec<f64> = (0..=r).map(|i| z[i] + factor * step[(i, 0)]).collect();
+                if spent >= self.evaluations {
+                    return Ok(None);
+                }
                 if trial_z[r] > 0.0 {
+                    spent += 1;
                     let trial = self.residual(flow, &trial_z)?;
                     let trial_res = norm(&trial.value);
                     if trial_res < res {
@@ -472,6 +490,7 @@ mod tests {
             q_target: target,
             q_scale: norm(&q0),
             t_ref: t,
+            evaluations: usize::MAX,
         };
         let mut flow = BoundaryFlow::new(model);
         equations

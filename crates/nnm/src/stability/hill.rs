@@ -9,29 +9,28 @@ use super::boundary_shooting::{
     boundary_model, check_by_rk4, exponents_of, modal_coordinates, shoot, ModalData, ShotOrbit,
 };
 use super::impact::impact_equivalent_pieces;
+use super::modal_basis::{DecoupledModes, ModalBasis};
 use super::monodromy::constant_pieces;
-use super::saltation::{reduced_multipliers, unresolved_impacts, ModalFlow};
 use super::{
     sort_multipliers, FloquetSettings, JacobianInTime, Stability, StabilityMethod, UnstableCounts,
 };
 use crate::point::BackbonePoint;
 use crate::NnmError;
-use nlmodes_hb::dense::generalized_eigen;
 use nlmodes_hb::driven_boundary::residual_sum;
 use nlmodes_hb::system::System;
 
 /// Precomputed modal data of a system for Hill's method; reuse it for every point of a backbone.
+/// The modes decoupled from every contact row are left out (`modal_basis`); `every_mode` keeps
+/// them all, for an orbit that carries one.
 pub struct FloquetAnalysis<'s> {
     system: &'s System,
     settings: FloquetSettings,
-    /// Linear circular frequencies w_k (rad/s), ascending.
-    omega: Vec<f64>,
-    /// A Phi (c x n), Phi mass-normalized.
-    contact_modal: Mat<f64>,
-    /// Phi^T M (n x n): modal coordinates of a displacement (event-based monodromy).
-    modal_projection: Mat<f64>,
-    /// The master's row of Phi (n): its displacement per unit modal coordinate.
-    master_modal: Vec<f64>,
+    /// The modes coupled to the contact rows: w_k ascending, A Phi, Phi^T M, the master's row.
+    modes: ModalBasis,
+    /// The modes left out (their pairs exp(+-i w_k T) on the unit circle).
+    decoupled: DecoupledModes,
+    /// The analysis on every mode, when some are left out.
+    every_mode: Option<Box<FloquetAnalysis<'s>>>,
 }
 
 /// Cosine and sine moments of the projected contact stiffness, p = 0..=2N (r x r each):
@@ -90,34 +89,48 @@ impl<'s> FloquetAnalysis<'s> {
     /// Validates the settings and diagonalizes (K, M) once.
     pub fn new(system: &'s System, settings: FloquetSettings) -> Result<Self, NnmError> {
         settings.validate()?;
-        let eig = generalized_eigen(system.stiffness(), system.mass(), "M")?;
-        let contact_modal = system.contact_rows() * &eig.vectors;
-        let modal_projection = eig.vectors.transpose() * system.mass();
-        let master_modal = (0..eig.vectors.ncols())
-            .map(|k| eig.vectors[(system.master(), k)])
-            .collect();
+        let all = ModalBasis::of_system(system)?;
+        let (modes, decoupled) = all.clone().split_decoupled();
+        let every_mode = (!decoupled.omega.is_empty()).then(|| {
+            Box::new(Self {
+                system,
+                settings: settings.clone(),
+                modes: all,
+                decoupled: DecoupledModes::none(),
+                every_mode: None,
+            })
+        });
         Ok(Self {
             system,
             settings,
-            omega: eig.values.iter().map(|v| v.max(0.0).sqrt()).collect(),
-            contact_modal,
-            modal_projection,
-            master_modal,
+            modes,
+            decoupled,
+            every_mode,
         })
+    }
+
+    /// Linear modes left out of the analysis as decoupled from every contact row.
+    pub fn decoupled_modes(&self) -> usize {
+        self.decoupled.omega.len()
     }
 
     /// The linear modes' data the massless-boundary models are built from.
     pub(super) fn modal_data(&self) -> ModalData<'_> {
         ModalData {
-            omega: &self.omega,
-            contact_modal: self.contact_modal.as_ref(),
-            projection: self.modal_projection.as_ref(),
+            omega: &self.modes.omega,
+            contact_modal: self.modes.contact_modal.as_ref(),
+            projection: self.modes.projection.as_ref(),
         }
     }
 
     /// The master's row of Phi (n).
     pub(super) fn master_modal(&self) -> &[f64] {
-        &self.master_modal
+        &self.modes.master
+    }
+
+    /// The coupled modes' basis (the event-based monodromy's).
+    pub(super) fn modes(&self) -> &ModalBasis {
+        &self.modes
     }
 
     /// The system analyzed.
@@ -133,8 +146,8 @@ impl<'s> FloquetAnalysis<'s> {
     /// Number of modes kept at circular frequency `omega` with `harmonics` harmonics.
     pub fn modes_kept(&self, omega: f64, harmonics: usize) -> usize {
         let limit = self.settings.mode_cutoff * (harmonics as f64 + 1.0) * omega;
-        let r = self.omega.iter().filter(|&&w| w <= limit).count();
-        r.max(self.settings.min_modes).min(self.omega.len())
+        let r = self.modes.omega.iter().filter(|&&w| w <= limit).count();
+        r.max(self.settings.min_modes).min(self.modes.omega.len())
     }
 
     /// Floquet multipliers of `point`: by the event-based monodromy when the orbit is an
@@ -153,6 +166,24 @@ impl<'s> FloquetAnalysis<'s> {
         verify: bool,
     ) -> Result<Stability, NnmError> {
         let (harmonics, samples) = self.check_point(point)?;
+        if let Some(every_mode) = &self.every_mode {
+            if self.decoupled.carried_by(point) {
+                return every_mode.analyze_checked(point, verify);
+            }
+        }
+        let mut out = self.analyze_coupled(point, harmonics, samples, verify)?;
+        out.decoupled_modes = self.decoupled_modes();
+        Ok(out)
+    }
+
+    /// The analysis on the coupled modes: event-based, shooting or Hill (docs/STABILITY.md).
+    fn analyze_coupled(
+        &self,
+        point: &BackbonePoint,
+        harmonics: usize,
+        samples: usize,
+        verify: bool,
+    ) -> Result<Stability, NnmError> {
         if let Some(out) = self.analyze_by_saltation(point, harmonics)? {
             return Ok(out);
         }
@@ -162,65 +193,15 @@ impl<'s> FloquetAnalysis<'s> {
         self.analyze_by_hill(point, harmonics, samples)
     }
 
-    /// The event-based monodromy (`saltation` module) when it applies, `None` otherwise.
-    fn analyze_by_saltation(
-        &self,
-        point: &BackbonePoint,
-        harmonics: usize,
-    ) -> Result<Option<Stability>, NnmError> {
-        // The event-based monodromy uses every mode: only where the orbit's N harmonics resolve
-        // them all (the modes Hill would keep, without the `min_modes` floor). Otherwise the
-        // impacts excite modes the orbit represents only quasi-statically, and the orbit's data
-        // are far from a periodic orbit of the rigid-impact model (coarse blade: trivial pair
-        // error 36 and 73, max |mu| 50 and 93 with all 92 modes; docs/STABILITY.md, Sec. 3.1).
-        let limit = self.settings.mode_cutoff * (harmonics as f64 + 1.0) * point.omega;
-        if !self.settings.saltation
-            || self.settings.impact_width <= 0.0
-            || self.omega.iter().any(|&w| w > limit)
-        {
-            return Ok(None);
-        }
-        let width = self.settings.impact_width * point.period() / harmonics as f64;
-        let Some(impacts) = unresolved_impacts(point, width) else {
-            return Ok(None);
-        };
-        let flow = ModalFlow {
-            omega: &self.omega,
-            contact_modal: self.contact_modal.as_ref(),
-            projection: self.modal_projection.as_ref(),
-        };
-        let Some(monodromy) = flow.monodromy(point, &impacts) else {
-            return Ok(None);
-        };
-        let n = self.omega.len();
-        if (0..2 * n).any(|i| (0..2 * n).any(|j| !monodromy[(i, j)].is_finite())) {
-            return Err(NnmError::NonFiniteResult {
-                what: "event-based monodromy",
-            });
-        }
-        let flow_direction = flow.flow_direction(point, &impacts[0]);
-        let (nontrivial, trivial) = reduced_multipliers(&monodromy, &flow_direction)?;
-        let period = point.period();
-        let exponent = |mu: &c64| c64::new(mu.norm().ln() / period, mu.arg() / period);
-        let exponents: Vec<c64> = trivial.iter().chain(&nontrivial).map(exponent).collect();
-        let mut out =
-            stability_with_trivial(&exponents, Some([0, 1]), period, self.settings.tolerance);
-        out.method = StabilityMethod::Saltation;
-        // No eigenvector selection: both margins 0 (outputs must be finite).
-        out.selection_mean_harmonic_max = 0.0;
-        out.rejection_mean_harmonic_min = 0.0;
-        out.modes_kept = n;
-        out.harmonics = harmonics;
-        out.impacts = impacts.len();
-        Ok(Some(out))
-    }
-
     /// Modes kept dynamic on the massless boundary at circular frequency `omega` with
-    /// `harmonics` harmonics: w_k <= `shooting_cutoff` (N + 1) w, at least `min_modes`.
+    /// `harmonics` harmonics: w_k <= `shooting_cutoff` (N + 1) w, at least one. (Not Hill's
+    /// `min_modes` floor: a second mode far above the cutoff made dynamic would be the contact
+    /// node's own stiff mode on the light-contact model, leaving no boundary at all; before the
+    /// decoupled modes were left out, two decoupled pads filled that floor.)
     pub(super) fn shooting_modes(&self, omega: f64, harmonics: usize) -> usize {
         let limit = self.settings.shooting_cutoff * (harmonics as f64 + 1.0) * omega;
-        let r = self.omega.iter().filter(|&&w| w <= limit).count();
-        r.max(self.settings.min_modes).min(self.omega.len())
+        let r = self.modes.omega.iter().filter(|&&w| w <= limit).count();
+        r.max(1).min(self.modes.omega.len())
     }
 
     /// The massless-boundary model of `point` (the modes up to `shooting_cutoff` (N + 1) w
@@ -234,7 +215,7 @@ impl<'s> FloquetAnalysis<'s> {
     ) -> Result<Option<(BoundaryModel, ShotOrbit)>, NnmError> {
         let r = self.shooting_modes(point.omega, harmonics);
         let in_contact = point.contact_force.iter().flatten().any(|&f| f > 0.0);
-        if !self.settings.shooting || !in_contact || r == self.omega.len() {
+        if !self.settings.shooting || !in_contact || r == self.modes.omega.len() {
             return Ok(None);
         }
         let modal = self.modal_data();
@@ -294,7 +275,7 @@ impl<'s> FloquetAnalysis<'s> {
     ) -> Result<Stability, NnmError> {
         let r = self.modes_kept(point.omega, harmonics);
         let moments = self.contact_moments(point, r, harmonics, samples)?;
-        let lin = hill_linearization(&self.omega[..r], harmonics, point.omega, &moments);
+        let lin = hill_linearization(&self.modes.omega[..r], harmonics, point.omega, &moments);
         let eig = lin.eigen().map_err(|e| NnmError::Decomposition {
             what: "Hill eigen-decomposition",
             detail: format!("{e:?}"),
@@ -346,8 +327,8 @@ impl<'s> FloquetAnalysis<'s> {
             let c = self.system.n_contacts();
             return Mat::zeros(c, c);
         }
-        let omega2: Vec<f64> = self.omega.iter().map(|w| w * w).collect();
-        residual_sum(self.contact_modal.as_ref(), &omega2, r)
+        let omega2: Vec<f64> = self.modes.omega.iter().map(|w| w * w).collect();
+        residual_sum(self.modes.contact_modal.as_ref(), &omega2, r)
     }
 
     /// Moments of P = B_S^T D_eff B_S (B = A Phi_r, S the active set) over the period: the sample
@@ -365,7 +346,7 @@ impl<'s> FloquetAnalysis<'s> {
             sin: (0..np).map(|_| Mat::zeros(r, r)).collect(),
         };
         let residual = self.residual_flexibility(r);
-        let b = self.contact_modal.subcols(0, r);
+        let b = self.modes.contact_modal.subcols(0, r);
         let projected = |kappa: &[f64]| -> Result<Option<Mat<f64>>, NnmError> {
             let active: Vec<usize> = (0..kappa.len()).filter(|&j| kappa[j] > 0.0).collect();
             if active.is_empty() {
@@ -405,9 +386,9 @@ impl<'s> FloquetAnalysis<'s> {
                 let period = point.period();
                 let mut pieces = constant_pieces(self.system, point, JacobianInTime::Continuous);
                 if self.settings.impact_width > 0.0 {
-                    let contact_mass: Vec<f64> = (0..self.contact_modal.nrows())
+                    let contact_mass: Vec<f64> = (0..self.modes.contact_modal.nrows())
                         .map(|j| {
-                            let row = self.contact_modal.row(j);
+                            let row = self.modes.contact_modal.row(j);
                             1.0 / (0..row.ncols()).map(|k| row[k] * row[k]).sum::<f64>()
                         })
                         .collect();
@@ -781,6 +762,9 @@ pub(crate) fn stability_with_trivial(
         orbit_omega: 0.0,
         contact_shares: Vec::new(),
         check: None,
+        decoupled_modes: 0,
+        unresolved: Vec::new(),
+        unresolved_acceleration: 0.0,
     }
 }
 

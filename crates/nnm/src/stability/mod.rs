@@ -86,8 +86,10 @@ mod boundary_flow;
 mod boundary_history;
 mod boundary_holes;
 mod boundary_shooting;
+mod event_based;
 mod hill;
 mod impact;
+mod modal_basis;
 mod monodromy;
 mod saltation;
 #[cfg(test)]
@@ -100,6 +102,7 @@ pub use boundary_backbone::{boundary_backbone, BoundaryBackbone};
 pub use boundary_history::{boundary_history, BoundaryHistory};
 pub use boundary_holes::{HoleFollow, HoleFollowEnd};
 pub use hill::FloquetAnalysis;
+pub use modal_basis::DECOUPLED_SHARE;
 pub use monodromy::{monodromy_by_integration, JacobianInTime, Monodromy, MonodromySettings};
 
 use rayon::prelude::*;
@@ -163,7 +166,8 @@ pub struct FloquetSettings {
     /// method.
     pub shooting: bool,
     /// Modes kept dynamic on the massless boundary: w_k <= shooting_cutoff (N + 1) w (default 1:
-    /// the modes whose resonant harmonics the orbit holds), at least `min_modes`.
+    /// the modes whose resonant harmonics the orbit holds), at least one (issue 38: not
+    /// `min_modes`, which is Hill's).
     pub shooting_cutoff: f64,
     /// Check every k-th point's shooting verdict by an independent RK4 integration of the
     /// massless boundary ([`ShootingCheck`]); a verdict the check does not confirm becomes
@@ -276,6 +280,36 @@ pub const SALTATION_TRIVIAL_LIMIT: f64 = 0.3;
 /// another member of the family (or of a tongue) and says nothing of this point.
 pub const SHOOTING_SHIFT_LIMIT: f64 = 1e-2;
 
+/// Largest share of a contact row's inverse mass c_j = a_j M^-1 a_j^T that the modes above the
+/// event-based monodromy's cutoff (w_k > `mode_cutoff` (N + 1) w) may carry together for it to
+/// apply (docs/STABILITY.md, Sec. 10). Those modes take their state at the impacts from their
+/// exact response to the orbit's impulses; an impact hands them about 4 x this share of its
+/// normal momentum exchange, which the N-harmonic orbit itself represents only quasi-statically.
+/// Above it (a Craig-Bampton contact node, whose inverse mass sits mostly in modes far above
+/// N w) the orbit's impact data are not those of the rigid-impact model, and the massless
+/// contact boundary (Sec. 9) is the model.
+pub const UNRESOLVED_SHARE_LIMIT: f64 = 1e-2;
+
+/// Largest share of the normal acceleration at an impact that the modes above the orbit's
+/// harmonics may carry for an event-based verdict (docs/STABILITY.md, Sec. 10). Their share goes
+/// like share (w_k / w) |cot(w_k T / 2)|: small off their internal resonances w_k = m w, it
+/// dominates the impact's timing term next to one, where the exact multipliers change by O(1)
+/// within 0.1 % of w (1.02 to 6.9 on the weakly padded 3-DOF system) while the N-harmonic
+/// orbit does not represent that mode's response at all.
+pub const UNRESOLVED_ACCELERATION_LIMIT: f64 = 0.25;
+
+/// A mode the event-based monodromy computes from its impulse response (above the orbit's
+/// harmonics, weakly coupled): where its free pair exp(+-i angle) sits and how strongly the
+/// impacts reach it. Its pair is on the unit circle unless the coupling moves it; the verdict
+/// weighs the orbit's error on it by the coupling ([`verdict_word`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnresolvedPair {
+    /// w_k T reduced to [0, 2 pi) (rad).
+    pub angle: f64,
+    /// Its largest share b_jk^2 / c_j of a contact row's inverse mass.
+    pub share: f64,
+}
+
 /// What a point's verdict is read from: its [`Stability`], or the record of it in a results file.
 #[derive(Clone, Copy, Debug)]
 pub struct VerdictInputs<'a> {
@@ -294,6 +328,10 @@ pub struct VerdictInputs<'a> {
     pub orbit_shift: f64,
     /// The RK4 check disagreed with the shooting monodromy (false where none was made).
     pub check_failed: bool,
+    /// The event-based monodromy's modes above the orbit's harmonics (empty for the others).
+    pub unresolved: &'a [UnresolvedPair],
+    /// Their share of the normal acceleration at an impact (0 for the other methods).
+    pub unresolved_acceleration: f64,
 }
 
 impl<'a> VerdictInputs<'a> {
@@ -308,6 +346,8 @@ impl<'a> VerdictInputs<'a> {
             trivial: s.trivial,
             orbit_shift: s.orbit_shift,
             check_failed: s.check.as_ref().is_some_and(|c| !c.agrees()),
+            unresolved: &s.unresolved,
+            unresolved_acceleration: s.unresolved_acceleration,
         }
     }
 }
@@ -321,7 +361,12 @@ impl<'a> VerdictInputs<'a> {
 ///   of the monodromy it reveals (see [`SALTATION_TRIVIAL_LIMIT`]): undetermined when eps passes
 ///   that limit; unstable when |mu|_max - 1 > 2 eps^2 |mu|_max; stable unless a non-trivial
 ///   multiplier lies within 2 eps of +1 or -1, where a collision (fold, period doubling) is
-///   within the error; else undetermined.
+///   within the error ([`collision_radii`]: 2 eps sqrt(share) for the pair of a weakly coupled
+///   unresolved mode); else undetermined.
+/// * Every method: undetermined when the orbit whose multipliers these are lies more than
+///   [`SHOOTING_SHIFT_LIMIT`] from the point (`orbit_shift`), when the modes above the orbit's
+///   harmonics carry more than [`UNRESOLVED_ACCELERATION_LIMIT`] of an impact's normal
+///   acceleration, or when an RK4 check disagreed.
 pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
     let eps = v.trivial_pair_error;
     let limit = match v.method {
@@ -329,29 +374,67 @@ pub fn verdict_word(v: &VerdictInputs<'_>) -> &'static str {
         StabilityMethod::Saltation => SALTATION_TRIVIAL_LIMIT,
     };
     let shift_ok = !(v.orbit_shift > SHOOTING_SHIFT_LIMIT || v.orbit_shift.is_nan());
-    if eps.is_nan() || eps > limit || !shift_ok || v.check_failed {
+    let unresolved_ok = !(v.unresolved_acceleration > UNRESOLVED_ACCELERATION_LIMIT
+        || v.unresolved_acceleration.is_nan());
+    if eps.is_nan() || eps > limit || !shift_ok || !unresolved_ok || v.check_failed {
         return "undetermined";
     }
     let margin = v.max_multiplier_abs - 1.0;
     let (decided, near_collision) = match v.method {
         StabilityMethod::Hill | StabilityMethod::Shooting => (margin > eps, false),
-        StabilityMethod::Saltation => (
-            margin > 2.0 * eps * eps * v.max_multiplier_abs,
-            v.multipliers
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| !v.trivial.contains(i))
-                .any(|(_, m)| {
-                    let d = |x: f64| (m[0] - x).hypot(m[1]);
-                    d(1.0).min(d(-1.0)) < 2.0 * eps
-                }),
-        ),
+        StabilityMethod::Saltation => {
+            let radii = collision_radii(v, eps);
+            (
+                margin > 2.0 * eps * eps * v.max_multiplier_abs,
+                v.multipliers
+                    .iter()
+                    .zip(&radii)
+                    .enumerate()
+                    .filter(|(i, _)| !v.trivial.contains(i))
+                    .any(|(_, (m, radius))| {
+                        let d = |x: f64| (m[0] - x).hypot(m[1]);
+                        d(1.0).min(d(-1.0)) < *radius
+                    }),
+            )
+        }
     };
     match (v.stable, decided, near_collision) {
         (true, _, false) => "stable",
         (false, true, _) => "unstable",
         _ => "undetermined",
     }
+}
+
+/// The distance from +-1 within which a non-trivial multiplier of the event-based monodromy may
+/// be a collision the orbit's error hides: 2 eps (a perturbation delta ~ eps^2 moves a pair
+/// meeting at +-1 by sqrt(delta)). The orbit's error reaches the pair of a mode above its
+/// harmonics only through that mode's coupling: its radius is 2 eps sqrt(share). The pair is
+/// the two non-trivial multipliers nearest exp(+-i angle), taken only within 2 eps +
+/// 4 sqrt(share) of it (the coupling moves a pair off a resonance by O(share); a multiplier
+/// farther away is another mode's, which keeps 2 eps).
+fn collision_radii(v: &VerdictInputs<'_>, eps: f64) -> Vec<f64> {
+    let mut radii = vec![2.0 * eps; v.multipliers.len()];
+    let mut taken: Vec<bool> = (0..v.multipliers.len())
+        .map(|i| v.trivial.contains(&i))
+        .collect();
+    for pair in v.unresolved {
+        let reach = 2.0 * eps + 4.0 * pair.share.sqrt();
+        for sign in [1.0, -1.0] {
+            let target = [pair.angle.cos(), sign * pair.angle.sin()];
+            let nearest = (0..v.multipliers.len())
+                .filter(|&i| !taken[i])
+                .map(|i| {
+                    let m = v.multipliers[i];
+                    (i, (m[0] - target[0]).hypot(m[1] - target[1]))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((i, _)) = nearest.filter(|(_, d)| *d <= reach) {
+                taken[i] = true;
+                radii[i] = 2.0 * eps * pair.share.sqrt();
+            }
+        }
+    }
+    radii
 }
 
 /// The independent check of a shooting verdict: one period of RK4 of the massless-boundary
@@ -399,8 +482,11 @@ pub struct Stability {
     /// Impacts per period treated by saltation matrices (0 for Hill's method); contact switches
     /// per period of the shot orbit for the shooting method.
     pub impacts: usize,
-    /// |w_shot - w| / w: how far the shot periodic orbit of the massless boundary lies from the
-    /// harmonic-balance orbit (shooting method; 0 for the others).
+    /// How far the orbit whose multipliers these are lies from the harmonic-balance orbit:
+    /// |w_shot - w| / w for the shooting method (the massless boundary's shot periodic orbit);
+    /// for the event-based monodromy, the largest relative error of the contact displacement at
+    /// an impact that the orbit's series makes in the modes above its harmonics (0 when it
+    /// resolves every coupled mode); 0 for Hill's method.
     pub orbit_shift: f64,
     /// w of the shot periodic orbit (rad/s; shooting method, 0 for the others): the converged
     /// reference of the harmonic refinement (docs/STABILITY.md Sec. 9.4).
@@ -435,6 +521,17 @@ pub struct Stability {
     pub modes_kept: usize,
     /// Harmonics N of Hill's basis (those of the orbit).
     pub harmonics: usize,
+    /// Linear modes left out as decoupled from every contact row (their pairs exp(+-i w_k T) on
+    /// the unit circle; docs/STABILITY.md, Sec. 10).
+    pub decoupled_modes: usize,
+    /// Event-based monodromy: the modes above the orbit's harmonics, computed from their
+    /// impulse response (empty for the other methods and when every coupled mode is resolved).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub unresolved: Vec<UnresolvedPair>,
+    /// Event-based monodromy: the largest share of the normal acceleration at an impact carried
+    /// by the modes above the orbit's harmonics (0 for the other methods; docs/STABILITY.md,
+    /// Sec. 10).
+    pub unresolved_acceleration: f64,
     /// Largest |mean harmonic| of a selected eigenvector (the centring of the selection criterion,
     /// see the module docs): 0 in the linear regime, 1/2 at a period doubling (0 for the
     /// event-based monodromy, which has no copies to select from).
@@ -446,8 +543,10 @@ pub struct Stability {
 
 /// Floquet stability of every point of `backbone` (docs/DESIGN.md §9), stored in
 /// [`BackbonePoint::stability`], and [`BackbonePoint::bifurcation`] set where the stability
-/// changed since the previous point of the same branch (a branch's first point is compared with
-/// the point of its parent it leaves from). The points are analysed in parallel (each alone:
+/// changed since the previous point of the same branch whose verdict is determined (a branch's
+/// first point is compared with the point of its parent it leaves from); an `undetermined`
+/// point ([`verdict_word`]) neither carries a bifurcation nor serves as the reference, so that
+/// no change is read from a flag its method cannot back. The points are analysed in parallel (each alone:
 /// the same numbers as one by one), then compared in order. `progress(done, total)` is called
 /// after each point. A point whose analysis fails keeps `None` (logged); the others go on.
 /// Returns how many failed.
@@ -482,8 +581,10 @@ pub fn analyze_backbone(
         match result {
             Ok(s) => {
                 let p = &mut backbone.points[i];
-                p.bifurcation = last[branch].as_ref().and_then(|prev| classify(prev, &s));
-                last[branch] = Some(s.clone());
+                if verdict_word(&VerdictInputs::of(&s)) != "undetermined" {
+                    p.bifurcation = last[branch].as_ref().and_then(|prev| classify(prev, &s));
+                    last[branch] = Some(s.clone());
+                }
                 p.stability = Some(s);
             }
             Err(e) => {
@@ -542,6 +643,8 @@ mod verdict_tests {
             trivial: [0, 1],
             orbit_shift: 0.0,
             check_failed: false,
+            unresolved: &[],
+            unresolved_acceleration: 0.0,
         })
     }
 
@@ -589,5 +692,51 @@ mod verdict_tests {
             word(StabilityMethod::Hill, true, 1.0, 0.1, &on_circle(90.0)),
             "undetermined"
         );
+    }
+
+    fn saltation_word(
+        multipliers: &[[f64; 2]],
+        unresolved: &[UnresolvedPair],
+        acceleration: f64,
+    ) -> &'static str {
+        verdict_word(&VerdictInputs {
+            method: StabilityMethod::Saltation,
+            stable: true,
+            max_multiplier_abs: 1.0,
+            trivial_pair_error: 0.1,
+            multipliers,
+            trivial: [0, 1],
+            orbit_shift: 0.0,
+            check_failed: false,
+            unresolved,
+            unresolved_acceleration: acceleration,
+        })
+    }
+
+    #[test]
+    fn a_weakly_coupled_pair_near_one_is_weighed_by_its_coupling() {
+        // A pair 0.1 from +1, eps = 0.1: a collision within the error for a resolved pair.
+        let t: f64 = 0.1;
+        let multipliers = [
+            [1.1, 0.0],
+            [1.0 / 1.1, 0.0],
+            [t.cos(), t.sin()],
+            [t.cos(), -t.sin()],
+        ];
+        assert_eq!(saltation_word(&multipliers, &[], 0.0), "undetermined");
+        // The pair of a mode holding 1e-3 of the row's inverse mass: radius 2 eps sqrt(1e-3).
+        let weak = [UnresolvedPair {
+            angle: 0.11,
+            share: 1e-3,
+        }];
+        assert_eq!(saltation_word(&multipliers, &weak, 0.0), "stable");
+        // Too far from the mode's free pair (0.9 rad): not that mode's, radius 2 eps.
+        let far = [UnresolvedPair {
+            angle: 1.0,
+            share: 1e-3,
+        }];
+        assert_eq!(saltation_word(&multipliers, &far, 0.0), "undetermined");
+        // Next to an internal resonance of that mode: its acceleration share above the limit.
+        assert_eq!(saltation_word(&multipliers, &weak, 0.3), "undetermined");
     }
 }

@@ -131,18 +131,23 @@ pub(crate) struct ModalFlow<'a> {
     pub contact_modal: MatRef<'a, f64>,
     /// Phi^T M (n x n): modal coordinates of a displacement.
     pub projection: MatRef<'a, f64>,
+    /// Modes 0..resolved take their state from the orbit's cosine series; the modes above, which
+    /// its harmonics do not resolve, from their exact periodic response to the orbit's impulses
+    /// ([`ModalFlow::impulse_response`]).
+    pub resolved: usize,
 }
 
 impl ModalFlow<'_> {
     /// Monodromy (2n x 2n, modal state (eta, eta')) over one period starting just before the
     /// first impact: F(t_0 + T - t_{E-1}) S_{E-1} ... F(t_1 - t_0) S_0. `None` if a normal
-    /// velocity is not positive and finite (no impulse).
+    /// velocity is not positive and finite (no impulse) or a state is not finite.
     pub fn monodromy(&self, point: &BackbonePoint, impacts: &[Impact]) -> Option<Mat<f64>> {
         let n = self.omega.len();
         let mut x = Mat::<f64>::identity(2 * n, 2 * n);
         let period = point.period();
         for (e, impact) in impacts.iter().enumerate() {
-            self.apply_saltation(point, impact, &mut x)?;
+            let (eta, _) = self.modal_state(point, impacts, impact.time);
+            self.apply_saltation(impact, &eta, &mut x)?;
             let next = impacts
                 .get(e + 1)
                 .map_or(impacts[0].time + period, |i| i.time);
@@ -152,21 +157,121 @@ impl ModalFlow<'_> {
     }
 
     /// Flow direction f(x0) = (eta', -W^2 eta) of the orbit just before the first impact, in modal
-    /// coordinates: eta(t_0) from the series, eta'(t_0-) = the series' velocity (the mean of the
-    /// velocities before and after the jump) plus b P / 2 (half the velocity jump -b P).
-    pub fn flow_direction(&self, point: &BackbonePoint, impact: &Impact) -> Vec<f64> {
-        let n = self.omega.len();
+    /// coordinates: eta(t_0) and the mean of the velocities before and after the jump from
+    /// [`ModalFlow::modal_state`], plus b P / 2 (half the velocity jump -b P).
+    pub fn flow_direction(&self, point: &BackbonePoint, impacts: &[Impact]) -> Vec<f64> {
+        let first = &impacts[0];
+        let (eta, rate) = self.modal_state(point, impacts, first.time);
+        (0..self.omega.len())
+            .map(|k| rate[k] + 0.5 * first.impulse * self.contact_modal[(first.row, k)])
+            .chain((0..self.omega.len()).map(|k| -self.omega[k] * self.omega[k] * eta[k]))
+            .collect()
+    }
+
+    /// Modal displacement and velocity at `t` (at an impact instant: the mean of the velocities
+    /// before and after it): the resolved modes from the cosine series, the others from
+    /// [`ModalFlow::impulse_response`].
+    fn modal_state(
+        &self,
+        point: &BackbonePoint,
+        impacts: &[Impact],
+        t: f64,
+    ) -> (Vec<f64>, Vec<f64>) {
         let modal = |x: &[f64]| -> Vec<f64> {
-            (0..n)
-                .map(|k| (0..n).map(|i| self.projection[(k, i)] * x[i]).sum())
+            (0..self.resolved)
+                .map(|k| (0..x.len()).map(|i| self.projection[(k, i)] * x[i]).sum())
                 .collect()
         };
-        let eta = modal(&point.displacement_at(impact.time));
-        let rate = modal(&point.velocity_at(impact.time));
-        (0..n)
-            .map(|k| rate[k] + 0.5 * impact.impulse * self.contact_modal[(impact.row, k)])
-            .chain((0..n).map(|k| -self.omega[k] * self.omega[k] * eta[k]))
-            .collect()
+        let mut eta = modal(&point.displacement_at(t));
+        let mut rate = modal(&point.velocity_at(t));
+        for k in self.resolved..self.omega.len() {
+            let (e, r) = self.impulse_response(k, impacts, point.period(), t);
+            eta.push(e);
+            rate.push(r);
+        }
+        (eta, rate)
+    }
+
+    /// The T-periodic response of mode k to the orbit's impulse train, eta_k'' + w_k^2 eta_k =
+    /// -sum_i b_{j_i k} P_i delta_T(t - t_i): eta_k(t) = -sum_i b_{j_i k} P_i G_k((t - t_i) mod T)
+    /// with the periodic Green's function G(s) = cos(w (s - T/2)) / (2 w sin(w T / 2)),
+    /// G'(s) = -sin(w (s - T/2)) / (2 sin(w T / 2)) on (0, T) (a velocity jump of 1 at s = 0,
+    /// where the mean G'(0) = 0 is taken). Exact for a mode the impacts drive and nothing else
+    /// resolves; it diverges at the internal resonances w_k T = 2 pi m. (displacement, velocity).
+    fn impulse_response(&self, k: usize, impacts: &[Impact], period: f64, t: f64) -> (f64, f64) {
+        let w = self.omega[k];
+        let denominator = 2.0 * (0.5 * w * period).sin();
+        let (mut eta, mut rate) = (0.0, 0.0);
+        for impact in impacts {
+            let s = (t - impact.time).rem_euclid(period);
+            let strength = -self.contact_modal[(impact.row, k)] * impact.impulse;
+            let phase = w * (s - 0.5 * period);
+            eta += strength * phase.cos() / (w * denominator);
+            if s != 0.0 {
+                rate -= strength * phase.sin() / denominator;
+            }
+        }
+        (eta, rate)
+    }
+
+    /// Largest relative error of the contact displacement at an impact that the orbit's series
+    /// makes in the modes it does not resolve: |sum_{k unresolved} b_jk (eta_k - eta_k^series)|
+    /// / g0_j at each impact of row j, eta_k the exact impulse response (0 when every mode is
+    /// resolved). The orbit whose monodromy is taken lies this far from the harmonic-balance one.
+    pub fn unresolved_gap_error(
+        &self,
+        point: &BackbonePoint,
+        impacts: &[Impact],
+        gaps: &[f64],
+    ) -> f64 {
+        impacts
+            .iter()
+            .map(|impact| {
+                let u = point.displacement_at(impact.time);
+                let error: f64 = (self.resolved..self.omega.len())
+                    .map(|k| {
+                        let series: f64 =
+                            (0..u.len()).map(|i| self.projection[(k, i)] * u[i]).sum();
+                        let (exact, _) =
+                            self.impulse_response(k, impacts, point.period(), impact.time);
+                        self.contact_modal[(impact.row, k)] * (exact - series)
+                    })
+                    .sum();
+                error.abs() / gaps[impact.row]
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Largest share of the normal acceleration at an impact, a.acc = -sum_k b_jk w_k^2 eta_k,
+    /// that the modes above the orbit's harmonics carry, |a.acc_unresolved| / (|a.acc_resolved| +
+    /// |a.acc_unresolved|) (0 when every mode is resolved). Their response to the impulses goes
+    /// like cot(w_k T / 2) / w_k in displacement but like w_k cot(w_k T / 2) in acceleration: next
+    /// to an internal resonance w_k T = 2 pi m it dominates the impact's timing term of the
+    /// saltation matrix, and its phase w_k T then moves by w_k T times the orbit's own frequency
+    /// error, which the harmonic balance does not resolve.
+    pub fn unresolved_acceleration_share(&self, point: &BackbonePoint, impacts: &[Impact]) -> f64 {
+        if self.resolved == self.omega.len() {
+            return 0.0;
+        }
+        impacts
+            .iter()
+            .map(|impact| {
+                let (eta, _) = self.modal_state(point, impacts, impact.time);
+                let part = |range: std::ops::Range<usize>| -> f64 {
+                    range
+                        .map(|k| {
+                            self.contact_modal[(impact.row, k)] * self.omega[k].powi(2) * eta[k]
+                        })
+                        .sum::<f64>()
+                        .abs()
+                };
+                let (resolved, unresolved) = (
+                    part(0..self.resolved),
+                    part(self.resolved..self.omega.len()),
+                );
+                unresolved / (resolved + unresolved)
+            })
+            .fold(0.0, f64::max)
     }
 
     /// x <- F(dt) x, F the free flow of the modes over dt (exact rotations; w_k = 0 drifts).
@@ -183,23 +288,14 @@ impl ModalFlow<'_> {
         }
     }
 
-    /// x <- S x for the impact (module docs).
-    fn apply_saltation(
-        &self,
-        point: &BackbonePoint,
-        impact: &Impact,
-        x: &mut Mat<f64>,
-    ) -> Option<()> {
+    /// x <- S x for the impact (module docs), `eta` the modal displacement at its instant.
+    fn apply_saltation(&self, impact: &Impact, eta: &[f64], x: &mut Mat<f64>) -> Option<()> {
         let n = self.omega.len();
         let b: Vec<f64> = (0..n)
             .map(|k| self.contact_modal[(impact.row, k)])
             .collect();
         let c: f64 = b.iter().map(|v| v * v).sum();
         let normal_velocity = 0.5 * c * impact.impulse;
-        let u = point.displacement_at(impact.time);
-        let eta: Vec<f64> = (0..n)
-            .map(|k| (0..n).map(|i| self.projection[(k, i)] * u[i]).sum())
-            .collect();
         let normal_acceleration: f64 = -(0..n)
             .map(|k| b[k] * self.omega[k] * self.omega[k] * eta[k])
             .sum::<f64>();
@@ -307,7 +403,9 @@ fn two_by_two_eigenvalues(m: [[f64; 2]; 2]) -> [c64; 2] {
 
 /// From the eigenvalues rho of the skew-Hamiltonian part (each double; paired greedily by
 /// nearness), the multipliers rho +- sqrt(rho^2 - 1) of each pair. A real rho (|Im rho| <= 1e-10
-/// max(1, |rho|): round-off) is taken real, so that |rho| <= 1 gives |mu| = 1 exactly.
+/// max(1, |rho|): round-off) is taken real, so that |rho| <= 1 gives |mu| = 1 exactly. The pair's
+/// product is 1: the smaller is taken as the inverse of the larger, which rho - sqrt(rho^2 - 1)
+/// would cancel to 0 for a large |rho| (a multiplier of 1e9 near an internal resonance).
 fn multipliers_from_rho(rhos: &[c64]) -> Vec<c64> {
     let mut free: Vec<c64> = rhos.to_vec();
     let mut out = Vec::with_capacity(rhos.len());
@@ -327,15 +425,21 @@ fn multipliers_from_rho(rhos: &[c64]) -> Vec<c64> {
             rho
         };
         let root = (rho * rho - c64::new(1.0, 0.0)).sqrt();
-        out.push(rho + root);
-        out.push(rho - root);
+        let (plus, minus) = (rho + root, rho - root);
+        let large = if plus.norm() >= minus.norm() {
+            plus
+        } else {
+            minus
+        };
+        out.push(large);
+        out.push(c64::new(1.0, 0.0) / large);
     }
     out
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{positive_runs, reduced_multipliers};
+    use super::{positive_runs, reduced_multipliers, Impact, ModalFlow};
     use faer::linalg::solvers::Solve;
     use faer::{c64, Mat};
 
@@ -432,6 +536,68 @@ mod tests {
             split > 1e-3,
             "the trivial block splits like sqrt(delta): {split}"
         );
+    }
+
+    /// The impulse response of a mode above the orbit's harmonics: between impacts a free
+    /// oscillation of frequency w, at each impact a velocity jump of -b P, and T-periodic. Two
+    /// impacts on two rows; the free flow from just after the second impact over the rest of the
+    /// period must land on the state just before the first (1e-12, relative).
+    #[test]
+    fn impulse_response_is_the_periodic_orbit_of_the_impulse_train() {
+        let contact_modal = Mat::from_fn(2, 1, |j, _| [0.3, -0.7][j]);
+        let projection = Mat::<f64>::identity(1, 1);
+        let omega = [37.3];
+        let flow = ModalFlow {
+            omega: &omega,
+            contact_modal: contact_modal.as_ref(),
+            projection: projection.as_ref(),
+            resolved: 0,
+        };
+        let period = 1.0;
+        let impacts = [
+            Impact {
+                row: 0,
+                time: 0.1,
+                impulse: 2.0,
+            },
+            Impact {
+                row: 1,
+                time: 0.55,
+                impulse: 0.8,
+            },
+        ];
+        let state = |t: f64| flow.impulse_response(0, &impacts, period, t);
+        let w = omega[0];
+        // Just before / after an impact: the mean velocity -+ half the jump b P.
+        let jump = |i: usize| -contact_modal[(impacts[i].row, 0)] * impacts[i].impulse;
+        let (x0, v0_mean) = state(impacts[0].time);
+        let v0_before = v0_mean - 0.5 * jump(0);
+        let (x1, v1_mean) = state(impacts[1].time);
+        let v1_after = v1_mean + 0.5 * jump(1);
+        let free = |x: f64, v: f64, dt: f64| {
+            let (sn, cs) = (w * dt).sin_cos();
+            (x * cs + v * sn / w, -x * w * sn + v * cs)
+        };
+        // From just after impact 0 to just before impact 1, the free flow.
+        let (xa, va) = free(
+            x0,
+            v0_mean + 0.5 * jump(0),
+            impacts[1].time - impacts[0].time,
+        );
+        let scale = x0.abs() + v0_before.abs() / w;
+        assert!((xa - x1).abs() < 1e-12 * scale, "{xa} {x1}");
+        assert!((va - (v1_mean - 0.5 * jump(1))).abs() < 1e-12 * scale * w);
+        // From just after impact 1 around to just before impact 0 one period later.
+        let (xb, vb) = free(x1, v1_after, impacts[0].time + period - impacts[1].time);
+        assert!((xb - x0).abs() < 1e-12 * scale, "{xb} {x0}");
+        assert!(
+            (vb - v0_before).abs() < 1e-12 * scale * w,
+            "{vb} {v0_before}"
+        );
+        // Between impacts it is the same free oscillation.
+        let (xm, _) = state(0.3);
+        let (xf, _) = free(x0, v0_mean + 0.5 * jump(0), 0.2);
+        assert!((xm - xf).abs() < 1e-12 * scale, "{xm} {xf}");
     }
 
     #[test]

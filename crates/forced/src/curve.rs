@@ -1,0 +1,327 @@
+//! A forced response curve and its settings (DESIGN §10.5): what is swept, the settings of the
+//! trace, the folds, how the curve ended and whether it covers its range. Traced by
+//! `frf::response_curve`.
+
+use crate::error::ForcedError;
+use crate::newton::Parameter;
+use crate::point_stability::PointStability;
+use crate::solver::ForcedPoint;
+
+/// What a continuation sweeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Sweep {
+    /// W over [start, end] (rad/s) at the solver's load.
+    Frequency,
+    /// The load scale s over [start, end] (times the solver's load) at W = `omega` (rad/s).
+    Level {
+        /// The fixed excitation frequency (rad/s).
+        omega: f64,
+    },
+}
+
+impl Sweep {
+    /// The free parameter of the arc rows.
+    pub fn parameter(&self) -> Parameter {
+        match self {
+            Self::Frequency => Parameter::Frequency,
+            Self::Level { .. } => Parameter::Level,
+        }
+    }
+}
+
+/// Settings of one continuation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfSettings {
+    /// What is swept (default: the frequency).
+    pub sweep: Sweep,
+    /// Start of the range (rad/s, or the load scale), where the response is taken from its
+    /// linear solution.
+    pub start: f64,
+    /// End of the range, > start.
+    pub end: f64,
+    /// First step in the scaled space (default 0.005: half a percent of w_ref, or of the end
+    /// level).
+    pub step: f64,
+    /// Smallest step before giving up (default 1e-6).
+    pub min_step: f64,
+    /// Largest step (default 0.02).
+    pub max_step: f64,
+    /// Most points (default 2000).
+    pub max_points: usize,
+    /// Floquet stability of every point (default true).
+    pub stability: bool,
+    /// Largest N a point in contact may be raised to (`ladder`; default `None`: four times the
+    /// solver's N, two doublings).
+    pub max_harmonics: Option<usize>,
+    /// true: the trace takes the N a point needed for its next steps (DESIGN §10.8); false: the
+    /// trace keeps the base N and each point in contact is only checked at 2N.
+    pub follow_harmonics: bool,
+    /// A point's N is enough when doubling it moves the master's first harmonic and W by at
+    /// most this (relative; default 1e-3).
+    pub harmonic_tolerance: f64,
+    /// Margin around |mu| = 1 inside which the verdict is undetermined (default 1e-3; the
+    /// Liouville error of the point is added to it).
+    pub stability_margin: f64,
+    /// Largest period residual (`PointStability::period_residual`) for which a verdict is
+    /// given (default 1e-3). The monodromy linearizes the equation of motion along the
+    /// harmonic-balance orbit; an orbit that one period of independent time integration does not
+    /// bring back to its start is not a periodic solution of that equation (on the coarse blade,
+    /// penalty contact on nodes with mass: 1-7 % in contact, against 5e-6 out of contact), and
+    /// its verdict cannot be backed.
+    pub period_tolerance: f64,
+}
+
+impl FrfSettings {
+    /// A frequency sweep over [start, end] (rad/s), defaults otherwise.
+    pub fn new(start: f64, end: f64) -> Self {
+        Self {
+            sweep: Sweep::Frequency,
+            start,
+            end,
+            step: 0.005,
+            min_step: 1e-6,
+            max_step: 0.02,
+            max_points: 2000,
+            stability: true,
+            max_harmonics: None,
+            follow_harmonics: true,
+            harmonic_tolerance: 1e-3,
+            stability_margin: 1e-3,
+            period_tolerance: 1e-3,
+        }
+    }
+
+    /// Checks the range and the steps; errors name the setting.
+    pub fn validate(&self) -> Result<(), ForcedError> {
+        let bad = |name, value, expected| {
+            Err(ForcedError::Parameter {
+                name,
+                value,
+                expected,
+            })
+        };
+        if let Sweep::Level { omega } = self.sweep {
+            if !(omega.is_finite() && omega > 0.0) {
+                return bad("omega", omega, "a finite frequency > 0");
+            }
+        }
+        if !(self.start.is_finite() && self.start > 0.0) {
+            return bad("start", self.start, "a finite value > 0");
+        }
+        if !(self.end.is_finite() && self.end > self.start) {
+            return bad("end", self.end, "a finite value > start");
+        }
+        for (name, v) in [
+            ("step", self.step),
+            ("min_step", self.min_step),
+            ("max_step", self.max_step),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(name, v, "a finite value > 0");
+            }
+        }
+        if self.min_step > self.step || self.step > self.max_step {
+            return bad("step", self.step, "min_step <= step <= max_step");
+        }
+        if !(self.harmonic_tolerance.is_finite() && self.harmonic_tolerance > 0.0) {
+            return bad(
+                "harmonic_tolerance",
+                self.harmonic_tolerance,
+                "a finite value > 0",
+            );
+        }
+        if !(self.stability_margin.is_finite() && self.stability_margin >= 0.0) {
+            return bad(
+                "stability_margin",
+                self.stability_margin,
+                "a finite value >= 0",
+            );
+        }
+        if self.max_points < 3 {
+            return bad("max_points", self.max_points as f64, ">= 3");
+        }
+        Ok(())
+    }
+}
+
+/// Which way W turns at a fold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FoldKind {
+    /// The parameter rose and now falls: a sweep up jumps down here.
+    TurnsBack,
+    /// The parameter fell and now rises: a sweep down jumps up here.
+    TurnsForward,
+}
+
+/// A fold of the curve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fold {
+    /// Index of the point nearest the fold.
+    pub point: usize,
+    /// The swept parameter at the fold, refined (W in rad/s, or the load scale).
+    pub at: f64,
+    /// Which way the parameter turns.
+    pub kind: FoldKind,
+}
+
+/// Why the continuation stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrfTermination {
+    /// The parameter passed the end of the range.
+    Complete,
+    /// The step fell below `min_step` (the reason of the last failure).
+    StepTooSmall {
+        /// The parameter at the last point (W in rad/s, or the load scale).
+        at: f64,
+        /// The last solver error.
+        reason: String,
+    },
+    /// `max_points` reached.
+    PointLimit,
+    /// The curve turned back below the start of the range (an isola-like branch, or a wrong
+    /// turn at a corner): the points below it are not kept.
+    LeftRange {
+        /// The parameter at the last point kept (W in rad/s, or the load scale).
+        at: f64,
+    },
+    /// The trace from the start of the range stopped (`stopped`: why), and a second trace from
+    /// the end of the range down met it at W = `met` (rad/s): the two pieces cover the range
+    /// (`FrequencyResponse::pieces`).
+    Joined {
+        /// Why the first piece stopped (as `end_text` words).
+        stopped: String,
+        /// Where the second piece met the first (rad/s).
+        met: f64,
+    },
+    /// The trace from the start of the range stopped and the trace from its end did not meet
+    /// it: the branch between the two pieces' last points is not computed.
+    Gap {
+        /// Why the first piece stopped (as `end_text` words).
+        stopped: String,
+        /// Why the second piece stopped.
+        second: String,
+        /// Index of the first piece's last point (where the missing branch starts).
+        from: usize,
+        /// Index of the second piece's last point (where it ends), when there is a second
+        /// piece.
+        to: Option<usize>,
+    },
+}
+
+impl FrfTermination {
+    /// Whether the curve covers its whole range: one branch from its start to its end, or two
+    /// pieces that meet.
+    pub fn covers_range(&self) -> bool {
+        matches!(self, Self::Complete | Self::Joined { .. })
+    }
+}
+
+/// A response curve over the swept parameter.
+#[derive(Clone, Debug)]
+pub struct FrequencyResponse {
+    /// What was swept.
+    pub sweep: Sweep,
+    /// The points in continuation order.
+    pub points: Vec<ForcedPoint>,
+    /// The folds met.
+    pub folds: Vec<Fold>,
+    /// Indices of the points reached by a hop at fixed W past a corner.
+    pub hops: Vec<usize>,
+    /// Stability of each point (empty when not asked for).
+    pub stability: Vec<PointStability>,
+    /// Why it stopped.
+    pub termination: FrfTermination,
+    /// Index of the first point of each piece: [0], or [0, k] when the trace from the start of
+    /// the range stopped and a second one from its end (points k.., in the order traced, W
+    /// falling first) met it or also stopped.
+    pub pieces: Vec<usize>,
+}
+
+impl FrequencyResponse {
+    /// The swept parameter of a point (W in rad/s, or the load scale).
+    pub fn parameter(&self, p: &ForcedPoint) -> f64 {
+        match self.sweep {
+            Sweep::Frequency => p.omega,
+            Sweep::Level { .. } => p.level,
+        }
+    }
+
+    /// A curve of its first points, running.
+    pub(crate) fn starting(sweep: Sweep, points: Vec<ForcedPoint>) -> Self {
+        Self {
+            sweep,
+            points,
+            folds: Vec::new(),
+            hops: Vec::new(),
+            stability: Vec::new(),
+            termination: FrfTermination::Complete,
+            pieces: vec![0],
+        }
+    }
+
+    /// Why the curve ended, as a sentence naming the parameter with its unit.
+    pub fn end_text(&self) -> String {
+        let at = |v: f64| match self.sweep {
+            Sweep::Frequency => format!("W = {v:.6e} rad/s"),
+            Sweep::Level { .. } => format!("load scale {v:.6e}"),
+        };
+        match &self.termination {
+            FrfTermination::Complete => "complete".into(),
+            FrfTermination::StepTooSmall { at: v, reason } => format!(
+                "stopped at {}: no step down to min_step converged ({reason})",
+                at(*v)
+            ),
+            FrfTermination::PointLimit => match self.points.last() {
+                Some(p) => format!(
+                    "stopped at the point limit (max_points) at {}: the branch beyond it is not \
+                     computed",
+                    at(self.parameter(p))
+                ),
+                None => "stopped at the point limit (max_points)".into(),
+            },
+            FrfTermination::LeftRange { at: v } => format!(
+                "the curve turned back below the start of the range after {}",
+                at(*v)
+            ),
+            FrfTermination::Joined { stopped, met } => format!(
+                "complete in two pieces: the trace from the start of the range {stopped}; the \
+                 trace from its end met it at {}",
+                at(*met)
+            ),
+            FrfTermination::Gap {
+                stopped,
+                second,
+                from,
+                to,
+            } => {
+                let end = |i: usize| at(self.parameter(&self.points[i]));
+                let missing = match to {
+                    Some(to) => format!(
+                        "the branch between {} (where the trace from the start stopped) and {} \
+                         (where the trace from the end stopped) is not computed",
+                        end(*from),
+                        end(*to)
+                    ),
+                    None => format!("the branch beyond {} is not computed", end(*from)),
+                };
+                format!(
+                    "incomplete: {missing}; the trace from the start of the range {stopped}; \
+                     the trace from its end {second}"
+                )
+            }
+        }
+    }
+
+    /// The missing branch of an incomplete curve: the indices of the points where it starts and
+    /// (when a second piece was traced) ends; a curve that stopped with one piece misses
+    /// everything beyond its last point.
+    pub fn gap(&self) -> Option<(usize, Option<usize>)> {
+        match &self.termination {
+            FrfTermination::Gap { from, to, .. } => Some((*from, *to)),
+            t if !t.covers_range() && !self.points.is_empty() => {
+                Some((self.points.len() - 1, None))
+            }
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,80 @@
+//! The harmonic-block products of the contact compliance (`ContactCompliance::apply`,
+//! `times_row_block`) against the dense products with the same G, for both damping paths and
+//! two contact rows that share modes (every block of G is full).
+
+mod common;
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
+use nlmodes_forced::{Damping, Load, ModalDynamics};
+use nlmodes_hb::System;
+
+fn two_rows() -> System {
+    let m = [[2.0, 0.3, 0.0], [0.3, 1.0, 0.2], [0.0, 0.2, 1.5]];
+    let k = [[3.0, -1.0, 0.0], [-1.0, 2.5, -1.0], [0.0, -1.0, 1.2]];
+    let a = [[0.2, 0.0, 1.0], [1.0, -0.4, 0.0]];
+    System::new(
+        Mat::from_fn(3, 3, |i, j| m[i][j]),
+        Mat::from_fn(3, 3, |i, j| k[i][j]),
+        Mat::from_fn(2, 3, |i, j| a[i][j]),
+        vec![0.5, 0.7],
+        2,
+    )
+    .expect("3-DOF system with two contact rows")
+}
+
+fn dense(a: faer::MatRef<'_, f64>, b: faer::MatRef<'_, f64>) -> Mat<f64> {
+    let mut out = Mat::zeros(a.nrows(), b.ncols());
+    matmul(out.as_mut(), Accum::Replace, a, b, 1.0, Par::Seq);
+    out
+}
+
+fn check(damping: Damping) {
+    let system = two_rows();
+    let c = damping.matrix(&system).unwrap();
+    let nh = 5;
+    let t = 2 * nh + 1;
+    let dynamics =
+        ModalDynamics::new(&system, &c, &Load::fundamental(vec![0.1, 0.0, 0.3]), nh).unwrap();
+    for w in [0.3, 1.1, 2.6] {
+        let comp = dynamics.compliance(w).unwrap();
+        let l = 2 * t;
+        let lambda: Vec<f64> = (0..l).map(|i| (0.7 * i as f64 + 0.2).sin()).collect();
+        let want = dense(
+            comp.g.as_ref(),
+            Mat::from_fn(l, 1, |i, _| lambda[i]).as_ref(),
+        );
+        let got = comp.apply(&lambda);
+        let scale = comp.g.norm_max() * l as f64;
+        for i in 0..l {
+            assert!((got[i] - want[(i, 0)]).abs() <= 1e-14 * scale, "W {w}, {i}");
+        }
+        let block = Mat::from_fn(t, t, |p, q| ((p * t + q) as f64 * 0.37).cos());
+        for j in 0..2 {
+            let want = dense(comp.g.subcols(j * t, t), block.as_ref());
+            let got = comp.times_row_block(j, block.as_ref());
+            let worst = (0..l)
+                .flat_map(|i| (0..t).map(move |q| (i, q)))
+                .map(|(i, q)| (got[(i, q)] - want[(i, q)]).abs())
+                .fold(0.0, f64::max);
+            assert!(worst <= 1e-14 * scale * t as f64, "W {w}, row {j}: {worst}");
+        }
+    }
+}
+
+#[test]
+fn block_products_equal_the_dense_products_of_g() {
+    check(Damping::Rayleigh {
+        alpha: 0.02,
+        beta: 0.01,
+    });
+    check(Damping::Matrix(Mat::from_fn(3, 3, |i, j| {
+        if i == j {
+            0.05 * (i + 1) as f64
+        } else if i + j == 1 {
+            0.01
+        } else {
+            0.0
+        }
+    })));
+}

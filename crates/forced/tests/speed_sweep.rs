@@ -1,0 +1,290 @@
+//! The speed sweep (`speed_sweep`) against independent solutions, on the 3-DOF system of the
+//! other tests turning with a stiffness K(Omega) = K0 + S Omega^2 M: every frequency then
+//! follows the Southwell law w_k(Omega)^2 = w_k0^2 + S Omega^2 exactly (the modes do not change
+//! with the speed), so the Campbell curve of mode 1 crosses the engine order e at
+//! Omega_c = w_10 / sqrt(e^2 - S) in closed form.
+//!
+//! - Without contact: every point is the direct linear solve of (K(Omega) - W^2 M + i W C) U = F
+//!   at its own speed and W = e Omega (`common::linear_harmonic`), and the sweep peaks where the
+//!   modal sum's closed form peaks, within the half-power half-width of the crossing
+//!   (the shift damping explains).
+//! - With contact, S = 0 (a structure that does not change with the speed): the speed sweep at
+//!   e is the frequency sweep at W = e Omega of the same structure (`response_curve`, a second
+//!   continuation): the same folds and the same peak.
+
+mod common;
+
+use faer::Mat;
+use nlmodes_forced::{
+    response_curve, speed_sweep, Damping, FoldKind, ForcedError, ForcedSettings, ForcedSolver,
+    FrfSettings, FrfTermination, Load, SpeedFamily, SpeedProblem, SpeedSweepSettings,
+};
+use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
+
+/// The 3-DOF system (`common::three_dof`) turning: K(Omega) = K0 + S Omega^2 M, modal damping
+/// `zeta` on every mode at every speed, a force `force` (N) on the master x2.
+#[derive(Clone, Copy)]
+struct Turning {
+    s: f64,
+    gap: f64,
+    zeta: f64,
+    force: f64,
+}
+
+impl Turning {
+    fn system(&self, speed: f64) -> System {
+        let rest = common::three_dof(self.gap);
+        let (m, k0) = (rest.mass(), rest.stiffness());
+        let k = Mat::from_fn(3, 3, |i, j| k0[(i, j)] + self.s * speed * speed * m[(i, j)]);
+        let rows = rest.contact_rows().to_owned();
+        System::new(m.to_owned(), k, rows, vec![self.gap], 2).unwrap()
+    }
+
+    fn with_force(&self, force: f64) -> Turning {
+        Turning { force, ..*self }
+    }
+
+    /// w_1 at rest (rad/s).
+    fn w10(&self) -> f64 {
+        self.system(0.0).linear_frequencies()[0]
+    }
+}
+
+impl SpeedFamily for Turning {
+    fn at(&self, speed: f64) -> Result<SpeedProblem, ForcedError> {
+        let system = self.system(speed);
+        let damping = Damping::ModalRatios(vec![self.zeta]).matrix(&system)?;
+        Ok(SpeedProblem {
+            system,
+            damping,
+            load: Load::fundamental(vec![0.0, 0.0, self.force]),
+        })
+    }
+}
+
+/// First-harmonic amplitude of x2.
+fn master(c: &Mat<f64>) -> f64 {
+    c[(2, FullBasis::cos_index(1))].hypot(c[(2, FullBasis::sin_index(1))])
+}
+
+/// The closed form of the master's amplitude at speed `speed` and W = e Omega: the modal sum
+/// |sum_k phi_2k (phi_k . f) / (w_k^2 - W^2 + 2 i zeta w_k W)| with w_k^2 = w_k0^2 + S Omega^2
+/// and the modes at rest (mass-normalized).
+fn modal_amplitude(t: &Turning, e: f64, speed: f64) -> f64 {
+    let rest = t.system(0.0);
+    let (modes, lambda) = (rest.modes(), rest.eigenvalues());
+    let w = e * speed;
+    let (mut re, mut im) = (0.0, 0.0);
+    for k in 0..3 {
+        let wk = (lambda[k] + t.s * speed * speed).sqrt();
+        let gain = modes[(2, k)] * modes[(2, k)] * t.force;
+        let (a, b) = (wk * wk - w * w, 2.0 * t.zeta * wk * w);
+        let d = a * a + b * b;
+        re += gain * a / d;
+        im -= gain * b / d;
+    }
+    re.hypot(im)
+}
+
+/// The speed of the closed form's largest amplitude in [a, b] (golden section, to 1e-12).
+fn modal_peak(t: &Turning, e: f64, (mut a, mut b): (f64, f64)) -> f64 {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    while b - a > 1e-12 * b {
+        let (x1, x2) = (b - g * (b - a), a + g * (b - a));
+        if modal_amplitude(t, e, x1) > modal_amplitude(t, e, x2) {
+            b = x2;
+        } else {
+            a = x1;
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// The largest of three-point parabolas through the sweep's top point and its neighbours:
+/// (speed, amplitude).
+fn interpolated_peak(speeds: &[f64], amps: &[f64]) -> (f64, f64) {
+    let k = (1..amps.len() - 1)
+        .max_by(|&a, &b| amps[a].total_cmp(&amps[b]))
+        .unwrap();
+    let (x, y) = (&speeds[k - 1..=k + 1], &amps[k - 1..=k + 1]);
+    let d1 = (y[1] - y[0]) / (x[1] - x[0]);
+    let d2 = (y[2] - y[1]) / (x[2] - x[1]);
+    let c = (d2 - d1) / (x[2] - x[0]);
+    let slope = d1 + c * (x[1] - x[0]);
+    let at = x[1] - slope / (2.0 * c);
+    (at, y[1] + slope * (at - x[1]) + c * (at - x[1]).powi(2))
+}
+
+/// Without contact, S = 1.2 (a rotating cantilever's flap mode), e = 2, 1 % damping: every
+/// point is the direct linear solve at its speed to 1e-9 (relative to the largest amplitude;
+/// the forced solver's linear FRF is exact to 1e-10, `linear_limit.rs`); the peak (the
+/// parabola through the sweep's top three points) lies within 2e-4 half-power half-widths of
+/// the closed form's peak (measured 1.5e-5), and the closed form's peak within the half-power
+/// half-width zeta Omega_c e^2 / (e^2 - S) of the crossing (measured 0.024 of it: the shift
+/// damping explains).
+#[test]
+fn linear_sweep_peaks_at_the_campbell_crossing() {
+    let t = Turning {
+        s: 1.2,
+        gap: 1.0,
+        zeta: 0.01,
+        force: 0.0,
+    };
+    let e = 2.0_f64;
+    let crossing = t.w10() / (e * e - t.s).sqrt();
+    // Peak master amplitude about 0.5 of the gap: out of contact, but large in the scaled space.
+    let t = Turning {
+        force: 0.5 / modal_amplitude(&t.with_force(1.0), e, crossing),
+        ..t
+    };
+    let settings = SpeedSweepSettings::new(
+        2,
+        0,
+        (0.8 * crossing, 1.2 * crossing),
+        t.w10() / e,
+        ForcedSettings::new(3).unwrap(),
+    );
+    let sweep = speed_sweep(&t, &settings, |_| {}).unwrap();
+    assert_eq!(sweep.termination, FrfTermination::Complete);
+    assert!(sweep.folds.is_empty());
+    let mut worst = 0.0_f64;
+    for p in &sweep.points {
+        assert!(!p.point.touches());
+        let problem = t.at(p.speed).unwrap();
+        let w = e * p.speed;
+        let (a, b) = common::linear_harmonic(
+            &problem.system,
+            &problem.damping,
+            w,
+            &[0.0, 0.0, t.force],
+            &[0.0; 3],
+        );
+        for i in 0..3 {
+            worst = worst
+                .max((p.point.coefficients[(i, FullBasis::cos_index(1))] - a[i]).abs())
+                .max((p.point.coefficients[(i, FullBasis::sin_index(1))] - b[i]).abs());
+        }
+        assert!(
+            (p.point.omega - w).abs() <= 1e-9 * w,
+            "W {} at {}",
+            p.point.omega,
+            p.speed
+        );
+    }
+    assert!(
+        worst < 1e-9 * 0.5,
+        "largest difference to the direct solve {worst:e}"
+    );
+    let speeds: Vec<f64> = sweep.points.iter().map(|p| p.speed).collect();
+    let amps: Vec<f64> = sweep
+        .points
+        .iter()
+        .map(|p| master(&p.point.coefficients))
+        .collect();
+    let (peak, _) = interpolated_peak(&speeds, &amps);
+    let closed = modal_peak(&t, e, (0.95 * crossing, 1.05 * crossing));
+    let half_width = t.zeta * crossing * e * e / (e * e - t.s);
+    println!(
+        "{} points; crossing {crossing:.6} rad/s, closed-form peak {closed:.6} ({:+.3e} half-widths), \
+         sweep peak {peak:.6} ({:+.3e} half-widths from the closed form)",
+        sweep.points.len(),
+        (closed - crossing) / half_width,
+        (peak - closed) / half_width
+    );
+    assert!((closed - crossing).abs() < half_width);
+    assert!((peak - closed).abs() < 2e-4 * half_width);
+}
+
+/// With contact (the penalty law, kc = 10 x the static contact stiffness, N = 12, 2 %
+/// damping, the crowning test's force), S = 0: the speed sweep at e = 3 is the frequency sweep
+/// at W = 3 Omega of the same structure. Its folds (a `TurnsBack` at the peak, a `TurnsForward`
+/// below it) at W / 3 within 1e-5 (relative) of the frequency sweep's, and its largest master
+/// amplitude within 1e-5 of the frequency sweep's (measured: 7e-9 and 8e-7 at the folds,
+/// 3e-7 at the peak; the speed sweep's fold is the parabola through three points, the frequency
+/// sweep's the Hermite interpolant of exact tangents, and the two curves sample the peak at
+/// different points: a fold misplaced by one step would be off by 1e-3 or more); the middle
+/// branch between the folds has unstable points.
+#[test]
+fn speed_independent_structure_gives_the_frequency_sweep() {
+    let t = Turning {
+        s: 0.0,
+        gap: 0.5,
+        zeta: 0.02,
+        force: 0.08,
+    };
+    let e = 3.0;
+    let system = t.system(0.0);
+    let w1 = system.linear_frequencies()[0];
+    let settings = ForcedSettings {
+        harmonics: HarmonicSettings::new(12, 128).unwrap(),
+        algorithm: AlgorithmParams {
+            method: ContactMethod::Penalty {
+                stiffness: 10.0 * system.contact_stiffness()[0],
+            },
+            ..AlgorithmParams::default()
+        },
+        ..ForcedSettings::new(12).unwrap()
+    };
+    let range = (0.8 * w1 / e, 1.6 * w1 / e);
+    let sweep_settings = SpeedSweepSettings::new(3, 0, range, w1 / e, settings.clone());
+    let sweep = speed_sweep(&t, &sweep_settings, |_| {}).unwrap();
+    assert_eq!(sweep.termination, FrfTermination::Complete);
+    let problem = t.at(0.0).unwrap();
+    let solver =
+        ForcedSolver::new(&problem.system, &problem.damping, &problem.load, settings).unwrap();
+    let frf = FrfSettings {
+        max_harmonics: Some(12),
+        stability: false,
+        ..FrfSettings::new(e * range.0, e * range.1)
+    };
+    let curve = response_curve(&solver, &frf, |_| {}).unwrap();
+    assert_eq!(curve.termination, FrfTermination::Complete);
+    let kinds = |k: Vec<FoldKind>| k;
+    assert_eq!(
+        kinds(sweep.folds.iter().map(|f| f.kind).collect()),
+        kinds(curve.folds.iter().map(|f| f.kind).collect())
+    );
+    assert!(sweep.folds.iter().any(|f| f.kind == FoldKind::TurnsBack));
+    for (a, b) in sweep.folds.iter().zip(&curve.folds) {
+        let (speed, w) = (a.speed, b.at);
+        println!(
+            "fold {:?}: speed sweep W = {:.9}, frequency sweep {w:.9} ({:.2e})",
+            a.kind,
+            e * speed,
+            (e * speed - w) / w
+        );
+        assert!((e * speed - w).abs() < 1e-5 * w, "{} vs {w}", e * speed);
+    }
+    let top = |v: Vec<f64>| v.into_iter().fold(0.0, f64::max);
+    let (q_speed, q_freq) = (
+        top(sweep
+            .points
+            .iter()
+            .map(|p| master(&p.point.coefficients))
+            .collect()),
+        top(curve
+            .points
+            .iter()
+            .map(|p| master(&p.coefficients))
+            .collect()),
+    );
+    println!(
+        "{} / {} points, peak q {q_speed:.9} / {q_freq:.9} ({:.2e})",
+        sweep.points.len(),
+        curve.points.len(),
+        (q_speed - q_freq) / q_freq
+    );
+    assert!((q_speed - q_freq).abs() < 1e-5 * q_freq);
+    let unstable = sweep
+        .points
+        .iter()
+        .filter(|p| {
+            p.stability
+                .is_some_and(|s| s.verdict == nlmodes_forced::Verdict::Unstable)
+        })
+        .count();
+    assert!(
+        unstable > 0,
+        "the middle branch between the folds is unstable"
+    );
+}

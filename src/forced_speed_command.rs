@@ -1,0 +1,86 @@
+//! `nlmodes forced PARAMETRIC_DIR --speed-sweep [--settings FILE] --out DIR` (issue 39,
+//! item 2): the speed sweeps of the file's `[speed_sweep]` table on a parametric reduced model,
+//! with the `[forced]` table's damping, load, levels, N and contact law. Every setting is
+//! checked before the model is read, the speed range against the model's range and the
+//! engine orders against its crossings before any sweep runs.
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use crate::forced_settings::ForcedSection;
+use crate::forced_speed::SweepInputs;
+use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::validate::Problems;
+
+/// Runs the command (`section`: the `[forced]` table, already checked).
+pub fn sweep(
+    dir: &Path,
+    settings: Option<&Path>,
+    section: ForcedSection,
+    out: &Path,
+) -> Result<()> {
+    let source = settings.map_or_else(|| "defaults".to_string(), |p| p.display().to_string());
+    let (sweep, rotation) = match settings {
+        Some(p) => crate::speed_sweep_settings::load(p)?,
+        None => (None, None),
+    };
+    let sweep = sweep.unwrap_or_default();
+    let problems = || {
+        let label = source.clone();
+        Problems::new(move |key| format!("{label}: {key}"))
+    };
+    let mut p = problems();
+    sweep.check(&mut p, None, "");
+    crate::speed_sweep_settings::check_forced_for_sweeps(&section, &mut p);
+    p.finish()?;
+    crate::validate::check_output_dir(out, "--out")?;
+    let model = crate::forced_speed::read_parametric(dir)?;
+    let (lo, hi) = model.range();
+    let mut p = problems();
+    let range_key = format!("the range of {}", dir.join("parametric.json").display());
+    sweep.check(
+        &mut p,
+        Some([lo / RPM_TO_RAD_S, hi / RPM_TO_RAD_S]),
+        &range_key,
+    );
+    p.finish()?;
+    let reference = crate::backbone::system_of(model.reference(), None).map_err(|e| {
+        e.context(crate::exit::BadInput(format!(
+            "the parametric model {}",
+            dir.display()
+        )))
+    })?;
+    let checked = crate::forced_inputs::ForcedModel {
+        dir,
+        reduced: model.reference(),
+        system: &reference,
+    };
+    // The sweeps draw no orbits: no mesh needed.
+    let without_orbits = ForcedSection {
+        keep_peaks: false,
+        keep: Vec::new(),
+        ..section.clone()
+    };
+    let inputs = crate::forced_inputs::check(&checked, &without_orbits, &source, None)?;
+    let orders = rotation.map_or_else(
+        || RotationSection::default().engine_orders,
+        |r| r.engine_orders,
+    );
+    let (plans, closure) =
+        crate::forced_speed::plan(&model, section.mode, &sweep, &orders, &source)?;
+    let study = crate::forced_speed::run(
+        &SweepInputs {
+            model: &model,
+            forced: &section,
+            sweep: &sweep,
+            damping_matrix: inputs.damping_matrix.as_ref(),
+            file_load: inputs.file_load.as_ref(),
+        },
+        &plans,
+        closure,
+    )?;
+    crate::forced_speed_output::write(&study, out)?;
+    crate::ui::say(&crate::forced_speed_report::summary(&study));
+    crate::forced_speed_report::stopped_early(&study, out)
+}
