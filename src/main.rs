@@ -42,6 +42,7 @@ mod reduce_stage;
 mod render;
 mod report;
 mod results;
+mod rotation_mpi;
 mod rotation_settings;
 mod run;
 mod speed_stage;

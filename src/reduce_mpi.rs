@@ -5,9 +5,10 @@
 //! read the mesh the task names, compute their part with rank 0, and wait for the next task
 //! until rank 0 ends. Only rank 0 prints and writes.
 //!
-//! The model at rest is assembled over the ranks; the model at speed (K(Omega) of the speed
-//! stage's reduction) is assembled on rank 0 by `nlmodes_fem::rotation` and sent to the ranks
-//! by rows ([`RootData`]).
+//! The model at rest is assembled over the ranks; the operators of the blade at speed (the
+//! prestress's Newton tangents, K(Omega) and M of the reductions at speed and of the Campbell
+//! diagram's eigen-solves) are assembled on rank 0 by `nlmodes_fem::rotation` and sent to the
+//! ranks by rows ([`RootData`]; `crate::rotation_mpi`).
 
 use anyhow::{Context, Result};
 use nlmodes_fem::{DofMap, Isotropic, Mesh};
@@ -58,32 +59,39 @@ pub enum Task {
         loads: Vec<Vec<f64>>,
         from_root: bool,
     },
-    /// The full model's `modes` modes nearest `sigma` (rad^2/s^2).
+    /// The full model's `modes` modes nearest `sigma` (rad^2/s^2); of K and M sent by rank 0
+    /// when `from_root` (K(Omega) of the Campbell diagram), else assembled over the ranks.
     Modes {
         fe: FeSource,
         modes: usize,
         sigma: f64,
+        from_root: bool,
     },
+    /// x = A^-1 b for the matrix A (free DOFs) and the vector b that rank 0 sends: a Newton
+    /// step of the prestress, by MUMPS.
+    StaticSolve { fe: FeSource },
 }
 
-/// What rank 0 sends with a task: K and M assembled on rank 0 (`None` on the other ranks and
-/// when the task assembles them over the ranks).
+/// What rank 0 sends with a task: K (or the matrix of a static solve), M and the right-hand
+/// side, assembled on rank 0 (`None` on the other ranks, and for what the task does not use).
 #[derive(Clone, Copy, Default)]
 pub struct RootData<'a> {
     pub k: Option<&'a CsMat<f64>>,
     pub m: Option<&'a CsMat<f64>>,
+    pub rhs: Option<&'a [f64]>,
 }
 
 /// What a task delivers on rank 0.
 pub enum Delivered {
     Reduction(Box<nlmodes_distributed::Reduction>),
     Modes(Modes),
+    Solution(Vec<f64>),
 }
 
 impl Task {
     fn fe(&self) -> &FeSource {
         match self {
-            Self::Reduce { fe, .. } | Self::Modes { fe, .. } => fe,
+            Self::Reduce { fe, .. } | Self::Modes { fe, .. } | Self::StaticSolve { fe } => fe,
         }
     }
 
@@ -91,6 +99,13 @@ impl Task {
     /// rank 0, `None` on the others.
     fn run_on(&self, mesh: &Mesh, dofs: &DofMap, root: RootData) -> Result<Option<Delivered>> {
         let material = self.fe().material()?;
+        let operators = |from_root: bool| {
+            if from_root {
+                nlmodes_distributed::Operators::FromRoot(root.k.zip(root.m))
+            } else {
+                nlmodes_distributed::Operators::Assembled(&material)
+            }
+        };
         Ok(match self {
             Self::Reduce {
                 boundary,
@@ -100,14 +115,9 @@ impl Task {
                 from_root,
                 ..
             } => {
-                let operators = if *from_root {
-                    nlmodes_distributed::Operators::FromRoot(root.k.zip(root.m))
-                } else {
-                    nlmodes_distributed::Operators::Assembled(&material)
-                };
                 let input = nlmodes_distributed::ReductionInput {
                     mesh,
-                    operators,
+                    operators: operators(*from_root),
                     dofs,
                     boundary,
                     n_modes: *modes,
@@ -117,13 +127,20 @@ impl Task {
                 nlmodes_distributed::craig_bampton(&input)?
                     .map(|r| Delivered::Reduction(Box::new(r)))
             }
-            Self::Modes { modes, sigma, .. } => {
-                let operators = nlmodes_distributed::Operators::Assembled(&material);
-                nlmodes_distributed::full_modes(mesh, operators, dofs, *modes, *sigma)
-                    .with_context(|| {
-                        format!("computing {modes} modes of the {}-DOF model", dofs.n_free())
-                    })?
-                    .map(Delivered::Modes)
+            Self::Modes {
+                modes,
+                sigma,
+                from_root,
+                ..
+            } => nlmodes_distributed::full_modes(mesh, operators(*from_root), dofs, *modes, *sigma)
+                .with_context(|| {
+                    format!("computing {modes} modes of the {}-DOF model", dofs.n_free())
+                })?
+                .map(Delivered::Modes),
+            Self::StaticSolve { .. } => {
+                nlmodes_distributed::solve_from_root(mesh, dofs, root.k, root.rhs)
+                    .with_context(|| format!("a static solve of {} DOFs", dofs.n_free()))?
+                    .map(Delivered::Solution)
             }
         })
     }
@@ -168,7 +185,12 @@ pub fn lead(task: &Task, mesh: &Mesh, dofs: &DofMap, root: RootData) -> Result<D
 /// and the modes stage of `nlmodes run` under mpirun).
 pub fn full_modes(fe: FeSource, modes: usize, sigma: f64) -> Result<(Mesh, DofMap, Modes)> {
     let (mesh, dofs) = read_mesh(&fe.mesh, &fe.clamp)?;
-    let task = Task::Modes { fe, modes, sigma };
+    let task = Task::Modes {
+        fe,
+        modes,
+        sigma,
+        from_root: false,
+    };
     match lead(&task, &mesh, &dofs, RootData::default())? {
         Delivered::Modes(m) => Ok((mesh, dofs, m)),
         _ => anyhow::bail!("a modes task delivered something else"),

@@ -21,6 +21,10 @@ use nlmodes_modal::ReducedModel;
 /// 2-core machine).
 const MPIRUN_TIMEOUT: Duration = Duration::from_secs(300);
 
+/// Longest the job may take to end once a rank is killed (about a second: Open MPI's runtime
+/// notices the death at once and ends the other ranks).
+const KILLED_JOB_ENDS: Duration = Duration::from_secs(60);
+
 /// `mpirun -n ranks nlmodes --quiet args...`, killed after `timeout`; None when it timed out.
 fn mpirun(ranks: usize, args: &[&str], timeout: Duration) -> Option<Output> {
     let child = mpirun_command(ranks, args)
@@ -37,6 +41,9 @@ fn mpirun_command(ranks: usize, args: &[&str]) -> Command {
         // CI and this machine run as root; one BLAS and rayon thread per rank on 2 cores.
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        // No cross-memory attach between the ranks: a container without CAP_SYS_PTRACE (CI)
+        // refuses it ("Read -1, expected ..., errno = 1", open-mpi/ompi#4948).
+        .env("OMPI_MCA_btl_vader_single_copy_mechanism", "none")
         .env("OPENBLAS_NUM_THREADS", "1")
         .env("RAYON_NUM_THREADS", "1")
         .arg(env!("CARGO_BIN_EXE_nlmodes"))
@@ -198,6 +205,12 @@ fn rank_pids(mpirun: u32, rank: usize) -> Vec<u32> {
         .collect()
 }
 
+/// Rank 1 killed (SIGKILL) inside the distributed reduction: the job ends with an error within
+/// [`KILLED_JOB_ENDS`] (a hang fails the test), mpirun names the killed rank, rank 0 is gone and no
+/// model is written. "Inside" is certain, not timed: the kill follows the first log line of
+/// the reduction's task (`partition and assembly`, logged by a rank once both assembled their
+/// part), after which the ranks still factorize, solve the eigenproblems and the full-model
+/// check together.
 #[test]
 fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -211,33 +224,45 @@ fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
         "mesh_size=0.012",
     ]);
     let out = dir.path().join("model");
-    // The full-model check too, so that the run lasts a few seconds after the ranks start.
+    // The full-model check too: a second factorization and eigen-solve after the first line.
     let mut args = reduce_args(mesh.to_str().unwrap(), out.to_str().unwrap(), "10");
     args.extend(["--full-check", "on"]);
-    let child = mpirun_command(2, &args)
-        .stdout(Stdio::piped())
+    let mut child = mpirun_command(2, &args)
+        // The steps' log lines despite --quiet (RUST_LOG takes precedence).
+        .env("RUST_LOG", "info")
+        .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .expect("cannot start mpirun");
-    let start = Instant::now();
-    let victim = loop {
-        if let Some(&pid) = rank_pids(child.id(), 1).first() {
-            break pid;
-        }
-        assert!(start.elapsed() < MPIRUN_TIMEOUT, "rank 1 never started");
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    // Mid-run: after MPI is up and the mesh is read (about a second), before the reduction ends.
-    std::thread::sleep(Duration::from_millis(1500));
+    let (inside, stderr) = watch_stderr(&mut child, "partition and assembly");
+    let in_task = inside.recv_timeout(MPIRUN_TIMEOUT);
+    let victim = rank_pids(child.id(), 1);
     let rank0 = rank_pids(child.id(), 0);
+    if in_task.is_err() || victim.len() != 1 {
+        let _ = child.kill();
+        panic!(
+            "the reduction's task never started ({victim:?}): {}",
+            stderr.join().unwrap()
+        );
+    }
     let killed = Command::new("kill")
-        .args(["-KILL", &victim.to_string()])
+        .args(["-KILL", &victim[0].to_string()])
         .status()
         .unwrap();
     assert!(killed.success(), "rank 1 had already ended");
-    let output = wait_with_timeout(child, MPIRUN_TIMEOUT).expect("the other rank hung");
-    assert!(!output.status.success(), "mpirun reported success");
-    let stderr = String::from_utf8_lossy(&output.stderr);
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > KILLED_JOB_ENDS {
+            let _ = child.kill();
+            panic!("the other rank hung: {}", stderr.join().unwrap());
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let stderr = stderr.join().unwrap();
+    assert!(!status.success(), "mpirun reported success: {stderr}");
     assert!(
         stderr.contains("signal 9") || stderr.contains("Killed") || stderr.contains("killed"),
         "mpirun names the killed rank: {stderr}"
@@ -251,6 +276,32 @@ fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
         );
     }
     assert!(!out.join("model.json").exists(), "no model after a failure");
+}
+
+/// Reads `child`'s stderr on a thread: a message on the receiver once a line contains `marker`,
+/// and the whole text when the thread is joined (at the end of the stream).
+fn watch_stderr(
+    child: &mut std::process::Child,
+    marker: &'static str,
+) -> (
+    std::sync::mpsc::Receiver<()>,
+    std::thread::JoinHandle<String>,
+) {
+    use std::io::BufRead;
+    let pipe = child.stderr.take().expect("stderr piped");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        let mut text = String::new();
+        for line in std::io::BufReader::new(pipe).lines().map_while(Result::ok) {
+            if line.contains(marker) {
+                let _ = tx.send(());
+            }
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    });
+    (rx, reader)
 }
 
 /// The eigenvalues of a `frequencies.csv` (column 3, rad^2/s^2).
@@ -464,12 +515,16 @@ fn hz_columns(path: &Path) -> Vec<f64> {
 }
 
 /// The blade at speed under `mpirun -n 2 nlmodes run` (`--only speed`, then `--only
-/// campbell`): the reduction of K(Omega) runs over the ranks on the K(Omega) and M that rank 0
-/// assembles and sends by rows; the prestress and the Campbell diagram run on rank 0. Against
-/// the serial run: every number of prestress.json (Newton residuals excepted) to 1e-9 relative,
-/// the model at speed as in `assert_same_model`, the Campbell frequencies to 1e-8 relative
-/// (rank 0 computes them as the serial run does: the checks hold the stages' results under
-/// mpirun).
+/// campbell`): the prestress's Newton steps (MUMPS on each tangent), the reduction of K(Omega),
+/// the Campbell march's Newton steps, its basis modes, its direct check and the parametric
+/// model's reduction run over the ranks on the matrices rank 0 assembles and sends by rows
+/// (`src/rotation_mpi.rs`). Against the serial run: every number of prestress.json (Newton
+/// residuals excepted) to 1e-9 relative (both direct solves are accurate to cond(K_T) eps,
+/// about 1e-11 here, and Newton stops at the same iteration), the model at speed as in
+/// `assert_same_model`, the Campbell frequencies to 1e-8 relative (the basis modes of both
+/// paths converge to residuals of 1e-10; Ritz values are second order in them), and the
+/// parametric model's lowest 6 frequencies and running gaps at every sample and midway
+/// between, to 1e-8 relative (its basis spans the same vectors up to the modes' 1e-10).
 #[test]
 fn mpirun_run_distributes_the_blade_at_speed_like_the_serial_run() {
     let dir = tempfile::tempdir().unwrap();
@@ -523,4 +578,45 @@ fn mpirun_run_distributes_the_blade_at_speed_like_the_serial_run() {
             "Campbell frequency {a} vs {b} Hz"
         );
     }
+    assert_same_parametric_model(&serial.join("parametric"), &mpi.join("parametric"));
+}
+
+/// The parametric models of `serial` and `mpi` (directories) agree at the sample speeds and
+/// midway between: the lowest 6 frequencies and the contact nodes' running gaps to 1e-8
+/// relative (tolerance of the test above).
+fn assert_same_parametric_model(serial: &Path, mpi: &Path) {
+    let read = |dir: &Path| nlmodes_modal::ParametricModel::read(dir).unwrap();
+    let (s, p) = (read(serial), read(mpi));
+    assert_eq!(s.speeds(), p.speeds());
+    let samples = s.speeds();
+    let midway = samples.windows(2).map(|w| 0.5 * (w[0] + w[1]));
+    let (mut worst_hz, mut worst_gap) = (0.0_f64, 0.0_f64);
+    for omega in samples.iter().copied().chain(midway) {
+        let (a, b) = (s.at(omega).unwrap(), p.at(omega).unwrap());
+        let hz = |m: &ReducedModel| {
+            nlmodes_modal::reduced_model::linear_frequencies_hz(&m.k, &m.m, 6).unwrap()
+        };
+        let (fa, fb) = (hz(&a), hz(&b));
+        assert_eq!(fa.len(), 6);
+        for (x, y) in fa.iter().zip(&fb) {
+            worst_hz = worst_hz.max(((x - y) / x).abs());
+            assert!(
+                ((x - y) / x).abs() < 1e-8,
+                "parametric model at {omega} rad/s: {x} vs {y} Hz"
+            );
+        }
+        assert_eq!(a.contact_nodes.len(), b.contact_nodes.len());
+        for (x, y) in a.contact_nodes.iter().zip(&b.contact_nodes) {
+            worst_gap = worst_gap.max(((x.gap - y.gap) / x.gap).abs());
+            assert!(
+                ((x.gap - y.gap) / x.gap).abs() < 1e-8,
+                "parametric model at {omega} rad/s: running gap {} vs {} m",
+                x.gap,
+                y.gap
+            );
+        }
+    }
+    println!(
+        "parametric model: frequencies within {worst_hz:.1e}, running gaps within {worst_gap:.1e}"
+    );
 }

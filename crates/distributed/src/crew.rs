@@ -124,7 +124,7 @@ pub fn abort_if_parallel(code: i32) {
 /// which waits for ranks that may be waiting for this one in a collective. Every rank calls it
 /// after [`crate::start`]; nothing happens without a session of more than one rank.
 pub fn abort_on_panic() {
-    if !world().is_some_and(|w| w.size > 1) {
+    if world().is_none_or(|w| w.size <= 1) {
         return;
     }
     let previous = std::panic::take_hook();

@@ -29,6 +29,8 @@ fn building_blocks_on_two_ranks() {
         .args(["-n", "2", "--oversubscribe"])
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        // No cross-memory attach (refused in containers without CAP_SYS_PTRACE, open-mpi/ompi#4948).
+        .env("OMPI_MCA_btl_vader_single_copy_mechanism", "none")
         .env("OPENBLAS_NUM_THREADS", "1")
         .env("RAYON_NUM_THREADS", "1")
         .arg(exe)
