@@ -164,9 +164,25 @@ pub fn serve() -> Result<()> {
             last = Some((fe.mesh.clone(), fe.clamp.clone(), mesh, dofs));
         }
         let (_, _, mesh, dofs) = last.as_ref().expect("read above");
+        injected_failure()?;
         task.run_on(mesh, dofs, RootData::default())?;
     }
     Ok(())
+}
+
+/// The environment variable of the test hook [`injected_failure`].
+const TEST_FAILURE_VARIABLE: &str = "NLMODES_TEST_TASK_FAILURE";
+
+/// A test hook (tests/mpi_reduce.rs): with `NLMODES_TEST_TASK_FAILURE=error` (or `=panic`) in
+/// its environment, a serving rank fails at the start of each task as a rank meeting an error
+/// (or a bug) inside a task would, while rank 0 has gone on into the task's collectives:
+/// the job must end with the message, not hang. Any other value is ignored.
+fn injected_failure() -> Result<()> {
+    match std::env::var(TEST_FAILURE_VARIABLE).as_deref() {
+        Ok("error") => anyhow::bail!("{TEST_FAILURE_VARIABLE}=error: a failure inside the task"),
+        Ok("panic") => panic!("{TEST_FAILURE_VARIABLE}=panic: a panic inside the task"),
+        _ => Ok(()),
+    }
 }
 
 /// Rank 0: hands `task` to the other ranks and computes its part with them, on the mesh of

@@ -278,6 +278,52 @@ fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
     assert!(!out.join("model.json").exists(), "no model after a failure");
 }
 
+/// Rank 1 failing inside the reduction's task, by an error and by a panic (the test hook
+/// `NLMODES_TEST_TASK_FAILURE` of src/reduce_mpi.rs; rank 0 is then inside the task's
+/// collectives): the job ends within the timeout (a hang fails the test) with the error's exit
+/// status (1) or a panic's (101), the message of rank 1 and MPI_Abort's report, and no model.
+/// The panic's case checks the hook `main` installs (`crew::abort_on_panic`).
+#[test]
+fn a_rank_failing_inside_a_task_ends_the_job_with_its_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("coarse.msh");
+    common::nlmodes_ok(&[
+        "mesh",
+        common::blade_geo().to_str().unwrap(),
+        "-o",
+        mesh.to_str().unwrap(),
+        "--set",
+        "mesh_size=0.012",
+    ]);
+    for (failure, status, message) in [
+        (
+            "error",
+            1,
+            "error (MPI rank 1): NLMODES_TEST_TASK_FAILURE=error",
+        ),
+        (
+            "panic",
+            101,
+            "NLMODES_TEST_TASK_FAILURE=panic: a panic inside the task",
+        ),
+    ] {
+        let out = dir.path().join(format!("model_{failure}"));
+        let args = reduce_args(mesh.to_str().unwrap(), out.to_str().unwrap(), "0");
+        let child = mpirun_command(2, &args)
+            .env("NLMODES_TEST_TASK_FAILURE", failure)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("cannot start mpirun");
+        let output = wait_with_timeout(child, MPIRUN_TIMEOUT).expect("the job hung");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(status), "{failure}: {stderr}");
+        assert!(stderr.contains(message), "{failure}: {stderr}");
+        assert!(stderr.contains("MPI_ABORT"), "{failure}: {stderr}");
+        assert!(!out.join("model.json").exists(), "no model after a failure");
+    }
+}
+
 /// Reads `child`'s stderr on a thread: a message on the receiver once a line contains `marker`,
 /// and the whole text when the thread is joined (at the end of the stream).
 fn watch_stderr(
