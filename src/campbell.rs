@@ -43,21 +43,17 @@ impl BasisModes {
     }
 
     /// At a speed of the march: the modes of (K(Omega), M) if it is a basis speed (shift-invert
-    /// at 0 on the factor of K(Omega), the march's analysis reused).
+    /// at 0 on the factor of K(Omega), the march's analysis reused; over the ranks under
+    /// mpirun).
     pub fn visit(&mut self, point: &mut SpeedPoint<'_>, m: &CsMat<f64>) -> Result<()> {
         let omega = point.omega;
         let Some(s) = self.speeds.iter().position(|&b| b == omega) else {
             return Ok(());
         };
-        let k = point.stiffness;
-        let factor = point
+        let modes = point
             .solver
-            .factorize(k, "K(Omega)")
-            .with_context(|| format!("factorizing K(Omega) at {omega:.3} rad/s"))?;
-        let modes = crate::ui::with_solve_spinner("campbell", |opts| {
-            nlmodes_modal::eigs_shift_invert_factored(k, m, 0.0, factor, self.per_speed, opts)
-        })
-        .with_context(|| format!("the modes at {omega:.3} rad/s"))?;
+            .lowest_modes(point.stiffness, m, self.per_speed, "campbell")
+            .with_context(|| format!("the modes of K(Omega) at {omega:.3} rad/s"))?;
         self.vectors[s] = Some(modes.vectors);
         Ok(())
     }
@@ -292,6 +288,7 @@ mod tests {
         let speeds = [0.0, 30.0, 60.0, 95.0, 120.0];
         let mut basis_modes = BasisModes::new(&basis, 8);
         let family = SpeedFamily::of(
+            crate::rotation_mpi::FullSolver::default(),
             &fe,
             &material,
             &axis,

@@ -24,7 +24,7 @@ use nlmodes_fem::Isotropic;
 use sprs::CsMat;
 
 use crate::fe_model::FeModel;
-use crate::prestress::MetisCholesky;
+use crate::rotation_mpi::FullSolver;
 
 /// How the stiffness at speed is known.
 enum Stiffness {
@@ -41,13 +41,14 @@ enum Stiffness {
     Nonlinear(Vec<StaticSolution>),
 }
 
-/// K(Omega) on the free DOFs (N/m) along the speeds of a range, M (kg), and the sparse
-/// Cholesky whose analysis (of the mesh's pattern) the factorizations of K(Omega) reuse.
+/// K(Omega) on the free DOFs (N/m) along the speeds of a range, M (kg), and the solver of its
+/// static solves: the sparse Cholesky whose analysis (of the mesh's pattern) the
+/// factorizations of K(Omega) reuse, or MUMPS over the ranks under mpirun ([`FullSolver`]).
 pub struct SpeedFamily<'m> {
     model: RotatingModel<'m>,
     stiffness: Stiffness,
     pub m: CsMat<f64>,
-    solver: MetisCholesky,
+    solver: FullSolver,
     /// The march's K(Omega), kept when they fit in memory.
     kept: Option<KeptStiffness>,
 }
@@ -101,8 +102,9 @@ pub struct SpeedPoint<'a> {
     /// The static displacement on all 3n DOFs, m (with the linear prestress, (Omega /
     /// Omega_top)^2 times the state at the highest speed).
     pub displacement: &'a [f64],
-    /// The solver of the static solves: its factorization of K(Omega) reuses their analysis.
-    pub solver: &'a mut MetisCholesky,
+    /// The solver of the static solves: its factorization of K(Omega) reuses their analysis
+    /// (over the ranks under mpirun).
+    pub solver: &'a mut FullSolver,
 }
 
 impl<'m> SpeedFamily<'m> {
@@ -112,8 +114,10 @@ impl<'m> SpeedFamily<'m> {
     /// and those at `side` solved on the side of the march (from the marched states below
     /// them, without entering its sequence: the marched states are bit for bit those of a
     /// march without side speeds); with the linear one a single static solve at the highest
-    /// speed serves every speed.
+    /// speed serves every speed. `solver` solves the static states and serves the visitors'
+    /// solves (`FullSolver::default()` on this process).
     pub fn of(
+        mut solver: FullSolver,
         fe: &'m FeModel,
         material: &Isotropic,
         axis: &RotorAxis,
@@ -123,7 +127,6 @@ impl<'m> SpeedFamily<'m> {
     ) -> Result<Self> {
         let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
             .context("the rotating model")?;
-        let mut solver = MetisCholesky::default();
         let sorted = |v: &[f64]| {
             let mut v = v.to_vec();
             v.sort_by(f64::total_cmp);
@@ -201,7 +204,7 @@ impl<'m> SpeedFamily<'m> {
     }
 
     /// M and the solver of the family's static solves (its analysis reusable for K(Omega)).
-    pub fn mass_and_solver(&mut self) -> (&CsMat<f64>, &mut MetisCholesky) {
+    pub fn mass_and_solver(&mut self) -> (&CsMat<f64>, &mut FullSolver) {
         (&self.m, &mut self.solver)
     }
 }
@@ -255,7 +258,7 @@ fn predictor(
 fn march(
     model: &RotatingModel<'_>,
     (marched, side): (&[f64], &[f64]),
-    solver: &mut MetisCholesky,
+    solver: &mut FullSolver,
     visit: &mut dyn FnMut(SpeedPoint<'_>) -> Result<()>,
 ) -> Result<Vec<StaticSolution>> {
     let bar = crate::ui::bar((marched.len() + side.len()) as u64, "prestress");
@@ -286,7 +289,7 @@ fn solve_at(
     model: &RotatingModel<'_>,
     states: &[StaticSolution],
     omega: f64,
-    solver: &mut MetisCholesky,
+    solver: &mut FullSolver,
     visit: &mut dyn FnMut(SpeedPoint<'_>) -> Result<()>,
 ) -> Result<StaticSolution> {
     let options = nlmodes_fem::rotation::NewtonOptions {

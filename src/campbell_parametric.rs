@@ -158,7 +158,8 @@ impl<'a> ParametricBuilder<'a> {
     }
 
     /// The reduced model at the reference speed: Craig-Bampton of K(Omega) with the contact
-    /// nodes at their prestressed positions and running gaps (as the `speed` stage's).
+    /// nodes at their prestressed positions and running gaps (as the `speed` stage's; over the
+    /// ranks under mpirun, by the march's solver).
     fn reduce_at(&self, point: &SpeedPoint<'_>) -> Result<ReducedModel> {
         let s = &self.settings;
         let growth =
@@ -184,7 +185,7 @@ impl<'a> ParametricBuilder<'a> {
             }),
             loads: Vec::new(),
         };
-        let (model, _) = crate::reduce::reduce(&fe, &settings).with_context(|| {
+        let (model, _) = point.solver.reduce(&fe, &settings).with_context(|| {
             format!(
                 "the basis of the parametric model at {:.1} rpm",
                 point.omega / crate::rotation_settings::RPM_TO_RAD_S
@@ -457,6 +458,7 @@ pub(crate) mod tests {
         let mut basis = BasisModes::new(&[0.0, 40.0, 60.0], 6);
         let mut builder = ParametricBuilder::new(&fe, settings, axis, 40.0, 4).unwrap();
         let mut family = SpeedFamily::of(
+            crate::rotation_mpi::FullSolver::default(),
             &fe,
             &fixtures::steel(),
             &axis,

@@ -180,7 +180,10 @@ impl<'a> CampbellStage<'a> {
         let mut basis_modes = BasisModes::new(&basis, r.campbell_modes + 4);
         let settings = crate::reduce_stage::reduce_settings(self.case)?;
         let mut builder = ParametricBuilder::new(&fe, settings, axis, basis[1], r.campbell_modes)?;
+        // Over the ranks under mpirun: the Newton steps, the basis modes, the parametric basis.
+        let solver = crate::rotation_mpi::FullSolver::of(&fe, &self.mesh, material);
         let mut family = SpeedFamily::of(
+            solver,
             &fe,
             material,
             &axis,
@@ -290,7 +293,7 @@ fn coriolis_shift(
 }
 
 /// The direct check at the non-basis speed whose drawn modes have the largest residual (the
-/// factorization of K(Omega) reuses the march's analysis).
+/// factorization of K(Omega) reuses the march's analysis; over the ranks under mpirun).
 fn direct_check(
     family: &mut SpeedFamily<'_>,
     speeds: &[f64],
@@ -307,10 +310,7 @@ fn direct_check(
     };
     let k = family.at(speeds[s] * RPM_TO_RAD_S)?;
     let (m, solver) = family.mass_and_solver();
-    let factor = solver.factorize(&k, "K(Omega)")?;
-    let direct = crate::ui::with_solve_spinner("campbell check", |opts| {
-        nlmodes_modal::eigs_shift_invert_factored(&k, m, 0.0, factor, n, opts)
-    })?;
+    let direct = solver.lowest_modes(&k, m, n, "campbell check")?;
     let frequency_hz: Vec<f64> = direct.eigenvalues.iter().map(|&l| hz(l)).collect();
     let max_relative_error = frequency_hz
         .iter()

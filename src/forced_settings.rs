@@ -640,7 +640,8 @@ pub struct FullLoad {
 /// surface (pressure) or carries no load on the free DOFs.
 pub fn full_load(
     s: &ForcedSection,
-    fe: &crate::fe_model::FeModel,
+    mesh: &nlmodes_fem::Mesh,
+    dofs: &nlmodes_fem::DofMap,
 ) -> anyhow::Result<Option<FullLoad>> {
     let bad = |e: &dyn std::fmt::Display| {
         crate::exit::bad_input(format!(
@@ -655,14 +656,14 @@ pub fn full_load(
     };
     let (f, description) = match s.load {
         ForcedLoadKind::Group => (
-            group_load(s, fe).map_err(|e| bad(&e))?,
+            group_load(s, mesh, dofs).map_err(|e| bad(&e))?,
             format!(
                 "T^T f of [forced] load = \"group\": 1 N along {:?} on the group {:?}, N per \
                  reduced coordinate",
                 s.load_direction, s.load_group
             ),
         ),
-        ForcedLoadKind::Pressure => pressure_load(s, fe).map_err(|e| bad(&e))?,
+        ForcedLoadKind::Pressure => pressure_load(s, mesh, dofs).map_err(|e| bad(&e))?,
         _ => return Ok(None),
     };
     if f.iter().all(|v| *v == 0.0) {
@@ -676,21 +677,22 @@ pub fn full_load(
 /// 1 N in total along the unit direction, shared equally by the group's free nodes.
 fn group_load(
     s: &ForcedSection,
-    fe: &crate::fe_model::FeModel,
+    mesh: &nlmodes_fem::Mesh,
+    dofs: &nlmodes_fem::DofMap,
 ) -> Result<Vec<f64>, nlmodes_fem::FemError> {
-    let group = fe.mesh.group(&s.load_group)?;
+    let group = mesh.group(&s.load_group)?;
     let d = s.load_direction;
     let len = d.iter().map(|v| v * v).sum::<f64>().sqrt();
     let free: Vec<usize> = group
         .nodes
         .iter()
         .copied()
-        .filter(|&n| (0..3).all(|c| fe.dofs.free_index(3 * n + c).is_some()))
+        .filter(|&n| (0..3).all(|c| dofs.free_index(3 * n + c).is_some()))
         .collect();
-    let mut f = vec![0.0; fe.dofs.n_free()];
+    let mut f = vec![0.0; dofs.n_free()];
     for &n in &free {
         for (c, dc) in d.iter().enumerate() {
-            let i = fe.dofs.free_index(3 * n + c).expect("free");
+            let i = dofs.free_index(3 * n + c).expect("free");
             f[i] = dc / len / free.len() as f64;
         }
     }
@@ -701,14 +703,15 @@ fn group_load(
 /// DOFs' share goes to the supports), with a description naming the total force and ∫ n dA.
 fn pressure_load(
     s: &ForcedSection,
-    fe: &crate::fe_model::FeModel,
+    mesh: &nlmodes_fem::Mesh,
+    dofs: &nlmodes_fem::DofMap,
 ) -> Result<(Vec<f64>, String), nlmodes_fem::FemError> {
     use nlmodes_fem::surface_load;
-    let full = surface_load::pressure_load(&fe.mesh, &s.load_group, 1.0)?;
-    let area = surface_load::area_vector(&fe.mesh, &s.load_group)?;
-    let mut f = vec![0.0; fe.dofs.n_free()];
+    let full = surface_load::pressure_load(mesh, &s.load_group, 1.0)?;
+    let area = surface_load::area_vector(mesh, &s.load_group)?;
+    let mut f = vec![0.0; dofs.n_free()];
     for (dof, v) in full.iter().enumerate() {
-        if let Some(i) = fe.dofs.free_index(dof) {
+        if let Some(i) = dofs.free_index(dof) {
             f[i] = *v;
         }
     }

@@ -37,10 +37,12 @@ mod post;
 mod prestress;
 mod problems;
 mod reduce;
+mod reduce_mpi;
 mod reduce_stage;
 mod render;
 mod report;
 mod results;
+mod rotation_mpi;
 mod rotation_settings;
 mod run;
 mod speed_stage;
@@ -57,7 +59,7 @@ mod study_snakefile;
 mod ui;
 mod validate;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -356,7 +358,20 @@ fn main() -> std::process::ExitCode {
     };
     let rank = nlmodes_distributed::world().map(|w| w.rank);
     ui::init(cli.quiet || rank.is_some_and(|r| r > 0));
-    match run(cli.command) {
+    // A panic on any rank ends every rank (unwinding would wait in MPI_Finalize for the others).
+    nlmodes_distributed::crew::abort_on_panic();
+    // Under mpirun rank 0 runs the command and the other ranks serve its distributed tasks.
+    let result = match rank {
+        Some(r) if r > 0 => reduce_mpi::serve(),
+        Some(_) => {
+            nlmodes_distributed::crew::lead();
+            run(cli.command)
+        }
+        None => run(cli.command),
+    };
+    // Rank 0 lets the other ranks end (unless an error left them inside a task).
+    nlmodes_distributed::crew::release();
+    match result {
         Ok(()) => std::process::ExitCode::from(exit::COMPLETE),
         Err(e) => {
             let code = exit::code_of(&e);
@@ -364,7 +379,7 @@ fn main() -> std::process::ExitCode {
                 Some(r) => eprintln!("error (MPI rank {r}): {e:#}"),
                 None => eprintln!("error: {e:#}"),
             }
-            // Every other rank ends too: it could be waiting for this one in a collective.
+            // Every other rank ends too if it could be waiting for this one in a collective.
             nlmodes_distributed::abort_if_parallel(code.into());
             std::process::ExitCode::from(code)
         }
@@ -372,12 +387,15 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run(command: Command) -> Result<()> {
-    if nlmodes_distributed::world().is_some()
-        && !matches!(command, Command::Modes { .. } | Command::Reduce(_))
+    if reduce_mpi::distributed()
+        && !matches!(
+            command,
+            Command::Modes { .. } | Command::Reduce(_) | Command::Run { .. }
+        )
     {
         return Err(bad_input(
-            "under mpirun only `nlmodes modes` and `nlmodes reduce` run (the finite-element \
-             stages, over MPI); run the other commands without mpirun",
+            "under mpirun only `nlmodes modes`, `nlmodes reduce` and `nlmodes run` run (their \
+             finite-element stages over MPI); run the other commands without mpirun",
         ));
     }
     match command {
@@ -409,8 +427,9 @@ fn run(command: Command) -> Result<()> {
                 )));
             }
             validate::check_output_dir(&out, "--out")?;
-            if nlmodes_distributed::world().is_some() {
-                return distributed_modes(&mesh, &material.material()?, &fix, modes, sigma, &out);
+            if reduce_mpi::distributed() {
+                let source = reduce_mpi::FeSource::new(&mesh, &fix, &material.material()?);
+                return reduce_mpi::write_full_modes(source, modes, sigma, &out);
             }
             let fe = fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
             let m = fe.modes(modes, sigma)?;
@@ -462,7 +481,7 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
     validate::check_output_dir(&a.out, "--out")?;
     let material = a.material.material()?;
-    let reduced = if nlmodes_distributed::world().is_some() {
+    let (mut model, full) = if reduce_mpi::distributed() {
         let (mesh, dofs) = fe_model::read_mesh(&a.mesh, &a.fix)?;
         let settings = reduce_settings(&a, axis, dofs.n_free());
         let side = reduce::MeshSide {
@@ -470,17 +489,11 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
             dofs: &dofs,
             clamp: &a.fix,
         };
-        reduce::reduce_distributed(&side, &material, &settings)?
+        let source = reduce_mpi::FeSource::new(&a.mesh, &a.fix, &material);
+        reduce::reduce_distributed(&side, source, &settings, reduce_mpi::RootData::default())?
     } else {
         let fe = fe_model::FeModel::build(&a.mesh, &material, &a.fix)?;
-        Some(reduce::reduce(
-            &fe,
-            &reduce_settings(&a, axis, fe.dofs.n_free()),
-        )?)
-    };
-    // Under MPI only rank 0 has the model and writes it.
-    let Some((mut model, full)) = reduced else {
-        return Ok(());
+        reduce::reduce(&fe, &reduce_settings(&a, axis, fe.dofs.n_free()))?
     };
     reduce::write_model(&mut model, &a.out, &a.mesh)?;
     if let Some(full) = full {
@@ -515,32 +528,6 @@ fn reduce_settings(
         running: None,
         loads: Vec::new(),
     }
-}
-
-/// `nlmodes modes` under mpirun: the modes by SLEPc over the ranks, written by rank 0.
-fn distributed_modes(
-    mesh_path: &Path,
-    material: &nlmodes_fem::Isotropic,
-    fix: &[String],
-    modes: usize,
-    sigma: f64,
-    out: &Path,
-) -> Result<()> {
-    let (mesh, dofs) = fe_model::read_mesh(mesh_path, fix)?;
-    let stage = ui::Stage::start("modes");
-    let found = nlmodes_distributed::full_modes(&mesh, material, &dofs, modes, sigma)
-        .with_context(|| format!("computing {modes} modes of the {}-DOF model", dofs.n_free()))?;
-    let Some(m) = found else {
-        return Ok(());
-    };
-    let worst = m.residuals.iter().cloned().fold(0.0, f64::max);
-    stage.done(&format!(
-        "{} modes, largest relative residual {worst:.2e}",
-        m.len()
-    ));
-    fe_model::write_modes_of(&mesh, &dofs, &m, out)?;
-    ui::say(&fe_model::frequency_table(&m));
-    Ok(())
 }
 
 /// `nlmodes backbone`: every setting and the output path are checked before the model is read,

@@ -104,19 +104,19 @@ pub fn radial_growth(fe: &FeModel, axis: &RotorAxis, u: &[f64], nodes: &[usize])
 /// from it; `contact` are the contact nodes (mesh indices), `cold_gap` the gap at rest (m).
 /// Bad input, naming the key and the speed: a speed at which a contact node's growth closes the
 /// gap (with the node and the estimated closure speed), and one at which the static solve does
-/// not converge (with the load step at which it stopped and why).
+/// not converge (with the load step at which it stopped and why). `solver` solves the Newton
+/// steps (`crate::rotation_mpi::FullSolver`: here, or over the ranks under mpirun).
 pub fn at_speed(
     fe: &FeModel,
     material: &Isotropic,
     axis: &RotorAxis,
     (omega, key): (f64, &str),
     nonlinear: bool,
-    contact: &[usize],
-    cold_gap: f64,
+    (contact, cold_gap): (&[usize], f64),
+    solver: &mut dyn LinearSolver,
 ) -> Result<Prestress> {
     let model = RotatingModel::new(&fe.mesh, *material, *axis, fe.dofs.clone())
         .context("the rotating model")?;
-    let mut solver = MetisCholesky::default();
     let (solution, stiffness) = if nonlinear {
         // One nominal load step: the blade's strains are about 1e-3, Newton converges from the
         // unstressed tangent in 3-4 iterations; the cutbacks catch harder cases. The stiffness
@@ -126,11 +126,11 @@ pub fn at_speed(
             ..NewtonOptions::default()
         };
         model
-            .solve_nonlinear_with_stiffness(None, omega, &options, &mut solver)
+            .solve_nonlinear_with_stiffness(None, omega, &options, solver)
             .map_err(|e| not_converged(key, omega, e))?
     } else {
         let s = model
-            .solve_linearized(omega, false, &mut solver)
+            .solve_linearized(omega, false, solver)
             .map_err(|e| not_converged(key, omega, e))?;
         let k = model
             .stiffness_at_speed(&s)

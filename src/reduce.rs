@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use faer::Mat;
-use nlmodes_fem::{DofMap, Isotropic, Mesh};
+use nlmodes_fem::{DofMap, Mesh};
 use nlmodes_modal::{
     craig_bampton_with_loads, reduced_eigen, ContactNode, CraigBampton, MasterCoordinate,
     MeshReference, ReducedModel, RotorAxis,
@@ -163,7 +163,7 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
         dofs: &fe.dofs,
         clamp: &fe.clamp,
     };
-    let reduced = reduce_with(&fe_side, s, |boundary| {
+    reduce_with(&fe_side, s, |boundary| {
         let (cb, full) = ui::with_solve_spinner("reduce", |opts| {
             craig_bampton_with_loads(
                 &fe.k,
@@ -175,9 +175,8 @@ pub fn reduce(fe: &FeModel, s: &ReduceSettings) -> Result<(ReducedModel, Option<
                 opts,
             )
         })?;
-        Ok(Some((cb, full.map(|m| m.frequencies_hz()))))
-    })?;
-    reduced.context("the serial reduction delivers on its only process")
+        Ok((cb, full.map(|m| m.frequencies_hz())))
+    })
 }
 
 /// The mesh side of an FE model: what the reduction needs besides K and M.
@@ -188,36 +187,40 @@ pub struct MeshSide<'a> {
     pub clamp: &'a [String],
 }
 
-/// [`reduce`] over the ranks of an MPI job (`mpirun -n P nlmodes reduce`): K and M assembled,
-/// factorized and reduced by PETSc, MUMPS and SLEPc (`nlmodes_distributed`); the model on
-/// rank 0, `None` on the others.
+/// [`reduce`] over the ranks of an MPI job (`mpirun -n P nlmodes reduce`, the reduce stage of
+/// `nlmodes run`), on rank 0: K and M assembled, factorized and reduced by PETSc, MUMPS and
+/// SLEPc (`nlmodes_distributed`) with the other ranks, which read the mesh of `source`.
+/// K and M are assembled over the ranks, or sent by this process when `root` holds them (the
+/// model at speed, K(Omega)).
 pub fn reduce_distributed(
     fe_side: &MeshSide,
-    material: &Isotropic,
+    source: crate::reduce_mpi::FeSource,
     s: &ReduceSettings,
-) -> Result<Option<(ReducedModel, Option<Vec<f64>>)>> {
+    root: crate::reduce_mpi::RootData,
+) -> Result<(ReducedModel, Option<Vec<f64>>)> {
     reduce_with(fe_side, s, |boundary| {
-        let input = nlmodes_distributed::ReductionInput {
-            mesh: fe_side.mesh,
-            material,
-            dofs: fe_side.dofs,
-            boundary,
-            n_modes: s.modes,
+        let task = crate::reduce_mpi::Task::Reduce {
+            fe: source,
+            boundary: boundary.to_vec(),
+            modes: s.modes,
             check_modes: s.check_modes,
-            loads: &s.loads,
+            loads: s.loads.clone(),
+            from_root: root.k.is_some(),
         };
-        let reduced = nlmodes_distributed::craig_bampton(&input)?;
-        Ok(reduced.map(|r| (r.cb, r.full_check_hz)))
+        match crate::reduce_mpi::lead(&task, fe_side.mesh, fe_side.dofs, root)? {
+            crate::reduce_mpi::Delivered::Reduction(r) => Ok((r.cb, r.full_check_hz)),
+            _ => anyhow::bail!("a reduction task delivered something else"),
+        }
     })
 }
 
 /// The reduction with the Craig-Bampton basis of `craig_bampton` (given the boundary DOFs in
-/// the free numbering), which delivers it on this process or not (`None`: another MPI rank).
+/// the free numbering).
 fn reduce_with(
     fe: &MeshSide,
     s: &ReduceSettings,
-    craig_bampton: impl FnOnce(&[usize]) -> Result<Option<(CraigBampton, Option<Vec<f64>>)>>,
-) -> Result<Option<(ReducedModel, Option<Vec<f64>>)>> {
+    craig_bampton: impl FnOnce(&[usize]) -> Result<(CraigBampton, Option<Vec<f64>>)>,
+) -> Result<(ReducedModel, Option<Vec<f64>>)> {
     if !(s.gap > 0.0 && s.gap.is_finite()) {
         return Err(bad_input(format!(
             "the initial gap must be > 0 m, got {}",
@@ -255,16 +258,13 @@ fn reduce_with(
         }
     }
     let stage = ui::Stage::start("reduce");
-    let delivered = craig_bampton(&boundary).with_context(|| {
+    let (cb, full) = craig_bampton(&boundary).with_context(|| {
         format!(
             "Craig-Bampton reduction onto {} contact nodes with {} fixed-interface modes",
             nodes.len(),
             s.modes
         )
     })?;
-    let Some((cb, full)) = delivered else {
-        return Ok(None);
-    };
     tracing::info!(
         "reduced model: {} coordinates; asymmetry before symmetrization K_r {:.1e}, M_r {:.1e}",
         cb.n_reduced(),
@@ -325,7 +325,7 @@ fn reduce_with(
             k => format!(" + {k} static correction(s)"),
         }
     ));
-    Ok(Some((model, full)))
+    Ok((model, full))
 }
 
 /// The master coordinate: given, or the contact DOF with the largest amplitude in the first mode.

@@ -3,7 +3,8 @@
 //! this process traces the backbone (a process, not a thread: ARPACK keeps its state in Fortran
 //! SAVE variables and is not re-entrant). `reduce`: the FE model's Craig-Bampton reduction onto
 //! the contact nodes, written as `model/`. Both rerun when the mesh, `[material]` or the clamp
-//! change; `modes` also with `linear_modes`, `reduce` with any `[model]` key.
+//! change; `modes` also with `linear_modes`, `reduce` with any `[model]` key. Under mpirun both
+//! run over the ranks (`crate::reduce_mpi`), the modes in this process after the reduction.
 
 use anyhow::{Context, Result};
 use nlmodes_fem::Isotropic;
@@ -73,7 +74,33 @@ impl Stage for ModesStage<'_> {
         vec![d.join("frequencies.csv"), d.join("modes.vtu")]
     }
     fn work(&self) -> Result<()> {
+        if crate::reduce_mpi::distributed() {
+            return self.over_mpi();
+        }
         self.spawn()?.wait()
+    }
+}
+
+impl ModesStage<'_> {
+    /// Under mpirun: the modes over the ranks, in this process (the other ranks wait for
+    /// rank 0's tasks: a child `nlmodes` would not be part of the MPI job).
+    fn over_mpi(&self) -> Result<()> {
+        let m = &self.case.material;
+        let source = crate::reduce_mpi::FeSource {
+            mesh: self.layout.mesh(),
+            clamp: self.case.model.clamp.clone(),
+            material: [m.young, m.poisson, m.density],
+        };
+        tracing::info!(
+            "stage modes: {} clamped modes of the full model, over MPI",
+            self.case.model.linear_modes
+        );
+        crate::reduce_mpi::write_full_modes(
+            source,
+            self.case.model.linear_modes,
+            0.0,
+            &self.layout.modes(),
+        )
     }
 }
 
@@ -108,21 +135,35 @@ impl<'a> ReduceStage<'a> {
 
     /// Builds the FE model, reduces it and writes `model/` (with `F.mtx`, the reduced load, and
     /// the load's static correction in the basis when `[forced] load = "group"` or
-    /// `"pressure"`).
+    /// `"pressure"`). Under mpirun the reduction runs over the ranks (`reduce_mpi`).
     fn reduce(&self) -> Result<nlmodes_modal::ReducedModel> {
-        let fe = FeModel::build(&self.layout.mesh(), self.material, &self.case.model.clamp)?;
         let mut settings = reduce_settings(self.case)?;
-        let f = &self.case.forced;
-        let full_load = if f.enabled {
-            crate::forced_settings::full_load(f, &fe)?
+        let (mut model, full_load) = if crate::reduce_mpi::distributed() {
+            let clamp = &self.case.model.clamp;
+            let (mesh, dofs) = crate::fe_model::read_mesh(&self.layout.mesh(), clamp)?;
+            let full_load = self.full_load(&mesh, &dofs, &mut settings)?;
+            let side = reduce::MeshSide {
+                mesh: &mesh,
+                dofs: &dofs,
+                clamp,
+            };
+            let source =
+                crate::reduce_mpi::FeSource::new(&self.layout.mesh(), clamp, self.material);
+            (
+                reduce::reduce_distributed(
+                    &side,
+                    source,
+                    &settings,
+                    crate::reduce_mpi::RootData::default(),
+                )?
+                .0,
+                full_load,
+            )
         } else {
-            None
+            let fe = FeModel::build(&self.layout.mesh(), self.material, &self.case.model.clamp)?;
+            let full_load = self.full_load(&fe.mesh, &fe.dofs, &mut settings)?;
+            (reduce::reduce(&fe, &settings)?.0, full_load)
         };
-        if let Some(load) = &full_load {
-            tracing::info!("stage reduce: {}", load.description);
-            settings.loads = vec![load.f.clone()];
-        }
-        let (mut model, _) = reduce::reduce(&fe, &settings)?;
         let reduced_loads = settings
             .loads
             .iter()
@@ -143,6 +184,27 @@ impl<'a> ReduceStage<'a> {
             _ => {}
         }
         Ok(model)
+    }
+
+    /// The full-model load of `[forced]` (group or pressure), if any, added to the settings'
+    /// static-correction loads.
+    fn full_load(
+        &self,
+        mesh: &nlmodes_fem::Mesh,
+        dofs: &nlmodes_fem::DofMap,
+        settings: &mut reduce::ReduceSettings,
+    ) -> Result<Option<crate::forced_settings::FullLoad>> {
+        let f = &self.case.forced;
+        let full_load = if f.enabled {
+            crate::forced_settings::full_load(f, mesh, dofs)?
+        } else {
+            None
+        };
+        if let Some(load) = &full_load {
+            tracing::info!("stage reduce: {}", load.description);
+            settings.loads = vec![load.f.clone()];
+        }
+        Ok(full_load)
     }
 
     /// The full model's frequencies (modes stage) against the reduced model's, when both exist.
@@ -204,7 +266,8 @@ pub struct ModelRequest {
 /// stages after it (the backbone's continuation is single-threaded, so the second core is free;
 /// started beside the reduction instead, the two shared the cores and the reduction took 8.1 s
 /// instead of 7.1 s). [`PendingModes::finish`] waits for it; dropping it unfinished (an error
-/// on the way) kills it, so it is never left running.
+/// on the way) kills it, so it is never left running. Under mpirun both run over the ranks in
+/// this process, the modes after the reduction (`reduce_mpi`).
 pub fn modes_and_reduce<'s>(
     modes: &'s ModesStage<'s>,
     red: &'s ReduceStage<'s>,
@@ -227,7 +290,12 @@ pub fn modes_and_reduce<'s>(
             3 * reduce::msh_node_count(&modes.layout.mesh()).unwrap_or(0)
         );
     } else if want.modes && (want.force_modes || !up_to_date(modes)) {
-        child = Some(modes.spawn()?);
+        if crate::reduce_mpi::distributed() {
+            crate::stage::on_own_thread(|| modes.over_mpi())?;
+            stamp(modes)?;
+        } else {
+            child = Some(modes.spawn()?);
+        }
     } else if want.modes {
         tracing::info!("stage modes: up to date");
     }

@@ -17,6 +17,7 @@ use crate::case::Case;
 use crate::fe_model::FeModel;
 use crate::layout::Layout;
 use crate::prestress::{self, Prestress};
+use crate::rotation_mpi::FullSolver;
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
@@ -109,14 +110,16 @@ impl<'a> SpeedStage<'a> {
         let axis = prestress::fem_axis(m.rotor_axis_point, m.rotor_axis_direction)?;
         let nodes = crate::reduce::ordered_contact_nodes(&fe, &m.contact_group)?;
         let omega = self.speed_rpm * RPM_TO_RAD_S;
+        // Over the ranks under mpirun: the Newton steps and the reduction of K(Omega).
+        let mut solver = FullSolver::of(&fe, &self.mesh, material);
         let p = prestress::at_speed(
             &fe,
             material,
             &axis,
             (omega, self.key()),
             self.rotation.nonlinear(),
-            &nodes,
-            m.gap,
+            (&nodes, m.gap),
+            &mut solver,
         )?;
         let summary = summarize(&p, self.rotation, &nodes, m.gap);
         for line in &summary.newton {
@@ -132,7 +135,7 @@ impl<'a> SpeedStage<'a> {
             gaps: &p.running_gaps,
         });
         fe.k = p.stiffness;
-        let (mut model, _) = crate::reduce::reduce(&fe, &settings)?;
+        let (mut model, _) = solver.reduce(&fe, &settings)?;
         crate::reduce::write_model(&mut model, &self.layout.model(), &self.mesh)?;
         Ok(summary)
     }

@@ -1,31 +1,22 @@
 //! Generalized symmetric eigenproblems K x = lambda M x through SLEPc: Krylov-Schur with
 //! shift-invert about sigma, the factor of K - sigma M by MUMPS (docs/LARGE_MODELS.md,
-//! "Over MPI"). The pairs are post-processed as the serial solvers' ([`nlmodes_modal::Modes`]):
-//! ascending, mass-normalized, each vector's largest-magnitude entry positive, relative residual
-//! ||K x - lambda M x|| / (|lambda| ||M x||).
-//!
-//! Building block of the fixed-interface modes, the full-model modes and, later, the
-//! Campbell diagram's solves at each speed ([`EigenSolver::solve`] on the matrices at speed).
+//! "Over MPI"), the pairs post-processed by [`crate::finish`]. [`crate::pencil::nearest_modes`]
+//! uses it where the block Lanczos of [`crate::block_eigen`] does not serve (a shift other
+//! than 0, more than 48 pairs, no convergence, or `-nlmodes_eigensolver krylovschur`).
 
-use crate::collective::gather_to_all;
+use faer::Mat;
+
 use crate::error::{DistributedError, Result};
 use crate::ffi;
-use crate::petsc::{check, comm, int, Matrix, Vector, PETSC_DEFAULT};
+use crate::finish::finish_pairs;
+pub use crate::finish::LocalModes;
+use crate::petsc::{check, comm, int, Matrix, PETSC_DEFAULT};
+use crate::restricted::Restricted;
 use crate::static_solve::{direct_cholesky, Factor};
 
 /// Relative tolerance of SLEPc's convergence test (||r|| / |lambda|) unless PETSC_OPTIONS sets
 /// `-eps_tol`: the serial block Lanczos converges its Ritz estimates to 1e-10 too.
 pub const EIGEN_TOLERANCE: f64 = 1e-10;
-
-/// Eigenpairs with the vectors' rows of this rank (the row layout of K).
-pub struct LocalModes {
-    /// Eigenvalues, ascending (rad^2/s^2 for SI matrices).
-    pub eigenvalues: Vec<f64>,
-    /// Local rows of the mass-normalized vectors, one column per pair.
-    pub vectors: faer::Mat<f64>,
-    /// Relative residual of each pair.
-    pub residuals: Vec<f64>,
-}
 
 /// A solved SLEPc eigenproblem; it holds the factor of K - sigma M until dropped.
 pub struct EigenSolver {
@@ -128,11 +119,11 @@ impl EigenSolver {
         check(unsafe { ffi::EPSSetFromOptions(eps) }, "EPSSetFromOptions")
     }
 
-    /// The first `nev` converged pairs, post-processed (module documentation).
+    /// The first `nev` converged pairs, post-processed ([`crate::finish`]).
     fn pairs(&self, k: &Matrix, m: &Matrix, nev: usize) -> Result<LocalModes> {
         let x = k.row_vector()?;
-        let (mx, kx) = (k.row_vector()?, k.row_vector()?);
-        let mut found = Vec::with_capacity(nev);
+        let mut values = Vec::with_capacity(nev);
+        let mut columns = Vec::with_capacity(nev);
         for i in 0..nev {
             let (mut re, mut im) = (0.0, 0.0);
             check(
@@ -148,22 +139,18 @@ impl EigenSolver {
                 },
                 "EPSGetEigenpair",
             )?;
-            m.mult(&x, &mx)?;
-            let scale = 1.0 / dot(&x, &mx)?.sqrt();
-            let local = x.local()?;
-            let sign = largest_entry_sign(&local);
-            let local: Vec<f64> = local.iter().map(|v| v * scale * sign).collect();
-            x.set_local(&local)?;
-            let residual = residual(k, m, &x, re, &mx, &kx)?;
-            found.push((re, local, residual));
+            values.push(re);
+            columns.push(x.local()?);
         }
-        found.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let rows = found.first().map_or(0, |f| f.1.len());
-        Ok(LocalModes {
-            eigenvalues: found.iter().map(|f| f.0).collect(),
-            vectors: faer::Mat::from_fn(rows, nev, |r, j| found[j].1[r]),
-            residuals: found.iter().map(|f| f.2).collect(),
-        })
+        let rows = columns.first().map_or(0, Vec::len);
+        let vectors = Mat::from_fn(rows, nev, |r, j| columns[j][r]);
+        drop(columns);
+        finish_pairs(
+            &Restricted::whole(k)?,
+            &Restricted::whole(m)?,
+            &values,
+            vectors,
+        )
     }
 
     /// The factor of K - sigma M (MUMPS), for solves with the same operator.
@@ -174,56 +161,4 @@ impl EigenSolver {
         check(unsafe { ffi::STGetKSP(st, &mut ksp) }, "STGetKSP")?;
         Factor::of(ksp)
     }
-}
-
-/// x . y over all ranks.
-fn dot(x: &Vector, y: &Vector) -> Result<f64> {
-    let mut d = 0.0;
-    check(unsafe { ffi::VecDot(x.0, y.0, &mut d) }, "VecDot")?;
-    Ok(d)
-}
-
-/// The Euclidean norm of x over all ranks.
-fn norm(x: &Vector) -> Result<f64> {
-    let mut n = 0.0;
-    check(
-        unsafe { ffi::VecNorm(x.0, ffi::NormType_NORM_2, &mut n) },
-        "VecNorm",
-    )?;
-    Ok(n)
-}
-
-/// +1 or -1: the sign that makes the vector's largest-magnitude entry (over all ranks; the
-/// first such in rank order) positive.
-fn largest_entry_sign(local: &[f64]) -> f64 {
-    let best = local
-        .iter()
-        .copied()
-        .fold(0.0f64, |b, v| if v.abs() > b.abs() { v } else { b });
-    let all = gather_to_all(&[best]);
-    let global = all
-        .iter()
-        .copied()
-        .fold(0.0f64, |b, v| if v.abs() > b.abs() { v } else { b });
-    if global < 0.0 {
-        -1.0
-    } else {
-        1.0
-    }
-}
-
-/// ||K x - lambda M x|| / (|lambda| ||M x||) for a normalized x (`mx`, `kx`: workspace).
-fn residual(
-    k: &Matrix,
-    m: &Matrix,
-    x: &Vector,
-    lambda: f64,
-    mx: &Vector,
-    kx: &Vector,
-) -> Result<f64> {
-    m.mult(x, mx)?;
-    k.mult(x, kx)?;
-    let m_norm = norm(mx)?;
-    check(unsafe { ffi::VecAXPY(kx.0, -lambda, mx.0) }, "VecAXPY")?;
-    Ok(norm(kx)? / (lambda.abs() * m_norm))
 }

@@ -3,7 +3,7 @@
 use thiserror::Error;
 
 /// An error of a distributed stage. Every rank that sees one ends the whole job
-/// ([`crate::abort`]): a collective operation would otherwise wait for it forever.
+/// ([`crate::abort_if_parallel`]): a collective operation would otherwise wait for it forever.
 #[derive(Debug, Error)]
 pub enum DistributedError {
     /// Launched by an MPI launcher (`mpirun`) but this nlmodes was built without the `mpi`

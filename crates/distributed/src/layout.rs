@@ -62,6 +62,11 @@ impl Layout {
         self.starts[self.world.rank]..self.starts[self.world.rank + 1]
     }
 
+    /// The free DOF (serial numbering) of each row this rank owns.
+    pub fn serial_free_index(&self) -> Vec<usize> {
+        self.owned().map(|r| self.free_of_row[r]).collect()
+    }
+
     /// The PETSc row of global DOF `dof` (3 node + component), `None` if it is fixed.
     pub fn row_of_dof(&self, dofs: &DofMap, dof: usize) -> Option<usize> {
         dofs.free_index(dof).map(|f| self.row_of_free[f])

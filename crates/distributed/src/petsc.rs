@@ -96,13 +96,17 @@ impl Matrix {
 
     /// A dense matrix with the row layout of this one and `ncols` columns, zeroed.
     pub fn dense_like_rows(&self, ncols: usize) -> Result<Matrix> {
-        let rows = self.owned_rows()?;
+        Matrix::dense(self.owned_rows()?.len(), ncols)
+    }
+
+    /// A dense matrix with `local_rows` rows on this rank and `ncols` columns, zeroed.
+    pub fn dense(local_rows: usize, ncols: usize) -> Result<Matrix> {
         let mut d = std::ptr::null_mut();
         check(
             unsafe {
                 ffi::MatCreateDense(
                     comm(),
-                    int(rows.len())?,
+                    int(local_rows)?,
                     PETSC_DECIDE,
                     PETSC_DECIDE,
                     int(ncols)?,
@@ -296,11 +300,10 @@ impl IndexSet {
 }
 
 impl Matrix {
-    /// The local rows of a sparse matrix as a dense block (`local rows x columns`).
-    pub fn sparse_local_to_dense(&self) -> Result<faer::Mat<f64>> {
+    /// `visit(local row, column, value)` for every stored entry of this rank's rows of a
+    /// sparse matrix.
+    pub fn for_each_local_entry(&self, mut visit: impl FnMut(usize, usize, f64)) -> Result<()> {
         let rows = self.owned_rows()?;
-        let (_, ncols) = self.size()?;
-        let mut out = faer::Mat::<f64>::zeros(rows.len(), ncols);
         for (li, row) in rows.enumerate() {
             let row = int(row)?;
             let (mut n, mut cols, mut vals) = (0, std::ptr::null(), std::ptr::null());
@@ -311,23 +314,41 @@ impl Matrix {
             for t in 0..n as usize {
                 // SAFETY: PETSc gives n column indices and values.
                 let (c, v) = unsafe { (*cols.add(t), *vals.add(t)) };
-                out[(li, c as usize)] = v;
+                visit(li, c as usize, v);
             }
             check(
                 unsafe { ffi::MatRestoreRow(self.0, row, &mut n, &mut cols, &mut vals) },
                 "MatRestoreRow",
             )?;
         }
-        Ok(out)
+        Ok(())
     }
+}
 
-    /// self * x for the local entries `x` of a vector with this matrix's column layout.
-    pub fn apply_local(&self, x: &[f64]) -> Result<Vec<f64>> {
-        let (xv, yv) = (self.row_vector()?, self.row_vector()?);
-        xv.set_local(x)?;
-        self.mult(&xv, &yv)?;
-        yv.local()
+/// The value of a string option of the PETSc options database (PETSC_OPTIONS, the command
+/// line), `None` when it is not set.
+pub fn option_string(name: &std::ffi::CStr) -> Result<Option<String>> {
+    let mut buffer = [0 as std::os::raw::c_char; 256];
+    let mut set = ffi::PetscBool::PETSC_FALSE;
+    check(
+        unsafe {
+            ffi::PetscOptionsGetString(
+                std::ptr::null_mut(),
+                std::ptr::null(),
+                name.as_ptr(),
+                buffer.as_mut_ptr(),
+                buffer.len(),
+                &mut set,
+            )
+        },
+        "PetscOptionsGetString",
+    )?;
+    if set != ffi::PetscBool::PETSC_TRUE {
+        return Ok(None);
     }
+    // SAFETY: PETSc wrote a NUL-terminated string into the buffer.
+    let value = unsafe { std::ffi::CStr::from_ptr(buffer.as_ptr()) };
+    Ok(Some(value.to_string_lossy().into_owned()))
 }
 
 /// Peak resident memory of this process so far (VmHWM of /proc/self/status), GB; 0 if unknown.

@@ -7,24 +7,25 @@
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
-use nlmodes_fem::{DofMap, Isotropic, Mesh};
+use nlmodes_fem::{DofMap, Mesh};
 use nlmodes_modal::dense::{relative_asymmetry, symmetrize};
 use nlmodes_modal::CraigBampton;
 
-use crate::assembly::assemble;
 use crate::collective::{gather_to_root, max_all, sum_all};
-use crate::eigen::EigenSolver;
 use crate::error::{DistributedError, Result};
-use crate::ffi;
 use crate::layout::Layout;
+use crate::operators::Operators;
+use crate::pencil::{nearest_modes, Pencil, ShiftInvert};
 use crate::petsc::{peak_rss_gb, IndexSet, Matrix};
+use crate::restricted::dot_all;
 use crate::session::world;
-use crate::static_solve::StaticSolver;
+use crate::static_solve::Factor;
 
 /// What the reduction needs: the mesh side of the FE model and the reduction's settings.
 pub struct ReductionInput<'a> {
     pub mesh: &'a Mesh,
-    pub material: &'a Isotropic,
+    /// K and M: assembled over the ranks, or K(Omega) and M sent by rank 0.
+    pub operators: Operators<'a>,
     pub dofs: &'a DofMap,
     /// Boundary DOFs (free numbering, the caller's order).
     pub boundary: &'a [usize],
@@ -60,7 +61,7 @@ pub fn craig_bampton(input: &ReductionInput) -> Result<Option<Reduction>> {
     let position = boundary_positions(input, n_free)?;
     let t = std::time::Instant::now();
     let layout = Layout::new(input.mesh, input.dofs, world)?;
-    let (k, m) = assemble(input.mesh, input.material, input.dofs, &layout)?;
+    let (k, m) = input.operators.build(input.mesh, input.dofs, &layout)?;
     logged(
         &format!(
             "partition and assembly of {} of {} elements, rows {:?} of {n_free}",
@@ -75,7 +76,7 @@ pub fn craig_bampton(input: &ReductionInput) -> Result<Option<Reduction>> {
         .filter(|&r| position[layout.free_of_row[r]].is_none())
         .collect();
     let (psi, phi, eigenvalues) = interior_solves(input, &layout, &k, &m, &interior_rows)?;
-    let full_check_hz = full_check(input, &k, &m)?;
+    let full_check_hz = full_check(input, &layout, &k, &m)?;
     let t = std::time::Instant::now();
     let basis = Basis {
         layout: &layout,
@@ -166,43 +167,27 @@ fn interior_solves(
     m: &Matrix,
     interior_rows: &[usize],
 ) -> Result<(Mat<f64>, Mat<f64>, Vec<f64>)> {
+    let serial_index = interior_serial_index(input, layout, interior_rows);
+    let pencil = Pencil::restricted(k, m, interior_rows, serial_index)?;
     let t = std::time::Instant::now();
-    let is_i = IndexSet::new(interior_rows)?;
-    let k_ii = k.submatrix(&is_i, &is_i)?;
-    let m_ii = m.submatrix(&is_i, &is_i)?;
-    for a in [&k_ii, &m_ii] {
-        a.set_option(ffi::MatOption::MAT_SYMMETRIC)?;
-    }
-    let rhs = right_hand_sides(input, layout, k, &k_ii, interior_rows)?;
-    drop(is_i);
-    logged("K_ii, M_ii and the right-hand sides extracted", t);
+    let (solver, mut phi, mut eigenvalues) = if input.n_modes > 0 {
+        let what = format!(
+            "K_ii (the {} interior DOFs)",
+            input.dofs.n_free() - input.boundary.len()
+        );
+        let (solver, modes) = nearest_modes(&pencil, input.n_modes, 0.0, &what)?;
+        (solver, modes.vectors, modes.eigenvalues)
+    } else {
+        let solver = ShiftInvert::Static(pencil.factor_k()?);
+        (solver, Mat::zeros(interior_rows.len(), 0), Vec::new())
+    };
+    logged(&format!("{} fixed-interface modes", input.n_modes), t);
     let t = std::time::Instant::now();
     let n_b = input.boundary.len();
-    let (eigen, static_solver, mut phi, mut eigenvalues);
-    if input.n_modes > 0 {
-        let what = format!("K_ii (the {} interior DOFs)", k_ii.size()?.0);
-        let (solver, modes) = EigenSolver::solve(&k_ii, &m_ii, input.n_modes, 0.0, &what)?;
-        (phi, eigenvalues) = (modes.vectors, modes.eigenvalues);
-        (eigen, static_solver) = (Some(solver), None);
-    } else {
-        (phi, eigenvalues) = (Mat::zeros(interior_rows.len(), 0), Vec::new());
-        (eigen, static_solver) = (None, Some(StaticSolver::new(&k_ii)?));
-    }
-    logged(
-        &format!("{} fixed-interface modes (SLEPc)", input.n_modes),
-        t,
-    );
-    let t = std::time::Instant::now();
-    let x = {
-        let factor = match (&eigen, &static_solver) {
-            (Some(e), _) => e.factor()?,
-            (_, Some(s)) => s.factor()?,
-            _ => unreachable!("one of the two solvers is set above"),
-        };
-        factor.solve_many(&rhs)?.dense_local()?
-    };
+    let mut x = right_hand_sides(input, layout, k, interior_rows)?;
+    solve_in_chunks(&solver.factor()?, &mut x)?;
     // The factor of K_ii is freed before the full-model check and the projection.
-    drop((rhs, eigen, static_solver));
+    drop(solver);
     let psi = Mat::from_fn(x.nrows(), n_b, |r, j| x[(r, j)]);
     for l in 0..input.loads.len() {
         let f_max = max_all((0..x.nrows()).fold(0.0, |a: f64, r| {
@@ -212,7 +197,7 @@ fn interior_solves(
             continue;
         }
         let col: Vec<f64> = (0..x.nrows()).map(|r| x[(r, n_b + l)]).collect();
-        if let Some((c, kcc)) = static_correction(&k_ii, &m_ii, &phi, col)? {
+        if let Some((c, kcc)) = static_correction(&pencil, &phi, col)? {
             phi = Mat::from_fn(phi.nrows(), phi.ncols() + 1, |r, j| {
                 if j < phi.ncols() {
                     phi[(r, j)]
@@ -233,6 +218,31 @@ fn interior_solves(
     Ok((psi, phi, eigenvalues))
 }
 
+/// The serial index of each local row of K_ii: the rank of its free DOF among the interior
+/// DOFs (the serial path's K_ii has the interior free DOFs in ascending order).
+fn interior_serial_index(
+    input: &ReductionInput,
+    layout: &Layout,
+    interior_rows: &[usize],
+) -> Vec<usize> {
+    let mut boundary = vec![false; input.dofs.n_free()];
+    for &b in input.boundary {
+        boundary[b] = true;
+    }
+    let index_of_free: Vec<usize> = boundary
+        .iter()
+        .scan(0, |next, &is_boundary| {
+            let i = *next;
+            *next += usize::from(!is_boundary);
+            Some(i)
+        })
+        .collect();
+    interior_rows
+        .iter()
+        .map(|&r| index_of_free[layout.free_of_row[r]])
+        .collect()
+}
+
 /// Load `l` at local interior row `r`, N.
 fn rhs_load(
     input: &ReductionInput,
@@ -244,66 +254,67 @@ fn rhs_load(
     input.loads[l][layout.free_of_row[interior_rows[r]]]
 }
 
-/// The dense right-hand sides [-K_ib | f_i] with the row layout of K_ii.
+/// Right-hand sides solved per MUMPS solve: 72 at once added 1.2 GB per rank at 1M DOFs on
+/// 2 ranks (PETSc's dense copies and MUMPS's solve workspace), the peak of the reduction;
+/// chunks of 24 cost two more passes over the factor (docs/LARGE_MODELS.md, "Over MPI").
+const SOLVE_CHUNK: usize = 24;
+
+/// `x` <- K_ii^-1 `x` (local rows of K_ii, any number of columns), [`SOLVE_CHUNK`] columns per
+/// MUMPS solve.
+fn solve_in_chunks(factor: &Factor, x: &mut Mat<f64>) -> Result<()> {
+    for start in (0..x.ncols()).step_by(SOLVE_CHUNK) {
+        let width = SOLVE_CHUNK.min(x.ncols() - start);
+        let b = Matrix::dense(x.nrows(), width)?;
+        b.set_dense_local(x.get(.., start..start + width))?;
+        let solved = factor.solve_many(&b)?.dense_local()?;
+        x.get_mut(.., start..start + width).copy_from(&solved);
+    }
+    Ok(())
+}
+
+/// The right-hand sides [-K_ib | f_i], local rows of K_ii (the boundary columns of K_ib in the
+/// order of the boundary DOFs, from rank 0's extraction of the sorted columns).
 fn right_hand_sides(
     input: &ReductionInput,
     layout: &Layout,
     k: &Matrix,
-    k_ii: &Matrix,
     interior_rows: &[usize],
-) -> Result<Matrix> {
+) -> Result<Mat<f64>> {
     let n_b = input.boundary.len();
-    // The columns of K_ib on rank 0, ascending (PETSc numbering), then put in boundary order.
-    let mut sorted: Vec<usize> = input
+    let mut sorted: Vec<(usize, usize)> = input
         .boundary
         .iter()
-        .map(|&b| layout.row_of_free[b])
+        .enumerate()
+        .map(|(j, &b)| (layout.row_of_free[b], j))
         .collect();
     sorted.sort_unstable();
+    let rows: Vec<usize> = sorted.iter().map(|&(row, _)| row).collect();
     let is_i = IndexSet::new(interior_rows)?;
-    let is_b = IndexSet::new(if layout.world.is_root() { &sorted } else { &[] })?;
-    let k_ib = k.submatrix(&is_i, &is_b)?.sparse_local_to_dense()?;
-    let column_of: Vec<usize> = input
-        .boundary
-        .iter()
-        .map(|&b| {
-            sorted
-                .binary_search(&layout.row_of_free[b])
-                .expect("every boundary row is in the sorted list")
-        })
-        .collect();
-    let rhs = k_ii.dense_like_rows(n_b + input.loads.len())?;
-    let local = Mat::from_fn(interior_rows.len(), n_b + input.loads.len(), |r, j| {
+    let is_b = IndexSet::new(if layout.world.is_root() { &rows } else { &[] })?;
+    let k_ib = k.submatrix(&is_i, &is_b)?;
+    let mut rhs = Mat::from_fn(interior_rows.len(), n_b + input.loads.len(), |r, j| {
         if j < n_b {
-            -k_ib[(r, column_of[j])]
+            0.0
         } else {
             rhs_load(input, layout, interior_rows, j - n_b, r)
         }
     });
-    rhs.set_dense_local(local.as_ref())?;
+    k_ib.for_each_local_entry(|r, c, v| rhs[(r, sorted[c].1)] = -v)?;
     Ok(rhs)
-}
-
-/// x^T y over all ranks (local entries).
-fn dot_all(x: &[f64], y: &[f64]) -> f64 {
-    let mut s = [x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>()];
-    sum_all(&mut s);
-    s[0]
 }
 
 /// The static correction of one load (serial: `craig_bampton_with_loads`): x = K_ii^-1 f_i,
 /// M_ii-orthogonalized twice against Phi, M_ii-normalized; with its K_ii Rayleigh quotient;
 /// None when less than 1e-10 of its M_ii-norm is left.
 fn static_correction(
-    k_ii: &Matrix,
-    m_ii: &Matrix,
+    pencil: &Pencil,
     phi: &Mat<f64>,
     mut x: Vec<f64>,
 ) -> Result<Option<(Vec<f64>, f64)>> {
-    let m_norm = |x: &[f64]| -> Result<f64> { Ok(dot_all(x, &m_ii.apply_local(x)?).sqrt()) };
+    let m_norm = |x: &[f64]| -> Result<f64> { Ok(dot_all(x, &pencil.m().apply(x)?).sqrt()) };
     let before = m_norm(&x)?;
     for _ in 0..2 {
-        let mx = m_ii.apply_local(&x)?;
+        let mx = pencil.m().apply(&x)?;
         for j in 0..phi.ncols() {
             let col: Vec<f64> = (0..phi.nrows()).map(|r| phi[(r, j)]).collect();
             let c = dot_all(&col, &mx);
@@ -317,19 +328,25 @@ fn static_correction(
         return Ok(None);
     }
     let x: Vec<f64> = x.iter().map(|v| v / after).collect();
-    let kxx = dot_all(&x, &k_ii.apply_local(&x)?);
+    let kxx = dot_all(&x, &pencil.k().apply(&x)?);
     Ok(Some((x, kxx)))
 }
 
 /// The frequencies (Hz) of the full model's first `check_modes` modes (a second MUMPS
 /// factorization, of K), when asked.
-fn full_check(input: &ReductionInput, k: &Matrix, m: &Matrix) -> Result<Option<Vec<f64>>> {
+fn full_check(
+    input: &ReductionInput,
+    layout: &Layout,
+    k: &Matrix,
+    m: &Matrix,
+) -> Result<Option<Vec<f64>>> {
     if input.check_modes == 0 {
         return Ok(None);
     }
     let t = std::time::Instant::now();
     let what = format!("the full model ({} free DOFs)", input.dofs.n_free());
-    let (_, modes) = EigenSolver::solve(k, m, input.check_modes, 0.0, &what)?;
+    let pencil = Pencil::whole(k, m, layout.serial_free_index())?;
+    let (_, modes) = nearest_modes(&pencil, input.check_modes, 0.0, &what)?;
     logged(&format!("full-model check, {} modes", input.check_modes), t);
     Ok(Some(
         modes

@@ -1,5 +1,6 @@
 //! The MPI and PETSc/SLEPc session: started once in `main` when an MPI launcher started
-//! nlmodes, finalized when its guard drops, and ended for every rank by [`abort`] on an error.
+//! nlmodes, finalized when its guard drops, and ended for every rank by
+//! [`crate::crew::abort_if_parallel`] on an error.
 
 use std::sync::OnceLock;
 
@@ -26,8 +27,15 @@ pub fn start() -> Result<Option<Session>> {
     if launch_variable().is_none() {
         return Ok(None);
     }
-    let (universe, _) = mpi::initialize_with_threading(mpi::Threading::Funneled)
+    // `nlmodes run` runs each stage on a thread of its own, one after the other: MPI calls
+    // come from several threads, never at the same time (MPI_THREAD_SERIALIZED).
+    let (universe, provided) = mpi::initialize_with_threading(mpi::Threading::Serialized)
         .ok_or_else(|| DistributedError::MpiInit("MPI was already initialized".into()))?;
+    if provided < mpi::Threading::Serialized {
+        return Err(DistributedError::MpiInit(format!(
+            "the MPI library provides thread level {provided:?}, MPI_THREAD_SERIALIZED is needed"
+        )));
+    }
     let comm = universe.world();
     let world = World {
         rank: comm.rank() as usize,
@@ -69,12 +77,4 @@ impl Drop for Session {
 /// The job's world while a session runs; `None` on the serial path.
 pub fn world() -> Option<World> {
     WORLD.get().copied()
-}
-
-/// Ends every rank of the job with `code` (MPI_Abort), when a session runs with more than one
-/// rank; returns otherwise (the caller then exits normally).
-pub fn abort_if_parallel(code: i32) {
-    if world().is_some_and(|w| w.size > 1) {
-        mpi::topology::SimpleCommunicator::world().abort(code);
-    }
 }

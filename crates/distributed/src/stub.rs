@@ -2,6 +2,7 @@
 
 use nlmodes_fem::{DofMap, Isotropic, Mesh};
 use nlmodes_modal::{CraigBampton, Modes};
+use sprs::CsMat;
 
 use crate::error::{DistributedError, Result};
 use crate::launch::{launch_variable, World};
@@ -27,10 +28,52 @@ pub fn world() -> Option<World> {
 /// Nothing to end without a session.
 pub fn abort_if_parallel(_code: i32) {}
 
+/// As with the `petsc` feature; nothing to lead or serve without a session.
+pub mod crew {
+    use super::not_built;
+    use crate::error::Result;
+
+    /// Never constructed without the `petsc` feature.
+    pub enum Assignment {}
+
+    impl Assignment {
+        /// Unreachable: no assignment exists.
+        pub fn done(self) {
+            match self {}
+        }
+    }
+
+    /// Nothing to lead.
+    pub fn lead() {}
+
+    /// Nothing to end without a session.
+    pub fn abort_on_panic() {}
+
+    /// Nothing to release.
+    pub fn release() {}
+
+    /// Always [`crate::DistributedError::NotBuilt`].
+    pub fn assign(_task: &[u8]) -> Result<Assignment> {
+        Err(not_built())
+    }
+
+    /// Always [`crate::DistributedError::NotBuilt`].
+    pub fn next_task() -> Result<Option<Vec<u8>>> {
+        Err(not_built())
+    }
+}
+
+/// As with the `petsc` feature.
+#[derive(Clone, Copy)]
+pub enum Operators<'a> {
+    Assembled(&'a Isotropic),
+    FromRoot(Option<(&'a CsMat<f64>, &'a CsMat<f64>)>),
+}
+
 /// As with the `petsc` feature.
 pub struct ReductionInput<'a> {
     pub mesh: &'a Mesh,
-    pub material: &'a Isotropic,
+    pub operators: Operators<'a>,
     pub dofs: &'a DofMap,
     pub boundary: &'a [usize],
     pub n_modes: usize,
@@ -58,10 +101,20 @@ pub fn craig_bampton(_input: &ReductionInput) -> Result<Option<Reduction>> {
 /// Always [`DistributedError::NotBuilt`].
 pub fn full_modes(
     _mesh: &Mesh,
-    _material: &Isotropic,
+    _operators: Operators,
     _dofs: &DofMap,
     _nev: usize,
     _sigma: f64,
 ) -> Result<Option<Modes>> {
+    Err(not_built())
+}
+
+/// Always [`DistributedError::NotBuilt`].
+pub fn solve_from_root(
+    _mesh: &Mesh,
+    _dofs: &DofMap,
+    _a: Option<&CsMat<f64>>,
+    _b: Option<&[f64]>,
+) -> Result<Option<Vec<f64>>> {
     Err(not_built())
 }

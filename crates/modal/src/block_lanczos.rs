@@ -29,6 +29,12 @@
 //! of 8 and a basis of 3 nev with thick restarts for large ones. The tall dense products of the
 //! Gram-Schmidt passes run in row chunks on rayon ([`crate::tall`]); the block solves split
 //! their columns between the threads ([`crate::SparseCholesky::solve_many`]).
+//!
+//! The iteration sees the problem only through [`BlockProblem`]: M and the solve applied to
+//! blocks whose rows this process holds, and the sum over processes of partial inner products.
+//! [`block_lanczos`] runs it on one process with all the rows; `nlmodes_distributed` runs the
+//! same iteration over the ranks of an MPI job (rows spread, MUMPS solves, one MPI_Allreduce
+//! per inner product), docs/LARGE_MODELS.md "Over MPI".
 
 use faer::prelude::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, Side};
@@ -43,6 +49,60 @@ use crate::tall::{tall_gram, tall_product, tall_sub_product, tall_transform_in_p
 /// Thick restarts allowed before giving up.
 const MAX_RESTARTS: usize = 10;
 
+/// The operators of K phi = lambda M phi as block Lanczos applies them, to blocks of vectors
+/// (n x b) of which this process holds `local_rows()` rows; every process of a distributed run
+/// calls each method at the same point of the iteration (collectively).
+pub trait BlockProblem {
+    /// Order n of the whole problem (it sets the block shape, [`BlockShape::for_problem`]).
+    fn order(&self) -> usize;
+    /// Rows of the vectors held by this process.
+    fn local_rows(&self) -> usize;
+    /// `mw` = M `w` (local rows).
+    fn apply_m(&self, w: MatRef<'_, f64>, mw: MatMut<'_, f64>) -> Result<(), ModalError>;
+    /// `w` <- (K - sigma M)^-1 `w` (local rows), one pass over the factor for the block.
+    fn solve_block(&self, w: MatMut<'_, f64>) -> Result<(), ModalError>;
+    /// The sum over the processes of a small matrix of partial inner products over local rows,
+    /// bit-for-bit the same on every process (the iteration's decisions follow from it).
+    fn sum_over_processes(&self, partial: Mat<f64>) -> Mat<f64>;
+    /// The local rows of the starting block of b columns: this process's rows of
+    /// [`starting_block`]`(order(), b)` in the caller's numbering, so that the iteration does
+    /// not depend on how the rows are spread.
+    fn starting_block(&self, b: usize) -> Mat<f64>;
+}
+
+/// The problem on one process: M and the factor of K - sigma M with all the rows.
+struct SerialProblem<'a> {
+    m: &'a CsMat<f64>,
+    factor: &'a dyn FactoredSolve,
+}
+
+impl BlockProblem for SerialProblem<'_> {
+    fn order(&self) -> usize {
+        self.m.rows()
+    }
+    fn local_rows(&self) -> usize {
+        self.m.rows()
+    }
+    fn apply_m(&self, w: MatRef<'_, f64>, mw: MatMut<'_, f64>) -> Result<(), ModalError> {
+        spmm_symmetric(self.m, w, mw);
+        Ok(())
+    }
+    fn solve_block(&self, w: MatMut<'_, f64>) -> Result<(), ModalError> {
+        self.factor.solve_block(w)
+    }
+    fn sum_over_processes(&self, partial: Mat<f64>) -> Mat<f64> {
+        partial
+    }
+    fn starting_block(&self, b: usize) -> Mat<f64> {
+        starting_block(self.m.rows(), b)
+    }
+}
+
+/// A^T B summed over the processes.
+fn gram(problem: &dyn BlockProblem, a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    problem.sum_over_processes(tall_gram(a, b))
+}
+
 /// The `nev` eigenvalues nearest above `sigma` and their eigenvectors (not yet normalized:
 /// [`crate::modes::finalize_modes`] does it with K), using the factorization `factor` of
 /// K - sigma M. `m`: symmetric, checked by the caller; `opts.tol` is the convergence tolerance
@@ -55,8 +115,19 @@ pub(crate) fn block_lanczos(
     nev: usize,
     opts: &EigenOptions<'_>,
 ) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
-    let shape = BlockShape::for_problem(m.rows(), nev);
-    block_lanczos_shaped(m, sigma, factor, nev, opts, shape)
+    block_lanczos_on(&SerialProblem { m, factor }, sigma, nev, opts)
+}
+
+/// [`block_lanczos`] on any [`BlockProblem`] (the rows of the vectors returned are this
+/// process's), with the shape of its order ([`BlockShape::for_problem`]).
+pub fn block_lanczos_on(
+    problem: &dyn BlockProblem,
+    sigma: f64,
+    nev: usize,
+    opts: &EigenOptions<'_>,
+) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
+    let shape = BlockShape::for_problem(problem.order(), nev);
+    block_lanczos_shaped(problem, sigma, nev, opts, shape)
 }
 
 /// The Krylov basis V, M V and the projected matrix T of a block Lanczos run.
@@ -79,14 +150,13 @@ impl Basis {
 
 /// [`block_lanczos`] with the given block size and largest basis.
 fn block_lanczos_shaped(
-    m: &CsMat<f64>,
+    problem: &dyn BlockProblem,
     sigma: f64,
-    factor: &dyn FactoredSolve,
     nev: usize,
     opts: &EigenOptions<'_>,
     shape: BlockShape,
 ) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
-    let n = m.rows();
+    let (n, rows) = (problem.order(), problem.local_rows());
     let (b, cap) = (shape.block.min(n), shape.max_basis.min(n));
     let tol = if opts.tol > 0.0 {
         opts.tol
@@ -94,16 +164,16 @@ fn block_lanczos_shaped(
         f64::EPSILON
     };
     let mut basis = Basis {
-        v: Mat::<f64>::zeros(n, cap),
-        mv: Mat::<f64>::zeros(n, cap),
+        v: Mat::<f64>::zeros(rows, cap),
+        mv: Mat::<f64>::zeros(rows, cap),
         t: Mat::<f64>::zeros(cap, cap),
         filled: b,
     };
     let mut r = Mat::<f64>::zeros(b, b);
-    let mut w = starting_block(n, b);
-    let mut mw = Mat::<f64>::zeros(n, b);
-    spmm_symmetric(m, w.as_ref(), mw.as_mut());
-    if !m_orthonormalize(None, w.as_mut(), mw.as_mut(), &mut r) {
+    let mut w = problem.starting_block(b);
+    let mut mw = Mat::<f64>::zeros(rows, b);
+    problem.apply_m(w.as_ref(), mw.as_mut())?;
+    if !m_orthonormalize(problem, None, w.as_mut(), mw.as_mut(), &mut r) {
         return Err(no_convergence(0, nev, 0, cap));
     }
     basis.store(&w, &mw, 0);
@@ -118,14 +188,14 @@ fn block_lanczos_shaped(
         // W = OP V_j = (K - sigma M)^-1 (M V_j).
         w.copy_from(basis.mv.get(.., filled - b..filled));
         let solve_start = std::time::Instant::now();
-        factor.solve_block(w.as_mut())?;
+        problem.solve_block(w.as_mut())?;
         solve_seconds += solve_start.elapsed().as_secs_f64();
         solves += b;
         if let Some(cb) = opts.on_iteration {
             cb(solves);
         }
-        spmm_symmetric(m, w.as_ref(), mw.as_mut());
-        if !orthogonalize_new_block(&mut basis, &mut w, &mut mw, &mut r) {
+        problem.apply_m(w.as_ref(), mw.as_mut())?;
+        if !orthogonalize_new_block(problem, &mut basis, &mut w, &mut mw, &mut r) {
             let count = ritz_converged(&basis.t, filled, b, nev, tol, None).unwrap_or(0);
             return Err(no_convergence(count, nev, solves, cap));
         }
@@ -135,7 +205,7 @@ fn block_lanczos_shaped(
             0
         };
         if converged == nev {
-            let modes = extract(sigma, factor, basis, nev)?;
+            let modes = extract(problem, sigma, basis, nev)?;
             tracing::info!(
                 "block Lanczos: {nev} pairs, basis {filled} of at most {cap}, {solves} solves in \
                  blocks of {b} ({solve_seconds:.2} s wall in the block solves), {restarts} \
@@ -169,18 +239,19 @@ fn block_lanczos_shaped(
 /// invariant subspace, or a block too large for the spectrum), which is reported as
 /// non-convergence: `EigenMethod::Auto` then uses ARPACK.
 fn orthogonalize_new_block(
+    problem: &dyn BlockProblem,
     basis: &mut Basis,
     w: &mut Mat<f64>,
     mw: &mut Mat<f64>,
     r: &mut Mat<f64>,
 ) -> bool {
     let (filled, b) = (basis.filled, w.ncols());
-    let norms_before = column_m_norms2(w.as_ref(), mw.as_ref());
+    let norms_before = column_m_norms2(problem, w.as_ref(), mw.as_ref());
     let v = basis.v.get(.., ..filled);
     let mv = basis.mv.get(.., ..filled);
     let mut h = Mat::<f64>::zeros(filled, b);
     for _ in 0..2 {
-        let c = tall_gram(v, mw.as_ref());
+        let c = gram(problem, v, mw.as_ref());
         tall_sub_product(w.as_mut(), v, c.as_ref());
         tall_sub_product(mw.as_mut(), mv, c.as_ref());
         h += &c;
@@ -188,25 +259,29 @@ fn orthogonalize_new_block(
     basis.t.get_mut(..filled, filled - b..filled).copy_from(&h);
     // A column that lost more than a factor 1e3 of its norm keeps round-off components along V
     // of relative size 1e3 eps: orthogonalize once more after normalizing.
-    let norms_after = column_m_norms2(w.as_ref(), mw.as_ref());
+    let norms_after = column_m_norms2(problem, w.as_ref(), mw.as_ref());
     let lost = norms_before
         .iter()
         .zip(&norms_after)
         .any(|(before, after)| *after < 1e-6 * before);
-    m_orthonormalize(lost.then_some((v, mv)), w.as_mut(), mw.as_mut(), r)
+    m_orthonormalize(problem, lost.then_some((v, mv)), w.as_mut(), mw.as_mut(), r)
 }
 
-/// Squared M-norms of the columns of w (mw = M w).
-fn column_m_norms2(w: MatRef<'_, f64>, mw: MatRef<'_, f64>) -> Vec<f64> {
-    (0..w.ncols())
-        .map(|j| {
-            w.col(j)
-                .iter()
-                .zip(mw.col(j).iter())
-                .map(|(a, b)| a * b)
-                .sum()
-        })
-        .collect()
+/// Squared M-norms of the columns of w (mw = M w), summed over the processes.
+fn column_m_norms2(
+    problem: &dyn BlockProblem,
+    w: MatRef<'_, f64>,
+    mw: MatRef<'_, f64>,
+) -> Vec<f64> {
+    let local = Mat::from_fn(1, w.ncols(), |_, j| {
+        w.col(j)
+            .iter()
+            .zip(mw.col(j).iter())
+            .map(|(a, b)| a * b)
+            .sum()
+    });
+    let total = problem.sum_over_processes(local);
+    (0..w.ncols()).map(|j| total[(0, j)]).collect()
 }
 
 /// Thick restart (Wu & Simon): the basis V (`filled` columns, last block current) is replaced
@@ -288,8 +363,8 @@ fn projected_eigen(t: &Mat<f64>, filled: usize) -> Option<(Vec<f64>, Mat<f64>)> 
 /// by (lambda - sigma) / (lambda_far - sigma); the eigenvalue is the Ritz value. The basis is
 /// freed once M x is formed.
 fn extract(
+    problem: &dyn BlockProblem,
     sigma: f64,
-    factor: &dyn FactoredSolve,
     basis: Basis,
     nev: usize,
 ) -> Result<(Vec<f64>, Mat<f64>), ModalError> {
@@ -303,7 +378,7 @@ fn extract(
     let mut x = tall_product(basis.mv.get(.., ..filled), yw.as_ref());
     // The basis is the largest allocation: free it before the solve and the residuals.
     drop(basis);
-    factor.solve_block(x.as_mut())?;
+    problem.solve_block(x.as_mut())?;
     let values: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
     Ok((values, x))
 }
@@ -314,6 +389,7 @@ fn extract(
 /// below round-off of the largest, or a second pass far from the identity (conditioning beyond
 /// what CholeskyQR2 handles, about 1e8).
 fn m_orthonormalize(
+    problem: &dyn BlockProblem,
     basis: Option<(MatRef<'_, f64>, MatRef<'_, f64>)>,
     mut w: MatMut<'_, f64>,
     mut mw: MatMut<'_, f64>,
@@ -327,11 +403,11 @@ fn m_orthonormalize(
             // by the norm it lost in the Gram-Schmidt passes (large once Ritz vectors converge):
             // remove them again. Their coefficients, times the first R, are round-off of OP V
             // and are not added to T.
-            let c = tall_gram(v, mw.as_ref());
+            let c = gram(problem, v, mw.as_ref());
             tall_sub_product(w.rb_mut(), v, c.as_ref());
             tall_sub_product(mw.rb_mut(), mv, c.as_ref());
         }
-        let g = tall_gram(w.as_ref(), mw.as_ref());
+        let g = gram(problem, w.as_ref(), mw.as_ref());
         let g = Mat::from_fn(b, b, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
         let scale = (0..b).map(|i| g[(i, i)]).fold(0.0_f64, f64::max);
         let Ok(llt) = g.llt(Side::Lower) else {
@@ -359,9 +435,9 @@ fn m_orthonormalize(
     true
 }
 
-/// A deterministic pseudo-random starting block (a fixed linear congruential sequence), so that
-/// runs are reproducible.
-fn starting_block(n: usize, b: usize) -> Mat<f64> {
+/// A deterministic pseudo-random starting block of n rows (a fixed linear congruential
+/// sequence), so that runs are reproducible.
+pub fn starting_block(n: usize, b: usize) -> Mat<f64> {
     let mut state: u64 = 0x2545_f491_4f6c_dd1d;
     Mat::from_fn(n, b, |_, _| {
         state = state
@@ -421,8 +497,11 @@ mod tests {
         let (full, compact) = (BlockShape::full(400, nev), BlockShape::compact(400, nev));
         assert!(compact.max_basis < full.max_basis && compact.block < full.block);
         let finished = |shape| {
-            let (values, vectors) =
-                block_lanczos_shaped(&m, 0.0, &factor, nev, &opts, shape).unwrap();
+            let problem = SerialProblem {
+                m: &m,
+                factor: &factor,
+            };
+            let (values, vectors) = block_lanczos_shaped(&problem, 0.0, nev, &opts, shape).unwrap();
             finalize_modes(&k, &m, &values, &vectors)
         };
         let (by_full, by_compact) = (finished(full), finished(compact));

@@ -145,6 +145,11 @@ pub enum ModalError {
         max_basis: usize,
     },
 
+    /// An operator of a [`crate::block_lanczos::BlockProblem`] failed (for a distributed
+    /// problem: the MPI, PETSc or MUMPS error it met).
+    #[error("applying the operators of the eigenproblem: {0}")]
+    Operator(String),
+
     /// A dense eigen decomposition failed.
     #[error("dense eigen decomposition of {what} did not converge")]
     DenseEigen {
