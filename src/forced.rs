@@ -58,6 +58,8 @@ pub struct ForcedStudy {
     pub level_sweeps: Vec<ForcedCurve>,
     /// The settings it ran with.
     pub settings: ForcedSection,
+    /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), as run.
+    pub distortion: Option<crate::forced_distortion::DistortionRecord>,
 }
 
 /// The unit force pattern: for each harmonic of the excitation its cosine and sine parts, the
@@ -174,7 +176,7 @@ pub(crate) fn force_of(
     zeta: f64,
     level: f64,
 ) -> Result<f64> {
-    if s.level_unit == LevelUnit::Newton {
+    if s.level_unit == LevelUnit::Newton || level == 0.0 {
         return Ok(level);
     }
     let phi = system.linear_mode(s.mode)?;
@@ -195,7 +197,7 @@ pub(crate) fn force_of(
 
 /// The harmonic balance and contact law of `[forced]` on `system`: N, m, and the penalty law's
 /// kc = `penalty_factor` x the median static contact stiffness of the rows (N/m; `None` for
-/// exact contact).
+/// exact contact). The casing distortion is the caller's (it depends on the sweep).
 pub(crate) fn solver_settings(
     system: &System,
     s: &ForcedSection,
@@ -230,7 +232,9 @@ pub fn run(
     let ratios = modal_ratios(system, &c);
     let pattern = pattern(system, s, file_load)?;
     let excitation = pattern.excitation;
-    let (settings, penalty_stiffness) = solver_settings(system, s)?;
+    let (mut settings, penalty_stiffness) = solver_settings(system, s)?;
+    let g0 = system.gap_reference();
+    settings.distortion = s.distortion.as_ref().map(|d| d.frequency_sweep(g0));
     let w = system.linear_frequencies()[s.mode];
     let frf = FrfSettings {
         stability: s.stability,
@@ -239,9 +243,9 @@ pub fn run(
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
-    let bar = crate::ui::bar(s.levels.len() as u64, "forced");
-    let curves = s
-        .levels
+    let levels = s.curve_levels();
+    let bar = crate::ui::bar(levels.len() as u64, "forced");
+    let curves = levels
         .par_iter()
         .map(|&level| {
             let force = force_of(system, s, &pattern, ratios[s.mode], level)?;
@@ -253,9 +257,10 @@ pub fn run(
             } else {
                 None
             };
-            let synthesis = match backbone {
-                Some(b) => synthesis_of(system, &c, &load, b)?,
-                None => Vec::new(),
+            // The single-mode synthesis is the backbone under a load: not a casing distortion's.
+            let synthesis = match (backbone, &settings.distortion) {
+                (Some(b), None) => synthesis_of(system, &c, &load, b)?,
+                _ => Vec::new(),
             };
             bar.inc(1);
             Ok(ForcedCurve {
@@ -289,6 +294,10 @@ pub fn run(
         curves,
         level_sweeps,
         settings: s.clone(),
+        distortion: s
+            .distortion
+            .as_ref()
+            .map(|d| crate::forced_distortion::DistortionRecord::of_frequency_sweep(d, g0)),
     })
 }
 
@@ -407,7 +416,8 @@ fn exact_level(
         ),
         None => tracing::info!(
             "forced level {level}: no exact curve (exact contact on a model whose modes are all \
-             resolved, or its first orbit did not converge)"
+             resolved, a casing distortion (the boundary's gaps are constant), or its first \
+             orbit did not converge)"
         ),
     }
     Ok(exact)

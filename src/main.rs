@@ -16,6 +16,7 @@ mod exit;
 mod fe_model;
 mod figures;
 mod forced;
+mod forced_distortion;
 mod forced_exact;
 mod forced_inputs;
 mod forced_output;

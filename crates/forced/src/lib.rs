@@ -23,6 +23,7 @@ mod corner;
 mod curve;
 mod curve_stability;
 mod damping;
+mod distortion;
 mod dynamics;
 mod error;
 mod fold;
@@ -48,6 +49,7 @@ pub use boundary::{
 pub use boundary_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
 pub use curve::{Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, Sweep};
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
+pub use distortion::CasingDistortion;
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
 pub use frf::response_curve;
@@ -57,7 +59,7 @@ pub use newton::{ArcRow, OrbitState, Parameter};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
-pub use speed_curve::{SpeedPoint, SpeedSweepSettings};
+pub use speed_curve::{LobedCasing, SpeedPoint, SpeedSweepSettings};
 pub use speed_step::{SpeedFamily, SpeedProblem};
 pub use speed_sweep::{speed_sweep, SpeedFold, SpeedSweep};
 pub use synthesis::{
