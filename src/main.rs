@@ -24,6 +24,7 @@ mod forced_paraview;
 mod forced_settings;
 mod forced_speed;
 mod forced_speed_command;
+mod forced_speed_distortion;
 mod forced_speed_figure;
 mod forced_speed_output;
 mod forced_speed_report;
