@@ -18,6 +18,14 @@ pub struct LobedCasing {
     pub phase: f64,
 }
 
+impl LobedCasing {
+    /// k with the orbit's fundamental k Omega under this casing and a load at engine order
+    /// `engine_order`: gcd(e, n) (DESIGN §10.11).
+    pub fn fundamental_order(&self, engine_order: usize) -> usize {
+        gcd(engine_order, self.lobes)
+    }
+}
+
 /// The greatest common divisor (gcd(a, 0) = a).
 fn gcd(a: usize, b: usize) -> usize {
     if b == 0 {
@@ -98,7 +106,7 @@ impl SpeedSweepSettings {
     /// at harmonic e / k of W, the gap at harmonic n / k), e otherwise (DESIGN §10.11).
     pub fn fundamental_order(&self) -> usize {
         match self.casing {
-            Some(c) => gcd(self.engine_order, c.lobes),
+            Some(c) => c.fundamental_order(self.engine_order),
             None => self.engine_order,
         }
     }
