@@ -243,36 +243,6 @@ pub fn run(
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
-    let levels = s.curve_levels();
-    let bar = crate::ui::bar(levels.len() as u64, "forced");
-    let curves = levels
-        .par_iter()
-        .map(|&level| {
-            let force = force_of(system, s, &pattern, ratios[s.mode], level)?;
-            let load = pattern.scaled(force);
-            let solver = ForcedSolver::new(system, &c, &load, settings.clone())?;
-            let curve = trace_level(&solver, &frf, &bar, level)?;
-            let exact = if s.exact_curve {
-                exact_level(&solver, &curve, &frf, level)?
-            } else {
-                None
-            };
-            // The single-mode synthesis is the backbone under a load: not a casing distortion's.
-            let synthesis = match (backbone, &settings.distortion) {
-                (Some(b), None) => synthesis_of(system, &c, &load, b)?,
-                _ => Vec::new(),
-            };
-            bar.inc(1);
-            Ok(ForcedCurve {
-                level,
-                force,
-                response: curve,
-                synthesis,
-                exact,
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    bar.finish_and_clear();
     let sweep = LevelSweeps {
         system,
         damping: &c,
@@ -280,6 +250,17 @@ pub fn run(
         zeta: ratios[s.mode],
         settings: &settings,
     };
+    let levels = s.curve_levels();
+    let bar = crate::ui::bar(levels.len() as u64, "forced");
+    let curves = levels
+        .par_iter()
+        .map(|&level| {
+            let curve = sweep.frequency_curve(s, level, (&frf, &bar), backbone);
+            bar.inc(1);
+            curve
+        })
+        .collect::<Result<Vec<_>>>()?;
+    bar.finish_and_clear();
     let level_sweeps = sweep.run(s)?;
     Ok(ForcedStudy {
         omega_mode: w,
@@ -301,8 +282,9 @@ pub fn run(
     })
 }
 
-/// The continuations in force level at fixed frequencies (`[forced] level_sweeps`; their files:
-/// `crate::level_sweep`), with what they share with the frequency curves of the study.
+/// What the curves of the study share: the frequency curves of the levels and the
+/// continuations in force level at fixed frequencies (`[forced] level_sweeps`; their files:
+/// `crate::level_sweep`).
 struct LevelSweeps<'a> {
     system: &'a System,
     /// C (N s/m).
@@ -314,6 +296,38 @@ struct LevelSweeps<'a> {
 }
 
 impl LevelSweeps<'_> {
+    /// The frequency curve of one level (its exact curve and the backbone's synthesis when
+    /// asked for and they apply), its progress on `bar`.
+    fn frequency_curve(
+        &self,
+        s: &ForcedSection,
+        level: f64,
+        (frf, bar): (&FrfSettings, &ProgressBar),
+        backbone: Option<&BackboneFile>,
+    ) -> Result<ForcedCurve> {
+        let force = force_of(self.system, s, self.pattern, self.zeta, level)?;
+        let load = self.pattern.scaled(force);
+        let solver = ForcedSolver::new(self.system, self.damping, &load, self.settings.clone())?;
+        let curve = trace_level(&solver, frf, bar, level)?;
+        let exact = if s.exact_curve {
+            exact_level(&solver, &curve, frf, level)?
+        } else {
+            None
+        };
+        // The single-mode synthesis is the backbone under a load: not a casing distortion's.
+        let synthesis = match (backbone, &self.settings.distortion) {
+            (Some(b), None) => synthesis_of(self.system, self.damping, &load, b)?,
+            _ => Vec::new(),
+        };
+        Ok(ForcedCurve {
+            level,
+            force,
+            response: curve,
+            synthesis,
+            exact,
+        })
+    }
+
     /// One curve per `level_sweeps` frequency (in parallel); none when the list is empty.
     fn run(&self, s: &ForcedSection) -> Result<Vec<ForcedCurve>> {
         if s.level_sweeps.is_empty() {

@@ -20,8 +20,8 @@ mod pwl;
 use faer::Mat;
 use nlmodes_forced::{
     response_curve, speed_sweep, CasingDistortion, Damping, ForcedError, ForcedSettings,
-    ForcedSolver, FrfSettings, FrfTermination, HarmonicLoad, Load, LobedCasing, SpeedFamily,
-    SpeedProblem, SpeedSweep, SpeedSweepSettings,
+    ForcedSolver, FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, LobedCasing,
+    SpeedFamily, SpeedProblem, SpeedSweep, SpeedSweepSettings,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
 use pwl::{Dense, GapWave, Pwl};
@@ -93,11 +93,10 @@ fn a_lobed_casing_in_a_speed_sweep_is_the_frequency_sweep_on_the_common_fundamen
         zeta: 0.02,
         force: 0.08,
     };
-    let (e, lobes) = (3, 2);
     let system = t.system(0.0);
     let w1 = system.linear_frequencies()[0];
     let casing = LobedCasing {
-        lobes,
+        lobes: 2,
         amplitude: 0.2,
         phase: 0.5,
     };
@@ -105,7 +104,7 @@ fn a_lobed_casing_in_a_speed_sweep_is_the_frequency_sweep_on_the_common_fundamen
     let sweep_settings = SpeedSweepSettings {
         casing: Some(casing),
         stability: false,
-        ..SpeedSweepSettings::new(e, 0, range, w1 / 3.0, settings(&system))
+        ..SpeedSweepSettings::new(3, 0, range, w1 / 3.0, settings(&system))
     };
     assert_eq!(sweep_settings.fundamental_order(), 1);
     let sweep = speed_sweep(&t, &sweep_settings, |_| {}).unwrap();
@@ -135,6 +134,14 @@ fn a_lobed_casing_in_a_speed_sweep_is_the_frequency_sweep_on_the_common_fundamen
     };
     let curve = response_curve(&solver, &frf, |_| {}).unwrap();
     assert_eq!(curve.termination, FrfTermination::Complete);
+    assert_same_folds(&sweep, &curve);
+    assert_points_solve(&sweep, &solver);
+    assert_same_peak(&sweep, &curve);
+}
+
+/// The same folds, each of the speed sweep's within the span of its points around it of the
+/// frequency sweep's (the test's docs).
+fn assert_same_folds(sweep: &SpeedSweep, curve: &FrequencyResponse) {
     let kinds: Vec<_> = curve.folds.iter().map(|f| f.kind).collect();
     assert_eq!(
         sweep.folds.iter().map(|f| f.kind).collect::<Vec<_>>(),
@@ -145,13 +152,11 @@ fn a_lobed_casing_in_a_speed_sweep_is_the_frequency_sweep_on_the_common_fundamen
         // The speed sweep's fold is the parabola through its three points around it; at a
         // grazing corner (the contact phase appears there) the curve turns within less than
         // its step, and the fold lies between its neighbours' speeds.
-        let around =
-            &sweep.points[a.point.saturating_sub(1)..=(a.point + 1).min(sweep.points.len() - 1)];
-        let spread = (around
-            .iter()
-            .map(|p| p.speed)
-            .fold(f64::NEG_INFINITY, f64::max)
-            - around.iter().map(|p| p.speed).fold(f64::INFINITY, f64::min))
+        let last = sweep.points.len() - 1;
+        let around = &sweep.points[a.point.saturating_sub(1)..=(a.point + 1).min(last)];
+        let speeds = around.iter().map(|p| p.speed);
+        let spread = (speeds.clone().fold(f64::NEG_INFINITY, f64::max)
+            - speeds.fold(f64::INFINITY, f64::min))
         .max(1e-5 * b.at);
         println!(
             "fold {:?}: speed sweep W = {:.9}, frequency sweep {:.9} ({:.1e}; the sweep's \
@@ -164,8 +169,11 @@ fn a_lobed_casing_in_a_speed_sweep_is_the_frequency_sweep_on_the_common_fundamen
         );
         assert!((a.speed - b.at).abs() <= spread);
     }
-    // Every point of the speed sweep solves the frequency problem at W = Omega: solved again
-    // there at fixed W from itself, it does not move (beyond the solver's tolerance, 1e-10 g0).
+}
+
+/// Every point of the speed sweep solves the frequency problem at W = Omega: solved again there
+/// at fixed W from itself, it does not move (its residual is within the solver's 1e-10 g0).
+fn assert_points_solve(sweep: &SpeedSweep, solver: &ForcedSolver<'_>) {
     let mut moved = 0.0_f64;
     for p in &sweep.points {
         let again = solver
@@ -177,18 +185,22 @@ fn a_lobed_casing_in_a_speed_sweep_is_the_frequency_sweep_on_the_common_fundamen
     }
     println!("speed sweep points solved again on the frequency problem: moved {moved:.1e} g0");
     assert!(moved < 1e-8);
-    // Both curves are the same orbits; their largest sampled amplitudes differ by the sampling
-    // of the top: at most the change between the top sample and its neighbours on either.
-    let (q_speed, dq_speed) = top(&sweep
+}
+
+/// Both curves are the same orbits; their largest sampled amplitudes differ by the sampling of
+/// the top: at most the change between the top sample and its neighbours on either.
+fn assert_same_peak(sweep: &SpeedSweep, curve: &FrequencyResponse) {
+    let on_sweep: Vec<f64> = sweep
         .points
         .iter()
         .map(|p| master(&p.point.coefficients))
-        .collect::<Vec<_>>());
-    let (q_freq, dq_freq) = top(&curve
+        .collect();
+    let on_curve: Vec<f64> = curve
         .points
         .iter()
         .map(|p| master(&p.coefficients))
-        .collect::<Vec<_>>());
+        .collect();
+    let ((q_speed, dq_speed), (q_freq, dq_freq)) = (top(&on_sweep), top(&on_curve));
     println!(
         "{} / {} points, peak q {q_speed:.9} / {q_freq:.9} ({:.1e}; the samples around the tops \
          differ by {:.1e}, {:.1e})",
