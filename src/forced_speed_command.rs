@@ -32,7 +32,8 @@ pub fn sweep(
     };
     let mut p = problems();
     sweep.check(&mut p, None, "");
-    crate::speed_sweep_settings::check_forced_for_sweeps(&section, &sweep, &mut p);
+    crate::speed_sweep_settings::check_forced_for_sweeps(&section, &mut p);
+    crate::forced_speed_distortion::check(&section, &sweep, &mut p);
     p.finish()?;
     crate::validate::check_output_dir(out, "--out")?;
     let model = crate::forced_speed::read_parametric(dir)?;

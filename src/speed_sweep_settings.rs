@@ -119,14 +119,9 @@ impl SpeedSweepSection {
 }
 
 /// What the speed sweeps need of `[forced]`: the penalty law (the continuation in the speed
-/// has no corner hops for the sampled law of exact contact), and of its casing distortion
-/// (`crate::forced_speed_distortion::check`).
-pub fn check_forced_for_sweeps(
-    forced: &crate::forced_settings::ForcedSection,
-    sweep: &SpeedSweepSection,
-    p: &mut Problems,
-) {
-    crate::forced_speed_distortion::check(forced, sweep, p);
+/// has no corner hops for the sampled law of exact contact). Its casing distortion:
+/// `crate::forced_speed_distortion::check`.
+pub fn check_forced_for_sweeps(forced: &crate::forced_settings::ForcedSection, p: &mut Problems) {
     p.check(
         forced.contact == crate::forced_settings::ForcedContact::Penalty,
         "forced.contact",

@@ -112,7 +112,8 @@ fn check_speed_sweep(case: &Case, p: &mut Problems) {
     if !case.forced.enabled {
         check_forced(case, p);
     }
-    crate::speed_sweep_settings::check_forced_for_sweeps(&case.forced, sweep, p);
+    crate::speed_sweep_settings::check_forced_for_sweeps(&case.forced, p);
+    crate::forced_speed_distortion::check(&case.forced, sweep, p);
 }
 
 fn check_mesh(case: &Case, p: &mut Problems) {
