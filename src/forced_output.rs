@@ -195,8 +195,8 @@ pub(crate) fn distortion_m(st: &ForcedStudy) -> f64 {
 pub(crate) fn distortion_title(st: &ForcedStudy) -> String {
     st.distortion.as_ref().map_or_else(String::new, |d| {
         format!(
-            ", casing {} lobes, delta = {:.3e} m ({:.3} g0) at harmonic {} of W",
-            d.lobes, d.amplitude_m, d.amplitude_over_g0, d.harmonic
+            ", {}-lobe casing, delta = {:.3} g0 at {} W",
+            d.lobes, d.amplitude_over_g0, d.harmonic
         )
     })
 }
