@@ -71,7 +71,9 @@ pub fn check(
     };
     check_penalty(system, s, source)?;
     check_distortion(system, s, source)?;
-    if s.level_unit == LevelUnit::Grazing && s.loaded() {
+    // The grazing unit scales the loaded curves and the level sweeps; a casing distortion alone
+    // needs no force.
+    if s.level_unit == LevelUnit::Grazing && (s.loaded() || !s.level_sweeps.is_empty()) {
         check_grazing(system, model.dir, s, source, &inputs)?;
     }
     if let Some((path, b)) = backbone {

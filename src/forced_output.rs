@@ -397,8 +397,6 @@ fn frf_figure(
     let (g, w) = (st.gap_reference, st.omega_mode);
     let title = if max_abs {
         "Forced response: max |u| of the master"
-    } else if st.distortion.is_some() {
-        "Forced response"
     } else {
         "Forced response crowned by the backbone"
     };
