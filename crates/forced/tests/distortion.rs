@@ -13,6 +13,8 @@
 //!   gap at their own speed: shot from the point's state by the exact piecewise-linear flow
 //!   (`pwl`, independent of the crate), the orbit found has the point's first harmonic of the
 //!   master within 1e-3 (N = 12).
+//! - The exact tangent of the frequency continuation under a distortion is the curve's (the
+//!   intrusion does not depend on W): dy/dW against a central difference to 1e-7.
 
 mod common;
 mod pwl;
@@ -341,4 +343,69 @@ fn speed_sweep_points_are_exact_orbits_under_a_lobed_casing() {
         );
         assert!(worst < 1e-3 && touching > 0);
     }
+}
+
+/// The W-derivative of the arc-length continuation under a casing distortion: the casing's
+/// intrusion sits at a fixed harmonic of W and does not depend on W, so the exact tangent
+/// (`ForcedSolver::tangent`, from dR/dy and dR/dW) is the curve's: at a point in contact on the
+/// 3-DOF system (the gap at harmonic 2, delta = 0.2, a load at W), dy/dW from the tangent equals
+/// the central difference of the orbits solved at W -+ 1e-5 W to 1e-6 (relative to its size;
+/// the difference's truncation is O(h^2), its rounding the solves' 1e-10 g0 over 2h: measured
+/// 1.0e-7).
+#[test]
+fn the_exact_tangent_under_a_distortion_is_the_curves() {
+    let t = Turning {
+        s: 0.0,
+        zeta: 0.02,
+        force: 0.08,
+    };
+    let problem = t.at(0.0).unwrap();
+    let w1 = problem.system.linear_frequencies()[0];
+    let fs = ForcedSettings {
+        distortion: Some(CasingDistortion {
+            harmonic: 2,
+            amplitude: 0.2,
+            phase: 0.5,
+        }),
+        ..settings(&problem.system)
+    };
+    let solver = ForcedSolver::new(&problem.system, &problem.damping, &problem.load, fs).unwrap();
+    let at = |w: f64, from: Option<&nlmodes_forced::ForcedPoint>| {
+        let start = match from {
+            Some(p) => nlmodes_forced::ForcedStart {
+                state: nlmodes_forced::OrbitState {
+                    omega: w,
+                    ..ForcedSolver::start_from(p).state
+                },
+                ..ForcedSolver::start_from(p)
+            },
+            None => solver.linear_start(w, 1.0).unwrap(),
+        };
+        solver.solve(start, None).unwrap()
+    };
+    let w0 = 0.95 * w1;
+    let p = at(w0, None);
+    assert!(p.touches());
+    let along = nlmodes_forced::ArcRow {
+        parameter: nlmodes_forced::Parameter::Frequency,
+        tangent_y: vec![0.0; p.contact.len()],
+        tangent_parameter: 1.0,
+        predicted: ForcedSolver::start_from(&p).state,
+        y_scale: 1.0,
+        parameter_scale: 1.0,
+    };
+    let tangent = solver.tangent(&p, &along).unwrap();
+    let l = p.contact.len();
+    let h = 1e-5 * w0;
+    let (up, down) = (at(w0 + h, Some(&p)), at(w0 - h, Some(&p)));
+    let size = tangent[..l].iter().fold(0.0_f64, |a, v| a.max(v.abs())) / tangent[l];
+    let worst = (0..l).fold(0.0_f64, |a, i| {
+        let difference = (up.contact[i] - down.contact[i]) / (2.0 * h);
+        a.max((tangent[i] / tangent[l] - difference).abs())
+    });
+    println!(
+        "dy/dW from the tangent against the central difference: {:.1e}",
+        worst / size
+    );
+    assert!(worst < 1e-6 * size);
 }
