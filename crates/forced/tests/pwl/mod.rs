@@ -434,9 +434,9 @@ impl Pwl {
             let (s, c) = wave.phase.sin_cos();
             if closed {
                 let ma = minv.apply(&self.a);
-                for r in 0..n {
-                    g.a[(n + r) * d + i] = -self.kc * wave.amplitude * c * ma[r];
-                    g.a[(n + r) * d + i + 1] = self.kc * wave.amplitude * s * ma[r];
+                for (r, v) in ma.iter().enumerate() {
+                    g.a[(n + r) * d + i] = -self.kc * wave.amplitude * c * v;
+                    g.a[(n + r) * d + i + 1] = self.kc * wave.amplitude * s * v;
                 }
             }
             let hw = wave.harmonic as f64 * omega;
