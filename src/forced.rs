@@ -58,6 +58,8 @@ pub struct ForcedStudy {
     pub level_sweeps: Vec<ForcedCurve>,
     /// The settings it ran with.
     pub settings: ForcedSection,
+    /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), as run.
+    pub distortion: Option<crate::forced_distortion::DistortionRecord>,
 }
 
 /// The unit force pattern: for each harmonic of the excitation its cosine and sine parts, the
@@ -174,7 +176,7 @@ pub(crate) fn force_of(
     zeta: f64,
     level: f64,
 ) -> Result<f64> {
-    if s.level_unit == LevelUnit::Newton {
+    if s.level_unit == LevelUnit::Newton || level == 0.0 {
         return Ok(level);
     }
     let phi = system.linear_mode(s.mode)?;
@@ -195,7 +197,7 @@ pub(crate) fn force_of(
 
 /// The harmonic balance and contact law of `[forced]` on `system`: N, m, and the penalty law's
 /// kc = `penalty_factor` x the median static contact stiffness of the rows (N/m; `None` for
-/// exact contact).
+/// exact contact). The casing distortion is the caller's (it depends on the sweep).
 pub(crate) fn solver_settings(
     system: &System,
     s: &ForcedSection,
@@ -230,7 +232,9 @@ pub fn run(
     let ratios = modal_ratios(system, &c);
     let pattern = pattern(system, s, file_load)?;
     let excitation = pattern.excitation;
-    let (settings, penalty_stiffness) = solver_settings(system, s)?;
+    let (mut settings, penalty_stiffness) = solver_settings(system, s)?;
+    let g0 = system.gap_reference();
+    settings.distortion = s.distortion.as_ref().map(|d| d.frequency_sweep(g0));
     let w = system.linear_frequencies()[s.mode];
     let frf = FrfSettings {
         stability: s.stability,
@@ -239,35 +243,6 @@ pub fn run(
         harmonic_tolerance: s.harmonic_tolerance,
         ..FrfSettings::new(s.range[0] * w, s.range[1] * w)
     };
-    let bar = crate::ui::bar(s.levels.len() as u64, "forced");
-    let curves = s
-        .levels
-        .par_iter()
-        .map(|&level| {
-            let force = force_of(system, s, &pattern, ratios[s.mode], level)?;
-            let load = pattern.scaled(force);
-            let solver = ForcedSolver::new(system, &c, &load, settings.clone())?;
-            let curve = trace_level(&solver, &frf, &bar, level)?;
-            let exact = if s.exact_curve {
-                exact_level(&solver, &curve, &frf, level)?
-            } else {
-                None
-            };
-            let synthesis = match backbone {
-                Some(b) => synthesis_of(system, &c, &load, b)?,
-                None => Vec::new(),
-            };
-            bar.inc(1);
-            Ok(ForcedCurve {
-                level,
-                force,
-                response: curve,
-                synthesis,
-                exact,
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    bar.finish_and_clear();
     let sweep = LevelSweeps {
         system,
         damping: &c,
@@ -275,6 +250,17 @@ pub fn run(
         zeta: ratios[s.mode],
         settings: &settings,
     };
+    let levels = s.curve_levels();
+    let bar = crate::ui::bar(levels.len() as u64, "forced");
+    let curves = levels
+        .par_iter()
+        .map(|&level| {
+            let curve = sweep.frequency_curve(s, level, (&frf, &bar), backbone);
+            bar.inc(1);
+            curve
+        })
+        .collect::<Result<Vec<_>>>()?;
+    bar.finish_and_clear();
     let level_sweeps = sweep.run(s)?;
     Ok(ForcedStudy {
         omega_mode: w,
@@ -289,11 +275,16 @@ pub fn run(
         curves,
         level_sweeps,
         settings: s.clone(),
+        distortion: s
+            .distortion
+            .as_ref()
+            .map(|d| crate::forced_distortion::DistortionRecord::of_frequency_sweep(d, g0)),
     })
 }
 
-/// The continuations in force level at fixed frequencies (`[forced] level_sweeps`; their files:
-/// `crate::level_sweep`), with what they share with the frequency curves of the study.
+/// What the curves of the study share: the frequency curves of the levels and the
+/// continuations in force level at fixed frequencies (`[forced] level_sweeps`; their files:
+/// `crate::level_sweep`).
 struct LevelSweeps<'a> {
     system: &'a System,
     /// C (N s/m).
@@ -305,6 +296,38 @@ struct LevelSweeps<'a> {
 }
 
 impl LevelSweeps<'_> {
+    /// The frequency curve of one level (its exact curve and the backbone's synthesis when
+    /// asked for and they apply), its progress on `bar`.
+    fn frequency_curve(
+        &self,
+        s: &ForcedSection,
+        level: f64,
+        (frf, bar): (&FrfSettings, &ProgressBar),
+        backbone: Option<&BackboneFile>,
+    ) -> Result<ForcedCurve> {
+        let force = force_of(self.system, s, self.pattern, self.zeta, level)?;
+        let load = self.pattern.scaled(force);
+        let solver = ForcedSolver::new(self.system, self.damping, &load, self.settings.clone())?;
+        let curve = trace_level(&solver, frf, bar, level)?;
+        let exact = if s.exact_curve {
+            exact_level(&solver, &curve, frf, level)?
+        } else {
+            None
+        };
+        // The single-mode synthesis is the backbone under a load: not a casing distortion's.
+        let synthesis = match (backbone, &self.settings.distortion) {
+            (Some(b), None) => synthesis_of(self.system, self.damping, &load, b)?,
+            _ => Vec::new(),
+        };
+        Ok(ForcedCurve {
+            level,
+            force,
+            response: curve,
+            synthesis,
+            exact,
+        })
+    }
+
     /// One curve per `level_sweeps` frequency (in parallel); none when the list is empty.
     fn run(&self, s: &ForcedSection) -> Result<Vec<ForcedCurve>> {
         if s.level_sweeps.is_empty() {
@@ -427,7 +450,8 @@ fn exact_level(
         ),
         None => tracing::info!(
             "forced level {level}: no exact curve (exact contact on a model whose modes are all \
-             resolved, or its first orbit did not converge)"
+             resolved, a casing distortion (the boundary's gaps are constant), or its first \
+             orbit did not converge)"
         ),
     }
     Ok(exact)

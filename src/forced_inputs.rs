@@ -70,7 +70,10 @@ pub fn check(
         file_load: crate::forced_settings::file_load(s, model.dir, system.n_dofs())?,
     };
     check_penalty(system, s, source)?;
-    if s.level_unit == LevelUnit::Grazing {
+    check_distortion(system, s, source)?;
+    // The grazing unit scales the loaded curves and the level sweeps; a casing distortion alone
+    // needs no force.
+    if s.level_unit == LevelUnit::Grazing && (s.loaded() || !s.level_sweeps.is_empty()) {
         check_grazing(system, model.dir, s, source, &inputs)?;
     }
     if let Some((path, b)) = backbone {
@@ -138,6 +141,31 @@ fn check_penalty(system: &System, s: &ForcedSection, source: &str) -> Result<()>
         )));
     }
     Ok(())
+}
+
+/// A casing distortion alone (no level above 0) must reach the blade at rest: with delta at or
+/// below every row's gap the orbit is the blade at rest, y = 0, and the study computes nothing
+/// (docs/DESIGN.md §10.11).
+fn check_distortion(system: &System, s: &ForcedSection, source: &str) -> Result<()> {
+    let Some(d) = &s.distortion else {
+        return Ok(());
+    };
+    if s.loaded() {
+        return Ok(());
+    }
+    let g0 = system.gap_reference();
+    let delta = d.amplitude_m(g0);
+    let smallest = system.gaps().iter().copied().fold(f64::INFINITY, f64::min);
+    if delta > smallest {
+        return Ok(());
+    }
+    Err(bad_input(format!(
+        "{source}: forced.distortion.amplitude = {} ({delta:e} m) with no load (forced.levels = \
+         {:?}): expected more than the smallest gap of the model, {smallest:e} m: a casing that \
+         never reaches the blade at rest leaves it at rest, and the response is zero (give a \
+         larger amplitude, or levels > 0)",
+        d.amplitude, s.levels
+    )))
 }
 
 /// `level_unit = "grazing"`: the force of a level is level x q_graze 2 zeta w^2 /

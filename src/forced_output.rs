@@ -109,6 +109,7 @@ fn header(n: usize) -> Vec<String> {
         "harmonic_check",
         "harmonic_change_q1",
         "harmonic_change_omega",
+        "distortion_m",
     ] {
         h.push(s.to_string());
     }
@@ -179,9 +180,25 @@ pub(crate) fn push_curve(
         row.push(CsvValue::Text(word.into()));
         row.push(opt(change.map(|c| c[0])));
         row.push(opt(change.map(|c| c[1])));
+        row.push(distortion_m(st).into());
         table.push_row(row)?;
     }
     Ok(())
+}
+
+/// The casing distortion's amplitude delta (m; 0 without one): frf.csv's `distortion_m`.
+pub(crate) fn distortion_m(st: &ForcedStudy) -> f64 {
+    st.distortion.as_ref().map_or(0.0, |d| d.amplitude_m)
+}
+
+/// The figures' words for the casing distortion (empty without one).
+pub(crate) fn distortion_title(st: &ForcedStudy) -> String {
+    st.distortion.as_ref().map_or_else(String::new, |d| {
+        format!(
+            ", {}-lobe casing, delta = {:.3} g0 at {} W",
+            d.lobes, d.amplitude_over_g0, d.harmonic
+        )
+    })
 }
 
 /// `frf.csv`.
@@ -259,6 +276,8 @@ struct StudyRecord<'a> {
     modal_damping_ratios: &'a [f64],
     penalty_stiffness_n_per_m: Option<f64>,
     settings: &'a crate::forced_settings::ForcedSection,
+    /// The casing distortion (docs/DESIGN.md §10.11), `null` without one.
+    distortion: Option<&'a crate::forced_distortion::DistortionRecord>,
     curves: Vec<CurveRecord<'a>>,
 }
 
@@ -357,6 +376,7 @@ pub fn write(st: &ForcedStudy, backbone: Option<&BackboneFile>, dir: &Path) -> R
         modal_damping_ratios: &st.modal_damping,
         penalty_stiffness_n_per_m: st.penalty_stiffness,
         settings: &st.settings,
+        distortion: st.distortion.as_ref(),
         curves: st.curves.iter().map(curve_record).collect(),
     };
     nlmodes_output::write_json_compact(&dir.join("frf.json"), &record)?;
@@ -408,12 +428,13 @@ fn frf_figure(
     } else {
         "Forced response crowned by the backbone"
     };
+    let title = format!("{title}{}", distortion_title(st));
     let ylabel = if max_abs {
         "max |u_master| / g0"
     } else {
         "first harmonic of the master / g0"
     };
-    let mut plot = LinePlot::new(title, "excitation frequency W / w_mode", ylabel);
+    let mut plot = LinePlot::new(&title, "excitation frequency W / w_mode", ylabel);
     let amp = |p: &ForcedPoint| {
         if max_abs {
             max_abs_over_period(p, st.master) / g
@@ -580,7 +601,7 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
 pub fn summary(st: &ForcedStudy) -> String {
     let (g, w) = (st.gap_reference, st.omega_mode);
     let mut out = format!(
-        "forced response around mode {} (w = {:.2} rad/s, {:.3} Hz), damping ratio {:.3e}{}\n",
+        "forced response around mode {} (w = {:.2} rad/s, {:.3} Hz), damping ratio {:.3e}{}{}\n",
         st.settings.mode,
         w,
         w / (2.0 * std::f64::consts::PI),
@@ -589,6 +610,7 @@ pub fn summary(st: &ForcedStudy) -> String {
             || ", exact contact (Algorithm 1)".to_string(),
             |k| format!(", penalty kc = {k:.3e} N/m")
         ),
+        distortion_title(st),
     );
     for c in &st.curves {
         let r = &c.response;

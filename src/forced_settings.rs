@@ -202,6 +202,10 @@ pub struct ForcedSection {
     pub keep: Vec<f64>,
     /// Frames per period of those series.
     pub frames: usize,
+    /// `[forced.distortion]`: an n-lobed casing whose gap varies in time, the excitation with
+    /// or without the load (docs/DESIGN.md §10.11); absent: constant gaps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<crate::forced_distortion::DistortionSection>,
 }
 
 impl Default for ForcedSection {
@@ -236,6 +240,7 @@ impl Default for ForcedSection {
             keep_peaks: true,
             keep: Vec::new(),
             frames: 24,
+            distortion: None,
         }
     }
 }
@@ -399,20 +404,7 @@ impl ForcedSection {
                 ),
             );
         }
-        p.check(
-            !self.levels.is_empty(),
-            "forced.levels",
-            &self.levels,
-            "at least one level",
-        );
-        for l in &self.levels {
-            p.check(
-                finite_pos(*l),
-                "forced.levels",
-                l,
-                "finite force levels > 0",
-            );
-        }
+        self.check_levels(p);
         p.check(
             finite_pos(self.penalty_factor),
             "forced.penalty_factor",
@@ -421,6 +413,46 @@ impl ForcedSection {
         );
         self.check_level_sweeps(p);
         self.check_grazing_unit(p);
+    }
+
+    /// `levels`: at least one, each finite and > 0; with a casing distortion that moves the
+    /// gap, none (the distortion alone) or zeros among them (docs/DESIGN.md §10.11).
+    fn check_levels(&self, p: &mut Problems) {
+        if let Some(d) = &self.distortion {
+            d.check(p, self.harmonics);
+        }
+        let distorted = self.distortion.as_ref().is_some_and(|d| d.excites());
+        p.check(
+            !self.levels.is_empty() || distorted,
+            "forced.levels",
+            &self.levels,
+            "at least one level (or none, with a [forced.distortion] amplitude > 0: the casing \
+             distortion alone)",
+        );
+        for l in &self.levels {
+            let ok = l.is_finite() && (*l > 0.0 || (distorted && *l == 0.0));
+            let expected = if distorted {
+                "finite force levels >= 0 (0: the casing distortion alone)"
+            } else {
+                "finite force levels > 0"
+            };
+            p.check(ok, "forced.levels", l, expected);
+        }
+    }
+
+    /// The levels of the curves: `levels`, or one curve without load (level 0) when it is
+    /// empty under a casing distortion.
+    pub fn curve_levels(&self) -> Vec<f64> {
+        if self.levels.is_empty() {
+            vec![0.0]
+        } else {
+            self.levels.clone()
+        }
+    }
+
+    /// Whether some curve has a load (a level > 0).
+    pub fn loaded(&self) -> bool {
+        self.levels.iter().any(|&l| l > 0.0)
     }
 
     /// `level_unit = "grazing"` scales the levels by the force whose damped linear resonance of

@@ -11,8 +11,8 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use faer::Mat;
 use nlmodes_forced::{
-    modal_ratios, speed_sweep, ForcedError, ForcedSettings, SpeedFamily, SpeedProblem, SpeedSweep,
-    SpeedSweepSettings,
+    modal_ratios, speed_sweep, ForcedError, ForcedSettings, LobedCasing, SpeedFamily, SpeedProblem,
+    SpeedSweep, SpeedSweepSettings,
 };
 use nlmodes_modal::{ParametricModel, ReducedModel};
 use rayon::prelude::*;
@@ -222,26 +222,46 @@ fn sweep_range(
     Ok(((lo, closure.unwrap_or(hi)), closure))
 }
 
+/// The engine orders to sweep and the key that names them: `[speed_sweep] engine_orders` (or
+/// the Campbell diagram's, `default_orders`), or the casing's lobes for a casing distortion
+/// alone (`alone`: its lobes; docs/DESIGN.md §10.11).
+fn orders(
+    s: &SpeedSweepSection,
+    default_orders: &[i64],
+    alone: Option<usize>,
+) -> (Vec<usize>, &'static str, bool) {
+    match alone {
+        Some(n) => (vec![n], "forced.distortion.lobes", true),
+        None => (
+            s.orders(default_orders),
+            "speed_sweep.engine_orders",
+            !s.engine_orders.is_empty(),
+        ),
+    }
+}
+
 /// The sweeps of `[speed_sweep]` on `model` around mode `mode`: every crossing of the engine
-/// orders inside the range, each with its window. An engine order listed in `speed_sweep`
-/// without a crossing there, or no crossing at all, is bad input naming `source`.
+/// orders inside the range (the casing's lobes for a distortion alone, `alone`), each with its
+/// window. An engine order listed without a crossing there, or no crossing at all, is bad input
+/// naming `source`.
 pub fn plan(
     model: &ParametricModel,
     mode: usize,
     s: &SpeedSweepSection,
-    default_orders: &[i64],
+    (default_orders, alone): (&[i64], Option<usize>),
     source: &str,
 ) -> Result<(Vec<SweepPlan>, Option<f64>)> {
     let ((lo, hi), closure) = sweep_range(model, s)?;
     let curve = ModeCurve::new(model, mode, (lo, hi))?;
     let mut plans = Vec::new();
-    for e in s.orders(default_orders) {
+    let (list, key, explicit) = orders(s, default_orders, alone);
+    for e in list.iter().copied() {
         let ef = e as f64;
         let crossings = curve.detuned(ef, 1.0, (lo, hi))?;
-        if crossings.is_empty() && !s.engine_orders.is_empty() {
+        if crossings.is_empty() && explicit {
             let hz = |w: f64| w / std::f64::consts::TAU;
             return Err(bad_input(format!(
-                "{source}: speed_sweep.engine_orders = {e}: expected an engine order whose line \
+                "{source}: {key} = {e}: expected an engine order whose line \
                  crosses mode {mode} within [{:.1}, {:.1}] rpm (mode {mode}: {:.2} .. {:.2} Hz, \
                  {e} x speed: {:.2} .. {:.2} Hz)",
                 lo / RPM_TO_RAD_S,
@@ -269,7 +289,7 @@ pub fn plan(
             "{source}: no engine order of {:?} crosses mode {mode} within [{:.1}, {:.1}] rpm: \
              nothing to sweep (expected speed_sweep.engine_orders or speed_sweep.speed_range \
              with a crossing)",
-            s.orders(default_orders),
+            list,
             lo / RPM_TO_RAD_S,
             hi / RPM_TO_RAD_S
         )));
@@ -284,6 +304,8 @@ pub struct SweepRun {
     pub level: f64,
     pub force: f64,
     pub sweep: SpeedSweep,
+    /// The casing distortion of the sweep (`[forced.distortion]`), as run.
+    pub casing: Option<crate::forced_speed_distortion::SweepCasing>,
 }
 
 /// The study's result.
@@ -310,6 +332,40 @@ pub struct SweepInputs<'a> {
     pub sweep: &'a SpeedSweepSection,
     pub damping_matrix: Option<&'a Mat<f64>>,
     pub file_load: Option<&'a Mat<f64>>,
+    /// Where the settings come from, for messages.
+    pub source: &'a str,
+}
+
+impl SweepInputs<'_> {
+    /// The forced problems of the sweeps along the speed, at load scale `force`.
+    fn family(&self, force: f64) -> ParametricFamily<'_> {
+        ParametricFamily {
+            model: self.model,
+            section: self.forced,
+            damping_matrix: self.damping_matrix,
+            file_load: self.file_load,
+            force,
+        }
+    }
+
+    /// The casing of each plan's sweep, checked at its crossing's speed before any sweep runs
+    /// (`crate::forced_speed_distortion::casing`).
+    fn casings(&self, plans: &[SweepPlan]) -> Result<Vec<Option<LobedCasing>>> {
+        let alone = crate::forced_speed_distortion::alone(self.forced, self.sweep).is_some();
+        plans
+            .iter()
+            .map(|plan| {
+                let at = self.family(1.0).problem(plan.crossing)?;
+                let checked = (&at.system, alone);
+                crate::forced_speed_distortion::casing(
+                    self.forced,
+                    plan.engine_order,
+                    checked,
+                    self.source,
+                )
+            })
+            .collect()
+    }
 }
 
 /// Runs every (crossing, level) sweep of `plans`, in parallel.
@@ -321,20 +377,16 @@ pub fn run(
     let (model, s) = (inputs.model, inputs.forced);
     let reference = crate::backbone::system_of(model.reference(), None)?;
     let (solver, penalty_stiffness) = crate::forced::solver_settings(&reference, s)?;
-    let levels = if inputs.sweep.levels.is_empty() {
-        &s.levels
-    } else {
-        &inputs.sweep.levels
-    };
-    let jobs: Vec<(&SweepPlan, f64)> = plans
-        .iter()
-        .flat_map(|p| levels.iter().map(move |&l| (p, l)))
+    let levels = crate::forced_speed_distortion::levels(s, inputs.sweep);
+    let casings = inputs.casings(plans)?;
+    let jobs: Vec<(&SweepPlan, Option<LobedCasing>, f64)> = (plans.iter().zip(casings))
+        .flat_map(|(p, c)| levels.iter().map(move |&l| (p, c, l)))
         .collect();
     let bar = crate::ui::bar(jobs.len() as u64, "speed sweeps");
     let runs = jobs
         .par_iter()
-        .map(|&(plan, level)| {
-            let run = one_sweep(inputs, plan, level, &solver, &bar);
+        .map(|&(plan, casing, level)| {
+            let run = one_sweep(inputs, (plan, casing), level, &solver, &bar);
             bar.inc(1);
             run
         })
@@ -357,22 +409,17 @@ pub fn run(
     })
 }
 
-/// One sweep: the level's load scale at the crossing's speed, then the continuation.
+/// One sweep (under its casing, if any): the level's load scale at the crossing's speed, then
+/// the continuation.
 fn one_sweep(
     inputs: &SweepInputs<'_>,
-    plan: &SweepPlan,
+    (plan, casing): (&SweepPlan, Option<LobedCasing>),
     level: f64,
     solver: &ForcedSettings,
     bar: &indicatif::ProgressBar,
 ) -> Result<SweepRun> {
     let s = inputs.forced;
-    let mut family = ParametricFamily {
-        model: inputs.model,
-        section: s,
-        damping_matrix: inputs.damping_matrix,
-        file_load: inputs.file_load,
-        force: 1.0,
-    };
+    let mut family = inputs.family(1.0);
     let at_crossing = family.problem(plan.crossing)?;
     let pattern = crate::forced::pattern(&at_crossing.system, s, inputs.file_load)?;
     let zeta = modal_ratios(&at_crossing.system, &at_crossing.damping)[s.mode];
@@ -386,6 +433,7 @@ fn one_sweep(
     );
     settings.stability = s.stability;
     settings.max_points = inputs.sweep.max_points;
+    settings.casing = casing;
     let e = plan.engine_order;
     let sweep = speed_sweep(&family, &settings, |p| {
         bar.set_message(format!(
@@ -400,11 +448,13 @@ fn one_sweep(
         sweep.folds.len(),
         sweep.end_text()
     );
+    let g0 = at_crossing.system.gap_reference();
     Ok(SweepRun {
         plan: plan.clone(),
         level,
         force: family.force,
         sweep,
+        casing: casing.map(|c| crate::forced_speed_distortion::SweepCasing::of(&c, e, g0)),
     })
 }
 
@@ -438,7 +488,7 @@ mod tests {
             window: [0.97, 1.03],
             ..SpeedSweepSection::default()
         };
-        let (plans, closure) = plan(&model, 0, &sweep, &[4], "test").unwrap();
+        let (plans, closure) = plan(&model, 0, &sweep, (&[4], None), "test").unwrap();
         assert_eq!(plans.len(), 1);
         let inputs = SweepInputs {
             model: &model,
@@ -446,6 +496,7 @@ mod tests {
             sweep: &sweep,
             damping_matrix: None,
             file_load: None,
+            source: "test",
         };
         let study = run(&inputs, &plans, closure).unwrap();
         let summary = crate::forced_speed_output::summarize(&study, &study.runs[0]);

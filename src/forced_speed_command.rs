@@ -33,6 +33,7 @@ pub fn sweep(
     let mut p = problems();
     sweep.check(&mut p, None, "");
     crate::speed_sweep_settings::check_forced_for_sweeps(&section, &mut p);
+    crate::forced_speed_distortion::check(&section, &sweep, &mut p);
     p.finish()?;
     crate::validate::check_output_dir(out, "--out")?;
     let model = crate::forced_speed::read_parametric(dir)?;
@@ -56,10 +57,12 @@ pub fn sweep(
         reduced: model.reference(),
         system: &reference,
     };
-    // The sweeps draw no orbits: no mesh needed.
+    // The sweeps draw no orbits: no mesh needed. Their casing is checked at each crossing's
+    // running gaps (`forced_speed_distortion::casing`), not at the reference model's.
     let without_orbits = ForcedSection {
         keep_peaks: false,
         keep: Vec::new(),
+        distortion: None,
         ..section.clone()
     };
     let inputs = crate::forced_inputs::check(&checked, &without_orbits, &source, None)?;
@@ -67,8 +70,9 @@ pub fn sweep(
         || RotationSection::default().engine_orders,
         |r| r.engine_orders,
     );
+    let alone = crate::forced_speed_distortion::alone(&section, &sweep);
     let (plans, closure) =
-        crate::forced_speed::plan(&model, section.mode, &sweep, &orders, &source)?;
+        crate::forced_speed::plan(&model, section.mode, &sweep, (&orders, alone), &source)?;
     let study = crate::forced_speed::run(
         &SweepInputs {
             model: &model,
@@ -76,6 +80,7 @@ pub fn sweep(
             sweep: &sweep,
             damping_matrix: inputs.damping_matrix.as_ref(),
             file_load: inputs.file_load.as_ref(),
+            source: &source,
         },
         &plans,
         closure,

@@ -42,8 +42,13 @@ pub fn figure(st: &SpeedSweepStudy, dir: &Path) -> Result<()> {
     for (k, run) in st.runs.iter().enumerate() {
         let color = PALETTE[k % PALETTE.len()];
         let mut label = format!(
-            "EO {}, level {} ({:.3e})",
-            run.plan.engine_order, run.level, run.force
+            "EO {}, level {} ({:.3e}){}",
+            run.plan.engine_order,
+            run.level,
+            run.force,
+            run.casing
+                .as_ref()
+                .map_or(String::new(), |c| format!(", {}", c.label()))
         );
         for (v, idx) in verdict_runs(run) {
             let style = match v {

@@ -98,6 +98,9 @@ pub struct SweepSummary {
     pub stability: [usize; 3],
     pub complete: bool,
     pub end: String,
+    /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), absent without.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub casing: Option<crate::forced_speed_distortion::SweepCasing>,
 }
 
 /// The summary of one sweep.
@@ -127,7 +130,7 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
         peak_rpm: peak.speed / RPM_TO_RAD_S,
         peak_q1_m: q1(peak),
         peak_q1_over_g0: q1(peak) / peak.gap_reference,
-        peak_detuning: peak.point.omega / peak.mode_frequency,
+        peak_detuning: excitation(run, peak) / peak.mode_frequency,
         folds: (run.sweep.folds.iter())
             .map(|f| FoldRecord {
                 speed_rpm: f.speed / RPM_TO_RAD_S,
@@ -142,7 +145,14 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
         stability: [Verdict::Stable, Verdict::Unstable, Verdict::Undetermined].map(count),
         complete: run.sweep.termination.covers_range(),
         end: run.sweep.end_text(),
+        casing: run.casing.clone(),
     }
+}
+
+/// The engine order's frequency e Omega (rad/s) at a point: the orbit's W without a casing
+/// distortion, a multiple of its fundamental gcd(e, n) Omega with one.
+fn excitation(run: &SweepRun, p: &SpeedPoint) -> f64 {
+    run.plan.engine_order as f64 * p.speed
 }
 
 fn fold_word(k: FoldKind) -> &'static str {
@@ -152,7 +162,7 @@ fn fold_word(k: FoldKind) -> &'static str {
     }
 }
 
-const HEADER: [&str; 22] = [
+const HEADER: [&str; 23] = [
     "engine_order",
     "level",
     "force_N",
@@ -175,6 +185,7 @@ const HEADER: [&str; 22] = [
     "fold",
     "speed_solves",
     "harmonics",
+    "distortion_m",
 ];
 
 /// `speed_sweep.csv`: one row per point of every sweep (columns: README "Speed sweeps").
@@ -198,9 +209,9 @@ pub fn csv(st: &SpeedSweepStudy) -> Result<CsvTable> {
                 i.into(),
                 (p.speed / RPM_TO_RAD_S).into(),
                 p.speed.into(),
-                (p.point.omega / TAU).into(),
+                (excitation(run, p) / TAU).into(),
                 (p.mode_frequency / TAU).into(),
-                (p.point.omega / p.mode_frequency).into(),
+                (excitation(run, p) / p.mode_frequency).into(),
                 g.into(),
                 harmonic(&p.point, st.master, 1).0.into(),
                 (harmonic(&p.point, st.master, 1).0 / g).into(),
@@ -214,6 +225,7 @@ pub fn csv(st: &SpeedSweepStudy) -> Result<CsvTable> {
                 fold.into(),
                 p.corrections.into(),
                 st.harmonics.into(),
+                run.casing.as_ref().map_or(0.0, |c| c.amplitude_m).into(),
             ])?;
         }
     }

@@ -83,7 +83,10 @@ pub fn section(st: &SpeedSweepStudy) -> String {
             "| {} | {} | {:.1}, {:.2} | {:.0}-{:.0} | {:.3} at {:.1} | {} | {} | {:.3e}{} | {} / \
              {} / {} | {} |",
             r.engine_order,
-            r.level,
+            match &r.casing {
+                Some(c) => format!("{} ({})", r.level, c.label()),
+                None => r.level.to_string(),
+            },
             r.crossing_rpm,
             r.crossing_hz,
             r.range_rpm[0],
@@ -112,13 +115,16 @@ pub fn summary(st: &SpeedSweepStudy) -> String {
         let r = summarize(st, run);
         let _ = writeln!(
             out,
-            "speed sweep EO {} (crossing {:.1} rpm, {:.2} Hz), level {}: peak q/g0 = {:.4} at \
+            "speed sweep EO {} (crossing {:.1} rpm, {:.2} Hz), level {}{}: peak q/g0 = {:.4} at \
              {:.1} rpm, folds {}, touches {}, largest contact force {:.3e} N, {} stable / {} \
              unstable / {} undetermined, {}",
             r.engine_order,
             r.crossing_rpm,
             r.crossing_hz,
             r.level,
+            r.casing
+                .as_ref()
+                .map_or(String::new(), |c| format!(", {}", c.label())),
             r.peak_q1_over_g0,
             r.peak_rpm,
             folds_text(&r),

@@ -67,13 +67,20 @@ impl<'a> SpeedSweepStage<'a> {
             ..self.case.forced.clone()
         };
         let source = "[forced] of the case (for [speed_sweep])";
-        let inputs = crate::forced_inputs::check(&checked, &forced, source, None)?;
+        // The casing is checked at each crossing's running gaps
+        // (`forced_speed_distortion::casing`), not at the reference model's.
+        let without_casing = crate::forced_settings::ForcedSection {
+            distortion: None,
+            ..forced.clone()
+        };
+        let inputs = crate::forced_inputs::check(&checked, &without_casing, source, None)?;
         let case_file = format!("the case ({})", self.case.name());
+        let alone = crate::forced_speed_distortion::alone(&forced, self.sweep);
         let (plans, closure) = crate::forced_speed::plan(
             &model,
             forced.mode,
             self.sweep,
-            &self.rotation.engine_orders,
+            (&self.rotation.engine_orders, alone),
             &case_file,
         )?;
         let study = crate::forced_speed::run(
@@ -83,6 +90,7 @@ impl<'a> SpeedSweepStage<'a> {
                 sweep: self.sweep,
                 damping_matrix: inputs.damping_matrix.as_ref(),
                 file_load: inputs.file_load.as_ref(),
+                source,
             },
             &plans,
             closure,

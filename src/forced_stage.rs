@@ -133,6 +133,9 @@ fn section(st: &ForcedStudy) -> String {
         st.omega_mode / (2.0 * std::f64::consts::PI),
         st.settings.harmonics
     );
+    if let Some(d) = &st.distortion {
+        let _ = writeln!(s, "{}\n", crate::forced_distortion::report_sentence(d));
+    }
     let _ = writeln!(s, "Damping each linear mode of the reduced model gets:\n");
     let _ = writeln!(s, "| mode | f (Hz) | damping ratio |\n|---|---|---|");
     for (k, (w, z)) in st

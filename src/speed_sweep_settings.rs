@@ -92,10 +92,10 @@ impl SpeedSweepSection {
         );
         for l in &self.levels {
             p.check(
-                l.is_finite() && *l > 0.0,
+                l.is_finite() && *l >= 0.0,
                 "speed_sweep.levels",
                 l,
-                "finite levels > 0",
+                "finite levels >= 0 (0 only with a [forced.distortion]: the casing alone)",
             );
         }
         p.check(
@@ -119,7 +119,8 @@ impl SpeedSweepSection {
 }
 
 /// What the speed sweeps need of `[forced]`: the penalty law (the continuation in the speed
-/// has no corner hops for the sampled law of exact contact).
+/// has no corner hops for the sampled law of exact contact). Its casing distortion:
+/// `crate::forced_speed_distortion::check`.
 pub fn check_forced_for_sweeps(forced: &crate::forced_settings::ForcedSection, p: &mut Problems) {
     p.check(
         forced.contact == crate::forced_settings::ForcedContact::Penalty,

@@ -113,6 +113,7 @@ fn check_speed_sweep(case: &Case, p: &mut Problems) {
         check_forced(case, p);
     }
     crate::speed_sweep_settings::check_forced_for_sweeps(&case.forced, p);
+    crate::forced_speed_distortion::check(&case.forced, sweep, p);
 }
 
 fn check_mesh(case: &Case, p: &mut Problems) {

@@ -373,6 +373,7 @@ fn oracle(spec: &Spec, lin: &Linear, force: f64, kc: f64) -> Pwl {
         kc,
         fc: unit(n, spec.master).iter().map(|v| v * force).collect(),
         fs: vec![0.0; n],
+        distortion: None,
     }
 }
 

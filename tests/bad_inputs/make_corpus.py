@@ -410,6 +410,26 @@ def forced_settings(c, model):
     bad("load_direction_nan", "load = \"group\"\nload_direction = [nan, 0.0, 0.0]\n", r"forced\.load_direction = \[NaN, 0\.0, 0\.0\]: expected a finite, non-zero direction")
     bad("damping_ratio_one", "damping_ratio = 1.0\n", r"forced\.damping_ratio = 1\.0: expected a ratio 0 <= zeta < 1")
     bad("level_sweeps_nan", "level_sweeps = [nan]\n", r"forced\.level_sweeps = NaN: expected frequencies W / w_mode > 0")
+    # Issue 39, item 3: the casing distortion.
+    alone = "levels = []\n[forced.distortion]\n"
+    bad("distortion_lobes_zero", alone + "lobes = 0\namplitude = 1.5\namplitude_unit = \"gap\"\n",
+        r"\.toml: forced\.distortion\.lobes = 0: expected an integer 1 <= n <= 200")
+    bad("distortion_amplitude_negative", alone + "amplitude = -1e-5\n",
+        r"\.toml: forced\.distortion\.amplitude = -1e-5: expected a finite amplitude >= 0")
+    bad("distortion_amplitude_inf", alone + "amplitude = inf\n",
+        r"\.toml: forced\.distortion\.amplitude = inf: expected a finite amplitude >= 0")
+    bad("distortion_amplitude_nan", alone + "amplitude = nan\n",
+        r"\.toml: forced\.distortion\.amplitude = NaN: expected a finite amplitude >= 0")
+    bad("distortion_phase_nan", "[forced.distortion]\namplitude = 1e-5\nphase = nan\n",
+        r"\.toml: forced\.distortion\.phase = NaN: expected a finite phase \(rad\)")
+    bad("distortion_harmonic_beyond_n", "[forced.distortion]\namplitude = 1e-5\nharmonic = 11\n",
+        r"\.toml: forced\.distortion\.harmonic = 11: expected 1 <= h <= forced\.harmonics = 10")
+    bad("distortion_unit_word", "[forced.distortion]\namplitude_unit = \"mm\"\n",
+        r"unknown variant `mm`, expected `m` or `gap`")
+    bad("distortion_none_without_levels", "levels = []\n[forced.distortion]\namplitude = 0.0\n",
+        r"forced\.levels = \[\]: expected at least one level \(or none, with a \[forced\.distortion\] amplitude > 0")
+    bad("distortion_alone_short", alone + "amplitude = 0.5\namplitude_unit = \"gap\"\n",
+        r"\.toml: forced\.distortion\.amplitude = 0\.5 \(.* m\) with no load \(forced\.levels = \[\]\): expected more than the smallest gap")
     c.add("forced settings", "forced_backbone_missing",
           ["forced", model, "--backbone", c.path("forced/none.json"), "-o", out], r"--backbone .*none\.json", absent=[os.path.join(out, "frf.csv")])
 

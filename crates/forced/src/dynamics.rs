@@ -124,7 +124,9 @@ impl ContactCompliance {
 }
 
 impl ModalDynamics {
-    /// Modal data of `system` with damping matrix `c` and `load` on harmonics 1..=`harmonics`.
+    /// Modal data of `system` with damping matrix `c` and `load` on harmonics 1..=`harmonics`
+    /// (its sizes and harmonics checked; a zero load is the solver's to refuse, since a casing
+    /// distortion alone drives the structure without one, DESIGN §10.11).
     pub fn new(
         system: &System,
         c: &Mat<f64>,
@@ -132,7 +134,7 @@ impl ModalDynamics {
         harmonics: usize,
     ) -> Result<Self, ForcedError> {
         let n = system.n_dofs();
-        load.validate(n, harmonics)?;
+        load.validate_shape(n, harmonics)?;
         let phi = system.modes().to_owned();
         if let Some(k) = system.eigenvalues().iter().position(|&l| l <= 0.0) {
             return Err(HbError::NotPositiveDefinite {

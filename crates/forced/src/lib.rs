@@ -23,6 +23,7 @@ mod curve;
 mod curve_harmonics;
 mod curve_stability;
 mod damping;
+mod distortion;
 mod dynamics;
 mod error;
 mod fold;
@@ -51,6 +52,7 @@ pub use curve::{
     Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
+pub use distortion::CasingDistortion;
 pub use dynamics::{ContactCompliance, ModalDynamics};
 pub use error::ForcedError;
 pub use frf::response_curve;
@@ -61,7 +63,7 @@ pub use nlmodes_boundary::{BoundaryCurve, BoundaryCurvePoint};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
-pub use speed_curve::{SpeedPoint, SpeedSweepSettings};
+pub use speed_curve::{LobedCasing, SpeedPoint, SpeedSweepSettings};
 pub use speed_step::{SpeedFamily, SpeedProblem};
 pub use speed_sweep::{speed_sweep, SpeedFold, SpeedSweep};
 pub use synthesis::{

@@ -56,6 +56,25 @@ impl Load {
     /// Checks sizes (n values per part), 1 <= h <= N, each h once, finite values and a nonzero
     /// load.
     pub fn validate(&self, n: usize, highest: usize) -> Result<(), ForcedError> {
+        self.validate_shape(n, highest)?;
+        let total: f64 = self
+            .harmonics
+            .iter()
+            .flat_map(|h| h.cos.iter().chain(&h.sin))
+            .map(|x| x.abs())
+            .sum();
+        if total == 0.0 {
+            return Err(ForcedError::Load {
+                what: "harmonics".into(),
+                detail: "every value is zero; expected a nonzero force".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// [`Load::validate`] without the nonzero force: a casing distortion alone excites the
+    /// structure with every value of its load zero (DESIGN §10.11).
+    pub fn validate_shape(&self, n: usize, highest: usize) -> Result<(), ForcedError> {
         let err = |what: String, detail: String| Err(ForcedError::Load { what, detail });
         if self.harmonics.is_empty() {
             return err(
@@ -93,19 +112,23 @@ impl Load {
                 }
             }
         }
-        let total: f64 = self
-            .harmonics
-            .iter()
-            .flat_map(|h| h.cos.iter().chain(&h.sin))
-            .map(|x| x.abs())
-            .sum();
-        if total == 0.0 {
-            return err(
-                "harmonics".into(),
-                "every value is zero; expected a nonzero force".into(),
-            );
-        }
         Ok(())
+    }
+
+    /// The same load on the basis of a fundamental `k` times lower: harmonic h of W becomes
+    /// harmonic k h of W / k (a speed sweep whose orbit's fundamental is gcd(e, n) Omega
+    /// instead of e Omega, DESIGN §10.11).
+    pub fn on_lower_fundamental(&self, k: usize) -> Self {
+        Self {
+            harmonics: self
+                .harmonics
+                .iter()
+                .map(|h| HarmonicLoad {
+                    harmonic: h.harmonic * k,
+                    ..h.clone()
+                })
+                .collect(),
+        }
     }
 
     /// The cosine and sine parts of harmonic `h` (zeros when the load has none there).

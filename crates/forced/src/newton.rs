@@ -2,8 +2,10 @@
 //! (Eq. 14 on the full basis; DESIGN §10.4): a semi-smooth Newton method on the contact
 //! coordinates y alone, the structure being condensed exactly (`dynamics`):
 //!
-//!   R(y, W, s) = y - s y_F(W) + G(W) Lambda(y) = 0,   Lambda = P kappa (E y - g0 + theta)_+,
+//!   R(y, W, s) = y - c - s y_F(W) + G(W) Lambda(y) = 0,   Lambda = P kappa (E y - g0 + theta)_+,
 //!
+//! (c the casing's intrusion under a distortion, y then measured from the casing; c = 0
+//! otherwise: DESIGN §10.11)
 //! with Jacobian I + G J_Lambda, J_Lambda block-diagonal over the contact rows (one (2N+1)^2
 //! block P diag(slope) E per row, `FullBasis::project_slopes`). Rows with no active sample have a
 //! zero block, so the system is solved on the active rows and the others follow. For a
@@ -261,6 +263,9 @@ pub struct InnerNewton<'p> {
     pub smoothing: f64,
     /// How the law's coefficients are computed.
     pub integration: ForceIntegration,
+    /// The casing's intrusion c on every row (signal-major; empty without a distortion): y is
+    /// measured from the casing and R = y - c - s y_F + G Lambda (DESIGN §10.11).
+    pub casing: &'p [f64],
 }
 
 impl InnerNewton<'_> {
@@ -293,11 +298,13 @@ impl InnerNewton<'_> {
             self.smoothing,
             self.integration,
         );
+        let casing = self.casing;
         let comp = self.compliance(s.omega)?;
         let g_lambda = comp.apply(&cs.coefficients);
-        let r = (0..s.y.len())
+        let mut r: Vec<f64> = (0..s.y.len())
             .map(|i| s.y[i] - s.level * comp.y_load[i] + g_lambda[i])
             .collect();
+        r.iter_mut().zip(casing).for_each(|(v, c)| *v -= c);
         Ok((r, cs))
     }
 

@@ -1,7 +1,8 @@
 //! An independent check of a penalty orbit (DESIGN §10.6): one period of the equation of motion
 //!
-//!   M u'' + C u' + K u + A^T kc (A u - g0)_+ = f(t)
+//!   M u'' + C u' + K u + A^T kc (A u - g(t))_+ = f(t)
 //!
+//! (g(t) = g0, or g0 - delta cos(h W t + phi) under a casing distortion, DESIGN §10.11)
 //! integrated by the trapezoidal rule (Newmark's average acceleration, unconditionally stable,
 //! second order; the contact set of each step solved implicitly) from the harmonic-balance
 //! orbit's state at t = 0. A harmonic-balance orbit that is a periodic solution of this equation
@@ -16,6 +17,7 @@ use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::Mat;
 use nlmodes_hb::{FullBasis, System};
 
+use crate::distortion::CasingDistortion;
 use crate::dynamics::product;
 use crate::load::Load;
 
@@ -32,6 +34,7 @@ pub struct PeriodCheck<'a> {
     dt: f64,
     k_eff: Mat<f64>,
     factors: HashMap<Vec<bool>, PartialPivLu<f64>>,
+    distortion: Option<CasingDistortion>,
 }
 
 /// (u, v, a) at a step.
@@ -64,7 +67,21 @@ impl<'a> PeriodCheck<'a> {
             dt,
             k_eff,
             factors: HashMap::new(),
+            distortion: None,
         }
+    }
+
+    /// The same check with the gaps of a casing distortion (`None`: constant gaps).
+    pub fn with_distortion(self, distortion: Option<CasingDistortion>) -> Self {
+        Self { distortion, ..self }
+    }
+
+    /// Every row's gap at time `t` (s): g0_j less the casing's intrusion.
+    fn gaps_at(&self, t: f64) -> Vec<f64> {
+        let c = self
+            .distortion
+            .map_or(0.0, |d| d.intrusion_at(self.omega * t));
+        self.system.gaps().iter().map(|g| g - c).collect()
     }
 
     fn force(&self, t: f64) -> Vec<f64> {
@@ -80,20 +97,18 @@ impl<'a> PeriodCheck<'a> {
         f
     }
 
-    fn active(&self, u: &[f64]) -> Vec<bool> {
+    fn active(&self, u: &[f64], gaps: &[f64]) -> Vec<bool> {
         let y = mul(self.system.contact_rows(), u);
-        y.iter()
-            .zip(self.system.gaps())
-            .map(|(y, g)| y > g)
-            .collect()
+        y.iter().zip(gaps).map(|(y, g)| y > g).collect()
     }
 
-    /// u of the implicit step for the right-hand side r (semi-smooth Newton on the contact set).
-    fn solve_step(&mut self, r: &[f64], guess: &[f64]) -> Vec<f64> {
-        let (rows, g0) = (self.system.contact_rows(), self.system.gaps());
+    /// u of the implicit step for the right-hand side r (semi-smooth Newton on the contact set)
+    /// with the gaps `g0` of the step's end.
+    fn solve_step(&mut self, r: &[f64], guess: &[f64], g0: &[f64]) -> Vec<f64> {
+        let rows = self.system.contact_rows();
         let mut u = guess.to_vec();
         for _ in 0..30 {
-            let active = self.active(&u);
+            let active = self.active(&u, g0);
             let mut rhs = r.to_vec();
             for (j, _) in active.iter().enumerate().filter(|(_, a)| **a) {
                 (0..rhs.len()).for_each(|i| rhs[i] += self.kc * rows[(j, i)] * g0[j]);
@@ -112,7 +127,7 @@ impl<'a> PeriodCheck<'a> {
             let b = Mat::from_fn(rhs.len(), 1, |i, _| rhs[i]);
             let x = self.factors[&active].solve(&b);
             u = (0..rhs.len()).map(|i| x[(i, 0)]).collect();
-            if self.active(&u) == active {
+            if self.active(&u, g0) == active {
                 break;
             }
         }
@@ -131,7 +146,8 @@ impl<'a> PeriodCheck<'a> {
             self.force(t_next),
         );
         let r: Vec<f64> = (0..n).map(|i| f[i] + mm[i] + cc[i]).collect();
-        let u = self.solve_step(&r, &s.u);
+        let gaps = self.gaps_at(t_next);
+        let u = self.solve_step(&r, &s.u, &gaps);
         let a: Vec<f64> = (0..n)
             .map(|i| 4.0 / (dt * dt) * (u[i] - s.u[i]) - 4.0 / dt * s.v[i] - s.a[i])
             .collect();
@@ -164,8 +180,8 @@ impl<'a> PeriodCheck<'a> {
         );
         let y = mul(self.system.contact_rows(), &u);
         let mut rhs: Vec<f64> = (0..n).map(|i| f[i] - ku[i] - cv[i]).collect();
-        for (j, (yj, gj)) in y.iter().zip(self.system.gaps()).enumerate() {
-            if yj > gj {
+        for (j, (yj, gj)) in y.iter().zip(self.gaps_at(0.0)).enumerate() {
+            if *yj > gj {
                 (0..n).for_each(|i| {
                     rhs[i] -= self.system.contact_rows()[(j, i)] * self.kc * (yj - gj)
                 });

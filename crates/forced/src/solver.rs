@@ -8,6 +8,7 @@ use nlmodes_hb::{
     AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, HbError, Multipliers, System,
 };
 
+use crate::distortion::CasingDistortion;
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
 use crate::harmonic_check::HarmonicCheck;
@@ -34,6 +35,9 @@ pub struct ForcedSettings {
     pub newton_tolerance: f64,
     /// Inner Newton iterations per solve (default 60).
     pub newton_iterations: usize,
+    /// The casing's distortion (DESIGN §10.11): every row's gap g0_j - delta cos(h W t + phi);
+    /// `None` (default): constant gaps.
+    pub distortion: Option<CasingDistortion>,
 }
 
 impl ForcedSettings {
@@ -48,6 +52,7 @@ impl ForcedSettings {
             },
             newton_tolerance: 1e-10,
             newton_iterations: 30,
+            distortion: None,
         })
     }
 }
@@ -61,11 +66,13 @@ pub struct ForcedPoint {
     pub level: f64,
     /// Physical coefficients, n x (2N + 1): column p is u_0, a_1, b_1, ... (see `FullBasis`).
     pub coefficients: Mat<f64>,
-    /// Contact coordinates y = A u, signal-major c (2N + 1).
+    /// Contact coordinates measured from the casing, y~ = A u + delta cos(h W t + phi)
+    /// (signal-major c (2N + 1); A u itself without a distortion, DESIGN §10.11): the row
+    /// touches where y~_j > g0_j.
     pub contact: Vec<f64>,
     /// Contact force samples (c x m, force units) of the converged law.
     pub contact_force: Vec<f64>,
-    /// Gap samples g = A u - g0 (c x m).
+    /// Gap samples g = A u - g(t) (c x m; g(t) = g0 without a distortion).
     pub gaps: Vec<f64>,
     /// The augmented-Lagrangian variables at convergence.
     pub multipliers: Multipliers,
@@ -106,6 +113,8 @@ pub struct ForcedSolver<'s> {
     kappa_initial: Vec<f64>,
     kappa_cap: Vec<f64>,
     integration: ForceIntegration,
+    /// The casing's intrusion on every row, signal-major (empty without a distortion).
+    casing: Vec<f64>,
 }
 
 /// The state Algorithm 1 drives: the orbit and the one it last accepted.
@@ -176,8 +185,16 @@ impl<'s> ForcedSolver<'s> {
         };
         positive("newton_tolerance", settings.newton_tolerance)?;
         positive("newton_iterations", settings.newton_iterations as f64)?;
-        let dynamics = ModalDynamics::new(system, damping, load, settings.harmonics.harmonics)?;
+        let highest = settings.harmonics.harmonics;
+        match settings.distortion {
+            Some(d) => d.validate(highest)?,
+            None => load.validate(system.n_dofs(), highest)?,
+        }
+        let dynamics = ModalDynamics::new(system, damping, load, highest)?;
         let basis = FullBasis::new(settings.harmonics)?;
+        let casing = settings.distortion.map_or_else(Vec::new, |d| {
+            d.offsets(system.contact_rows().nrows(), basis.terms())
+        });
         let ks = system.contact_stiffness();
         let (kappa_initial, kappa_cap) = match settings.algorithm.method {
             ContactMethod::AugmentedLagrangian => (
@@ -209,6 +226,7 @@ impl<'s> ForcedSolver<'s> {
             kappa_initial,
             kappa_cap,
             integration,
+            casing,
         })
     }
 
@@ -249,6 +267,13 @@ impl<'s> ForcedSolver<'s> {
     /// The settings.
     pub fn settings(&self) -> &ForcedSettings {
         &self.settings
+    }
+
+    /// The casing's intrusion on every contact row, signal-major as `ForcedPoint::contact`
+    /// (empty without a distortion): the contact coordinates measured from the casing are
+    /// A u plus these (DESIGN §10.11).
+    pub fn casing(&self) -> &[f64] {
+        &self.casing
     }
 
     /// Floquet multipliers of a converged point (`nlmodes_hb::floquet::switched_monodromy`: the
@@ -293,12 +318,16 @@ impl<'s> ForcedSolver<'s> {
 
     /// The multipliers of the point on the massless contact boundary (`boundary`), `None` where
     /// that model does not apply or shooting does not converge. `keep_all`: a penalty model
-    /// whose modes are all resolved is kept whole (the penalty equation, shot exactly).
+    /// whose modes are all resolved is kept whole (the penalty equation, shot exactly). The
+    /// boundary's gaps are constant: `None` under a casing distortion (DESIGN §10.11).
     pub fn boundary_monodromy(
         &self,
         point: &ForcedPoint,
         keep_all: bool,
     ) -> Result<Option<crate::boundary::BoundaryMonodromy>, ForcedError> {
+        if self.settings.distortion.is_some() {
+            return Ok(None);
+        }
         let load = self.load.scaled(point.level);
         Ok(crate::boundary::boundary_monodromy(
             &self.boundary_inputs(&load, keep_all),
@@ -310,7 +339,8 @@ impl<'s> ForcedSolver<'s> {
     /// The exact response curve of the massless boundary (`boundary_curve`) at the level of the
     /// harmonic-balance curve's `points`, from the first (the linear orbit at the start of the
     /// range) to W = `end` (rad/s), its modal coordinates scaled by the largest of those
-    /// orbits'; `None` where that model does not apply.
+    /// orbits'; `None` where that model does not apply (and under a casing distortion: the
+    /// boundary's gaps are constant).
     pub fn boundary_curve(
         &self,
         points: &[ForcedPoint],
@@ -320,6 +350,9 @@ impl<'s> ForcedSolver<'s> {
         let Some(first) = points.first() else {
             return Ok(None);
         };
+        if self.settings.distortion.is_some() {
+            return Ok(None);
+        }
         let load = self.load.scaled(first.level);
         let orbits: Vec<(&Mat<f64>, f64)> =
             points.iter().map(|p| (&p.coefficients, p.omega)).collect();
@@ -351,7 +384,8 @@ impl<'s> ForcedSolver<'s> {
             return None;
         }
         let load = self.load.scaled(point.level);
-        let mut check = PeriodCheck::new(self.system, &self.damping, &load, stiffness, point.omega);
+        let mut check = PeriodCheck::new(self.system, &self.damping, &load, stiffness, point.omega)
+            .with_distortion(self.settings.distortion);
         Some(check.residual(&point.coefficients))
     }
 
@@ -370,15 +404,16 @@ impl<'s> ForcedSolver<'s> {
     }
 
     /// The linear response at W to `level` times the load (no contact force), theta = 0,
-    /// kappa = kappa^(1).
+    /// kappa = kappa^(1); measured from the casing under a distortion.
     pub fn linear_start(&self, omega: f64, level: f64) -> Result<ForcedStart, ForcedError> {
-        let y = self
+        let mut y: Vec<f64> = self
             .dynamics
             .compliance(omega)?
             .y_load
             .into_iter()
             .map(|v| level * v)
             .collect();
+        y.iter_mut().zip(&self.casing).for_each(|(v, c)| *v += c);
         let multipliers = Multipliers::uniform(&self.kappa_initial, self.basis.samples());
         Ok(ForcedStart {
             state: OrbitState { y, omega, level },
@@ -412,6 +447,7 @@ impl<'s> ForcedSolver<'s> {
             cache: None,
             smoothing: 0.0,
             integration: self.integration,
+            casing: &self.casing,
         }
     }
 

@@ -1,15 +1,48 @@
 //! The settings of a speed sweep and the points it traces (docs/DESIGN.md §10.10), shared by
 //! the continuation (`speed_sweep`) and its steps (`speed_step`).
 
+use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::point_stability::PointStability;
 use crate::solver::{ForcedPoint, ForcedSettings};
 
+/// An n-lobed casing seen by the rotating blade (DESIGN §10.11): every row's gap is
+/// g0_j(Omega) - delta cos(n Omega t + phi).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LobedCasing {
+    /// n >= 1 lobes.
+    pub lobes: usize,
+    /// delta (m, finite, >= 0).
+    pub amplitude: f64,
+    /// phi (rad).
+    pub phase: f64,
+}
+
+impl LobedCasing {
+    /// k with the orbit's fundamental k Omega under this casing and a load at engine order
+    /// `engine_order`: gcd(e, n) (DESIGN §10.11).
+    pub fn fundamental_order(&self, engine_order: usize) -> usize {
+        gcd(engine_order, self.lobes)
+    }
+}
+
+/// The greatest common divisor (gcd(a, 0) = a).
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
 /// Settings of one speed sweep.
 #[derive(Clone, Debug)]
 pub struct SpeedSweepSettings {
-    /// Engine order e >= 1: W = e Omega.
+    /// Engine order e >= 1 of the load: the family's load acts at harmonics of e Omega.
     pub engine_order: usize,
+    /// The casing's lobes, when distorted: then the orbit's fundamental is gcd(e, n) Omega
+    /// ([`SpeedSweepSettings::fundamental_order`]); `None` (default): W = e Omega.
+    pub casing: Option<LobedCasing>,
     /// The mode whose frequency each point records (0-based, `SpeedPoint::mode_frequency`).
     pub mode: usize,
     /// First speed (rad/s, > 0), where the response is taken from its linear solution.
@@ -52,6 +85,7 @@ impl SpeedSweepSettings {
     ) -> Self {
         Self {
             engine_order,
+            casing: None,
             mode,
             start,
             end,
@@ -68,6 +102,28 @@ impl SpeedSweepSettings {
         }
     }
 
+    /// k with the orbit's fundamental W = k Omega: gcd(e, n) under an n-lobed casing (the load
+    /// at harmonic e / k of W, the gap at harmonic n / k), e otherwise (DESIGN §10.11).
+    pub fn fundamental_order(&self) -> usize {
+        match self.casing {
+            Some(c) => c.fundamental_order(self.engine_order),
+            None => self.engine_order,
+        }
+    }
+
+    /// The solver's settings on the orbit's fundamental: the casing's gap at harmonic n / k.
+    pub fn solver_settings(&self) -> ForcedSettings {
+        let k = self.fundamental_order().max(1);
+        ForcedSettings {
+            distortion: self.casing.map(|c| CasingDistortion {
+                harmonic: c.lobes / k,
+                amplitude: c.amplitude,
+                phase: c.phase,
+            }),
+            ..self.solver.clone()
+        }
+    }
+
     /// Checks the engine order, the range and the steps; errors name the setting.
     pub fn validate(&self) -> Result<(), ForcedError> {
         let bad = |name, value, expected| {
@@ -80,6 +136,23 @@ impl SpeedSweepSettings {
         let positive = |v: f64| v.is_finite() && v > 0.0;
         if self.engine_order < 1 {
             return bad("engine_order", self.engine_order as f64, "an integer >= 1");
+        }
+        if let Some(c) = self.casing {
+            if c.lobes < 1 {
+                return bad("lobes", c.lobes as f64, "an integer >= 1");
+            }
+            let highest = self.solver.harmonics.harmonics;
+            self.solver_settings()
+                .distortion
+                .map_or(Ok(()), |d| d.validate(highest))?;
+            if self.engine_order / self.fundamental_order() > highest {
+                return bad(
+                    "engine_order",
+                    self.engine_order as f64,
+                    "e / gcd(e, lobes) <= N: the load's harmonic of the orbit's fundamental \
+                     must be on the basis",
+                );
+            }
         }
         if !positive(self.start) {
             return bad("start", self.start, "a finite speed > 0 (rad/s)");
@@ -111,7 +184,8 @@ impl SpeedSweepSettings {
 /// A point of a speed sweep.
 #[derive(Clone, Debug)]
 pub struct SpeedPoint {
-    /// The rotation speed Omega (rad/s); the orbit's W is e Omega.
+    /// The rotation speed Omega (rad/s); the orbit's W is k Omega
+    /// ([`SpeedSweepSettings::fundamental_order`]: e without a casing distortion).
     pub speed: f64,
     /// The orbit (its coefficients in the reduced coordinates, the same at every speed).
     pub point: ForcedPoint,

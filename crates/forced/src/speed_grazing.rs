@@ -155,7 +155,7 @@ impl SpeedTrace<'_> {
         target: f64,
     ) -> Option<SpeedPoint> {
         let scales = (self.y_scale, self.stepper.settings.speed_scale);
-        let e = self.stepper.settings.engine_order as f64;
+        let e = self.stepper.fundamental();
         let level = |solver: &ForcedSolver<'_>| solver.system().gaps()[row] * (1.0 + target);
         let make = |solver: &ForcedSolver<'_>, state: &OrbitState| {
             let terms = solver.basis().terms();

@@ -1,6 +1,8 @@
 //! One point of a speed sweep (`speed_sweep`): the forced orbit of the structure at its own
 //! speed Omega under the excitation at W = e Omega, at a fixed speed or on a pseudo-arc-length
-//! row in (orbit, Omega).
+//! row in (orbit, Omega). Under an n-lobed casing the orbit's fundamental is W = k Omega,
+//! k = gcd(e, n), the load at its harmonic e / k and the gap at n / k (DESIGN §10.11); e
+//! below stands for k.
 //!
 //! On a row the structure is frozen at a speed Omega_f and its harmonic balance solved with W
 //! free on the row (`ForcedSolver::solve`, the frequency as the row's parameter, W / e playing
@@ -93,11 +95,47 @@ pub(crate) struct SpeedStepper<'a> {
     /// next point's first correction is a Newton step with it (substitution, slope -1,
     /// before any).
     pub(crate) slope: std::cell::Cell<Option<f64>>,
+    /// The solver's settings on the orbit's fundamental
+    /// ([`SpeedSweepSettings::solver_settings`]).
+    pub(crate) solver: ForcedSettings,
+}
+
+/// The problem of `family` at `speed` with its load on the orbit's fundamental k Omega (the
+/// family's load acts at harmonics of e Omega).
+fn problem_at(
+    family: &dyn SpeedFamily,
+    settings: &SpeedSweepSettings,
+    speed: f64,
+) -> Result<SpeedProblem, ForcedError> {
+    let mut problem = family.at(speed)?;
+    let k = settings.fundamental_order();
+    if k != settings.engine_order {
+        problem.load = problem.load.on_lower_fundamental(settings.engine_order / k);
+    }
+    Ok(problem)
 }
 
 impl SpeedStepper<'_> {
-    fn engine_order(&self) -> f64 {
-        self.settings.engine_order as f64
+    /// The stepper of one sweep of `family`.
+    pub(crate) fn new<'a>(
+        family: &'a dyn SpeedFamily,
+        settings: &'a SpeedSweepSettings,
+    ) -> SpeedStepper<'a> {
+        SpeedStepper {
+            family,
+            settings,
+            slope: std::cell::Cell::new(None),
+            solver: settings.solver_settings(),
+        }
+    }
+
+    /// k of the orbit's fundamental W = k Omega.
+    pub(crate) fn fundamental(&self) -> f64 {
+        self.settings.fundamental_order() as f64
+    }
+
+    fn problem(&self, speed: f64) -> Result<SpeedProblem, ForcedError> {
+        problem_at(self.family, self.settings, speed)
     }
 
     /// The orbit at the fixed `speed` (rad/s), from `from` carried to this speed's contact
@@ -107,11 +145,11 @@ impl SpeedStepper<'_> {
         speed: f64,
         from: Option<&SpeedPoint>,
     ) -> Result<SpeedPoint, ForcedError> {
-        let problem = self.family.at(speed)?;
-        let solver = problem.solver(&self.settings.solver)?;
-        let w = self.engine_order() * speed;
+        let problem = self.problem(speed)?;
+        let solver = problem.solver(&self.solver)?;
+        let w = self.fundamental() * speed;
         let start = match from {
-            Some(p) => carried(p, solver.system(), w),
+            Some(p) => carried(p, &solver, w),
             None => solver.linear_start(w, 1.0)?,
         };
         let point = solver.solve(start, None)?;
@@ -124,7 +162,7 @@ impl SpeedStepper<'_> {
         from: &SpeedPoint,
         arc: &SpeedArc,
     ) -> Result<SpeedPoint, ForcedError> {
-        let row = arc.row(self.engine_order());
+        let row = arc.row(self.fundamental());
         let start = ForcedStart {
             state: row.predicted.clone(),
             multipliers: from.point.multipliers.clone(),
@@ -148,13 +186,13 @@ impl SpeedStepper<'_> {
         settled: &dyn Fn(&ForcedSolver<'_>, &ForcedPoint) -> bool,
         reach: f64,
     ) -> Result<SpeedPoint, ForcedError> {
-        let e = self.engine_order();
+        let e = self.fundamental();
         let first = speed;
         let tolerance = self.settings.speed_tolerance * self.settings.speed_scale;
         let mut previous: Option<(f64, f64)> = None;
         for corrections in 1..=SPEED_CORRECTIONS {
-            let problem = self.family.at(speed)?;
-            let solver = problem.solver(&self.settings.solver)?;
+            let problem = self.problem(speed)?;
+            let solver = problem.solver(&self.solver)?;
             let arc = row(&solver, &start.state);
             let point = solver.solve(start, Some(&arc))?;
             let mismatch = point.omega / e - speed;
@@ -227,8 +265,8 @@ pub(crate) fn assess(
     s: &SpeedSweepSettings,
     p: &SpeedPoint,
 ) -> PointStability {
-    let analysis = family.at(p.speed).and_then(|problem| {
-        let solver = problem.solver(&s.solver)?;
+    let analysis = problem_at(family, s, p.speed).and_then(|problem| {
+        let solver = problem.solver(&s.solver_settings())?;
         assess_point(&solver, &p.point, s.stability_margin, s.period_tolerance)
     });
     analysis.unwrap_or_else(|e| {
@@ -238,11 +276,14 @@ pub(crate) fn assess(
 }
 
 /// The start at W of a point of another speed: its physical orbit seen through this speed's
-/// contact rows (the reduced coordinates mean the same at every speed), its multipliers.
-fn carried(p: &SpeedPoint, system: &System, w: f64) -> ForcedStart {
+/// contact rows (the reduced coordinates mean the same at every speed; measured from the
+/// casing under a distortion), its multipliers.
+fn carried(p: &SpeedPoint, solver: &ForcedSolver<'_>, w: f64) -> ForcedStart {
+    let mut y = contact_of(solver.system(), &p.point.coefficients);
+    y.iter_mut().zip(solver.casing()).for_each(|(v, c)| *v += c);
     ForcedStart {
         state: OrbitState {
-            y: contact_of(system, &p.point.coefficients),
+            y,
             omega: w,
             level: 1.0,
         },

@@ -132,11 +132,7 @@ impl<'a> SpeedTrace<'a> {
         settings: &'a SpeedSweepSettings,
         progress: &mut impl FnMut(&SpeedPoint),
     ) -> Result<Self, ForcedError> {
-        let stepper = SpeedStepper {
-            family,
-            settings,
-            slope: std::cell::Cell::new(None),
-        };
+        let stepper = SpeedStepper::new(family, settings);
         let first = stepper.at_speed(settings.start, None)?;
         progress(&first);
         let next = settings.start + settings.step * settings.speed_scale;

@@ -81,6 +81,7 @@ fn case(
         kc,
         fc: f,
         fs: vec![0.0; n],
+        distortion: None,
     };
     Case {
         name,

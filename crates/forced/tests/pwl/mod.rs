@@ -29,6 +29,14 @@
 //! switch surface (the contact force kc (a.x - g) vanishes on it), so the saltation matrix
 //! S = I + (f+ - f-) n^T / (n . f-) is the identity. The jump |f+ - f-| at every located event is
 //! recorded (`Flow::largest_jump`) so the tests can check it.
+//!
+//! A casing distortion (`Pwl::distortion`, docs/DESIGN.md §10.11) makes the gap time-varying,
+//! g(t) = g - delta cos(h W t + phi): the state gains (cos h W t, sin h W t) (two more rows
+//! rotating at h W), the closed regime's force kc a (a.x - g(t)) gains the harmonic term
+//! kc a delta (cos phi cos h W t - sin phi sin h W t), and the switch surface is
+//! L(w) - g = 0 with the linear functional L(w) = a.x + delta (cos phi c_h - sin phi s_h) of the
+//! augmented state, whose rate along the flow is L(G w) (the same in both regimes). Without a
+//! distortion every quantity is the one above, to the bit.
 
 #![allow(dead_code)]
 
@@ -334,19 +342,62 @@ pub struct Pwl {
     pub kc: f64,
     pub fc: Vec<f64>,
     pub fs: Vec<f64>,
+    /// A casing distortion: the gap g - delta cos(h W t + phi) (module docs); `None`: constant.
+    pub distortion: Option<GapWave>,
+}
+
+/// The gap's variation g(t) = g - delta cos(h W t + phi) of a distorted casing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GapWave {
+    /// h >= 1, the harmonic of W.
+    pub harmonic: usize,
+    /// delta (length).
+    pub amplitude: f64,
+    /// phi (rad).
+    pub phase: f64,
 }
 
 impl Pwl {
+    /// Size of the augmented state: (x, v, cos W t, sin W t, 1), then (cos h W t, sin h W t)
+    /// under a distortion.
+    pub fn state_size(&self) -> usize {
+        2 * self.n + 3 + if self.distortion.is_some() { 2 } else { 0 }
+    }
+
+    /// The augmented state at t = 0 of z = (x, v).
+    pub fn augmented(&self, z: &[f64]) -> Vec<f64> {
+        let mut w = z.to_vec();
+        w.extend([1.0, 0.0, 1.0]);
+        if self.distortion.is_some() {
+            w.extend([1.0, 0.0]);
+        }
+        w
+    }
+
+    /// L(w) = a.x (+ the casing's intrusion delta cos(h W t + phi)): the row measured from the
+    /// casing, a linear functional of the augmented state.
+    pub fn switch_functional(&self, w: &[f64]) -> f64 {
+        let ax = self.a.iter().zip(w).map(|(a, x)| a * x).sum::<f64>();
+        match self.distortion {
+            Some(d) => {
+                let i = 2 * self.n + 3;
+                let (s, c) = d.phase.sin_cos();
+                ax + d.amplitude * (c * w[i] - s * w[i + 1])
+            }
+            None => ax,
+        }
+    }
+
     /// tr(M^-1 C): det(monodromy) = exp(-T tr(M^-1 C)) (Liouville).
     pub fn trace_minv_c(&self) -> f64 {
         let mc = self.m.inverse().mul(&self.c);
         (0..self.n).map(|i| mc.at(i, i)).sum()
     }
 
-    /// The generator G_r at W (see module docs), size 2n + 3.
+    /// The generator G_r at W (see module docs), size `state_size`.
     pub fn generator(&self, closed: bool, omega: f64) -> Dense {
         let n = self.n;
-        let d = 2 * n + 3;
+        let d = self.state_size();
         let minv = self.m.inverse();
         let kr = Dense::from_fn(n, |i, j| {
             self.k.at(i, j)
@@ -377,12 +428,36 @@ impl Pwl {
         }
         g.a[2 * n * d + 2 * n + 1] = -omega;
         g.a[(2 * n + 1) * d + 2 * n] = omega;
+        if let Some(wave) = self.distortion {
+            // -kc a (a.x - g(t)) = ... - kc a delta (cos phi c_h - sin phi s_h).
+            let i = 2 * n + 3;
+            let (s, c) = wave.phase.sin_cos();
+            if closed {
+                let ma = minv.apply(&self.a);
+                for (r, v) in ma.iter().enumerate() {
+                    g.a[(n + r) * d + i] = -self.kc * wave.amplitude * c * v;
+                    g.a[(n + r) * d + i + 1] = self.kc * wave.amplitude * s * v;
+                }
+            }
+            let hw = wave.harmonic as f64 * omega;
+            g.a[i * d + i + 1] = -hw;
+            g.a[(i + 1) * d + i] = hw;
+        }
         g
     }
 
-    /// a.x - g of an augmented state.
+    /// a.x - g(t) of an augmented state (the row measured from the casing less g).
     pub fn gap_of(&self, w: &[f64]) -> f64 {
-        self.a.iter().zip(w).map(|(a, x)| a * x).sum::<f64>() - self.gap
+        self.switch_functional(w) - self.gap
+    }
+
+    /// d(a.x - g(t))/dt of an augmented state along the flow of generator `gen`: L(G w) (a.v
+    /// without a distortion).
+    pub fn switch_rate(&self, gen: &Dense, w: &[f64]) -> f64 {
+        if self.distortion.is_none() {
+            return self.rate_of(w);
+        }
+        self.switch_functional(&gen.apply(w))
     }
 
     /// a.v of an augmented state.
@@ -470,7 +545,8 @@ impl<'a> Integrator<'a> {
         } else {
             // Touch and leave within the step: a.x - g has an extremum inside (a.v changes sign
             // the way that turns it towards the surface); check its value there.
-            let (r0, r1) = (sys.rate_of(w), sys.rate_of(w_end));
+            let gen = &self.gen[usize::from(closed)];
+            let (r0, r1) = (sys.switch_rate(gen, w), sys.switch_rate(gen, w_end));
             let towards = if closed {
                 r0 < 0.0 && r1 > 0.0
             } else {
@@ -531,10 +607,10 @@ impl<'a> Integrator<'a> {
     fn run_with(&self, z0: &[f64], monodromy: bool) -> Flow {
         let sys = self.sys;
         let n = sys.n;
-        let d = 2 * n + 3;
-        let mut w: Vec<f64> = z0.to_vec();
-        w.extend([1.0, 0.0, 1.0]);
-        let mut closed = sys.gap_of(&w) > 0.0 || (sys.gap_of(&w) == 0.0 && sys.rate_of(&w) > 0.0);
+        let d = sys.state_size();
+        let mut w: Vec<f64> = sys.augmented(z0);
+        let rate0 = sys.switch_rate(&self.gen[0], &w);
+        let mut closed = sys.gap_of(&w) > 0.0 || (sys.gap_of(&w) == 0.0 && rate0 > 0.0);
         let mut phi = Dense::identity(d);
         let mut events = Vec::new();
         let mut pieces = Vec::new();
@@ -706,11 +782,12 @@ impl<'a> GapAlong<'a> {
             ],
             Self::Exact { integ, closed, w } => {
                 let wt = integ.flow(*closed, tau).apply(w);
-                let acc = integ.gen[usize::from(*closed)].apply(&wt);
+                let gen = &integ.gen[usize::from(*closed)];
+                let acc = gen.apply(&wt);
                 [
                     integ.sys.gap_of(&wt),
-                    integ.sys.rate_of(&wt),
-                    integ.sys.rate_of(&acc),
+                    integ.sys.switch_rate(gen, &wt),
+                    integ.sys.switch_rate(gen, &acc),
                 ]
             }
         }
