@@ -1,5 +1,6 @@
 //! What the post stage, the report and the figures read back from the backbone stage's files
-//! (`backbone/backbone.json`, `backbone/kept.json`): a subset of `nlmodes_nnm::BackbonePoint`.
+//! (`backbone/backbone.json`, `backbone/kept.json`): a subset of `nlmodes_nnm::BackbonePoint`;
+//! the speed sweeps' summaries in [`speed_sweep`].
 //!
 //! New columns of the backbone (e.g. a branch index or a stability flag) are added here as
 //! `#[serde(default)]` fields, so that older files still read.
@@ -7,6 +8,8 @@
 use anyhow::{Context, Result};
 use serde::Deserialize;
 use std::path::Path;
+
+pub mod speed_sweep;
 
 /// What post-processing reads of a backbone point: the orbit u(t) = sum_n u_n cos(n w t)
 /// (Eq. 10, cosine basis) and its contact samples.

@@ -233,7 +233,11 @@ fn end_labels_sit_outside_the_area_apart() {
     );
     let l = plot.layout().expect("layout");
     assert!(l.clashes().is_empty(), "{:?}", l.clashes());
-    let labels: Vec<&RefLabel> = l.ref_labels.iter().filter(|r| r.text != "operating speed").collect();
+    let labels: Vec<&RefLabel> = l
+        .ref_labels
+        .iter()
+        .filter(|r| r.text != "operating speed")
+        .collect();
     assert_eq!(labels.len(), 6);
     for r in &labels {
         assert!(!r.rect.overlaps(&l.area), "{r:?}");
@@ -246,6 +250,11 @@ fn end_labels_sit_outside_the_area_apart() {
     let tree = parse_with_fonts(&plot.to_svg().expect("svg")).expect("parse");
     for r in &labels {
         let b = rendered_boxes(&tree, &r.text)[0];
-        assert!(r.rect.inflate(2.0).contains(&b), "`{}`: {b:?} vs {:?}", r.text, r.rect);
+        assert!(
+            r.rect.inflate(2.0).contains(&b),
+            "`{}`: {b:?} vs {:?}",
+            r.text,
+            r.rect
+        );
     }
 }
