@@ -563,7 +563,8 @@ pub fn draw(case: &Case, rotation: &RotationSection, layout: &Layout) -> Result<
     );
     crate::figures::campbell_figure(&picture(&d, op, &bands, &names), &dir)?;
     let mut text = section(case, &d, op, &bands);
-    text += &crate::forced_speed_report::interaction_verdict(case, layout, &d.crossing_refs())?;
+    let refs = d.crossing_refs();
+    text += &crate::forced_speed_report::interaction_verdict(case, layout, &refs, &names)?;
     crate::output::write_atomic(&dir.join("section.md"), text.as_bytes())
 }
 

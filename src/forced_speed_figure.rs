@@ -2,7 +2,7 @@
 //! amplitude (the master's first harmonic over the running gap) against the speed (rpm), one
 //! colour per sweep (engine order and level); stable solid, unstable dashed, undetermined
 //! dotted; the stretches in contact under a thick light band of the sweep's colour; the folds
-//! (where a run-up or a run-down jumps) as red dots; each crossing's speed as a reference line
+//! (where a run-up or a run-down jumps) as black dots; each crossing's speed as a reference line
 //! labelled above the frame. The legend goes below the plot, never over the data. The sweeps:
 //! DESIGN §10.10.
 
@@ -17,7 +17,7 @@ use crate::forced_speed::{SpeedSweepStudy, SweepRun};
 use crate::rotation_settings::RPM_TO_RAD_S;
 
 const GREY: Color = Color(90, 90, 90);
-const FOLD: Color = Color(200, 30, 30);
+const FOLD: Color = Color(0, 0, 0);
 
 /// Runs of consecutive points sharing `key` (overlapping by one point, so the runs join).
 fn runs_by<K: PartialEq + Copy>(

@@ -172,11 +172,11 @@ pub fn swept(case: &Case, layout: &Layout) -> anyhow::Result<Option<SpeedSweepFi
     speed_sweep::read(&layout.shared.join("speed_sweep"))
 }
 
-/// A sweep's level as given and its load: "2 x grazing (5.127e-1 N)" or "0.5 N".
+/// A sweep's level as given and its load: "2 x grazing = 5.127e-1 N" or "5.000e-1 N".
 pub fn level_text(case: &Case, s: &SweepRecord) -> String {
     let unit = case.forced.load.unit();
     match case.forced.level_unit {
-        LevelUnit::Grazing => format!("{} x grazing ({:.3e} {unit})", s.level, s.force),
+        LevelUnit::Grazing => format!("{} x grazing = {:.3e} {unit}", s.level, s.force),
         _ => format!("{:.3e} {unit}", s.force),
     }
 }
@@ -198,14 +198,20 @@ pub fn contact_text(s: &SweepRecord) -> String {
 }
 
 /// The forced verdict on the interaction map (`campbell/section.md`): one row per crossing of
-/// the swept mode with an engine-order line (the Campbell stage's `crossings`) and sweep level.
+/// the swept mode with an engine-order line (the Campbell stage's `crossings`) and sweep level;
+/// `names` are the diagram's curves' (`crate::figures::curve_names`).
 pub fn interaction_verdict(
     case: &Case,
     layout: &Layout,
     crossings: &[CrossingRef],
+    names: &[String],
 ) -> anyhow::Result<String> {
     let file = swept(case, layout)?;
     let traced = file.as_ref().map_or(case.forced.mode, |f| f.mode);
+    let mode = names
+        .get(traced)
+        .cloned()
+        .unwrap_or_else(|| format!("mode {}", traced + 1));
     let rows = speed_sweep::verdicts(file.as_ref(), crossings, traced);
     let mut s = String::from("### Forced verdict at the engine-order crossings\n\n");
     let how = file.as_ref().map_or(
@@ -220,12 +226,11 @@ pub fn interaction_verdict(
     );
     let _ = writeln!(
         s,
-        "Each crossing of mode {} with an engine-order line in the Campbell range, and the \
+        "Each crossing of {mode} with an engine-order line in the Campbell range, and the \
          forced response through it: {how}. \"touches\": the lowest to the highest speed at \
          which the blade touches the casing; the stability of the points in contact where it \
          touches (of all points otherwise), with the folds where a run-up or a run-down \
-         jumps. \"not swept\": no sweep went through that crossing.\n",
-        traced + 1
+         jumps. \"not swept\": no sweep went through that crossing.\n"
     );
     let _ = writeln!(
         s,
@@ -244,7 +249,7 @@ pub fn interaction_verdict(
         for w in &row.sweeps {
             let _ = writeln!(
                 s,
-                "| {} | {:.0} | {}{} | {} | {:.3} ({:.0}{}) | {} ({}) | {} |",
+                "| {} | {:.0} | {}{} | {} | {:.3} ({:.0}{}) | {}{} | {} |",
                 c.engine_order,
                 c.speed_rpm,
                 level_text(case, w),
@@ -262,7 +267,7 @@ pub fn interaction_verdict(
                 },
                 significant(w.max_contact_force_n, 4),
                 w.max_contact_force_rpm
-                    .map_or("-".into(), |r| format!("{r:.0}")),
+                    .map_or(String::new(), |r| format!(" ({r:.0})")),
                 w.stability_text()
             );
         }

@@ -218,6 +218,27 @@ pub struct BackboneFile {
 }
 
 impl BackboneFile {
+    /// Whether the continuation reached q_max (`termination` of kind `reached_max_amplitude`;
+    /// any other ends the backbone stage early, exit code 3).
+    pub fn reached_q_max(&self) -> bool {
+        self.termination["kind"] == "reached_max_amplitude"
+    }
+
+    /// The termination in words: its kind, then its fields ("step too small (q = ..., ...)").
+    pub fn termination_text(&self) -> String {
+        let t = &self.termination;
+        let kind = t["kind"].as_str().unwrap_or("unknown").replace('_', " ");
+        let fields: Vec<String> = (t.as_object().into_iter().flatten())
+            .filter(|(k, _)| k.as_str() != "kind")
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect();
+        if fields.is_empty() {
+            kind
+        } else {
+            format!("{kind} ({})", fields.join(", "))
+        }
+    }
+
     /// Whether point `p` lies on a tongue branch.
     pub fn on_tongue(&self, p: &Orbit) -> bool {
         matches!(

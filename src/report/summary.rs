@@ -64,16 +64,18 @@ fn speed_range_line(r: &ReportInputs<'_>) -> Option<String> {
     let traced = file.as_ref().map_or(r.case.forced.mode, |f| f.mode);
     let rows = verdicts(file.as_ref(), &d.crossing_refs(), traced);
     let (lo, hi) = (d.speeds_rpm[0], *d.speeds_rpm.last()?);
+    let names = crate::figures::curve_names(&r.layout.shared.join("parametric"), lo, traced + 1);
     let mut s = format!(
         "- **Rubbing through {lo:.0}-{hi:.0} rpm** (forced at W = EO x speed through the \
-         crossings of mode {} with the engine-order lines; `### Forced verdict at the \
+         crossings of {} with the engine-order lines; `### Forced verdict at the \
          engine-order crossings` below):",
-        traced + 1
+        names[traced]
     );
     let swept: Vec<&CrossingVerdict> = rows.iter().filter(|v| !v.sweeps.is_empty()).collect();
     if swept.is_empty() {
         s += " no speed sweep has run (add `[speed_sweep]` to the case).";
     }
+    s.push('\n');
     for v in &swept {
         for w in &v.sweeps {
             s += &sweep_phrase(r, v, w);
@@ -87,9 +89,9 @@ fn speed_range_line(r: &ReportInputs<'_>) -> Option<String> {
         })
         .collect();
     if !not.is_empty() {
-        let _ = write!(s, " Not swept: {}.", not.join(", "));
+        let _ = writeln!(s, "  - Not swept: {}.", not.join(", "));
     }
-    Some(s + "\n")
+    Some(s)
 }
 
 /// One sweep as a sentence: where it touches, how hard, stable or not.
@@ -102,26 +104,26 @@ fn sweep_phrase(
     let level = crate::forced_speed_report::level_text(r.case, w);
     let partial = if w.complete { "" } else { " (partial)" };
     let head = format!(
-        " **EO {}** (crossing {:.0} rpm, swept {:.0}-{:.0} rpm), {level}{partial}:",
+        "  - **EO {}** at {level} (crossing {:.0} rpm, swept {:.0}-{:.0} rpm){partial}:",
         c.engine_order, c.speed_rpm, w.range_rpm[0], w.range_rpm[1]
     );
-    let peak = match w.peak_verdict() {
-        "" => String::new(),
-        v => format!(", {v}"),
-    };
     match w.contact_span() {
         Some([a, b]) => format!(
-            "{head} **rubs at {a:.0}-{b:.0} rpm**, peak q/g0 = {:.2} at {:.0} rpm{peak}, largest \
-             contact force {} N{}; {}.",
+            "{head} **rubs at {a:.0}-{b:.0} rpm**, peak q/g0 = {:.2} at {:.0} rpm{}, largest \
+             contact force {} N{}; {}.\n",
             w.peak_q1_over_g0,
             w.peak_rpm,
+            match w.peak_verdict() {
+                "" => String::new(),
+                v => format!(" ({v})"),
+            },
             crate::forced_speed_report::significant(w.max_contact_force_n, 3),
             w.max_contact_force_rpm
                 .map_or(String::new(), |x| format!(" at {x:.0} rpm")),
             w.stability_text()
         ),
         None => format!(
-            "{head} no contact (peak q/g0 = {:.2} at {:.0} rpm{peak}); {}.",
+            "{head} no contact, peak q/g0 = {:.2} at {:.0} rpm; {}.\n",
             w.peak_q1_over_g0,
             w.peak_rpm,
             w.stability_text()

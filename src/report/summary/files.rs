@@ -27,10 +27,10 @@ pub(super) fn backbone_headline(at: &str, b: &BackboneFile) -> String {
     let grazing = b
         .grazing_amplitude
         .map_or("never".to_string(), |q| format!("at q/g0 = {:.2}", q / g0));
-    let end = if b.termination.as_str() == Some("ReachedMaxAmplitude") {
+    let end = if b.reached_q_max() {
         String::new()
     } else {
-        format!("; stopped early: {}", b.termination)
+        format!("; stopped early: {}", b.termination_text())
     };
     format!(
         "- **Free nonlinear mode{at}:** linear frequency {f1:.2} Hz, grazing {grazing}, \
@@ -154,9 +154,9 @@ fn forced_partial(dir: &Path, what: &str, out: &mut Vec<String>) {
 fn backbone_partial(dir: &Path, rpm: f64, out: &mut Vec<String>) {
     match read_json::<BackboneFile>(&dir.join("backbone/backbone.json")) {
         Err(_) => out.push(format!("the backbone at {rpm:.0} rpm: not computed")),
-        Ok(b) if b.termination.as_str() != Some("ReachedMaxAmplitude") => out.push(format!(
+        Ok(b) if !b.reached_q_max() => out.push(format!(
             "the backbone at {rpm:.0} rpm stopped early ({})",
-            b.termination
+            b.termination_text()
         )),
         Ok(_) => {}
     }
