@@ -234,8 +234,8 @@ pub fn interaction_verdict(
     );
     let _ = writeln!(
         s,
-        "| EO | crossing (rpm) | level | touches (rpm) | peak q/g0 (at rpm, its stability) | largest contact \
-         force (N, at rpm) | stability |\n|---|---|---|---|---|---|---|"
+        "| EO | crossing (rpm) | level | touches (rpm) | peak q/g0 (at rpm, its stability) | \
+         largest contact force (N, at rpm) | stability |\n|---|---|---|---|---|---|---|"
     );
     for row in &rows {
         let c = &row.crossing;

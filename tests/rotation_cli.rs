@@ -440,8 +440,9 @@ fn operating_speed_change(dir: &Path, p: &str, res: &Path) {
 
 /// `[speed_sweep]` through `nlmodes run --only speed-sweep` on the parametric model (the
 /// Campbell stage is up to date and does not rerun): EO 3 at 0.3 x the grazing force, out of
-/// contact (the first sweep; the second, at 1.5 x grazing, is `the_answer_first`'s). Its crossing lies on the parametric model's Campbell curve (e Omega_c = w_0 of
-/// the model at Omega_c to 1e-8: the bisection's 1e-12 and the round-off of the dense
+/// contact (the first sweep; the second, at 1.5 x grazing, is `the_answer_first`'s). Its
+/// crossing lies on the parametric model's Campbell curve (e Omega_c = w_0 of the model at
+/// Omega_c to 1e-8: the bisection's 1e-12 and the round-off of the dense
 /// eigen-solve of the lowest mode of a model with constraint modes far above it, measured
 /// 2.3e-9) and within 1e-3 of the Campbell stage's crossing (its Ritz curves, f^2 interpolated
 /// linearly in rpm^2 between speeds 2000 rpm apart; measured 7.3e-5); the response peaks
@@ -526,9 +527,9 @@ fn numbers(cell: &str) -> Vec<f64> {
 }
 
 /// Issue 39, item 4, through `nlmodes run --only post` on the sweeps of
-/// `speed_sweep_through_the_case`: EO 3 at 0.3 and 1.5 x grazing (the second touches the casing). The summary opens report.md (after its
-/// title, before any table) and names the sweeps and the crossings not swept; the inputs are
-/// the last section. The interaction map's verdict row of each sweep carries speed_sweep.json's
+/// `speed_sweep_through_the_case`: EO 3 at 0.3 and 1.5 x grazing (the second touches the
+/// casing, with folds). The summary opens report.md (after its title, before any table) and
+/// names the sweeps and the crossings not swept; the inputs are the last section. The interaction map's verdict row of each sweep carries speed_sweep.json's
 /// numbers to their printed digits; the Campbell figure labels "EO 3" and the modes. Then a
 /// sweep cut to 3 points (exit 3): the summary starts with the partial results.
 fn the_answer_first(dir: &Path, p: &str, res: &Path, campbell: &serde_json::Value) {
@@ -635,11 +636,7 @@ fn verdict_row_against_json(row: &[String], s: &serde_json::Value) {
             span[1].as_f64().unwrap()
         );
         assert_eq!(row[4], want);
-        let edges = s["contact_rpm"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|e| f64s(e));
+        let edges = s["contact_rpm"].as_array().unwrap().iter().flat_map(f64s);
         let lowest = edges.fold(f64::INFINITY, f64::min);
         assert!(span[0].as_f64().unwrap() <= lowest);
     }
