@@ -17,11 +17,19 @@ mod files;
 
 use files::{backbone_headline, forced_headline, partial_results};
 
-/// The section: `## Summary` and its lines.
+/// The section: `## Summary` and its lines. In the case's own report (`results/<case>/`): the
+/// partial results, the speed range's answer, the backbones and forced responses at rest and at
+/// the operating speed; in the report of a speed (`speed/`, `speeds/<rpm>rpm/`) or of a mode
+/// (`mode_<k>/`): that layout's backbone (and forced response at speed).
 pub(super) fn summary(r: &ReportInputs<'_>) -> String {
-    let root = r.layout.root == r.layout.shared;
+    let case_root = r.layout.root == r.case.out_dir();
+    let at_speed = !case_root && r.layout.root == r.layout.shared;
     let mut s = String::from("## Summary\n\n");
-    let partial = if root { partial_results(r) } else { Vec::new() };
+    let partial = if case_root {
+        partial_results(r)
+    } else {
+        Vec::new()
+    };
     if !partial.is_empty() {
         let _ = writeln!(
             s,
@@ -29,24 +37,28 @@ pub(super) fn summary(r: &ReportInputs<'_>) -> String {
             partial.join("; ")
         );
     }
-    if root {
-        if let Some(line) = speed_range_line(r) {
-            s += &line;
-        }
+    if case_root {
+        s += &speed_range_line(r).unwrap_or_default();
     }
-    s += &backbone_headline("", r.backbone);
-    let speed = r.layout.shared.join("speed");
+    let here = if at_speed {
+        let p: Option<serde_json::Value> = read_json(&r.layout.root.join("prestress.json")).ok();
+        let rpm = p.and_then(|p| p["speed_rpm"].as_f64());
+        rpm.map_or(" at speed".into(), |v| format!(" at {v:.0} rpm"))
+    } else {
+        String::new()
+    };
+    s += &backbone_headline(&here, r.backbone);
     let op = r.case.rotation.as_ref().map(|x| x.operating_speed);
-    if let (true, Some(rpm)) = (root, op) {
+    let speed = r.layout.shared.join("speed");
+    if let (true, Some(rpm)) = (case_root, op) {
         if let Ok(b) = read_json::<BackboneFile>(&speed.join("backbone/backbone.json")) {
-            s += &backbone_headline(&format!(" at {rpm:.0} rpm (running gap)"), &b);
+            s += &backbone_headline(&format!(" at {rpm:.0} rpm"), &b);
         }
     }
-    if r.case.forced.enabled && root {
-        s += &forced_headline(r.case, &r.layout.shared.join("forced"), "");
-        if let Some(rpm) = op {
-            let at = format!(" at {rpm:.0} rpm");
-            s += &forced_headline(r.case, &speed.join("forced"), &at);
+    if r.case.forced.enabled && (case_root || at_speed) {
+        s += &forced_headline(r.case, &r.layout.shared.join("forced"), &here);
+        if let (true, Some(rpm)) = (case_root, op) {
+            s += &forced_headline(r.case, &speed.join("forced"), &format!(" at {rpm:.0} rpm"));
         }
     }
     s + "\nThe tables and figures follow; the case's inputs are in the appendix at the end.\n\n"

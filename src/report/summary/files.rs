@@ -32,9 +32,11 @@ pub(super) fn backbone_headline(at: &str, b: &BackboneFile) -> String {
     } else {
         format!("; stopped early: {}", b.termination_text())
     };
+    let gap = if at.is_empty() { "cold" } else { "running" };
     format!(
-        "- **Free nonlinear mode{at}:** linear frequency {f1:.2} Hz, grazing {grazing}, \
-         w/w1 = {:.4} at q/g0 = {:.1} ({} main-branch points, {unstable} unstable){end}.\n",
+        "- **Free nonlinear mode{at}** (amplitudes over the {gap} gap): linear frequency {f1:.2} \
+         Hz, grazing {grazing}, w/w1 = {:.4} at q/g0 = {:.1} ({} main-branch points, \
+         {unstable} unstable){end}.\n",
         last.omega_ratio,
         last.q / g0,
         main.len()
