@@ -594,8 +594,11 @@ fn the_answer_first(dir: &Path, p: &str, res: &Path, campbell: &serde_json::Valu
         sweep_svg.contains("in contact with the casing")
             && sweep_svg.contains(">EO 3 crossing</text>")
     );
-    // Stopped early: the sweeps rerun with 3 points at most; the run says exit 3 and the report
-    // says so first.
+    partial_results_first(dir, p, res);
+}
+
+/// A sweep cut to 3 points: the run exits 3 and the summary opens with the partial results.
+fn partial_results_first(dir: &Path, p: &str, res: &Path) {
     sweep_case(dir, "max_points = 3\n");
     let out = nlmodes(&["run", p, "--only", "post"]);
     assert_eq!(
