@@ -555,74 +555,52 @@ pub fn draw(case: &Case, rotation: &RotationSection, layout: &Layout) -> Result<
         }
     }
     let op = rotation.operating_speed;
-    figure(&d, op, &bands, &dir)?;
-    let text = section(case, &d, op, &bands);
+    // The figure (crate::figures::campbell) and the forced verdict of the map (issue 39).
+    let names = crate::figures::curve_names(
+        &layout.shared.join("parametric"),
+        d.speeds_rpm[0],
+        d.curves.len(),
+    );
+    crate::figures::campbell_figure(&picture(&d, op, &bands, &names), &dir)?;
+    let mut text = section(case, &d, op, &bands);
+    let refs = d.crossing_refs();
+    text += &crate::forced_speed_report::interaction_verdict(case, layout, &refs, &names)?;
     crate::output::write_atomic(&dir.join("section.md"), text.as_bytes())
 }
 
-fn figure(d: &CampbellData, op: f64, bands: &[Band], dir: &Path) -> Result<()> {
-    use nlmodes_output::plot::PALETTE;
-    use nlmodes_output::{LegendPosition, LinePlot, LineStyle, RefLine, Series};
-    let top = d
-        .curves
-        .iter()
-        .flat_map(|c| c.frequency_hz.iter().copied())
-        .chain(bands.iter().map(|b| b.high_hz))
-        .fold(0.0, f64::max)
-        * 1.05;
-    let (lo, hi) = (d.speeds_rpm[0], *d.speeds_rpm.last().unwrap_or(&1.0));
-    let mut plot = LinePlot::new("Campbell diagram", "speed (rpm)", "frequency (Hz)")
-        .with_x_range(lo, hi)
-        .with_y_range(0.0, top)
-        .with_legend(LegendPosition::Hidden)
-        .with_ref_line(RefLine::vertical(op, "operating speed"));
-    for &eo in &d.engine_orders {
-        let e = eo as f64 / 60.0;
-        // The line up to the top of the plot (or the end of the range).
-        let end = hi.min(top / e);
-        plot = plot.with_series(
-            Series::new(format!("EO {eo}"), vec![lo, end], vec![e * lo, e * end])
-                .color(nlmodes_output::plot::Color(150, 150, 150))
-                .style(LineStyle::Dashed)
-                .width(1.0),
-        );
-    }
-    for (k, c) in d.curves.iter().enumerate() {
-        plot = plot.with_series(
-            Series::new(
-                format!("mode {}", c.mode),
-                d.speeds_rpm.clone(),
-                c.frequency_hz.clone(),
-            )
-            .color(PALETTE[k % PALETTE.len()]),
-        );
-    }
-    if !d.crossings.is_empty() {
-        let (x, y): (Vec<f64>, Vec<f64>) = d
-            .crossings
-            .iter()
+fn picture<'a>(
+    d: &'a CampbellData,
+    op: f64,
+    bands: &[Band],
+    names: &[String],
+) -> crate::figures::CampbellPicture<'a> {
+    crate::figures::CampbellPicture {
+        speeds_rpm: &d.speeds_rpm,
+        curves: (names.iter().cloned())
+            .zip(d.curves.iter().map(|c| &c.frequency_hz[..]))
+            .collect(),
+        engine_orders: &d.engine_orders,
+        crossings: (d.crossings.iter())
             .map(|c| (c.speed_rpm, c.frequency_hz))
-            .unzip();
-        plot = plot.with_series(
-            Series::new("crossings", x, y)
-                .style(LineStyle::None)
-                .markers(true)
-                .color(nlmodes_output::plot::Color(0, 0, 0)),
-        );
+            .collect(),
+        bands: (bands.iter())
+            .map(|b| (b.speed_rpm, b.low_hz, b.high_hz))
+            .collect(),
+        operating_rpm: op,
     }
-    for b in bands {
-        plot = plot.with_series(
-            Series::new(
-                "nonlinear mode 1 band",
-                vec![b.speed_rpm; 2],
-                vec![b.low_hz, b.high_hz],
-            )
-            .color(nlmodes_output::plot::Color(200, 30, 30))
-            .width(6.0),
-        );
+}
+
+impl CampbellData {
+    /// The crossings as the speed sweeps' forced verdict reads them.
+    pub fn crossing_refs(&self) -> Vec<crate::results::speed_sweep::CrossingRef> {
+        (self.crossings.iter())
+            .map(|c| crate::results::speed_sweep::CrossingRef {
+                engine_order: c.engine_order,
+                mode: c.mode,
+                speed_rpm: c.speed_rpm,
+            })
+            .collect()
     }
-    plot.write_svg_and_png(&dir.join("campbell"))?;
-    Ok(())
 }
 
 /// The report's section: curves with their Southwell coefficients, the crossings, the accuracy

@@ -411,7 +411,11 @@ mod tests {
 
     /// The shipped case file states the defaults: reading it equals `Case::default()` (but
     /// for its name and the .geo parameters it spells out), and its `[rotation]` table (absent
-    /// from the default case: the blade at rest) states the table's defaults.
+    /// from the default case: the blade at rest) states the table's defaults. Its
+    /// `[speed_sweep]` table (absent by default too) states the table's defaults but for the
+    /// two keys that make it the default study's (issue 39, item 6): the one sweep through the
+    /// EO 3 crossing next to the operating speed at 2 x grazing (the defaults, every crossing
+    /// in the range at every `[forced]` level, would be 18 sweeps of about 90 s each).
     #[test]
     fn shipped_case_file_equals_the_defaults() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/blade.toml");
@@ -422,6 +426,14 @@ mod tests {
         assert_eq!(
             c.rotation.take(),
             Some(crate::rotation_settings::RotationSection::default())
+        );
+        assert_eq!(
+            c.speed_sweep.take(),
+            Some(crate::speed_sweep_settings::SpeedSweepSection {
+                engine_orders: vec![3],
+                levels: vec![2.0],
+                ..Default::default()
+            })
         );
         let as_json = |c: &Case| serde_json::to_string(c).unwrap();
         assert_eq!(as_json(&c), as_json(&Case::default()));

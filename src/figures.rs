@@ -1,5 +1,6 @@
 //! The figures of the post stage (SVG + PNG), after the paper's Figs. 3a, 3b and 4. The backbone
-//! figures (Fig. 3a, its diagnostics, the frequency-energy plot) are in [`backbone`].
+//! figures (Fig. 3a, its diagnostics, the frequency-energy plot) are in [`backbone`]; the
+//! Campbell diagram in [`campbell`], its modes named by [`mode_names`].
 
 use anyhow::Result;
 use nlmodes_output::plot::{Colormap, PALETTE};
@@ -11,6 +12,10 @@ use backbone::{branches_of, parent_point};
 use nlmodes_nnm::BoundaryBackbone;
 
 mod backbone;
+mod campbell;
+mod mode_names;
+
+pub use campbell::{campbell_figure, curve_names, CampbellPicture};
 
 /// One closed orbit of Fig. 3b: q / g0 and (master displacement, master velocity, contact-node
 /// radial displacement) samples, all normalized.

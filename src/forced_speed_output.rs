@@ -89,13 +89,22 @@ pub struct SweepSummary {
     pub peak_q1_over_g0: f64,
     pub peak_detuning: f64,
     pub folds: Vec<FoldRecord>,
-    /// Speed intervals (rpm) along the sweep where the blade touches the casing.
+    /// Speed intervals (rpm) along the sweep where the blade touches the casing, each in the
+    /// order of the sweep (a stretch that passes a fold ends below its largest speed).
     pub contact_rpm: Vec<[f64; 2]>,
+    /// The lowest and highest speed (rpm) at which any point of the sweep touches: the
+    /// interpolated edges of `contact_rpm` and the speeds of the points in contact (folds
+    /// included); `None` without contact.
+    pub contact_span_rpm: Option<[f64; 2]>,
     /// The largest contact force of any contact node over the sweep (N) and its speed.
     pub max_contact_force_n: f64,
     pub max_contact_force_rpm: Option<f64>,
     /// Points stable, unstable, undetermined.
     pub stability: [usize; 3],
+    /// The same counts over the points in contact.
+    pub contact_stability: [usize; 3],
+    /// The verdict of the peak point (`stable`, `unstable`, `undetermined`, `not computed`).
+    pub peak_stability: String,
     pub complete: bool,
     pub end: String,
     /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), absent without.
@@ -114,11 +123,14 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
     let force = |p: &SpeedPoint| contact_summary(&p.point, st.contacts).2;
     let strongest = pts.iter().max_by(|a, b| force(a).total_cmp(&force(b)));
     let largest = strongest.map_or(0.0, force);
-    let count = |v: Verdict| {
+    let count = |v: Verdict, contact_only: bool| {
         pts.iter()
+            .filter(|p| !contact_only || p.point.touches())
             .filter(|p| p.stability.is_some_and(|s| s.verdict == v))
             .count()
     };
+    let verdicts = [Verdict::Stable, Verdict::Unstable, Verdict::Undetermined];
+    let contact_rpm = contact_intervals(run);
     SweepSummary {
         engine_order: run.plan.engine_order,
         level: run.level,
@@ -137,12 +149,16 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
                 kind: fold_word(f.kind),
             })
             .collect(),
-        contact_rpm: contact_intervals(run),
+        contact_span_rpm: contact_span(&contact_rpm, pts),
+        contact_rpm,
         max_contact_force_n: largest,
         max_contact_force_rpm: strongest
             .filter(|_| largest > 0.0)
             .map(|p| p.speed / RPM_TO_RAD_S),
-        stability: [Verdict::Stable, Verdict::Unstable, Verdict::Undetermined].map(count),
+        stability: verdicts.map(|v| count(v, false)),
+        contact_stability: verdicts.map(|v| count(v, true)),
+        peak_stability: (peak.stability.as_ref())
+            .map_or("not computed".into(), |s| verdict_word(Some(s))),
         complete: run.sweep.termination.covers_range(),
         end: run.sweep.end_text(),
         casing: run.casing.clone(),
@@ -153,6 +169,18 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
 /// distortion, a multiple of its fundamental gcd(e, n) Omega with one.
 fn excitation(run: &SweepRun, p: &SpeedPoint) -> f64 {
     run.plan.engine_order as f64 * p.speed
+}
+
+/// The lowest and highest speed (rpm) of the contact intervals' edges and of the points in
+/// contact.
+fn contact_span(intervals: &[[f64; 2]], pts: &[SpeedPoint]) -> Option<[f64; 2]> {
+    let speeds = (pts.iter().filter(|p| p.point.touches()))
+        .map(|p| p.speed / RPM_TO_RAD_S)
+        .chain(intervals.iter().flatten().copied());
+    speeds.fold(None, |span, v| match span {
+        None => Some([v, v]),
+        Some([lo, hi]) => Some([lo.min(v), hi.max(v)]),
+    })
 }
 
 fn fold_word(k: FoldKind) -> &'static str {

@@ -1,14 +1,20 @@
-//! The speed sweeps for a reader (issue 39, item 2): the figure of the response against the
-//! speed, the report's section, the terminal lines, and the exit status of sweeps that did not
-//! cover their window. Files: `forced_speed_output`.
+//! The speed sweeps for a reader (issue 39, items 2 and 4): the report's section, the terminal
+//! lines, the exit status of sweeps that did not cover their window, and the forced verdict of
+//! the interaction map (per engine-order crossing: the peak, the largest contact force, the
+//! speeds with contact, the stability; "not swept" where no sweep went through it). Files:
+//! `forced_speed_output`; figure: `forced_speed_figure`.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Result;
 
+use crate::case::Case;
+use crate::forced_settings::LevelUnit;
 use crate::forced_speed::{SpeedSweepStudy, CLOSURE_SHARE};
 use crate::forced_speed_output::{summarize, SweepSummary};
+use crate::layout::Layout;
+use crate::results::speed_sweep::{self, CrossingRef, SpeedSweepFile, SweepRecord};
 use crate::rotation_settings::RPM_TO_RAD_S;
 
 fn rpm_list(v: &[[f64; 2]]) -> String {
@@ -161,4 +167,116 @@ pub fn stopped_early(st: &SpeedSweepStudy, dir: &Path) -> Result<()> {
         stopped.join("; "),
         dir.display()
     ))))
+}
+
+/// The speed sweeps of the case as written in `speed_sweep/speed_sweep.json`, when the case
+/// runs them (`[speed_sweep]`, enabled) and the file exists.
+pub fn swept(case: &Case, layout: &Layout) -> anyhow::Result<Option<SpeedSweepFile>> {
+    if !case.speed_sweep.as_ref().is_some_and(|s| s.enabled) {
+        return Ok(None);
+    }
+    speed_sweep::read(&layout.shared.join("speed_sweep"))
+}
+
+/// A sweep's level as given and its load: "2 x grazing = 5.127e-1 N" or "5.000e-1 N".
+pub fn level_text(case: &Case, s: &SweepRecord) -> String {
+    let unit = case.forced.load.unit();
+    match case.forced.level_unit {
+        LevelUnit::Grazing => format!("{} x grazing = {:.3e} {unit}", s.level, s.force),
+        _ => format!("{:.3e} {unit}", s.force),
+    }
+}
+
+/// `v` with `digits` significant digits in plain notation ("206.3", "0.001234", "0").
+pub fn significant(v: f64, digits: usize) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let magnitude = v.abs().log10().floor() as i64;
+    let decimals = (digits as i64 - 1 - magnitude).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// The speeds with contact, "7451-7979", or "none".
+pub fn contact_text(s: &SweepRecord) -> String {
+    s.contact_span()
+        .map_or("none".into(), |[a, b]| format!("{a:.0}-{b:.0}"))
+}
+
+/// The forced verdict on the interaction map (`campbell/section.md`): one row per crossing of
+/// the swept mode with an engine-order line (the Campbell stage's `crossings`) and sweep level;
+/// `names` are the diagram's curves' (`crate::figures::curve_names`).
+pub fn interaction_verdict(
+    case: &Case,
+    layout: &Layout,
+    crossings: &[CrossingRef],
+    names: &[String],
+) -> anyhow::Result<String> {
+    let file = swept(case, layout)?;
+    let traced = file.as_ref().map_or(case.forced.mode, |f| f.mode);
+    let mode = names
+        .get(traced)
+        .cloned()
+        .unwrap_or_else(|| format!("mode {}", traced + 1));
+    let rows = speed_sweep::verdicts(file.as_ref(), crossings, traced);
+    let mut s = String::from("### Forced verdict at the engine-order crossings\n\n");
+    let how = file.as_ref().map_or(
+        "no speed sweep has run (`[speed_sweep]` absent or disabled)".to_string(),
+        |f| {
+            format!(
+                "the speed sweeps of `[speed_sweep]` at W = EO x speed, N = {}, amplitudes \
+                 over the running gap (`speed_sweep/`)",
+                f.harmonics
+            )
+        },
+    );
+    let _ = writeln!(
+        s,
+        "Each crossing of {mode} with an engine-order line in the Campbell range, and the \
+         forced response through it: {how}. \"touches\": the lowest to the highest speed at \
+         which the blade touches the casing; the stability of the points in contact where it \
+         touches (of all points otherwise), with the folds where a run-up or a run-down \
+         jumps. \"not swept\": no sweep went through that crossing.\n"
+    );
+    let _ = writeln!(
+        s,
+        "| EO | crossing (rpm) | level | touches (rpm) | peak q/g0 (at rpm, its stability) | \
+         largest contact force (N, at rpm) | stability |\n|---|---|---|---|---|---|---|"
+    );
+    for row in &rows {
+        let c = &row.crossing;
+        if row.sweeps.is_empty() {
+            let _ = writeln!(
+                s,
+                "| {} | {:.0} | not swept | | | | |",
+                c.engine_order, c.speed_rpm
+            );
+        }
+        for w in &row.sweeps {
+            let _ = writeln!(
+                s,
+                "| {} | {:.0} | {}{} | {} | {:.3} ({:.0}{}) | {}{} | {} |",
+                c.engine_order,
+                c.speed_rpm,
+                level_text(case, w),
+                if w.complete {
+                    String::new()
+                } else {
+                    format!(", partial: {}", w.end.replace('|', "/"))
+                },
+                contact_text(w),
+                w.peak_q1_over_g0,
+                w.peak_rpm,
+                match w.peak_verdict() {
+                    "" => String::new(),
+                    v => format!(", {v}"),
+                },
+                significant(w.max_contact_force_n, 4),
+                w.max_contact_force_rpm
+                    .map_or(String::new(), |r| format!(" ({r:.0})")),
+                w.stability_text()
+            );
+        }
+    }
+    Ok(s + "\n")
 }

@@ -1,5 +1,6 @@
-//! `report.md`: the inputs, linear frequencies, Craig-Bampton accuracy, the backbone table,
-//! convergence figures and the plots of a case, in one page.
+//! `report.md`: a summary that answers the case's question first ([`summary`]), then the linear
+//! frequencies, Craig-Bampton accuracy, the backbone table, convergence figures and the plots
+//! of a case, in one page, and the inputs in an appendix at the end.
 
 use anyhow::Result;
 use nlmodes_modal::ReducedModel;
@@ -10,6 +11,8 @@ use std::path::{Path, PathBuf};
 use crate::case::Case;
 use crate::layout::{amplitude_tag, Layout};
 use crate::results::{BackboneFile, Orbit};
+
+mod summary;
 
 /// What the post stage wrote for one kept amplitude.
 pub struct KeptOutputs {
@@ -71,16 +74,18 @@ pub struct ReportInputs<'a> {
 type Section = fn(&ReportInputs<'_>) -> String;
 
 /// The report, in order: a list of sections. A stage that runs before post (forced, speed,
-/// campbell) writes its own `section.md`, included by [`stage_sections`].
-const SECTIONS: [Section; 8] = [
+/// campbell, speed_sweep) writes its own `section.md`, included by [`stage_sections`].
+const SECTIONS: [Section; 10] = [
     title,
-    inputs,
+    summary::summary,
+    introduction,
     linear_modes,
     backbone,
     manifold,
     kept_amplitudes,
     stage_sections,
     convergence,
+    inputs,
 ];
 
 /// Writes `report.md` (and the convergence figures it shows) in the layout's root.
@@ -92,20 +97,25 @@ pub fn write_report(r: &ReportInputs<'_>) -> Result<()> {
 }
 
 fn title(r: &ReportInputs<'_>) -> String {
+    format!("# nlmodes report: case `{}`\n\n", r.case.name())
+}
+
+fn introduction(r: &ReportInputs<'_>) -> String {
     let b = r.backbone;
     let f1 = b.omega_linear / (2.0 * std::f64::consts::PI);
     format!(
-        "# nlmodes report: case `{}`\n\nNonlinear normal mode of a structure with frictionless \
-         unilateral contact (Laxalde, Legrand & Pierre 2009). Displacements are normalized by the \
-         initial gap g0 = {:.4e} m, frequencies by the first linear frequency f1 = {f1:.4} Hz.\n\n",
-        r.case.name(),
+        "Nonlinear normal mode of a structure with frictionless unilateral contact (Laxalde, \
+         Legrand & Pierre 2009). Displacements are normalized by the initial gap g0 = {:.4e} m, \
+         frequencies by the first linear frequency f1 = {f1:.4} Hz.\n\n",
         b.gap_reference
     )
 }
 
+/// The appendix: the case as read (every key, defaults included).
 fn inputs(r: &ReportInputs<'_>) -> String {
     format!(
-        "## Inputs\n\n```toml\n{}```\n\n",
+        "## Appendix: inputs\n\nThe case as read, every key with its value (defaults \
+         included):\n\n```toml\n{}```\n\n",
         toml::to_string(r.case).unwrap_or_default()
     )
 }

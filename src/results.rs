@@ -1,5 +1,6 @@
 //! What the post stage, the report and the figures read back from the backbone stage's files
-//! (`backbone/backbone.json`, `backbone/kept.json`): a subset of `nlmodes_nnm::BackbonePoint`.
+//! (`backbone/backbone.json`, `backbone/kept.json`): a subset of `nlmodes_nnm::BackbonePoint`;
+//! the speed sweeps' summaries in [`speed_sweep`].
 //!
 //! New columns of the backbone (e.g. a branch index or a stability flag) are added here as
 //! `#[serde(default)]` fields, so that older files still read.
@@ -7,6 +8,8 @@
 use anyhow::{Context, Result};
 use serde::Deserialize;
 use std::path::Path;
+
+pub mod speed_sweep;
 
 /// What post-processing reads of a backbone point: the orbit u(t) = sum_n u_n cos(n w t)
 /// (Eq. 10, cosine basis) and its contact samples.
@@ -215,6 +218,27 @@ pub struct BackboneFile {
 }
 
 impl BackboneFile {
+    /// Whether the continuation reached q_max (`termination` of kind `reached_max_amplitude`;
+    /// any other ends the backbone stage early, exit code 3).
+    pub fn reached_q_max(&self) -> bool {
+        self.termination["kind"] == "reached_max_amplitude"
+    }
+
+    /// The termination in words: its kind, then its fields ("step too small (q = ..., ...)").
+    pub fn termination_text(&self) -> String {
+        let t = &self.termination;
+        let kind = t["kind"].as_str().unwrap_or("unknown").replace('_', " ");
+        let fields: Vec<String> = (t.as_object().into_iter().flatten())
+            .filter(|(k, _)| k.as_str() != "kind")
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect();
+        if fields.is_empty() {
+            kind
+        } else {
+            format!("{kind} ({})", fields.join(", "))
+        }
+    }
+
     /// Whether point `p` lies on a tongue branch.
     pub fn on_tongue(&self, p: &Orbit) -> bool {
         matches!(

@@ -57,12 +57,19 @@ pub fn stamp(stage: &dyn Stage) -> Result<()> {
     crate::output::write_atomic(&p, stage.hash().as_bytes())
 }
 
-/// Runs the stage unless it is up to date (`force`: even then), and stamps it.
+/// Runs the stage unless it is up to date (`force`: even then), and stamps it. The old stamp
+/// goes first: the work overwrites the outputs, so a stage that stops early or fails must not
+/// leave a stamp that vouches for them (going back to the earlier inputs would otherwise take
+/// the partial outputs as up to date and exit 0).
 pub fn run_if_needed(stage: &dyn Stage, force: bool) -> Result<()> {
     if !force && up_to_date(stage) {
         let root = &stage.layout().root;
         tracing::info!("stage {}: up to date (in {})", stage.name(), root.display());
         return Ok(());
+    }
+    let old = stage.layout().stamp(&stage.name());
+    if old.exists() {
+        std::fs::remove_file(&old)?;
     }
     on_own_thread(|| stage.work())?;
     stamp(stage)
@@ -89,4 +96,62 @@ pub fn on_own_thread<T: Send>(work: impl FnOnce() -> Result<T> + Send) -> Result
 /// Serialized bytes of a settings table, for a stage hash.
 pub fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
     serde_json::to_vec(v).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stage writing `out.txt`, then failing when `fail` is set.
+    struct Probe {
+        layout: Layout,
+        hash: String,
+        fail: bool,
+    }
+
+    impl Stage for Probe {
+        fn name(&self) -> String {
+            "probe".into()
+        }
+        fn only(&self) -> Only {
+            Only::Post
+        }
+        fn hash(&self) -> &str {
+            &self.hash
+        }
+        fn layout(&self) -> &Layout {
+            &self.layout
+        }
+        fn outputs(&self) -> Vec<PathBuf> {
+            vec![self.layout.root.join("out.txt")]
+        }
+        fn work(&self) -> Result<()> {
+            std::fs::write(self.layout.root.join("out.txt"), &self.hash)?;
+            anyhow::ensure!(!self.fail, "stopped early");
+            Ok(())
+        }
+    }
+
+    /// Inputs A run, inputs B stop early after overwriting the outputs, then inputs A again:
+    /// the stage reruns (the partial outputs of B are not taken for A's).
+    #[test]
+    fn a_stage_that_stops_early_leaves_no_stamp() {
+        let dir = std::env::temp_dir().join(format!("nlmodes-stage-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let probe = |hash: &str, fail| Probe {
+            layout: Layout::new(dir.clone()),
+            hash: hash.into(),
+            fail,
+        };
+        run_if_needed(&probe("A", false), false).unwrap();
+        assert!(up_to_date(&probe("A", false)));
+        assert!(run_if_needed(&probe("B", true), false).is_err());
+        assert!(
+            !up_to_date(&probe("A", false)),
+            "B's partial outputs taken for A's"
+        );
+        run_if_needed(&probe("A", false), false).unwrap();
+        assert_eq!(std::fs::read_to_string(dir.join("out.txt")).unwrap(), "A");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -23,7 +23,14 @@
 //!   before any stage runs;
 //! * `[speed_sweep]` through the case: the EO 3 sweep out of contact peaks at its crossing
 //!   within the damping's half-width (`speed_sweep_through_the_case`); `[forced]` runs again
-//!   on the model at the operating speed (`forced_at_speed_through_the_case`).
+//!   on the model at the operating speed (`forced_at_speed_through_the_case`);
+//! * the answer first (issue 39, item 4; `the_answer_first`): report.md opens with its summary
+//!   (the sweeps' verdict, the crossings not swept) before any table and ends with the inputs;
+//!   the interaction map's forced verdict agrees with speed_sweep.json of the same run (peak,
+//!   its speed, the largest contact force, the speeds in contact, the stability counts), every
+//!   other crossing of the swept mode says "not swept"; the Campbell figure labels the
+//!   engine-order lines and the modes; a sweep stopped early (exit 3) makes the summary open
+//!   with "Partial results".
 //!
 //! Cost: about 40 s (two runs of the coarse study, the second only the rotating stages).
 
@@ -170,6 +177,7 @@ fn rotating_study_from_the_command() {
     // speed, reduced from a static state solved from rest, is an independent direct solve.
     parametric_against_the_model_at_speed(&parametric, &res, 7000.0);
     speed_sweep_through_the_case(&dir, p, &res, &parametric);
+    the_answer_first(&dir, p, &res, &campbell);
     forced_at_speed_through_the_case(&dir, p, &res);
     bad_speeds(&dir, p);
     let _ = std::fs::remove_dir_all(&dir);
@@ -432,8 +440,9 @@ fn operating_speed_change(dir: &Path, p: &str, res: &Path) {
 
 /// `[speed_sweep]` through `nlmodes run --only speed-sweep` on the parametric model (the
 /// Campbell stage is up to date and does not rerun): EO 3 at 0.3 x the grazing force, out of
-/// contact. Its crossing lies on the parametric model's Campbell curve (e Omega_c = w_0 of
-/// the model at Omega_c to 1e-8: the bisection's 1e-12 and the round-off of the dense
+/// contact (the first sweep; the second, at 1.5 x grazing, is `the_answer_first`'s). Its
+/// crossing lies on the parametric model's Campbell curve (e Omega_c = w_0 of the model at
+/// Omega_c to 1e-8: the bisection's 1e-12 and the round-off of the dense
 /// eigen-solve of the lowest mode of a model with constraint modes far above it, measured
 /// 2.3e-9) and within 1e-3 of the Campbell stage's crossing (its Ritz curves, f^2 interpolated
 /// linearly in rpm^2 between speeds 2000 rpm apart; measured 7.3e-5); the response peaks
@@ -446,15 +455,7 @@ fn speed_sweep_through_the_case(
     res: &Path,
     parametric: &nlmodes_modal::ParametricModel,
 ) {
-    let sweep = "[speed_sweep]\nengine_orders = [3]\nlevels = [0.3]\nwindow = [0.95, 1.05]\n";
-    let rotation = ROTATION.replace("operating_speed = 8000.0", "operating_speed = 7000.0");
-    case(
-        dir,
-        &format!("{rotation}{sweep}").replace(
-            "[forced]\nenabled = false",
-            "[forced]\nenabled = false\nharmonics = 4",
-        ),
-    );
+    sweep_case(dir, "");
     ok(&["run", p, "--only", "speed-sweep"]);
     let j = json(&res.join("speed_sweep/speed_sweep.json"));
     let s = &j["sweeps"][0];
@@ -490,6 +491,169 @@ fn speed_sweep_through_the_case(
     assert!(res.join("speed_sweep/speed_sweep.png").is_file());
     let section = std::fs::read_to_string(res.join("speed_sweep/section.md")).unwrap();
     assert!(section.contains("## Speed sweeps through the Campbell crossings"));
+}
+
+/// The rotating case at 7000 rpm with EO 3 swept at 0.3 and 1.5 x grazing over [0.95, 1.05] of
+/// the crossing (N = 4), `extra` keys added to `[speed_sweep]`.
+fn sweep_case(dir: &Path, extra: &str) {
+    let rotation = ROTATION.replace("operating_speed = 8000.0", "operating_speed = 7000.0");
+    let sweep = format!(
+        "[speed_sweep]\nengine_orders = [3]\nlevels = [0.3, 1.5]\nwindow = [0.95, 1.05]\n{extra}"
+    );
+    case(
+        dir,
+        &format!("{rotation}{sweep}").replace(
+            "[forced]\nenabled = false",
+            "[forced]\nenabled = false\nharmonics = 4",
+        ),
+    );
+}
+
+/// The cells of the rows of the forced verdict's table in `section` (campbell/section.md).
+fn verdict_rows(section: &str) -> Vec<Vec<String>> {
+    section
+        .lines()
+        .skip_while(|l| !l.starts_with("### Forced verdict at the engine-order crossings"))
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| EO"))
+        .map(|l| l.split('|').map(|c| c.trim().to_string()).collect())
+        .collect()
+}
+
+/// The numbers in a cell, in order ("5.910 (7961, stable)" -> [5.91, 7961]).
+fn numbers(cell: &str) -> Vec<f64> {
+    cell.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+        .filter_map(|t| t.parse().ok())
+        .collect()
+}
+
+/// Issue 39, item 4, through `nlmodes run --only post` on the sweeps of
+/// `speed_sweep_through_the_case`: EO 3 at 0.3 and 1.5 x grazing (the second touches the
+/// casing, with folds). The summary opens report.md (after its title, before any table) and
+/// names the sweeps and the crossings not swept; the inputs are the last section. The interaction map's verdict row of each sweep carries speed_sweep.json's
+/// numbers to their printed digits; the Campbell figure labels "EO 3" and the modes. Then a
+/// sweep cut to 3 points (exit 3): the summary starts with the partial results.
+fn the_answer_first(dir: &Path, p: &str, res: &Path, campbell: &serde_json::Value) {
+    ok(&["run", p, "--only", "post"]);
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    let first_table = report.find("\n|").expect("a table");
+    let summary = report.find("## Summary").expect("a summary");
+    assert!(report.starts_with("# nlmodes report: case `rot`\n\n## Summary"));
+    assert!(summary < first_table);
+    let head = &report[summary..first_table];
+    assert!(
+        head.contains("**EO 3**") && head.contains("Not swept:"),
+        "{head}"
+    );
+    assert!(
+        !head.contains("Partial results"),
+        "nothing stopped early: {head}"
+    );
+    let appendix = report.find("## Appendix: inputs").expect("the inputs");
+    assert!(
+        report[appendix + 3..].find("\n## ").is_none(),
+        "the inputs are last"
+    );
+    let section = std::fs::read_to_string(res.join("campbell/section.md")).unwrap();
+    let rows = verdict_rows(&section);
+    let j = json(&res.join("speed_sweep/speed_sweep.json"));
+    let sweeps = j["sweeps"].as_array().unwrap();
+    assert_eq!(sweeps.len(), 2);
+    let mut touched = false;
+    for s in sweeps {
+        let level = s["level"].as_f64().unwrap();
+        let row = rows
+            .iter()
+            .find(|r| r[1] == "3" && r[3].starts_with(&format!("{level} x grazing")))
+            .unwrap_or_else(|| panic!("no verdict row for level {level}: {rows:?}"));
+        verdict_row_against_json(row, s);
+        touched |= !s["contact_rpm"].as_array().unwrap().is_empty();
+    }
+    assert!(touched, "the level-1.5 sweep touches the casing");
+    assert!(head.contains("rubs at"), "{head}");
+    for c in campbell["crossings"].as_array().unwrap() {
+        let (eo, mode) = (
+            c["engine_order"].as_i64().unwrap(),
+            c["mode"].as_u64().unwrap(),
+        );
+        if mode == 1 && eo != 3 {
+            let row = rows.iter().find(|r| r[1] == eo.to_string()).expect("a row");
+            assert_eq!(row[3], "not swept", "{row:?}");
+        }
+    }
+    let svg = std::fs::read_to_string(res.join("campbell/campbell.svg")).unwrap();
+    assert!(
+        svg.contains(">EO 3</text>"),
+        "no EO 3 label in campbell.svg"
+    );
+    assert!(
+        svg.contains("(mode 1)</text>") || svg.contains(">mode 1</text>"),
+        "mode 1 not named in campbell.svg"
+    );
+    let sweep_svg = std::fs::read_to_string(res.join("speed_sweep/speed_sweep.svg")).unwrap();
+    assert!(
+        sweep_svg.contains("in contact with the casing")
+            && sweep_svg.contains(">EO 3 crossing</text>")
+    );
+    partial_results_first(dir, p, res);
+}
+
+/// A sweep cut to 3 points: the run exits 3 and the summary opens with the partial results.
+fn partial_results_first(dir: &Path, p: &str, res: &Path) {
+    sweep_case(dir, "max_points = 3\n");
+    let out = nlmodes(&["run", p, "--only", "post"]);
+    assert_eq!(
+        out.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    let after = &report[report.find("## Summary").unwrap() + "## Summary".len()..];
+    assert!(
+        after.trim_start().starts_with("**Partial results:**")
+            && after.contains("the speed sweep at EO 3"),
+        "{}",
+        &after[..after.len().min(600)]
+    );
+}
+
+/// One row of the forced verdict against the sweep's summary in speed_sweep.json.
+fn verdict_row_against_json(row: &[String], s: &serde_json::Value) {
+    let f = |k: &str| s[k].as_f64().unwrap();
+    let peak = numbers(&row[5]);
+    assert!((peak[0] - f("peak_q1_over_g0")).abs() <= 5e-4, "{row:?}");
+    assert!((peak[1] - f("peak_rpm")).abs() <= 0.5, "{row:?}");
+    let force = numbers(&row[6]);
+    let largest = f("max_contact_force_n");
+    assert!(
+        (force[0] - largest).abs() <= 5e-4 * largest,
+        "{row:?} vs {largest}"
+    );
+    let span = &s["contact_span_rpm"];
+    if span.is_null() {
+        assert_eq!(row[4], "none");
+    } else {
+        let want = format!(
+            "{:.0}-{:.0}",
+            span[0].as_f64().unwrap(),
+            span[1].as_f64().unwrap()
+        );
+        assert_eq!(row[4], want);
+        let edges = s["contact_rpm"].as_array().unwrap().iter().flat_map(f64s);
+        let lowest = edges.fold(f64::INFINITY, f64::min);
+        assert!(span[0].as_f64().unwrap() <= lowest);
+    }
+    let key = if span.is_null() {
+        "stability"
+    } else {
+        "contact_stability"
+    };
+    let n = f64s(&s[key]);
+    let counts = format!(
+        "{} stable, {} unstable, {} undetermined points",
+        n[0], n[1], n[2]
+    );
+    assert!(row[7].contains(&counts), "{row:?} lacks {counts}");
 }
 
 /// `[forced]` with `[rotation]`: `nlmodes run --only forced` runs the forced study at rest and

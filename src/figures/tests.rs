@@ -134,19 +134,41 @@ fn the_frequency_energy_plot_has_no_clash() {
 }
 
 /// The default case's own figures (results/blade from `scripts/run`): no legend or label over
-/// their data. Ignored: it needs those results (a 30-minute run). Run it with
+/// their data, the Campbell diagram's (its modes named, its engine-order lines labelled) among
+/// them. Ignored: it needs those results (a 30-minute run). Run it with
 /// `cargo test --release --bin nlmodes default_case_figures -- --ignored` after `scripts/run`.
 #[test]
 #[ignore = "needs results/blade from scripts/run"]
 fn default_case_figures_have_no_clash() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/blade/backbone");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/blade");
+    let dir = root.join("backbone");
     let b: BackboneFile =
         crate::results::read_json(&dir.join("backbone.json")).expect("backbone.json");
     let exact = crate::results::read_boundary_backbone(&dir).expect("backbone_boundary.json");
+    let d: crate::campbell_stage::CampbellData =
+        crate::results::read_json(&root.join("campbell/campbell.json")).expect("campbell.json");
+    let names = super::curve_names(&root.join("parametric"), d.speeds_rpm[0], d.curves.len());
+    assert!(names[0].starts_with("1F"), "{names:?}");
+    let band = crate::campbell_stage::band(&b, 0.0, &[]).expect("a band at rest");
+    let campbell = super::campbell::campbell_plot(&super::CampbellPicture {
+        speeds_rpm: &d.speeds_rpm,
+        curves: (names.iter().cloned())
+            .zip(d.curves.iter().map(|c| &c.frequency_hz[..]))
+            .collect(),
+        engine_orders: &d.engine_orders,
+        crossings: d
+            .crossings
+            .iter()
+            .map(|c| (c.speed_rpm, c.frequency_hz))
+            .collect(),
+        bands: vec![(0.0, band.low_hz, band.high_hz)],
+        operating_rpm: 8000.0,
+    });
     for plot in [
         backbone_plot(&b),
         diagnostics_plot(&b, exact.as_ref()),
         frequency_energy_plot(&b).expect("energies"),
+        campbell,
     ] {
         let layout = plot.layout().expect("layout");
         assert!(

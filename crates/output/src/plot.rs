@@ -18,6 +18,7 @@
 mod axis;
 mod clash;
 mod color;
+mod end_labels;
 mod frame;
 mod heatmap;
 mod legend;

@@ -208,3 +208,53 @@ fn the_rendered_text_stays_in_its_boxes() {
         }
     }
 }
+
+/// A Campbell-like plot: rising curves and straight lines that leave the area through its
+/// right side at nearby heights (their labels would overlap: moved apart) and through its top
+/// (labels in the rows above the frame, beside a vertical reference line's): every label
+/// outside the area, none over data or text, each at its series' end, and the rendered glyphs
+/// inside their boxes.
+#[test]
+fn end_labels_sit_outside_the_area_apart() {
+    let (hi, top) = (10.0, 100.0);
+    let mut plot = LinePlot::new("Ends", "speed", "frequency")
+        .with_x_range(0.0, hi)
+        .with_y_range(0.0, top)
+        .with_legend(LegendPosition::Hidden)
+        .with_ref_line(RefLine::vertical(8.0, "operating speed"));
+    for (k, slope) in [4.0, 4.3, 4.6, 12.0, 20.0].into_iter().enumerate() {
+        let end = hi.min(top / slope);
+        plot = plot.with_series(
+            Series::new("", vec![0.0, end], vec![0.0, slope * end]).end_label(format!("EO {k}")),
+        );
+    }
+    plot = plot.with_series(
+        Series::new("", vec![0.0, 5.0, hi], vec![30.0, 35.0, 44.0]).end_label("mode 1 (1F)"),
+    );
+    let l = plot.layout().expect("layout");
+    assert!(l.clashes().is_empty(), "{:?}", l.clashes());
+    let labels: Vec<&RefLabel> = l
+        .ref_labels
+        .iter()
+        .filter(|r| r.text != "operating speed")
+        .collect();
+    assert_eq!(labels.len(), 6);
+    for r in &labels {
+        assert!(!r.rect.overlaps(&l.area), "{r:?}");
+    }
+    let right = |t: &str| labels.iter().find(|r| r.text == t).expect(t).rect;
+    assert!(right("EO 0").x > l.area.right() && right("mode 1 (1F)").x > l.area.right());
+    assert!(right("EO 4").bottom() < l.area.y && right("EO 3").bottom() < l.area.y);
+    let (_, y_end) = l.to_px(hi, 44.0);
+    assert!((right("mode 1 (1F)").y + 0.5 * right("mode 1 (1F)").h - y_end).abs() < 20.0);
+    let tree = parse_with_fonts(&plot.to_svg().expect("svg")).expect("parse");
+    for r in &labels {
+        let b = rendered_boxes(&tree, &r.text)[0];
+        assert!(
+            r.rect.inflate(2.0).contains(&b),
+            "`{}`: {b:?} vs {:?}",
+            r.text,
+            r.rect
+        );
+    }
+}

@@ -7,6 +7,7 @@
 
 use super::axis::{data_ranges, Axis, Y_PAD};
 use super::color::{Color, PALETTE};
+use super::end_labels;
 use super::frame::{self, LABEL_FONT, TICK_FONT, TITLE_FONT};
 use super::legend;
 use super::line::LinePlot;
@@ -34,14 +35,16 @@ pub struct Stroke {
     pub half_width: f64,
 }
 
-/// A reference line's label: its box, baseline point and whether it is anchored at its start
-/// (right of a horizontal line) or its middle (above a vertical line).
+/// A reference line's label, or a series' end label: its box, baseline point, whether it is
+/// anchored at its start (right of the frame) or its middle (above it), and its colour (a
+/// series' own; grey for reference lines).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RefLabel {
     pub text: String,
     pub rect: Rect,
     pub(crate) baseline: (f64, f64),
     pub(crate) start_anchored: bool,
+    pub(crate) color: Option<Color>,
 }
 
 /// The geometric model of a rendered [`LinePlot`] (px, y downward): what `to_svg` draws where.
@@ -77,7 +80,7 @@ pub struct LineLayout {
 
 /// Box of a text of `size` px drawn at baseline `y`: glyphs reach 0.8 size above the baseline
 /// and 0.25 size below it.
-fn text_box(x: f64, y: f64, w: f64, size: f64) -> Rect {
+pub(crate) fn text_box(x: f64, y: f64, w: f64, size: f64) -> Rect {
     Rect::new(x, y - 0.8 * size, w, 1.05 * size)
 }
 
@@ -93,7 +96,7 @@ impl LineLayout {
             .iter()
             .map(|&v| text_width(&ya.label(v), TICK_FONT))
             .fold(0.0, f64::max);
-        let right = right_margin(plot, &ya);
+        let right = right_margin(plot, &xa, &ya);
         let x0 = frame::left_margin(y_tick_w);
         let x1 = plot.width - right;
         let px = |x: f64| x0 + (x - xa.lo) / (xa.hi - xa.lo) * (x1 - x0);
@@ -111,7 +114,10 @@ impl LineLayout {
                 l
             })
             .collect();
-        ref_labels.extend(horizontal_labels(plot, &ya, &py, x1));
+        let mut beside = horizontal_labels(plot, &ya, &py, x1);
+        beside.extend(end_labels::right_labels(plot, &xa, &py, x1, (y0, y1)));
+        end_labels::spread(&mut beside, (y0, y1 + 0.35 * REF_FONT));
+        ref_labels.extend(beside);
         let area = Rect::new(x0, y0, x1 - x0, y1 - y0);
         let colors: Vec<Color> = plot
             .series
@@ -293,16 +299,17 @@ impl LineLayout {
 }
 
 /// Right margin: room for the last x tick label, or for the labels of the horizontal
-/// reference lines in range (px).
-fn right_margin(plot: &LinePlot, ya: &Axis) -> f64 {
+/// reference lines in range and the series' end labels right of the frame (px).
+fn right_margin(plot: &LinePlot, xa: &Axis, ya: &Axis) -> f64 {
     let widest = plot
         .ref_lines
         .iter()
         .filter(|r| r.orientation == Orientation::Horizontal && ya.contains(r.value))
         .filter(|r| !r.label.is_empty())
         .map(|r| text_width(&r.label, REF_FONT))
+        .chain(end_labels::widest_right(plot, xa))
         .fold(None, |m: Option<f64>, w| Some(m.map_or(w, |m| m.max(w))));
-    widest.map_or(RIGHT, |w| RIGHT.max(6.0 + w + 10.0))
+    widest.map_or(RIGHT, |w| RIGHT.max(end_labels::GAP + w + 10.0))
 }
 
 /// The labels of the horizontal reference lines in range, right of the area (whose right edge
@@ -325,26 +332,35 @@ fn horizontal_labels(
                 rect: text_box(x1 + 6.0, base, text_width(&r.label, REF_FONT), REF_FONT),
                 baseline: (x1 + 6.0, base),
                 start_anchored: true,
+                color: None,
             }
         })
         .collect()
 }
 
-/// The labels of the vertical reference lines in range, centred above their lines (kept inside
-/// the image), each in the lowest row (0 = right above the frame) where it overlaps no other.
-/// Their y is set by the caller once the rows are known.
+/// The labels of the vertical reference lines in range and the end labels of the series that
+/// leave the area through its top, centred above their x (kept inside the image), each in the
+/// lowest row (0 = right above the frame) where it overlaps no other. Their y is set by the
+/// caller once the rows are known.
 fn vertical_labels(
     plot: &LinePlot,
     xa: &Axis,
     px: &dyn Fn(f64) -> f64,
     width: f64,
 ) -> Vec<(RefLabel, usize)> {
-    let mut placed: Vec<(RefLabel, usize)> = Vec::new();
-    for r in plot.ref_lines.iter().filter(|r| {
+    let lines = plot.ref_lines.iter().filter(|r| {
         r.orientation == Orientation::Vertical && xa.contains(r.value) && !r.label.is_empty()
-    }) {
-        let w = text_width(&r.label, REF_FONT);
-        let x = (px(r.value) - 0.5 * w).clamp(4.0, (width - 4.0 - w).max(4.0));
+    });
+    let (_, above) = end_labels::end_labels(plot, xa);
+    let wanted = lines.map(|r| (r.value, r.label.clone(), None)).chain(
+        (above.into_iter())
+            .filter(|l| xa.contains(l.end.0))
+            .map(|l| (l.end.0, l.text, Some(l.color))),
+    );
+    let mut placed: Vec<(RefLabel, usize)> = Vec::new();
+    for (value, text, color) in wanted {
+        let w = text_width(&text, REF_FONT);
+        let x = (px(value) - 0.5 * w).clamp(4.0, (width - 4.0 - w).max(4.0));
         let span = (x - 4.0, x + w + 4.0);
         let row = (0..)
             .find(|&row| {
@@ -355,10 +371,11 @@ fn vertical_labels(
             .unwrap_or(0);
         placed.push((
             RefLabel {
-                text: r.label.clone(),
+                text,
                 rect: Rect::new(x, 0.0, w, 1.05 * REF_FONT),
                 baseline: (x + 0.5 * w, 0.0),
                 start_anchored: false,
+                color,
             },
             row,
         ));

@@ -77,9 +77,10 @@ impl LinePlot {
             } else {
                 Anchor::Middle
             };
+            let hex = label.color.map_or("#333333".to_string(), |c| c.hex());
             let style = TextStyle {
                 size: REF_FONT,
-                color: "#333333",
+                color: &hex,
                 anchor,
                 ..TextStyle::default()
             };

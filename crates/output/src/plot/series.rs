@@ -43,6 +43,11 @@ pub struct Series {
     pub markers: bool,
     /// Line width (px); the markers' radius follows it ([`Series::marker_radius`]).
     pub width: f64,
+    /// A label written at the series' end, outside the plot area, in the series' colour
+    /// (empty: none): right of the frame at the last point's height when that point lies on
+    /// the right end of the x range, else above the frame at its x (a line leaving the area
+    /// through its top). Labels that would overlap are moved apart (`LineLayout`).
+    pub end_label: String,
 }
 
 impl Series {
@@ -56,6 +61,7 @@ impl Series {
             style: LineStyle::Solid,
             markers: false,
             width: 2.0,
+            end_label: String::new(),
         }
     }
 
@@ -74,6 +80,12 @@ impl Series {
     /// Turns markers on or off.
     pub fn markers(mut self, on: bool) -> Self {
         self.markers = on;
+        self
+    }
+
+    /// Sets the label written at the series' end (see [`Series::end_label`]).
+    pub fn end_label(mut self, text: impl Into<String>) -> Self {
+        self.end_label = text.into();
         self
     }
 
