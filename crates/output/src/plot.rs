@@ -21,6 +21,7 @@ mod color;
 mod end_labels;
 mod frame;
 mod heatmap;
+mod label;
 mod legend;
 mod line;
 mod line_layout;

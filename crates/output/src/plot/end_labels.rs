@@ -6,8 +6,8 @@
 
 use super::axis::Axis;
 use super::color::{Color, PALETTE};
+use super::label::{text_box, RefLabel, REF_FONT};
 use super::line::LinePlot;
-use super::line_layout::{text_box, RefLabel, REF_FONT};
 use super::svg::text_width;
 
 /// Gap between the frame and a label right of it (px).

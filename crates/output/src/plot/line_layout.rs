@@ -9,6 +9,8 @@ use super::axis::{data_ranges, Axis, Y_PAD};
 use super::color::{Color, PALETTE};
 use super::end_labels;
 use super::frame::{self, LABEL_FONT, TICK_FONT, TITLE_FONT};
+pub use super::label::RefLabel;
+pub(crate) use super::label::{text_box, REF_FONT};
 use super::legend;
 use super::line::LinePlot;
 use super::rect::Rect;
@@ -16,8 +18,6 @@ use super::series::{LegendPosition, LineStyle, Orientation};
 use super::svg::text_width;
 use crate::OutputError;
 
-/// Font size of the reference lines' labels.
-pub(crate) const REF_FONT: f64 = 11.0;
 /// Height of one row of vertical-line labels above the area (px).
 const REF_ROW: f64 = REF_FONT + 5.0;
 /// Space kept between the legend box and any data when it sits inside the area (px).
@@ -33,18 +33,6 @@ pub struct Stroke {
     pub a: (f64, f64),
     pub b: (f64, f64),
     pub half_width: f64,
-}
-
-/// A reference line's label, or a series' end label: its box, baseline point, whether it is
-/// anchored at its start (right of the frame) or its middle (above it), and its colour (a
-/// series' own; grey for reference lines).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RefLabel {
-    pub text: String,
-    pub rect: Rect,
-    pub(crate) baseline: (f64, f64),
-    pub(crate) start_anchored: bool,
-    pub(crate) color: Option<Color>,
 }
 
 /// The geometric model of a rendered [`LinePlot`] (px, y downward): what `to_svg` draws where.
@@ -76,12 +64,6 @@ pub struct LineLayout {
     pub(crate) x_label_y: f64,
     /// The axes' limits (data units): (x lo, x hi), (y lo, y hi).
     limits: ((f64, f64), (f64, f64)),
-}
-
-/// Box of a text of `size` px drawn at baseline `y`: glyphs reach 0.8 size above the baseline
-/// and 0.25 size below it.
-pub(crate) fn text_box(x: f64, y: f64, w: f64, size: f64) -> Rect {
-    Rect::new(x, y - 0.8 * size, w, 1.05 * size)
 }
 
 impl LineLayout {
