@@ -4,12 +4,12 @@
 //! normal to the curve there, so that a fold is checked where it is and a point far up a
 //! steep branch is not compared with another W's orbit.
 
-use crate::curve::{CurveHarmonics, FrequencyResponse, FrfSettings, Sweep};
+use crate::curve::{CurveHarmonics, FrequencyResponse, FrfSettings};
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::HarmonicLadder;
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver};
-use crate::trace::norm;
+use crate::trace::{norm, scales};
 
 /// Points spread evenly over the contact, checked beside the peak, the folds and the deepest
 /// contact.
@@ -92,12 +92,7 @@ fn normal_row(
     curve: &FrequencyResponse,
     i: usize,
 ) -> ArcRow {
-    let system = solver.system();
-    let y_scale = system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt();
-    let p_scale = match settings.sweep {
-        Sweep::Frequency => system.linear_frequencies()[0],
-        Sweep::Level { .. } => settings.end,
-    };
+    let (y_scale, p_scale) = scales(solver.system(), settings);
     let scaled = |p: &ForcedPoint| {
         let mut v: Vec<f64> = p.contact.iter().map(|y| y / y_scale).collect();
         v.push(curve.parameter(p) / p_scale);

@@ -24,6 +24,7 @@ use crate::fold::fold_between;
 use crate::ladder::{resize_signals, start_at, HarmonicLadder};
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
+use nlmodes_hb::system::System;
 use nlmodes_hb::FullBasis;
 
 /// How far (as a multiple of the step) the corrector may land from the prediction on the
@@ -58,6 +59,17 @@ const PHASE_REACH: f64 = 1.0;
 /// How close (scaled distance, on the base N's coefficients) the trace from the end of the
 /// range must come to a point of the first piece to have met it: half the largest step.
 pub(crate) const MEET_REACH: f64 = 0.01;
+
+/// The scales of the continuation's space (module docs): y_s = g_ref sqrt(c) (length) and p_s,
+/// w_1 for W (rad/s) or the end of the range for the load scale.
+pub(crate) fn scales(system: &System, settings: &FrfSettings) -> (f64, f64) {
+    let y_scale = system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt();
+    let p_scale = match settings.sweep {
+        Sweep::Frequency => system.linear_frequencies()[0],
+        Sweep::Level { .. } => settings.end,
+    };
+    (y_scale, p_scale)
+}
 
 /// The continuation in progress (see module docs).
 pub(crate) struct FrfTrace<'l, 'a, 's> {
@@ -95,10 +107,11 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
         } else {
             settings.end
         };
-        let (omega, level, p_scale) = match settings.sweep {
-            Sweep::Frequency => (from, 1.0, system.linear_frequencies()[0]),
-            Sweep::Level { omega } => (omega, settings.start, settings.end),
+        let (omega, level) = match settings.sweep {
+            Sweep::Frequency => (from, 1.0),
+            Sweep::Level { omega } => (omega, settings.start),
         };
+        let (y_scale, p_scale) = scales(system, settings);
         let first = base.solve(base.linear_start(omega, level)?, None)?;
         let (first, first_level) = ladder.converge(first, 0, None);
         progress(&first);
@@ -115,7 +128,7 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
             ladder,
             settings,
             level: level_now,
-            y_scale: system.gap_reference() * (system.n_contacts().max(1) as f64).sqrt(),
+            y_scale,
             p_scale,
             step: settings.step,
             tangent: Vec::new(),
