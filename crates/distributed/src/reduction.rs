@@ -5,11 +5,10 @@
 //! T^T K T, T^T M T as distributed products, and the basis gathered on rank 0, which returns
 //! the [`CraigBampton`] the serial path would have.
 
-use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, Par};
+use faer::Mat;
 use nlmodes_fem::{DofMap, Mesh};
 use nlmodes_modal::dense::{relative_asymmetry, symmetrize};
-use nlmodes_modal::CraigBampton;
+use nlmodes_modal::{tall_gram, CraigBampton};
 
 use crate::collective::{gather_to_root, max_all, sum_all};
 use crate::error::{DistributedError, Result};
@@ -405,15 +404,8 @@ impl Basis<'_> {
         for a in [k, m] {
             let at = a.times_dense(&t)?.dense_local()?;
             let n_r = t_local.ncols();
-            let mut r = Mat::<f64>::zeros(n_r, n_r);
-            matmul(
-                r.as_mut(),
-                Accum::Replace,
-                t_local.transpose(),
-                at.as_ref(),
-                1.0,
-                Par::Seq,
-            );
+            // On a rank's rows in row chunks over its threads (rayon), as the serial path.
+            let r = tall_gram(t_local.as_ref(), at.as_ref());
             let mut flat: Vec<f64> = (0..n_r * n_r).map(|i| r[(i % n_r, i / n_r)]).collect();
             sum_all(&mut flat);
             out.push(Mat::from_fn(n_r, n_r, |i, j| flat[j * n_r + i]));

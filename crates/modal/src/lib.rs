@@ -47,3 +47,4 @@ pub use reduced_model::{
     ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
 };
 pub use sparse_ops::csmat_to_dense;
+pub use tall::tall_gram;

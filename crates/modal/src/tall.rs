@@ -16,8 +16,9 @@ use rayon::prelude::*;
 /// between the reads of the chunk.
 const ROW_CHUNK: usize = 4096;
 
-/// A^T B for A (n x p) and B (n x q): p x q.
-pub(crate) fn tall_gram(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+/// A^T B for A (n x p) and B (n x q): p x q (also the distributed reduction's T^T (K T) on a
+/// rank's rows, `nlmodes_distributed`).
+pub fn tall_gram(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     let (n, p, q) = (a.nrows(), a.ncols(), b.ncols());
     let starts: Vec<usize> = (0..n).step_by(ROW_CHUNK).collect();
     let partial: Vec<Mat<f64>> = starts
