@@ -321,7 +321,9 @@ pub struct SpeedSweepStudy {
     pub closure: Option<f64>,
     /// The parametric model's measured error.
     pub accuracy: Option<nlmodes_modal::Accuracy>,
+    /// `[forced] harmonics` (the first trace's N) and `harmonic_tolerance`.
     pub harmonics: usize,
+    pub harmonic_tolerance: f64,
     pub runs: Vec<SweepRun>,
 }
 
@@ -405,6 +407,7 @@ pub fn run(
         closure,
         accuracy: model.accuracy().cloned(),
         harmonics: s.harmonics,
+        harmonic_tolerance: s.harmonic_tolerance,
         runs: runs?,
     })
 }
@@ -434,6 +437,9 @@ fn one_sweep(
     settings.stability = s.stability;
     settings.max_points = inputs.sweep.max_points;
     settings.casing = casing;
+    settings.harmonic_policy = inputs.sweep.adapt_harmonics.policy();
+    settings.max_harmonics = s.top_harmonics();
+    settings.harmonic_tolerance = s.harmonic_tolerance;
     let e = plan.engine_order;
     let sweep = speed_sweep(&family, &settings, |p| {
         bar.set_message(format!(
@@ -443,10 +449,11 @@ fn one_sweep(
     })
     .with_context(|| format!("speed sweep at engine order {e}, level {level}"))?;
     tracing::info!(
-        "speed sweep EO {e}, level {level}: {} points, {} folds, {}",
+        "speed sweep EO {e}, level {level}: {} points, {} folds, {}; {}",
         sweep.points.len(),
         sweep.folds.len(),
-        sweep.end_text()
+        sweep.end_text(),
+        crate::forced_speed_output::harmonics_note(&sweep, s.harmonic_tolerance)
     );
     let g0 = at_crossing.system.gap_reference();
     Ok(SweepRun {

@@ -107,9 +107,64 @@ pub struct SweepSummary {
     pub peak_stability: String,
     pub complete: bool,
     pub end: String,
+    /// N of every point of the sweep (its last trace's).
+    pub harmonics: usize,
+    /// `[speed_sweep] adapt_harmonics` "retrace" or "check": every trace of the sweep at its N
+    /// and what its check at 2N found, the last the sweep's (empty under "fixed").
+    pub retraces: Vec<RetraceRecord>,
+    /// The check of N in words (`harmonics_note`).
+    pub harmonics_note: String,
     /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), absent without.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub casing: Option<crate::forced_speed_distortion::SweepCasing>,
+}
+
+/// One trace of a sweep at one N and its check at 2N (docs/DESIGN.md §10.10).
+#[derive(Serialize)]
+pub struct RetraceRecord {
+    pub harmonics: usize,
+    /// Indices (into that trace's points) of the points solved again at 2N.
+    pub checked: Vec<usize>,
+    /// Checked points that moved by more than `[forced] harmonic_tolerance`, or whose 2N solve
+    /// failed.
+    pub not_converged: usize,
+    /// Largest relative change at 2N of the master's first harmonic and of the speed over the
+    /// checked points.
+    pub largest_change_q1: f64,
+    pub largest_change_speed: f64,
+    /// Whether 2N was within `[forced] max_harmonics` (else the trace could not be checked).
+    pub checkable: bool,
+    pub converged: bool,
+}
+
+/// The sweep's N and what its check at 2N found, in words ("N = 10, not checked" under
+/// `adapt_harmonics = "fixed"`).
+pub fn harmonics_note(sweep: &nlmodes_forced::SpeedSweep, tolerance: f64) -> String {
+    let Some(last) = sweep.retraces.last() else {
+        return format!("N = {}, not checked", sweep.harmonics);
+    };
+    let traced: Vec<String> = (sweep.retraces.iter())
+        .map(|t| t.harmonics.to_string())
+        .collect();
+    let verdict = if !last.checkable {
+        "not checked (2N above max_harmonics)".to_string()
+    } else if last.converged() {
+        format!("converged at its {} checked points", last.checked.len())
+    } else {
+        format!(
+            "NOT converged: {} of its {} checked points move by more than {tolerance:e} at 2N",
+            last.not_converged,
+            last.checked.len()
+        )
+    };
+    format!(
+        "N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in \
+         speed",
+        last.harmonics,
+        traced.join(", "),
+        last.largest_change[0],
+        last.largest_change[1]
+    )
 }
 
 /// The summary of one sweep.
@@ -161,6 +216,19 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
             .map_or("not computed".into(), |s| verdict_word(Some(s))),
         complete: run.sweep.termination.covers_range(),
         end: run.sweep.end_text(),
+        harmonics: run.sweep.harmonics,
+        retraces: (run.sweep.retraces.iter())
+            .map(|t| RetraceRecord {
+                harmonics: t.harmonics,
+                checked: t.checked.clone(),
+                not_converged: t.not_converged,
+                largest_change_q1: t.largest_change[0],
+                largest_change_speed: t.largest_change[1],
+                checkable: t.checkable,
+                converged: t.converged(),
+            })
+            .collect(),
+        harmonics_note: harmonics_note(&run.sweep, st.harmonic_tolerance),
         casing: run.casing.clone(),
     }
 }
@@ -252,7 +320,7 @@ pub fn csv(st: &SpeedSweepStudy) -> Result<CsvTable> {
                 bifurcation.into(),
                 fold.into(),
                 p.corrections.into(),
-                st.harmonics.into(),
+                run.sweep.harmonics.into(),
                 run.casing.as_ref().map_or(0.0, |c| c.amplitude_m).into(),
             ])?;
         }

@@ -21,7 +21,8 @@ const SAME_CROSSING: f64 = 0.02;
 pub struct SpeedSweepFile {
     /// The traced mode (0-based, `[forced] mode`).
     pub mode: usize,
-    /// N of the sweeps.
+    /// `[forced] harmonics`: the N each sweep is first traced at (`SweepRecord::harmonics_note`
+    /// says the N it kept).
     pub harmonics: usize,
     pub sweeps: Vec<SweepRecord>,
 }
@@ -61,6 +62,9 @@ pub struct SweepRecord {
     pub peak_stability: Option<String>,
     pub complete: bool,
     pub end: String,
+    /// The sweep's N and its check at 2N in words (absent from files of earlier versions).
+    #[serde(default)]
+    pub harmonics_note: Option<String>,
 }
 
 /// How stable a sweep's response is: the headline word of the verdict.
@@ -177,6 +181,15 @@ pub struct CrossingVerdict {
 /// `speed_sweep.json` in `dir`, `None` when absent.
 pub fn read(dir: &Path) -> Result<Option<SpeedSweepFile>> {
     let path = dir.join("speed_sweep.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    super::read_json(&path).map(Some)
+}
+
+/// `dir/casing.json` (`[speed_sweep.casing]`, `crate::forced_speed_casing`), when written.
+pub fn read_casing(dir: &Path) -> Result<Option<crate::forced_speed_casing::CasingSummary>> {
+    let path = dir.join("casing.json");
     if !path.exists() {
         return Ok(None);
     }
