@@ -55,10 +55,16 @@ pub struct CasingInputs<'a> {
     pub forced: &'a ForcedSection,
     pub solver: &'a ForcedSettings,
     pub damping_matrix: Option<&'a Mat<f64>>,
+    /// `[speed_sweep] adapt_harmonics`, which the casing sweep follows too.
+    pub policy: crate::speed_sweep_settings::SweepHarmonics,
 }
 
 /// Runs `[speed_sweep.casing]` at its speed (`operating_rpm` by default).
-pub fn run(inputs: &CasingInputs<'_>, c: &CasingSection, operating_rpm: f64) -> Result<CasingStudy> {
+pub fn run(
+    inputs: &CasingInputs<'_>,
+    c: &CasingSection,
+    operating_rpm: f64,
+) -> Result<CasingStudy> {
     let rpm = c.speed.unwrap_or(operating_rpm);
     let reduced = crate::forced_speed::model_at_speed(
         inputs.model,
@@ -76,10 +82,14 @@ pub fn run(inputs: &CasingInputs<'_>, c: &CasingSection, operating_rpm: f64) -> 
     let g0 = system.gap_reference();
     let lobes = c.lobes.max(1) as usize;
     let speed = rpm * RPM_TO_RAD_S;
-    let mut settings =
-        CasingSweepSettings::new(lobes as f64 * speed, c.grid(g0, smallest), inputs.solver.clone());
+    let mut settings = CasingSweepSettings::new(
+        lobes as f64 * speed,
+        c.grid(g0, smallest),
+        inputs.solver.clone(),
+    );
     settings.phase = c.phase;
     settings.stability = inputs.forced.stability;
+    settings.harmonic_policy = inputs.policy.policy();
     settings.max_harmonics = inputs.forced.top_harmonics();
     settings.harmonic_tolerance = inputs.forced.harmonic_tolerance;
     let bar = crate::ui::bar(settings.amplitudes.len() as u64, "casing distortion");
@@ -186,9 +196,10 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
     };
     let verdicts = [Verdict::Stable, Verdict::Unstable, Verdict::Undetermined];
     let onset = (last.amplitude >= st.smallest_gap).then_some(st.smallest_gap);
-    let change = pts.iter().filter_map(|p| p.harmonic_change).fold([0.0_f64; 2], |m, c| {
-        [m[0].max(c[0]), m[1].max(c[1])]
-    });
+    let change = pts
+        .iter()
+        .filter_map(|p| p.harmonic_change)
+        .fold([0.0_f64; 2], |m, c| [m[0].max(c[0]), m[1].max(c[1])]);
     CasingSummary {
         lobes: st.lobes,
         speed_rpm: st.speed / RPM_TO_RAD_S,
@@ -218,9 +229,13 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
         not_converged: st.sweep.not_converged(st.tolerance),
         largest_change: change,
         complete: st.sweep.stopped.is_none(),
-        end: st.sweep.stopped.as_ref().map_or("complete".into(), |(a, why)| {
-            format!("stopped at delta = {a:.4e} m: {why}")
-        }),
+        end: st
+            .sweep
+            .stopped
+            .as_ref()
+            .map_or("complete".into(), |(a, why)| {
+                format!("stopped at delta = {a:.4e} m: {why}")
+            }),
     }
 }
 
@@ -349,7 +364,9 @@ fn verdict_runs(pts: &[CasingPoint]) -> Vec<(Option<Verdict>, Vec<usize>)> {
         match runs.last_mut() {
             Some((last, idx)) if *last == v => idx.push(i),
             _ => {
-                let mut idx = runs.last().map_or_else(Vec::new, |(_, r)| vec![r[r.len() - 1]]);
+                let mut idx = runs
+                    .last()
+                    .map_or_else(Vec::new, |(_, r)| vec![r[r.len() - 1]]);
                 idx.push(i);
                 runs.push((v, idx));
             }

@@ -94,6 +94,7 @@ pub fn sweep(
         forced: &section,
         solver: &solver,
         damping_matrix: inputs.damping_matrix.as_ref(),
+        policy: sweep.adapt_harmonics,
     };
     let casing = crate::forced_speed_casing::run_enabled(
         &sweep,
@@ -102,5 +103,7 @@ pub fn sweep(
         out,
     )?;
     crate::forced_speed_report::stopped_early(&study, out)?;
-    casing.map_or(Ok(()), |c| crate::forced_speed_casing::stopped_early(&c, out))
+    casing.map_or(Ok(()), |c| {
+        crate::forced_speed_casing::stopped_early(&c, out)
+    })
 }

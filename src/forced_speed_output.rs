@@ -146,7 +146,9 @@ pub fn harmonics_note(sweep: &nlmodes_forced::SpeedSweep, tolerance: f64) -> Str
     let traced: Vec<String> = (sweep.retraces.iter())
         .map(|t| t.harmonics.to_string())
         .collect();
-    let verdict = if !last.checkable {
+    let verdict = if last.checked.is_empty() {
+        "no point in contact (linear: exact at any N)".to_string()
+    } else if !last.checkable {
         "not checked (2N above max_harmonics)".to_string()
     } else if last.converged() {
         format!("converged at its {} checked points", last.checked.len())

@@ -106,6 +106,7 @@ impl<'a> SpeedSweepStage<'a> {
             forced: &forced,
             solver: &solver,
             damping_matrix: inputs.damping_matrix.as_ref(),
+            policy: self.sweep.adapt_harmonics,
         };
         let rpm = self.rotation.operating_speed;
         let casing =
@@ -116,7 +117,9 @@ impl<'a> SpeedSweepStage<'a> {
         crate::output::write_atomic(&out.join("section.md"), section.as_bytes())?;
         st.done(&format!("wrote {}", out.display()));
         crate::forced_speed_report::stopped_early(&study, &out)?;
-        casing.map_or(Ok(()), |c| crate::forced_speed_casing::stopped_early(&c, &out))
+        casing.map_or(Ok(()), |c| {
+            crate::forced_speed_casing::stopped_early(&c, &out)
+        })
     }
 
     /// `[speed_sweep.casing]`, when enabled.

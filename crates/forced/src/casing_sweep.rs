@@ -10,10 +10,13 @@
 //! A step whose solve fails, or lands farther from its prediction than the step (in the scaled
 //! space y / (g_ref sqrt(c)), delta / g_ref), is halved down to `MIN_STEP` g_ref; a point that
 //! still lands that far at the smallest step is kept and flagged `jump`: the response jumps
-//! between the two amplitudes (a fold in delta, which this continuation does not follow).
-//! Every point in contact is solved again at 2N (same delta and W); while one moves by more
-//! than `harmonic_tolerance` (its master's first harmonic or its largest contact force,
-//! relative) and 4N is within `max_harmonics`, the grid is solved again at 2N.
+//! between the two amplitudes (a fold in delta, which this continuation does not follow). Where
+//! no solve converges at the smallest step (next to a row starting to touch) the sweep hops
+//! further on (`HOPS`); only when no hop converges does it stop.
+//! Every point in contact is solved again at 2N (same delta and W); under
+//! `SpeedHarmonics::Retrace`, while one moves by more than `harmonic_tolerance` (its master's
+//! first harmonic or its largest contact force, relative) and 4N is within `max_harmonics`,
+//! the grid is solved again at 2N (`Check`: the first grid kept, its points flagged).
 
 use faer::Mat;
 use nlmodes_hb::System;
@@ -25,10 +28,14 @@ use crate::ladder::start_at;
 use crate::load::Load;
 use crate::point_stability::{assess_point, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+use crate::speed_curve::SpeedHarmonics;
 use crate::trace::norm;
 
 /// Smallest step in delta, relative to the gap reference g_ref.
 const MIN_STEP: f64 = 1e-4;
+
+/// The hops past a point where no step converges, in multiples of `MIN_STEP` g_ref.
+const HOPS: [f64; 6] = [3.0, 10.0, 30.0, 100.0, 300.0, 1000.0];
 
 /// Settings of a distortion sweep.
 #[derive(Clone, Debug)]
@@ -48,6 +55,9 @@ pub struct CasingSweepSettings {
     pub stability: bool,
     pub stability_margin: f64,
     pub period_tolerance: f64,
+    /// How N is converged (default `SpeedHarmonics::Retrace`: module docs; `Check`: the first
+    /// grid's points checked at 2N, not solved again; `Fixed`: none checked).
+    pub harmonic_policy: SpeedHarmonics,
     /// The largest N of a retrace (0: four times the solver's N).
     pub max_harmonics: usize,
     /// A point's N is enough when doubling it moves its master's first harmonic and its largest
@@ -68,6 +78,7 @@ impl CasingSweepSettings {
             stability: true,
             stability_margin: 1e-3,
             period_tolerance: 1e-3,
+            harmonic_policy: SpeedHarmonics::Retrace,
             max_harmonics: 0,
             harmonic_tolerance: 1e-3,
         }
@@ -96,7 +107,8 @@ impl CasingSweepSettings {
         if !(self.harmonic_tolerance.is_finite() && self.harmonic_tolerance > 0.0) {
             return bad("harmonic_tolerance", self.harmonic_tolerance, "a value > 0");
         }
-        self.distortion(0.0).validate(self.solver.harmonics.harmonics)
+        self.distortion(0.0)
+            .validate(self.solver.harmonics.harmonics)
     }
 
     /// The casing at amplitude `delta` (m).
@@ -181,7 +193,8 @@ pub fn casing_sweep(
         let n = solver.harmonics.harmonics;
         traced.push(n);
         let mut sweep = problem.trace(&solver, &mut progress)?;
-        let finer = (2 * n <= top)
+        let checkable = 2 * n <= top && settings.harmonic_policy != SpeedHarmonics::Fixed;
+        let finer = checkable
             .then(|| problem.solver(&solver, 0.0)?.with_harmonics(2 * n))
             .transpose()?
             .map(|s| s.settings().clone());
@@ -189,7 +202,10 @@ pub fn casing_sweep(
             problem.check(f, &mut sweep);
         }
         let moved = sweep.not_converged(settings.harmonic_tolerance) > 0;
-        let again = moved && 4 * n <= top && sweep.points.iter().any(|p| p.point.touches());
+        let again = moved
+            && settings.harmonic_policy == SpeedHarmonics::Retrace
+            && 4 * n <= top
+            && sweep.points.iter().any(|p| p.point.touches());
         tracing::info!(
             harmonics = n,
             not_converged = sweep.not_converged(settings.harmonic_tolerance),
@@ -200,7 +216,7 @@ pub fn casing_sweep(
             (true, Some(f)) => solver = f,
             _ => {
                 sweep.traced = traced;
-                sweep.checked = 2 * n <= top;
+                sweep.checked = checkable;
                 problem.assess(&solver, &mut sweep);
                 return Ok(sweep);
             }
@@ -218,11 +234,7 @@ struct Problem<'a> {
 
 impl Problem<'_> {
     /// The solver at amplitude `delta` (m) on `solver`'s N.
-    fn solver(
-        &self,
-        solver: &ForcedSettings,
-        delta: f64,
-    ) -> Result<ForcedSolver<'_>, ForcedError> {
+    fn solver(&self, solver: &ForcedSettings, delta: f64) -> Result<ForcedSolver<'_>, ForcedError> {
         let settings = ForcedSettings {
             distortion: Some(self.settings.distortion(delta)),
             ..solver.clone()
@@ -266,10 +278,16 @@ impl Problem<'_> {
                         tracing::debug!("casing sweep: step to {to:e} m halved ({why})");
                         step *= 0.5;
                     }
-                    Err(why) => {
-                        sweep.stopped = Some((last, why));
-                        return Ok(sweep);
-                    }
+                    Err(why) => match self.hop(solver, &sweep.points, pair[1]) {
+                        Some(p) => {
+                            progress(&p);
+                            sweep.points.push(p);
+                        }
+                        None => {
+                            sweep.stopped = Some((last, why));
+                            return Ok(sweep);
+                        }
+                    },
                 }
             }
         }
@@ -325,6 +343,27 @@ impl Problem<'_> {
         Ok(p)
     }
 
+    /// Past a point where no step down to the smallest converges (a row starting to touch:
+    /// the exactly integrated law's Jacobian changes like the square root of its penetration
+    /// there, and the semi-smooth Newton may stall next to it): the orbit at delta further on
+    /// by `HOPS` x `MIN_STEP` g_ref (each from the secant prediction, no further than `end`),
+    /// the first that converges.
+    fn hop(
+        &self,
+        solver: &ForcedSettings,
+        points: &[CasingPoint],
+        end: f64,
+    ) -> Option<CasingPoint> {
+        let last = points.last()?.amplitude;
+        let g = self.system.gap_reference();
+        HOPS.iter().find_map(|&k| {
+            let to = (last + k * MIN_STEP * g).min(end);
+            let p = self.step(solver, points, to, true);
+            tracing::debug!("casing sweep: hop to {to:e} m: {}", p.is_ok());
+            p.ok()
+        })
+    }
+
     fn point(&self, amplitude: f64, point: ForcedPoint) -> CasingPoint {
         CasingPoint {
             amplitude,
@@ -371,9 +410,9 @@ impl Problem<'_> {
             return;
         }
         sweep.points.par_iter_mut().for_each(|p| {
-            let st = self.solver(solver, p.amplitude).and_then(|sv| {
-                assess_point(&sv, &p.point, s.stability_margin, s.period_tolerance)
-            });
+            let st = self
+                .solver(solver, p.amplitude)
+                .and_then(|sv| assess_point(&sv, &p.point, s.stability_margin, s.period_tolerance));
             p.stability = Some(st.unwrap_or_else(|e| {
                 tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
                 PointStability::unchecked()

@@ -46,9 +46,11 @@ mod synthesis;
 mod trace;
 
 pub use boundary::boundary_curve;
-pub use casing_sweep::{casing_sweep, largest_force, CasingPoint, CasingSweep, CasingSweepSettings};
 pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
+};
+pub use casing_sweep::{
+    casing_sweep, largest_force, CasingPoint, CasingSweep, CasingSweepSettings,
 };
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,

@@ -10,6 +10,8 @@
 //! while 4N is within `max_harmonics`. Every point of the kept sweep shares one N, so its folds
 //! are those of one truncation.
 
+use rayon::prelude::*;
+
 use crate::curve::CurveHarmonics;
 use crate::curve_harmonics::{points_worth_checking, record_check};
 use crate::error::ForcedError;
@@ -95,7 +97,9 @@ fn check_sweep(
     checkable: bool,
 ) -> Result<CurveHarmonics, ForcedError> {
     let n = settings.solver.harmonics.harmonics;
-    let master = problem_at(family, settings, settings.start)?.system.master();
+    let master = problem_at(family, settings, settings.start)?
+        .system
+        .master();
     let points: Vec<&ForcedPoint> = sweep.points.iter().map(|p| &p.point).collect();
     let folds: Vec<usize> = sweep.folds.iter().map(|f| f.point).collect();
     let checked = points_worth_checking(&points, &folds, master);
@@ -110,9 +114,14 @@ fn check_sweep(
         return Ok(out);
     }
     let finer = at_harmonics(family, settings, 2 * n)?;
-    let stepper = SpeedStepper::new(family, &finer);
-    for i in checked {
-        let check = check_point(&stepper, sweep, i, master);
+    // The points are independent: checked in parallel, each by a stepper of its own (the
+    // stepper keeps the last point's slope of the speed mismatch).
+    let view: &SpeedSweep = sweep;
+    let verdicts: Vec<HarmonicCheck> = checked
+        .par_iter()
+        .map(|&i| check_point(&SpeedStepper::new(family, &finer), view, i, master))
+        .collect();
+    for (&i, check) in checked.iter().zip(verdicts) {
         record_check(&mut out, check);
         sweep.points[i].point.harmonic_check = check;
     }
@@ -150,10 +159,17 @@ fn check_point(
         (p.speed - fine.speed).abs() / fine.speed,
     ];
     if change.iter().any(|&c| c > SAME_ORBIT) || fine.point.touches() != p.point.touches() {
-        tracing::debug!(speed = p.speed, ?change, "speed sweep: the check landed elsewhere");
+        tracing::debug!(
+            speed = p.speed,
+            ?change,
+            "speed sweep: the check landed elsewhere"
+        );
         return HarmonicCheck::NotConverged { change: None };
     }
-    if change.iter().all(|&c| c <= finer.settings.harmonic_tolerance) {
+    if change
+        .iter()
+        .all(|&c| c <= finer.settings.harmonic_tolerance)
+    {
         HarmonicCheck::Converged { change }
     } else {
         HarmonicCheck::NotConverged {

@@ -24,9 +24,9 @@ mod pwl;
 use faer::Mat;
 use nlmodes_forced::{
     casing_sweep, largest_force, response_curve, speed_sweep, CasingDistortion,
-    CasingSweepSettings, Damping, ForcedError, ForcedSettings,
-    ForcedSolver, FrequencyResponse, FrfSettings, FrfTermination, HarmonicLoad, Load, LobedCasing,
-    SpeedFamily, SpeedProblem, SpeedSweep, SpeedSweepSettings,
+    CasingSweepSettings, Damping, ForcedError, ForcedSettings, ForcedSolver, FrequencyResponse,
+    FrfSettings, FrfTermination, HarmonicLoad, Load, LobedCasing, SpeedFamily, SpeedProblem,
+    SpeedSweep, SpeedSweepSettings,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
 use pwl::{Dense, GapWave, Pwl};
@@ -431,9 +431,7 @@ fn a_distortion_sweep_lies_on_exact_orbits() {
         force: 0.0,
     };
     let system = t.system(0.0);
-    let damping = Damping::ModalRatios(vec![t.zeta])
-        .matrix(&system)
-        .unwrap();
+    let damping = Damping::ModalRatios(vec![t.zeta]).matrix(&system).unwrap();
     let w = 0.7 * system.linear_frequencies()[0];
     let amplitudes: Vec<f64> = (0..=20).map(|i| 0.1 * GAP * i as f64).collect();
     let mut settings = CasingSweepSettings::new(w, amplitudes, settings(&system));
@@ -449,7 +447,11 @@ fn a_distortion_sweep_lies_on_exact_orbits() {
     for p in &sweep.points {
         let c = &p.point.coefficients;
         if p.amplitude < GAP * (1.0 - 1e-9) {
-            assert!(!p.point.touches(), "no contact below the gap: {}", p.amplitude);
+            assert!(
+                !p.point.touches(),
+                "no contact below the gap: {}",
+                p.amplitude
+            );
             assert!(master(c) < 1e-12 * GAP, "at rest: {}", master(c));
             continue;
         }

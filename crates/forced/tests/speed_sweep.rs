@@ -360,7 +360,10 @@ fn a_retraced_sweep_is_converged_in_n_against_the_exact_curve() {
     let last = retraced.retraces.last().unwrap();
     for &i in &last.checked {
         assert!(
-            !matches!(retraced.points[i].point.harmonic_check, HarmonicCheck::Unchecked),
+            !matches!(
+                retraced.points[i].point.harmonic_check,
+                HarmonicCheck::Unchecked
+            ),
             "point {i} checked"
         );
     }
