@@ -260,6 +260,7 @@ mod tests {
             peak_stability: None,
             complete: true,
             end: "complete".into(),
+            harmonics_note: None,
         }
     }
 

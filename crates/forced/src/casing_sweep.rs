@@ -13,7 +13,9 @@
 //! between the two amplitudes (a fold in delta, which this continuation does not follow). Where
 //! no solve converges at the smallest step (next to a row starting to touch) the sweep hops
 //! further on (`HOPS`); only when no hop converges does it stop.
-//! Every point in contact is solved again at 2N (same delta and W); under
+//! The points worth checking (the largest response and contact force, the jumps, four points
+//! spread over the contact: `curve_harmonics::points_worth_checking`) are solved again at 2N
+//! (same delta and W); under
 //! `SpeedHarmonics::Retrace`, while one moves by more than `harmonic_tolerance` (its master's
 //! first harmonic or its largest contact force, relative) and 4N is within `max_harmonics`,
 //! the grid is solved again at 2N (`Check`: the first grid kept, its points flagged).
@@ -22,6 +24,7 @@ use faer::Mat;
 use nlmodes_hb::System;
 use rayon::prelude::*;
 
+use crate::curve_harmonics::points_worth_checking;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
@@ -133,7 +136,7 @@ pub struct CasingPoint {
     /// Whether the response jumped from the previous point (module docs).
     pub jump: bool,
     /// [|dq1| / q1, |dF| / F] of the master's first harmonic and the largest contact force
-    /// when the point was solved again at 2N (`None`: out of contact, or not checked, or that
+    /// when the point was solved again at 2N (`None`: not among the points checked, or that
     /// solve failed: see `harmonic_failed`).
     pub harmonic_change: Option<[f64; 2]>,
     /// Whether the solve at 2N failed.
@@ -375,31 +378,39 @@ impl Problem<'_> {
         }
     }
 
-    /// Solves every point in contact again at `finer`'s N and records the change.
+    /// Solves again at `finer`'s N the points worth checking (the largest response, the
+    /// largest contact force, the jumps and four points spread over the contact:
+    /// `curve_harmonics::points_worth_checking`, as the frequency and speed sweeps) and
+    /// records their change.
     fn check(&self, finer: &ForcedSettings, sweep: &mut CasingSweep) {
         let master = self.system.master();
-        sweep.points.par_iter_mut().for_each(|p| {
-            if !p.point.touches() {
-                return;
-            }
-            let fine = self.solver(finer, p.amplitude).and_then(|s| {
-                let start: ForcedStart = start_at(&p.point, &s);
-                s.solve(start, None)
-            });
-            match fine {
-                Ok(f) => {
-                    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE);
-                    p.harmonic_change = Some([
-                        rel(p.point.first_harmonic(master), f.first_harmonic(master)),
-                        rel(largest_force(&p.point), largest_force(&f)),
-                    ]);
-                }
-                Err(e) => {
-                    tracing::debug!("casing sweep: the check at 2N failed: {e}");
-                    p.harmonic_failed = true;
-                }
-            }
-        });
+        let points: Vec<&ForcedPoint> = sweep.points.iter().map(|p| &p.point).collect();
+        let jumps: Vec<usize> = (0..points.len()).filter(|&i| sweep.points[i].jump).collect();
+        let checked = points_worth_checking(&points, &jumps, master);
+        let view: &CasingSweep = sweep;
+        let changes: Vec<Option<[f64; 2]>> = checked
+            .par_iter()
+            .map(|&i| {
+                let p = &view.points[i];
+                let fine = self.solver(finer, p.amplitude).and_then(|s| {
+                    let start: ForcedStart = start_at(&p.point, &s);
+                    s.solve(start, None)
+                });
+                let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE);
+                fine.map_err(|e| tracing::debug!("casing sweep: the check at 2N failed: {e}"))
+                    .ok()
+                    .map(|f| {
+                        [
+                            rel(p.point.first_harmonic(master), f.first_harmonic(master)),
+                            rel(largest_force(&p.point), largest_force(&f)),
+                        ]
+                    })
+            })
+            .collect();
+        for (&i, change) in checked.iter().zip(changes) {
+            sweep.points[i].harmonic_change = change;
+            sweep.points[i].harmonic_failed = change.is_none();
+        }
     }
 
     /// The Floquet stability of every point (when asked for), then the changes between
