@@ -385,7 +385,9 @@ impl Problem<'_> {
     fn check(&self, finer: &ForcedSettings, sweep: &mut CasingSweep) {
         let master = self.system.master();
         let points: Vec<&ForcedPoint> = sweep.points.iter().map(|p| &p.point).collect();
-        let jumps: Vec<usize> = (0..points.len()).filter(|&i| sweep.points[i].jump).collect();
+        let jumps: Vec<usize> = (0..points.len())
+            .filter(|&i| sweep.points[i].jump)
+            .collect();
         let checked = points_worth_checking(&points, &jumps, master);
         let view: &CasingSweep = sweep;
         let changes: Vec<Option<[f64; 2]>> = checked
