@@ -424,7 +424,12 @@ pub fn sentence(s: &CasingSummary) -> String {
     let jumps = if s.jumps_m.is_empty() {
         String::new()
     } else {
-        format!("; the response jumps at delta = {:?} m", s.jumps_m)
+        let mm: Vec<String> = s
+            .jumps_m
+            .iter()
+            .map(|j| format!("{:.4}", 1e3 * j))
+            .collect();
+        format!("; the response jumps at delta = {} mm", mm.join(", "))
     };
     let n = if !s.checked {
         format!("N = {}, not checked", s.harmonics)
@@ -450,11 +455,12 @@ pub fn sentence(s: &CasingSummary) -> String {
 /// The report's section (appended to `speed_sweep/section.md`).
 pub fn section(st: &CasingStudy) -> String {
     format!(
-        "## Casing distortion at {:.0} rpm\n\n`[speed_sweep.casing]`: an {}-lobed casing, every \
+        "## Casing distortion at {:.0} rpm\n\n`[speed_sweep.casing]`: a casing with {} lobes, every \
          contact row's gap g0_j - delta cos({} x speed x t + {} rad), its intrusion delta swept \
          at the fixed lobe-passing frequency W = {} x speed on the parametric model at that \
-         speed, no aerodynamic load, the damping, N and penalty law of the speed sweeps; each \
-         point's N checked at 2N (docs/DESIGN.md §10.11, docs/ROTATION.md). {}.\n\n\
+         speed, no aerodynamic load, the damping, N and penalty law of the speed sweeps; the \
+         points worth checking solved again at 2N (docs/DESIGN.md §10.11, docs/ROTATION.md). \
+         {}.\n\n\
          ![casing distortion](speed_sweep/casing.png)\n\nSolid: stable, dashed: unstable, \
          dotted: undetermined. Data: `speed_sweep/casing.csv`, `speed_sweep/casing.json`.\n\n",
         st.speed / RPM_TO_RAD_S,
