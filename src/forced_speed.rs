@@ -453,7 +453,7 @@ fn one_sweep(
         sweep.points.len(),
         sweep.folds.len(),
         sweep.end_text(),
-        crate::forced_speed_output::harmonics_note(&sweep, s.harmonic_tolerance)
+        harmonics_note(&sweep, s.harmonic_tolerance)
     );
     let g0 = at_crossing.system.gap_reference();
     Ok(SweepRun {
@@ -463,6 +463,38 @@ fn one_sweep(
         sweep,
         casing: casing.map(|c| crate::forced_speed_distortion::SweepCasing::of(&c, e, g0)),
     })
+}
+
+/// The sweep's N and what its check at 2N found, in words ("N = 10, not checked" under
+/// `adapt_harmonics = "fixed"`).
+pub fn harmonics_note(sweep: &nlmodes_forced::SpeedSweep, tolerance: f64) -> String {
+    let Some(last) = sweep.retraces.last() else {
+        return format!("N = {}, not checked", sweep.harmonics);
+    };
+    let traced: Vec<String> = (sweep.retraces.iter())
+        .map(|t| t.harmonics.to_string())
+        .collect();
+    let verdict = if last.checked.is_empty() {
+        "no point in contact (linear: exact at any N)".to_string()
+    } else if !last.checkable {
+        "not checked (2N above max_harmonics)".to_string()
+    } else if last.converged() {
+        format!("converged at its {} checked points", last.checked.len())
+    } else {
+        format!(
+            "NOT converged: {} of its {} checked points move by more than {tolerance:e} at 2N",
+            last.not_converged,
+            last.checked.len()
+        )
+    };
+    format!(
+        "N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in \
+         speed",
+        last.harmonics,
+        traced.join(", "),
+        last.largest_change[0],
+        last.largest_change[1]
+    )
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@ use nlmodes_output::{CsvTable, CsvValue};
 use serde::Serialize;
 
 use crate::forced_output::{contact_summary, harmonic, max_abs_over_period, opt, verdict_word};
-use crate::forced_speed::{SpeedSweepStudy, SweepRun};
+use crate::forced_speed::{harmonics_note, SpeedSweepStudy, SweepRun};
 use crate::rotation_settings::RPM_TO_RAD_S;
 
 const TAU: f64 = std::f64::consts::TAU;
@@ -135,38 +135,6 @@ pub struct RetraceRecord {
     /// Whether 2N was within `[forced] max_harmonics` (else the trace could not be checked).
     pub checkable: bool,
     pub converged: bool,
-}
-
-/// The sweep's N and what its check at 2N found, in words ("N = 10, not checked" under
-/// `adapt_harmonics = "fixed"`).
-pub fn harmonics_note(sweep: &nlmodes_forced::SpeedSweep, tolerance: f64) -> String {
-    let Some(last) = sweep.retraces.last() else {
-        return format!("N = {}, not checked", sweep.harmonics);
-    };
-    let traced: Vec<String> = (sweep.retraces.iter())
-        .map(|t| t.harmonics.to_string())
-        .collect();
-    let verdict = if last.checked.is_empty() {
-        "no point in contact (linear: exact at any N)".to_string()
-    } else if !last.checkable {
-        "not checked (2N above max_harmonics)".to_string()
-    } else if last.converged() {
-        format!("converged at its {} checked points", last.checked.len())
-    } else {
-        format!(
-            "NOT converged: {} of its {} checked points move by more than {tolerance:e} at 2N",
-            last.not_converged,
-            last.checked.len()
-        )
-    };
-    format!(
-        "N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in \
-         speed",
-        last.harmonics,
-        traced.join(", "),
-        last.largest_change[0],
-        last.largest_change[1]
-    )
 }
 
 /// The summary of one sweep.

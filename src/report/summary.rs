@@ -112,7 +112,9 @@ fn casing_line(r: &ReportInputs<'_>) -> String {
     let enabled = (r.case.speed_sweep.as_ref())
         .is_some_and(|s| s.enabled && s.casing.as_ref().is_some_and(|c| c.enabled));
     let dir = r.layout.shared.join("speed_sweep");
-    match crate::results::speed_sweep::read_casing(&dir) {
+    let summary =
+        crate::results::speed_sweep::read_casing::<crate::forced_speed_casing::CasingSummary>(&dir);
+    match summary {
         Ok(Some(c)) if enabled => format!(
             "- **Casing distortion** (`## Casing distortion` below): {}.\n",
             crate::forced_speed_casing::sentence(&c)

@@ -187,8 +187,9 @@ pub fn read(dir: &Path) -> Result<Option<SpeedSweepFile>> {
     super::read_json(&path).map(Some)
 }
 
-/// `dir/casing.json` (`[speed_sweep.casing]`, `crate::forced_speed_casing`), when written.
-pub fn read_casing(dir: &Path) -> Result<Option<crate::forced_speed_casing::CasingSummary>> {
+/// `dir/casing.json` (`[speed_sweep.casing]`, written by `crate::forced_speed_casing` as its
+/// `CasingSummary`), when written.
+pub fn read_casing<T: for<'de> Deserialize<'de>>(dir: &Path) -> Result<Option<T>> {
     let path = dir.join("casing.json");
     if !path.exists() {
         return Ok(None);

@@ -69,8 +69,9 @@ pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 pub use speed_curve::{LobedCasing, SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
+pub use speed_harmonics::speed_sweep;
 pub use speed_step::{SpeedFamily, SpeedProblem};
-pub use speed_sweep::{speed_sweep, SpeedFold, SpeedSweep};
+pub use speed_sweep::{SpeedFold, SpeedSweep};
 pub use synthesis::{
     check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
     SynthesizedPoint,

@@ -19,8 +19,8 @@ use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::{resize_signals, start_at};
 use crate::solver::ForcedPoint;
 use crate::speed_curve::{SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
-use crate::speed_step::{problem_at, SpeedArc, SpeedFamily, SpeedStepper};
-use crate::speed_sweep::{trace_sweep, SpeedSweep};
+use crate::speed_step::{assess, problem_at, SpeedArc, SpeedFamily, SpeedStepper};
+use crate::speed_sweep::{classify_changes, trace_sweep, SpeedSweep};
 use crate::trace::norm;
 
 /// The largest relative change of the master's first harmonic or of the speed between a point
@@ -31,6 +31,39 @@ const SAME_ORBIT: f64 = 0.05;
 /// How far (relative to Omega_ref) the frozen speed of a 2N solve may move from the point's:
 /// as far as a change of `SAME_ORBIT`.
 const CHECK_REACH: f64 = SAME_ORBIT;
+
+/// Traces the forced response of `family` at W = e Omega over the settings' speed range
+/// (module docs), N converged under the settings' `SpeedHarmonics` (`speed_harmonics`), then
+/// the stability of every point; `progress` sees every accepted point of every trace.
+pub fn speed_sweep(
+    family: &dyn SpeedFamily,
+    settings: &SpeedSweepSettings,
+    mut progress: impl FnMut(&SpeedPoint),
+) -> Result<SpeedSweep, ForcedError> {
+    settings.validate()?;
+    let (mut sweep, settings) = converged_sweep(family, settings, &mut progress)?;
+    classify_stability(family, &settings, &mut sweep);
+    Ok(sweep)
+}
+
+/// The Floquet stability of every point of `sweep` (when asked for; in parallel, each on the
+/// problem at its own speed), then the changes of stability between consecutive determined
+/// points.
+fn classify_stability(
+    family: &dyn SpeedFamily,
+    settings: &SpeedSweepSettings,
+    sweep: &mut SpeedSweep,
+) {
+    use rayon::prelude::*;
+    if !settings.stability {
+        return;
+    }
+    sweep
+        .points
+        .par_iter_mut()
+        .for_each(|p| p.stability = Some(assess(family, settings, p)));
+    classify_changes(sweep.points.iter_mut().filter_map(|p| p.stability.as_mut()));
+}
 
 /// The sweep of `family` with N converged under `settings.harmonic_policy` (module docs),
 /// without its stability, and the settings of its last trace (its N).

@@ -27,7 +27,7 @@ use crate::error::ForcedError;
 use crate::point_stability::PointStability;
 
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
-use crate::speed_step::{assess, SpeedArc, SpeedFamily, SpeedStepper};
+use crate::speed_step::{SpeedArc, SpeedFamily, SpeedStepper};
 use crate::trace::{norm, phase, phase_row, wrap_angle};
 use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::ContactMethod;
@@ -106,21 +106,6 @@ impl SpeedSweep {
     }
 }
 
-/// Traces the forced response of `family` at W = e Omega over the settings' speed range
-/// (module docs), N converged under the settings' `SpeedHarmonics` (`speed_harmonics`), then
-/// the stability of every point; `progress` sees every accepted point of every trace.
-pub fn speed_sweep(
-    family: &dyn SpeedFamily,
-    settings: &SpeedSweepSettings,
-    mut progress: impl FnMut(&SpeedPoint),
-) -> Result<SpeedSweep, ForcedError> {
-    settings.validate()?;
-    let (mut sweep, settings) =
-        crate::speed_harmonics::converged_sweep(family, settings, &mut progress)?;
-    classify_stability(family, &settings, &mut sweep);
-    Ok(sweep)
-}
-
 /// The sweep at the settings' N, without its stability.
 pub(crate) fn trace_sweep(
     family: &dyn SpeedFamily,
@@ -130,25 +115,6 @@ pub(crate) fn trace_sweep(
     let mut trace = SpeedTrace::begin(family, settings, progress)?;
     trace.run(progress);
     Ok(trace.sweep)
-}
-
-/// The Floquet stability of every point of `sweep` (when asked for; in parallel, each on the
-/// problem at its own speed), then the changes of stability between consecutive determined
-/// points.
-fn classify_stability(
-    family: &dyn SpeedFamily,
-    settings: &SpeedSweepSettings,
-    sweep: &mut SpeedSweep,
-) {
-    use rayon::prelude::*;
-    if !settings.stability {
-        return;
-    }
-    sweep
-        .points
-        .par_iter_mut()
-        .for_each(|p| p.stability = Some(assess(family, settings, p)));
-    classify_changes(sweep.points.iter_mut().filter_map(|p| p.stability.as_mut()));
 }
 
 /// The changes of stability between consecutive determined points of `verdicts` (in the
