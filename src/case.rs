@@ -413,9 +413,12 @@ mod tests {
     /// for its name and the .geo parameters it spells out), and its `[rotation]` table (absent
     /// from the default case: the blade at rest) states the table's defaults. Its
     /// `[speed_sweep]` table (absent by default too) states the table's defaults but for the
-    /// two keys that make it the default study's (issue 39, item 6): the one sweep through the
+    /// keys that make it the default study's (issue 39, item 6): the one sweep through the
     /// EO 3 crossing next to the operating speed at 2 x grazing (the defaults, every crossing
-    /// in the range at every `[forced]` level, would be 18 sweeps of about 90 s each).
+    /// in the range at every `[forced]` level, would be 18 sweeps of about 90 s each), its N
+    /// checked rather than retraced (the retraced sweep costs about 4 x), and the casing
+    /// distortion at the operating speed (`[speed_sweep.casing]`, absent by default) up to 1.5
+    /// running gaps on 16 amplitudes.
     #[test]
     fn shipped_case_file_equals_the_defaults() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/blade.toml");
@@ -432,6 +435,12 @@ mod tests {
             Some(crate::speed_sweep_settings::SpeedSweepSection {
                 engine_orders: vec![3],
                 levels: vec![2.0],
+                adapt_harmonics: crate::speed_sweep_settings::SweepHarmonics::Check,
+                casing: Some(crate::speed_sweep_settings::CasingSection {
+                    amplitudes: [0.0, 1.5],
+                    points: 16,
+                    ..Default::default()
+                }),
                 ..Default::default()
             })
         );

@@ -321,7 +321,9 @@ pub struct SpeedSweepStudy {
     pub closure: Option<f64>,
     /// The parametric model's measured error.
     pub accuracy: Option<nlmodes_modal::Accuracy>,
+    /// `[forced] harmonics` (the first trace's N) and `harmonic_tolerance`.
     pub harmonics: usize,
+    pub harmonic_tolerance: f64,
     pub runs: Vec<SweepRun>,
 }
 
@@ -405,6 +407,7 @@ pub fn run(
         closure,
         accuracy: model.accuracy().cloned(),
         harmonics: s.harmonics,
+        harmonic_tolerance: s.harmonic_tolerance,
         runs: runs?,
     })
 }
@@ -434,6 +437,9 @@ fn one_sweep(
     settings.stability = s.stability;
     settings.max_points = inputs.sweep.max_points;
     settings.casing = casing;
+    settings.harmonic_policy = inputs.sweep.adapt_harmonics.policy();
+    settings.max_harmonics = s.top_harmonics();
+    settings.harmonic_tolerance = s.harmonic_tolerance;
     let e = plan.engine_order;
     let sweep = speed_sweep(&family, &settings, |p| {
         bar.set_message(format!(
@@ -443,10 +449,11 @@ fn one_sweep(
     })
     .with_context(|| format!("speed sweep at engine order {e}, level {level}"))?;
     tracing::info!(
-        "speed sweep EO {e}, level {level}: {} points, {} folds, {}",
+        "speed sweep EO {e}, level {level}: {} points, {} folds, {}; {}",
         sweep.points.len(),
         sweep.folds.len(),
-        sweep.end_text()
+        sweep.end_text(),
+        harmonics_note(&sweep, s.harmonic_tolerance)
     );
     let g0 = at_crossing.system.gap_reference();
     Ok(SweepRun {
@@ -456,6 +463,38 @@ fn one_sweep(
         sweep,
         casing: casing.map(|c| crate::forced_speed_distortion::SweepCasing::of(&c, e, g0)),
     })
+}
+
+/// The sweep's N and what its check at 2N found, in words ("N = 10, not checked" under
+/// `adapt_harmonics = "fixed"`).
+pub fn harmonics_note(sweep: &nlmodes_forced::SpeedSweep, tolerance: f64) -> String {
+    let Some(last) = sweep.retraces.last() else {
+        return format!("N = {}, not checked", sweep.harmonics);
+    };
+    let traced: Vec<String> = (sweep.retraces.iter())
+        .map(|t| t.harmonics.to_string())
+        .collect();
+    let verdict = if last.checked.is_empty() {
+        "no point in contact (linear: exact at any N)".to_string()
+    } else if !last.checkable {
+        "not checked (2N above max_harmonics)".to_string()
+    } else if last.converged() {
+        format!("converged at its {} checked points", last.checked.len())
+    } else {
+        format!(
+            "NOT converged: {} of its {} checked points move by more than {tolerance:e} at 2N",
+            last.not_converged,
+            last.checked.len()
+        )
+    };
+    format!(
+        "N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in \
+         speed",
+        last.harmonics,
+        traced.join(", "),
+        last.largest_change[0],
+        last.largest_change[1]
+    )
 }
 
 #[cfg(test)]

@@ -1,8 +1,10 @@
 //! `nlmodes forced PARAMETRIC_DIR --speed-sweep [--settings FILE] --out DIR` (issue 39,
 //! item 2): the speed sweeps of the file's `[speed_sweep]` table on a parametric reduced model,
-//! with the `[forced]` table's damping, load, levels, N and contact law. Every setting is
-//! checked before the model is read, the speed range against the model's range and the
-//! engine orders against its crossings before any sweep runs.
+//! with the `[forced]` table's damping, load, levels, N and contact law, and its
+//! `[speed_sweep.casing]` (the casing distortion at the file's `[rotation] operating_speed`,
+//! `forced_speed_casing`). Every setting is checked before the model is read, the speed range
+//! against the model's range and the engine orders against its crossings before any sweep
+//! runs.
 
 use std::path::Path;
 
@@ -10,7 +12,7 @@ use anyhow::Result;
 
 use crate::forced_settings::ForcedSection;
 use crate::forced_speed::SweepInputs;
-use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::rotation_settings::RPM_TO_RAD_S;
 use crate::validate::Problems;
 
 /// Runs the command (`section`: the `[forced]` table, already checked).
@@ -66,10 +68,8 @@ pub fn sweep(
         ..section.clone()
     };
     let inputs = crate::forced_inputs::check(&checked, &without_orbits, &source, None)?;
-    let orders = rotation.map_or_else(
-        || RotationSection::default().engine_orders,
-        |r| r.engine_orders,
-    );
+    let rotation = rotation.unwrap_or_default();
+    let orders = rotation.engine_orders.clone();
     let alone = crate::forced_speed_distortion::alone(&section, &sweep);
     let (plans, closure) =
         crate::forced_speed::plan(&model, section.mode, &sweep, (&orders, alone), &source)?;
@@ -87,5 +87,23 @@ pub fn sweep(
     )?;
     crate::forced_speed_output::write(&study, out)?;
     crate::ui::say(&crate::forced_speed_report::summary(&study));
-    crate::forced_speed_report::stopped_early(&study, out)
+    let (solver, _) = crate::forced::solver_settings(&reference, &section)?;
+    let casing_inputs = crate::forced_speed_casing::CasingInputs {
+        model: &model,
+        dir,
+        forced: &section,
+        solver: &solver,
+        damping_matrix: inputs.damping_matrix.as_ref(),
+        policy: sweep.adapt_harmonics,
+    };
+    let casing = crate::forced_speed_casing::run_enabled(
+        &sweep,
+        &casing_inputs,
+        rotation.operating_speed,
+        out,
+    )?;
+    crate::forced_speed_report::stopped_early(&study, out)?;
+    casing.map_or(Ok(()), |c| {
+        crate::forced_speed_casing::stopped_early(&c, out)
+    })
 }

@@ -14,7 +14,7 @@ use nlmodes_output::{CsvTable, CsvValue};
 use serde::Serialize;
 
 use crate::forced_output::{contact_summary, harmonic, max_abs_over_period, opt, verdict_word};
-use crate::forced_speed::{SpeedSweepStudy, SweepRun};
+use crate::forced_speed::{harmonics_note, SpeedSweepStudy, SweepRun};
 use crate::rotation_settings::RPM_TO_RAD_S;
 
 const TAU: f64 = std::f64::consts::TAU;
@@ -107,9 +107,34 @@ pub struct SweepSummary {
     pub peak_stability: String,
     pub complete: bool,
     pub end: String,
+    /// N of every point of the sweep (its last trace's).
+    pub harmonics: usize,
+    /// `[speed_sweep] adapt_harmonics` "retrace" or "check": every trace of the sweep at its N
+    /// and what its check at 2N found, the last the sweep's (empty under "fixed").
+    pub retraces: Vec<RetraceRecord>,
+    /// The check of N in words (`harmonics_note`).
+    pub harmonics_note: String,
     /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), absent without.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub casing: Option<crate::forced_speed_distortion::SweepCasing>,
+}
+
+/// One trace of a sweep at one N and its check at 2N (docs/DESIGN.md §10.10).
+#[derive(Serialize)]
+pub struct RetraceRecord {
+    pub harmonics: usize,
+    /// Indices (into that trace's points) of the points solved again at 2N.
+    pub checked: Vec<usize>,
+    /// Checked points that moved by more than `[forced] harmonic_tolerance`, or whose 2N solve
+    /// failed.
+    pub not_converged: usize,
+    /// Largest relative change at 2N of the master's first harmonic and of the speed over the
+    /// checked points.
+    pub largest_change_q1: f64,
+    pub largest_change_speed: f64,
+    /// Whether 2N was within `[forced] max_harmonics` (else the trace could not be checked).
+    pub checkable: bool,
+    pub converged: bool,
 }
 
 /// The summary of one sweep.
@@ -161,6 +186,19 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
             .map_or("not computed".into(), |s| verdict_word(Some(s))),
         complete: run.sweep.termination.covers_range(),
         end: run.sweep.end_text(),
+        harmonics: run.sweep.harmonics,
+        retraces: (run.sweep.retraces.iter())
+            .map(|t| RetraceRecord {
+                harmonics: t.harmonics,
+                checked: t.checked.clone(),
+                not_converged: t.not_converged,
+                largest_change_q1: t.largest_change[0],
+                largest_change_speed: t.largest_change[1],
+                checkable: t.checkable,
+                converged: t.converged(),
+            })
+            .collect(),
+        harmonics_note: harmonics_note(&run.sweep, st.harmonic_tolerance),
         casing: run.casing.clone(),
     }
 }
@@ -252,7 +290,7 @@ pub fn csv(st: &SpeedSweepStudy) -> Result<CsvTable> {
                 bifurcation.into(),
                 fold.into(),
                 p.corrections.into(),
-                st.harmonics.into(),
+                run.sweep.harmonics.into(),
                 run.casing.as_ref().map_or(0.0, |c| c.amplitude_m).into(),
             ])?;
         }

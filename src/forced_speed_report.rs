@@ -60,8 +60,9 @@ pub fn section(st: &SpeedSweepStudy) -> String {
         "The forced response of linear mode {} at W = EO x speed, continued in the speed \
          through each crossing of the engine-order lines with the mode's Campbell curve, on \
          the parametric reduced model (K_r(speed) and the running gaps interpolated between \
-         the Campbell speeds; the damping, the load and N = {} of `[forced]`, the force \
-         constant in the speed). {} Amplitudes over the running gap at each speed. Data: \
+         the Campbell speeds; the damping and the load of `[forced]`, the force constant in \
+         the speed; traced first at `[forced] harmonics` N = {}, each sweep's N and its check \
+         at 2N below the table). {} Amplitudes over the running gap at each speed. Data: \
          `speed_sweep/speed_sweep.csv`, `speed_sweep/speed_sweep.json`.\n",
         st.mode,
         st.harmonics,
@@ -110,6 +111,15 @@ pub fn section(st: &SpeedSweepStudy) -> String {
             r.end.replace('|', "/")
         );
     }
+    s.push('\n');
+    for run in &st.runs {
+        let r = summarize(st, run);
+        let _ = writeln!(
+            s,
+            "- EO {}, level {}: {}.",
+            r.engine_order, r.level, r.harmonics_note
+        );
+    }
     s + "\n![speed sweeps](speed_sweep/speed_sweep.png)\n\nSolid: stable, dashed: unstable, \
          dotted: undetermined (the Floquet analysis of `[forced]`, at each point's speed).\n\n"
 }
@@ -123,7 +133,7 @@ pub fn summary(st: &SpeedSweepStudy) -> String {
             out,
             "speed sweep EO {} (crossing {:.1} rpm, {:.2} Hz), level {}{}: peak q/g0 = {:.4} at \
              {:.1} rpm, folds {}, touches {}, largest contact force {:.3e} N, {} stable / {} \
-             unstable / {} undetermined, {}",
+             unstable / {} undetermined, {}; {}",
             r.engine_order,
             r.crossing_rpm,
             r.crossing_hz,
@@ -139,7 +149,8 @@ pub fn summary(st: &SpeedSweepStudy) -> String {
             r.stability[0],
             r.stability[1],
             r.stability[2],
-            r.end
+            r.end,
+            r.harmonics_note
         );
     }
     out
@@ -203,6 +214,21 @@ pub fn contact_text(s: &SweepRecord) -> String {
         .map_or("none".into(), |[a, b]| format!("{a:.0}-{b:.0}"))
 }
 
+/// Each sweep's N and its check at 2N ("EO 3 level 2: N = 20 (...)"), or "N not recorded".
+fn notes(f: &SpeedSweepFile) -> String {
+    let parts: Vec<String> = (f.sweeps.iter())
+        .map(|s| {
+            format!(
+                "EO {} level {}: {}",
+                s.engine_order,
+                s.level,
+                s.harmonics_note.as_deref().unwrap_or("N not recorded")
+            )
+        })
+        .collect();
+    parts.join("; ")
+}
+
 /// The forced verdict on the interaction map (`campbell/section.md`): one row per crossing of
 /// the swept mode with an engine-order line (the Campbell stage's `crossings`) and sweep level;
 /// `names` are the diagram's curves' (`crate::figures::curve_names`).
@@ -224,9 +250,10 @@ pub fn interaction_verdict(
         "no speed sweep has run (`[speed_sweep]` absent or disabled)".to_string(),
         |f| {
             format!(
-                "the speed sweeps of `[speed_sweep]` at W = EO x speed, N = {}, amplitudes \
-                 over the running gap (`speed_sweep/`)",
-                f.harmonics
+                "the speed sweeps of `[speed_sweep]` at W = EO x speed, traced first at N = \
+                 {} ({}), amplitudes over the running gap (`speed_sweep/`)",
+                f.harmonics,
+                notes(f)
             )
         },
     );

@@ -97,11 +97,34 @@ impl<'a> SpeedSweepStage<'a> {
         )?;
         let out = self.out();
         crate::forced_speed_output::write(&study, &out)?;
-        let section = crate::forced_speed_report::section(&study);
-        crate::output::write_atomic(&out.join("section.md"), section.as_bytes())?;
+        let mut section = crate::forced_speed_report::section(&study);
         crate::ui::say(&crate::forced_speed_report::summary(&study));
+        let (solver, _) = crate::forced::solver_settings(&reference, &forced)?;
+        let casing_inputs = crate::forced_speed_casing::CasingInputs {
+            model: &model,
+            dir: &dir,
+            forced: &forced,
+            solver: &solver,
+            damping_matrix: inputs.damping_matrix.as_ref(),
+            policy: self.sweep.adapt_harmonics,
+        };
+        let rpm = self.rotation.operating_speed;
+        let casing =
+            crate::forced_speed_casing::run_enabled(self.sweep, &casing_inputs, rpm, &out)?;
+        if let Some(c) = &casing {
+            section += &crate::forced_speed_casing::section(c);
+        }
+        crate::output::write_atomic(&out.join("section.md"), section.as_bytes())?;
         st.done(&format!("wrote {}", out.display()));
-        crate::forced_speed_report::stopped_early(&study, &out)
+        crate::forced_speed_report::stopped_early(&study, &out)?;
+        casing.map_or(Ok(()), |c| {
+            crate::forced_speed_casing::stopped_early(&c, &out)
+        })
+    }
+
+    /// `[speed_sweep.casing]`, when enabled.
+    fn casing(&self) -> Option<&crate::speed_sweep_settings::CasingSection> {
+        self.sweep.casing.as_ref().filter(|c| c.enabled)
     }
 }
 
@@ -119,9 +142,14 @@ impl Stage for SpeedSweepStage<'_> {
         self.layout
     }
     fn outputs(&self) -> Vec<PathBuf> {
-        ["speed_sweep.csv", "speed_sweep.json", "section.md"]
+        let casing: &[&str] = match self.casing() {
+            Some(_) => &["casing.csv", "casing.json"],
+            None => &[],
+        };
+        (["speed_sweep.csv", "speed_sweep.json", "section.md"].iter())
+            .chain(casing)
             .map(|f| self.out().join(f))
-            .to_vec()
+            .collect()
     }
     fn work(&self) -> Result<()> {
         self.study()

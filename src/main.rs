@@ -23,6 +23,7 @@ mod forced_output;
 mod forced_paraview;
 mod forced_settings;
 mod forced_speed;
+mod forced_speed_casing;
 mod forced_speed_command;
 mod forced_speed_distortion;
 mod forced_speed_figure;

@@ -7,6 +7,31 @@ use serde::{Deserialize, Serialize};
 
 use crate::problems::Problems;
 
+/// How the speed sweeps converge N (`[speed_sweep] adapt_harmonics`; docs/DESIGN.md §10.10).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SweepHarmonics {
+    /// Traced at `[forced] harmonics`; its peak, folds, deepest contact and four points spread
+    /// over its contact solved again at 2N, and the whole sweep traced again at 2N while one
+    /// moves by more than `[forced] harmonic_tolerance` (up to `[forced] max_harmonics`).
+    Retrace,
+    /// Traced at `[forced] harmonics`, the same points checked at 2N and flagged, no retrace.
+    Check,
+    /// Traced at `[forced] harmonics`, unchecked.
+    Fixed,
+}
+
+impl SweepHarmonics {
+    /// The library's policy.
+    pub fn policy(self) -> nlmodes_forced::SpeedHarmonics {
+        match self {
+            Self::Retrace => nlmodes_forced::SpeedHarmonics::Retrace,
+            Self::Check => nlmodes_forced::SpeedHarmonics::Check,
+            Self::Fixed => nlmodes_forced::SpeedHarmonics::Fixed,
+        }
+    }
+}
+
 /// The `[speed_sweep]` table; every key has a default.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -31,6 +56,105 @@ pub struct SpeedSweepSection {
     pub levels: Vec<f64>,
     /// Most points per sweep.
     pub max_points: usize,
+    /// How N is converged: "retrace" (default), "check" or "fixed" ([`SweepHarmonics`]).
+    pub adapt_harmonics: SweepHarmonics,
+    /// `[speed_sweep.casing]`: the response to a growing casing distortion at one speed
+    /// (absent: none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub casing: Option<CasingSection>,
+}
+
+/// `[speed_sweep.casing]` (issue 39, item 6; docs/ROTATION.md "Casing distortion at the
+/// operating speed"): an n-lobed casing's intrusion delta swept at one speed, no load; W the
+/// lobe-passing frequency n Omega, every contact row's gap g0_j(Omega) - delta cos(n Omega t +
+/// phase). Every key has a default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CasingSection {
+    /// Run it (default true).
+    pub enabled: bool,
+    /// n, the casing's lobes (2: an ovalized casing).
+    pub lobes: i64,
+    /// [from, to] of delta in mean running gaps at the speed (default [0, 2]).
+    pub amplitudes: [f64; 2],
+    /// Amplitudes evenly spaced over `amplitudes` (default 41); the onset (delta = the smallest
+    /// running gap) is added.
+    pub points: usize,
+    /// The phase (rad) of the intrusion: the gap is smallest at n Omega t + phase = 0.
+    pub phase: f64,
+    /// The speed (rpm; default: `[rotation] operating_speed`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speed: Option<f64>,
+}
+
+impl Default for CasingSection {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            lobes: 2,
+            amplitudes: [0.0, 2.0],
+            points: 41,
+            phase: 0.0,
+            speed: None,
+        }
+    }
+}
+
+impl CasingSection {
+    /// Every key: `speed_sweep.casing.KEY = value: expected ...`; `campbell` the speed range
+    /// (rpm) of the parametric model, named by `range_key`.
+    pub fn check(&self, p: &mut Problems, campbell: Option<[f64; 2]>, range_key: &str) {
+        let max = crate::forced_distortion::MAX_LOBES;
+        p.check(
+            (1..=max).contains(&self.lobes),
+            "speed_sweep.casing.lobes",
+            self.lobes,
+            &format!("an integer 1 <= n <= {max} (the casing's lobes)"),
+        );
+        let [a, b] = self.amplitudes;
+        p.check(
+            a.is_finite() && b.is_finite() && a >= 0.0 && a < b,
+            "speed_sweep.casing.amplitudes",
+            self.amplitudes,
+            "[from, to] in mean running gaps with 0 <= from < to, finite",
+        );
+        p.check(
+            (2..=1000).contains(&self.points),
+            "speed_sweep.casing.points",
+            self.points,
+            "2 <= points <= 1000",
+        );
+        p.check(
+            self.phase.is_finite(),
+            "speed_sweep.casing.phase",
+            self.phase,
+            "a finite phase (rad)",
+        );
+        if let (Some(v), Some([lo, hi])) = (self.speed, campbell) {
+            p.check(
+                v.is_finite() && v > 0.0 && v >= lo && v <= hi,
+                "speed_sweep.casing.speed",
+                v,
+                &format!("a speed > 0 within {range_key} = [{lo}, {hi}] rpm"),
+            );
+        }
+    }
+
+    /// The amplitudes (in mean running gaps `g0`, m): `points` evenly spaced, and the onset
+    /// `onset` (m, the smallest running gap) when inside; ascending, each once.
+    pub fn grid(&self, g0: f64, onset: f64) -> Vec<f64> {
+        let [a, b] = self.amplitudes;
+        let n = self.points.max(2);
+        let mut v: Vec<f64> = (0..n)
+            .map(|i| g0 * (a + (b - a) * i as f64 / (n - 1) as f64))
+            .collect();
+        if onset > v[0] && onset < v[n - 1] {
+            v.push(onset);
+        }
+        v.sort_by(f64::total_cmp);
+        v.dedup_by(|x, y| (*x - *y).abs() <= 1e-12 * g0);
+        v
+    }
 }
 
 impl Default for SpeedSweepSection {
@@ -42,6 +166,8 @@ impl Default for SpeedSweepSection {
             window: [0.9, 1.2],
             levels: Vec::new(),
             max_points: 2000,
+            adapt_harmonics: SweepHarmonics::Retrace,
+            casing: None,
         }
     }
 }
@@ -104,6 +230,9 @@ impl SpeedSweepSection {
             self.max_points,
             "at least 3 points",
         );
+        if let Some(c) = self.casing.as_ref().filter(|c| c.enabled) {
+            c.check(p, campbell, range_key);
+        }
     }
 
     /// The engine orders to sweep: `engine_orders`, or `default` (the Campbell diagram's) when

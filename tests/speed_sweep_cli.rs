@@ -174,6 +174,7 @@ fn speed_sweeps_from_the_command() {
     bad_case_tables(&d);
     linear_sweep(&d);
     contact_sweep(&d);
+    casing_at_a_speed(&d);
     forced_at_a_speed(&d);
     let _ = std::fs::remove_dir_all(&d.root);
 }
@@ -200,6 +201,19 @@ fn bad_sweep_settings(d: &Dirs) {
             "nocross",
             "[speed_sweep]\nengine_orders = [2]\n",
             vec!["nocross.toml: speed_sweep.engine_orders = 2: expected an engine order whose line crosses mode 0"],
+        ),
+        (
+            "lobes0",
+            "[speed_sweep.casing]\nlobes = 0\namplitudes = [0.5, 0.2]\n",
+            vec![
+                "lobes0.toml: speed_sweep.casing.lobes = 0: expected an integer 1 <= n",
+                "lobes0.toml: speed_sweep.casing.amplitudes = [0.5, 0.2]: expected [from, to]",
+            ],
+        ),
+        (
+            "casing_speed",
+            "[speed_sweep.casing]\nspeed = 5000.0\n",
+            vec!["casing_speed.toml: speed_sweep.casing.speed = 5000.0: expected a speed > 0 within"],
         ),
     ] {
         let s = settings(&d.root, &format!("{name}.toml"), text);
@@ -338,6 +352,79 @@ fn contact_sweep(d: &Dirs) {
         sweep["points"].as_u64().unwrap()
     );
     assert!(unstable > 0);
+    // N converged by retracing (the default): the first trace at [forced] harmonics = 3, each
+    // trace's check at 2N recorded, the sweep's N that of its last trace and of every CSV row.
+    let retraces = sweep["retraces"].as_array().unwrap();
+    assert_eq!(retraces[0]["harmonics"], 3);
+    let n = sweep["harmonics"].as_u64().unwrap();
+    assert_eq!(retraces.last().unwrap()["harmonics"].as_u64(), Some(n));
+    assert!(sweep["harmonics_note"]
+        .as_str()
+        .unwrap()
+        .starts_with(&format!("N = {n} ")));
+    let csv = std::fs::read_to_string(dir.join("speed_sweep.csv")).unwrap();
+    let col = csv
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|h| h == "harmonics");
+    assert!((csv.lines().skip(1)).all(|l| l.split(',').nth(col.unwrap()) == Some(&n.to_string())));
+}
+
+/// `[speed_sweep.casing]` (issue 39, item 6) at 2000 rpm, a 2-lobed casing, no load (the
+/// penalty law at 10 x the static contact stiffness, N = 6): the onset is the contact node's
+/// running gap in closed form, 1 mm - c Omega^2, to 1e-9 (the spline of the parametric model
+/// is exact here); below it the node never touches and stays at rest (its first harmonic 0),
+/// above it it touches with a contact force; W is twice the speed; every point carries a
+/// verdict and the grid's amplitudes are all there. (That the orbits are those of the moving
+/// gap is `crates/forced/tests/distortion.rs`'s check against exact orbits.)
+fn casing_at_a_speed(d: &Dirs) {
+    let text = format!(
+        "{}[speed_sweep.casing]\nlobes = 2\namplitudes = [0.0, 1.5]\npoints = 7\n\
+         speed = 2000.0\n",
+        LINEAR.replace("harmonics = 3\n", "harmonics = 6\npenalty_factor = 10.0\n")
+    );
+    let (out, dir) = d.sweep("casing", &text);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let c = json(&dir.join("casing.json"));
+    let omega = 2000.0 * RPM;
+    let gap = GAP - GROWTH * omega * omega;
+    let onset = c["onset_m"].as_f64().unwrap();
+    assert!((onset - gap).abs() < 1e-9 * gap, "{onset} vs {gap}");
+    let w = c["lobe_passing_hz"].as_f64().unwrap();
+    assert!((w - 2.0 * omega / std::f64::consts::TAU).abs() < 1e-12 * w);
+    assert_eq!(c["complete"], true);
+    let csv = std::fs::read_to_string(dir.join("casing.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    let num = |r: &Vec<String>, n: &str| r[col(n)].parse::<f64>().unwrap();
+    // The 7 amplitudes of the grid (in mean running gaps, here the node's gap) and the onset,
+    // among the points (a step halved adds points between them).
+    let deltas: Vec<f64> = rows.iter().map(|r| num(r, "amplitude_m")).collect();
+    for want in (0..7).map(|i| 0.25 * gap * i as f64).chain([gap]) {
+        let found = deltas.iter().any(|d| (d - want).abs() <= 1e-12 * gap);
+        assert!(found, "{want} not among {deltas:?}");
+    }
+    for r in &rows {
+        let (delta, force) = (num(r, "amplitude_m"), num(r, "max_contact_force_N"));
+        assert!(!r[col("stability")].is_empty());
+        if delta < gap * (1.0 - 1e-9) {
+            assert_eq!(num(r, "nodes_in_contact"), 0.0, "{r:?}");
+            assert_eq!(num(r, "q1_m"), 0.0, "{r:?}");
+        } else if delta >= 1.25 * gap {
+            assert!(force > 0.0, "{r:?}");
+        }
+    }
+    assert!(dir.join("casing.png").is_file());
 }
 
 /// `--speed`: the forced study at 2000 rpm on the model there, around mode 0 at the

@@ -39,6 +39,7 @@ pub(super) fn summary(r: &ReportInputs<'_>) -> String {
     }
     if case_root {
         s += &speed_range_line(r).unwrap_or_default();
+        s += &casing_line(r);
     }
     let here = if at_speed {
         let p: Option<serde_json::Value> = read_json(&r.layout.root.join("prestress.json")).ok();
@@ -106,6 +107,22 @@ fn speed_range_line(r: &ReportInputs<'_>) -> Option<String> {
     Some(s)
 }
 
+/// The casing distortion at the operating speed (`[speed_sweep.casing]`), when it ran.
+fn casing_line(r: &ReportInputs<'_>) -> String {
+    let enabled = (r.case.speed_sweep.as_ref())
+        .is_some_and(|s| s.enabled && s.casing.as_ref().is_some_and(|c| c.enabled));
+    let dir = r.layout.shared.join("speed_sweep");
+    let summary =
+        crate::results::speed_sweep::read_casing::<crate::forced_speed_casing::CasingSummary>(&dir);
+    match summary {
+        Ok(Some(c)) if enabled => format!(
+            "- **Casing distortion** (`## Casing distortion` below): {}.\n",
+            crate::forced_speed_casing::sentence(&c)
+        ),
+        _ => String::new(),
+    }
+}
+
 /// One sweep as a sentence: where it touches, how hard, stable or not.
 fn sweep_phrase(
     r: &ReportInputs<'_>,
@@ -115,6 +132,10 @@ fn sweep_phrase(
     let c = &v.crossing;
     let level = crate::forced_speed_report::level_text(r.case, w);
     let partial = if w.complete { "" } else { " (partial)" };
+    let n = w
+        .harmonics_note
+        .as_ref()
+        .map_or(String::new(), |note| format!(" {note}."));
     let head = format!(
         "  - **EO {}** at {level} (crossing {:.0} rpm, swept {:.0}-{:.0} rpm){partial}:",
         c.engine_order, c.speed_rpm, w.range_rpm[0], w.range_rpm[1]
@@ -122,7 +143,7 @@ fn sweep_phrase(
     match w.contact_span() {
         Some([a, b]) => format!(
             "{head} **rubs at {a:.0}-{b:.0} rpm**, peak q/g0 = {:.2} at {:.0} rpm{}, largest \
-             contact force {} N{}; {}.\n",
+             contact force {} N{}; {}.{n}\n",
             w.peak_q1_over_g0,
             w.peak_rpm,
             match w.peak_verdict() {
@@ -135,7 +156,7 @@ fn sweep_phrase(
             w.stability_text()
         ),
         None => format!(
-            "{head} no contact, peak q/g0 = {:.2} at {:.0} rpm; {}.\n",
+            "{head} no contact, peak q/g0 = {:.2} at {:.0} rpm; {}.{n}\n",
             w.peak_q1_over_g0,
             w.peak_rpm,
             w.stability_text()

@@ -21,7 +21,8 @@ const SAME_CROSSING: f64 = 0.02;
 pub struct SpeedSweepFile {
     /// The traced mode (0-based, `[forced] mode`).
     pub mode: usize,
-    /// N of the sweeps.
+    /// `[forced] harmonics`: the N each sweep is first traced at (`SweepRecord::harmonics_note`
+    /// says the N it kept).
     pub harmonics: usize,
     pub sweeps: Vec<SweepRecord>,
 }
@@ -61,6 +62,9 @@ pub struct SweepRecord {
     pub peak_stability: Option<String>,
     pub complete: bool,
     pub end: String,
+    /// The sweep's N and its check at 2N in words (absent from files of earlier versions).
+    #[serde(default)]
+    pub harmonics_note: Option<String>,
 }
 
 /// How stable a sweep's response is: the headline word of the verdict.
@@ -183,6 +187,16 @@ pub fn read(dir: &Path) -> Result<Option<SpeedSweepFile>> {
     super::read_json(&path).map(Some)
 }
 
+/// `dir/casing.json` (`[speed_sweep.casing]`, written by `crate::forced_speed_casing` as its
+/// `CasingSummary`), when written.
+pub fn read_casing<T: for<'de> Deserialize<'de>>(dir: &Path) -> Result<Option<T>> {
+    let path = dir.join("casing.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    super::read_json(&path).map(Some)
+}
+
 /// The verdict of every crossing of curve `traced + 1` (the swept mode) among `crossings`, in
 /// increasing speed, each with the sweeps of `file` through it; a sweep matching none of them
 /// (its crossing computed on the parametric model, outside the drawn crossings) gets a row of
@@ -247,6 +261,7 @@ mod tests {
             peak_stability: None,
             complete: true,
             end: "complete".into(),
+            harmonics_note: None,
         }
     }
 

@@ -38,32 +38,46 @@ pub(crate) fn check_curve(
         let row = normal_row(base, settings, curve, i);
         let point = curve.points[i].clone();
         let point = ladder.checked(point, 0, Some(&row));
-        match point.harmonic_check {
-            HarmonicCheck::Converged { change } => {
-                out.largest_change[0] = out.largest_change[0].max(change[0]);
-                out.largest_change[1] = out.largest_change[1].max(change[1]);
-            }
-            HarmonicCheck::NotConverged { change } => {
-                out.not_converged += 1;
-                if let Some(c) = change {
-                    out.largest_change[0] = out.largest_change[0].max(c[0]);
-                    out.largest_change[1] = out.largest_change[1].max(c[1]);
-                }
-            }
-            _ => {}
-        }
+        record_check(&mut out, point.harmonic_check);
         curve.points[i] = point;
     }
     out
 }
 
-/// The peak (largest first harmonic of the master), the point nearest each fold, the point of
-/// the largest contact force, and `SPREAD` points evenly spaced among those in contact; sorted,
-/// each once. None when the curve never touches.
+/// Adds one checked point's verdict to `out` (its largest changes, its count of points not
+/// converged). Shared with the speed sweeps' check (`speed_harmonics`).
+pub(crate) fn record_check(out: &mut CurveHarmonics, check: HarmonicCheck) {
+    let change = match check {
+        HarmonicCheck::Converged { change } => Some(change),
+        HarmonicCheck::NotConverged { change } => {
+            out.not_converged += 1;
+            change
+        }
+        _ => None,
+    };
+    if let Some(c) = change {
+        out.largest_change[0] = out.largest_change[0].max(c[0]);
+        out.largest_change[1] = out.largest_change[1].max(c[1]);
+    }
+}
+
+/// The points of `curve` to check (`points_worth_checking`).
 fn points_to_check(curve: &FrequencyResponse, master: usize) -> Vec<usize> {
-    let touching: Vec<usize> = (0..curve.points.len())
-        .filter(|&i| curve.points[i].touches())
-        .collect();
+    let points: Vec<&ForcedPoint> = curve.points.iter().collect();
+    let folds: Vec<usize> = curve.folds.iter().map(|f| f.point).collect();
+    points_worth_checking(&points, &folds, master)
+}
+
+/// Of a curve's `points` (with the points nearest its `folds`): the peak (largest first
+/// harmonic of the master), the point nearest each fold, the point of the largest contact
+/// force, and `SPREAD` points evenly spaced among those in contact; sorted, each once. None
+/// when the curve never touches. Shared with the speed sweeps' check (`speed_harmonics`).
+pub(crate) fn points_worth_checking(
+    points: &[&ForcedPoint],
+    folds: &[usize],
+    master: usize,
+) -> Vec<usize> {
+    let touching: Vec<usize> = (0..points.len()).filter(|&i| points[i].touches()).collect();
     if touching.is_empty() {
         return Vec::new();
     }
@@ -71,12 +85,12 @@ fn points_to_check(curve: &FrequencyResponse, master: usize) -> Vec<usize> {
         touching
             .iter()
             .copied()
-            .max_by(|&a, &b| key(&curve.points[a]).total_cmp(&key(&curve.points[b])))
+            .max_by(|&a, &b| key(points[a]).total_cmp(&key(points[b])))
     };
     let peak = largest(&|p| p.first_harmonic(master));
     let force = largest(&|p| p.contact_force.iter().fold(0.0_f64, |m, f| m.max(f.abs())));
     let mut out: Vec<usize> = peak.into_iter().chain(force).collect();
-    out.extend(curve.folds.iter().map(|f| f.point));
+    out.extend(folds.iter().copied());
     let n = touching.len();
     out.extend((0..SPREAD).map(|k| touching[(2 * k + 1) * n / (2 * SPREAD)]));
     out.sort_unstable();

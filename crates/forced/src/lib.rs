@@ -18,6 +18,7 @@
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod boundary;
+mod casing_sweep;
 mod corner;
 mod curve;
 mod curve_harmonics;
@@ -38,6 +39,7 @@ mod point_stability;
 mod solver;
 mod speed_curve;
 mod speed_grazing;
+mod speed_harmonics;
 mod speed_step;
 mod speed_sweep;
 mod synthesis;
@@ -46,6 +48,9 @@ mod trace;
 pub use boundary::boundary_curve;
 pub use boundary::{
     boundary_monodromy, BoundaryInputs, BoundaryMonodromy, BOUNDARY_CUTOFF, BOUNDARY_SHIFT_LIMIT,
+};
+pub use casing_sweep::{
+    casing_sweep, largest_force, CasingPoint, CasingSweep, CasingSweepSettings,
 };
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
@@ -63,9 +68,10 @@ pub use nlmodes_boundary::{BoundaryCurve, BoundaryCurvePoint};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
 pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
-pub use speed_curve::{LobedCasing, SpeedPoint, SpeedSweepSettings};
+pub use speed_curve::{LobedCasing, SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
+pub use speed_harmonics::speed_sweep;
 pub use speed_step::{SpeedFamily, SpeedProblem};
-pub use speed_sweep::{speed_sweep, SpeedFold, SpeedSweep};
+pub use speed_sweep::{SpeedFold, SpeedSweep};
 pub use synthesis::{
     check_orbits, nonlinear_damping_ratio, synthesize, synthesized_peak, FreeOrbit,
     SynthesizedPoint,

@@ -35,6 +35,20 @@ fn gcd(a: usize, b: usize) -> usize {
     }
 }
 
+/// How a speed sweep converges its number of harmonics N (DESIGN §10.10; the frequency sweep's
+/// `HarmonicPolicy::Retrace` and `Check`, §10.8).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpeedHarmonics {
+    /// The sweep at the solver's N, unchecked.
+    Fixed,
+    /// The sweep at the solver's N; its peak, folds, deepest contact and a few points spread
+    /// over its contact are solved again at 2N and flagged (`speed_harmonics`).
+    Check,
+    /// As `Check`, and while a checked point moves by more than the tolerance (and 4N is within
+    /// `max_harmonics`) the whole sweep is traced again at 2N: every point shares one N.
+    Retrace,
+}
+
 /// Settings of one speed sweep.
 #[derive(Clone, Debug)]
 pub struct SpeedSweepSettings {
@@ -72,6 +86,13 @@ pub struct SpeedSweepSettings {
     /// on the default blade, where the mismatch wanders between 1e-6 and 1e-5 rad/s at 802
     /// rad/s as the frozen speed moves by 1e-9; the point is then solved at W = e Omega).
     pub speed_tolerance: f64,
+    /// How N is converged (default `SpeedHarmonics::Fixed`).
+    pub harmonic_policy: SpeedHarmonics,
+    /// The largest N a retrace may reach (0, default: four times the solver's N).
+    pub max_harmonics: usize,
+    /// A checked point's N is enough when doubling it moves the master's first harmonic and
+    /// the speed by at most this (relative; default 1e-3, as `FrfSettings::harmonic_tolerance`).
+    pub harmonic_tolerance: f64,
 }
 
 impl SpeedSweepSettings {
@@ -99,6 +120,19 @@ impl SpeedSweepSettings {
             stability_margin: 1e-3,
             period_tolerance: 1e-3,
             speed_tolerance: 1e-7,
+            harmonic_policy: SpeedHarmonics::Fixed,
+            max_harmonics: 0,
+            harmonic_tolerance: 1e-3,
+        }
+    }
+
+    /// The largest N of the sweep's retraces: `max_harmonics`, or four times the solver's N.
+    pub fn top_harmonics(&self) -> usize {
+        let base = self.solver.harmonics.harmonics;
+        if self.max_harmonics == 0 {
+            4 * base
+        } else {
+            self.max_harmonics.max(base)
         }
     }
 
@@ -166,6 +200,7 @@ impl SpeedSweepSettings {
             ("min_step", self.min_step),
             ("max_step", self.max_step),
             ("speed_tolerance", self.speed_tolerance),
+            ("harmonic_tolerance", self.harmonic_tolerance),
         ] {
             if !positive(v) {
                 return bad(name, v, "a finite value > 0");

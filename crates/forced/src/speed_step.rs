@@ -70,7 +70,7 @@ pub(crate) struct SpeedArc {
 
 impl SpeedArc {
     /// The row with W = e Omega as its parameter: W / (e Omega_ref) = Omega / Omega_ref.
-    fn row(&self, engine_order: f64) -> ArcRow {
+    pub(crate) fn row(&self, engine_order: f64) -> ArcRow {
         let l = self.y.len();
         ArcRow {
             parameter: Parameter::Frequency,
@@ -102,7 +102,7 @@ pub(crate) struct SpeedStepper<'a> {
 
 /// The problem of `family` at `speed` with its load on the orbit's fundamental k Omega (the
 /// family's load acts at harmonics of e Omega).
-fn problem_at(
+pub(crate) fn problem_at(
     family: &dyn SpeedFamily,
     settings: &SpeedSweepSettings,
     speed: f64,

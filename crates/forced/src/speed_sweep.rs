@@ -19,14 +19,15 @@
 //! extremum of the parabola in arc length through the three points around it. Under the
 //! penalty law a step that fails below [`GRAZING_STEP`] passes grazing by prescribed
 //! penetrations of the grazing row, and one that fails at the smallest step hops at a fixed
-//! speed (`speed_grazing`). N is fixed (the solver's): no ladder.
+//! speed (`speed_grazing`). Every point of a trace shares one N; `speed_harmonics` checks it at
+//! 2N and traces the sweep again at 2N where it has not converged (`SpeedHarmonics`).
 
-use crate::curve::{FoldKind, FrfTermination};
+use crate::curve::{CurveHarmonics, FoldKind, FrfTermination};
 use crate::error::ForcedError;
 use crate::point_stability::PointStability;
 
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
-use crate::speed_step::{assess, SpeedArc, SpeedFamily, SpeedStepper};
+use crate::speed_step::{SpeedArc, SpeedFamily, SpeedStepper};
 use crate::trace::{norm, phase, phase_row, wrap_angle};
 use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::ContactMethod;
@@ -78,6 +79,11 @@ pub struct SpeedSweep {
     pub hops: Vec<usize>,
     /// Why it stopped (`at`: the speed of the last point, rad/s).
     pub termination: FrfTermination,
+    /// N of every point (the last trace's).
+    pub harmonics: usize,
+    /// Every trace's N and what its check at 2N found, in order (`speed_harmonics`; empty
+    /// under `SpeedHarmonics::Fixed`): the last is this sweep's.
+    pub retraces: Vec<CurveHarmonics>,
 }
 
 impl SpeedSweep {
@@ -100,18 +106,29 @@ impl SpeedSweep {
     }
 }
 
-/// Traces the forced response of `family` at W = e Omega over the settings' speed range
-/// (module docs); `progress` sees every accepted point.
-pub fn speed_sweep(
+/// The sweep at the settings' N, without its stability.
+pub(crate) fn trace_sweep(
     family: &dyn SpeedFamily,
     settings: &SpeedSweepSettings,
-    mut progress: impl FnMut(&SpeedPoint),
+    progress: &mut impl FnMut(&SpeedPoint),
 ) -> Result<SpeedSweep, ForcedError> {
-    settings.validate()?;
-    let mut trace = SpeedTrace::begin(family, settings, &mut progress)?;
-    trace.run(&mut progress);
-    trace.classify_stability();
+    let mut trace = SpeedTrace::begin(family, settings, progress)?;
+    trace.run(progress);
     Ok(trace.sweep)
+}
+
+/// The changes of stability between consecutive determined points of `verdicts` (in the
+/// order of a sweep), each on the later point (`PointStability::classify`).
+pub(crate) fn classify_changes<'a>(verdicts: impl Iterator<Item = &'a mut PointStability>) {
+    let mut previous: Option<PointStability> = None;
+    for st in verdicts {
+        if let Some(prev) = &previous {
+            st.classify(prev);
+        }
+        if st.verdict != Verdict::Undetermined {
+            previous = Some(*st);
+        }
+    }
 }
 
 /// The continuation in progress.
@@ -149,6 +166,8 @@ impl<'a> SpeedTrace<'a> {
                 folds: Vec::new(),
                 hops: Vec::new(),
                 termination: FrfTermination::Complete,
+                harmonics: settings.solver.harmonics.harmonics,
+                retraces: Vec::new(),
             },
         })
     }
@@ -364,32 +383,6 @@ impl<'a> SpeedTrace<'a> {
                 FoldKind::TurnsForward
             },
         });
-    }
-
-    /// The Floquet stability of every point (when asked for; in parallel, each on the problem
-    /// at its own speed), then the changes of stability between consecutive determined points.
-    fn classify_stability(&mut self) {
-        use rayon::prelude::*;
-        if !self.settings().stability {
-            return;
-        }
-        let (family, settings) = (self.stepper.family, self.stepper.settings);
-        self.sweep
-            .points
-            .par_iter_mut()
-            .for_each(|p| p.stability = Some(assess(family, settings, p)));
-        let mut previous: Option<PointStability> = None;
-        for p in &mut self.sweep.points {
-            let Some(st) = p.stability.as_mut() else {
-                continue;
-            };
-            if let Some(prev) = &previous {
-                st.classify(prev);
-            }
-            if st.verdict != Verdict::Undetermined {
-                previous = Some(*st);
-            }
-        }
     }
 }
 

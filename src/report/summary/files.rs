@@ -201,5 +201,20 @@ pub(super) fn partial_results(r: &ReportInputs<'_>) -> Vec<String> {
             }
         }
     }
+    let casing = (case.speed_sweep.as_ref())
+        .is_some_and(|s| s.enabled && s.casing.as_ref().is_some_and(|c| c.enabled));
+    if casing {
+        let dir = shared.join("speed_sweep");
+        let read = crate::results::speed_sweep::read_casing::<
+            crate::forced_speed_casing::CasingSummary,
+        >(&dir);
+        match read {
+            Ok(Some(c)) if !c.complete => out.push(format!("the casing distortion: {}", c.end)),
+            Ok(Some(_)) => {}
+            _ => out.push(
+                "the casing distortion: not computed (`nlmodes run --only speed-sweep`)".into(),
+            ),
+        }
+    }
     out
 }
