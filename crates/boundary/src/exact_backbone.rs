@@ -31,9 +31,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::arc_length::{trace_curve, CurveEnd, CurveSettings};
 use crate::backbone_curve::{covered_ranges, BackboneEquations, BoundaryPiece, Judge};
-use crate::master_row::MasterRow;
 use crate::free_flow::BoundaryFlow;
 use crate::holes::{follow_holes, HoleFollow};
+use crate::master_row::MasterRow;
 use crate::model::{norm, BoundaryModel};
 use nlmodes_hb::HbError;
 

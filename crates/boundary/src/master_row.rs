@@ -162,7 +162,11 @@ mod tests {
         let eigenvalues: Vec<f64> = (0..n).map(|k| 3.7 * 2.3_f64.powi(k as i32)).collect();
         let omega: Vec<f64> = eigenvalues.iter().map(|l| l.sqrt()).collect();
         let squared: Vec<f64> = omega.iter().map(|w| w * w).collect();
-        let changed = eigenvalues.iter().zip(&squared).filter(|(a, b)| a != b).count();
+        let changed = eigenvalues
+            .iter()
+            .zip(&squared)
+            .filter(|(a, b)| a != b)
+            .count();
         let master: Vec<f64> = (0..n).map(|k| ((k + 1) as f64 * 0.7).sin()).collect();
         let b = Mat::from_fn(3, n, |j, k| ((j * n + k) as f64 * 0.37).cos());
         let driven = MasterRow::of_modes(&master, b.as_ref(), &eigenvalues, 3);
@@ -170,8 +174,13 @@ mod tests {
         let worst = (driven.contact.iter().zip(&free.contact))
             .map(|(a, b)| (a - b).abs() / a.abs())
             .fold(0.0, f64::max);
-        println!("{changed} of {n} w_k^2 change in the last bits; contact coefficients {worst:.1e}");
-        assert!(changed > 0, "the test must have eigenvalues whose square root squares back differently");
+        println!(
+            "{changed} of {n} w_k^2 change in the last bits; contact coefficients {worst:.1e}"
+        );
+        assert!(
+            changed > 0,
+            "the test must have eigenvalues whose square root squares back differently"
+        );
         assert!(worst < 1e-14, "{worst:e}");
         assert_eq!(driven.kept, free.kept);
     }

@@ -21,9 +21,9 @@ use faer::linalg::solvers::Solve;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::master_row::{MasterRow, MASTER_SAMPLES};
 use crate::free_flow::{BoundaryFlow, FlowState};
 use crate::free_shooting::OrbitGuess;
+use crate::master_row::{MasterRow, MASTER_SAMPLES};
 use crate::model::{norm, BoundaryModel, ModalData};
 use nlmodes_hb::HbError;
 

@@ -63,11 +63,7 @@ pub fn enrich_with_modes(
         .collect();
     let basis = as_matrix(basis.nrows(), &all);
     let mass = project_symmetric(m, basis.as_ref()).reduced;
-    Ok(EnrichedBasis {
-        basis,
-        mass,
-        added,
-    })
+    Ok(EnrichedBasis { basis, mass, added })
 }
 
 fn check_sizes(
@@ -83,10 +79,16 @@ fn check_sizes(
         found,
     };
     if basis.nrows() != d {
-        return Err(mismatch("rows of the basis against the order of M", basis.nrows()));
+        return Err(mismatch(
+            "rows of the basis against the order of M",
+            basis.nrows(),
+        ));
     }
     if let Some(block) = modes.iter().find(|b| b.nrows() != d) {
-        return Err(mismatch("rows of a block of modes against the order of M", block.nrows()));
+        return Err(mismatch(
+            "rows of a block of modes against the order of M",
+            block.nrows(),
+        ));
     }
     if boundary.len() > basis.ncols() {
         return Err(ModalError::InvalidArgument(format!(
@@ -128,13 +130,21 @@ mod tests {
         });
         let seed = RitzBasis::new(&[interior.as_ref()], &m).unwrap();
         let phi = seed.shapes(&seed.solve(&k, 2).unwrap(), 2);
-        let t = Mat::from_fn(n, 3, |i, j| if j == 0 { psi[(i, 0)] } else { phi[(i, j - 1)] });
+        let t = Mat::from_fn(
+            n,
+            3,
+            |i, j| if j == 0 { psi[(i, 0)] } else { phi[(i, j - 1)] },
+        );
         let modes = Mat::from_fn(n, 5, |i, j| s[(i, [0, 1, 2, 3, 0][j])]);
         let enriched = enrich_with_modes(t.as_ref(), &[4], &[modes.as_ref()], &m).unwrap();
         assert_eq!(enriched.basis.ncols(), 3 + enriched.added);
         assert_eq!(enriched.added, 4, "the repeated mode adds nothing");
         for j in 1..enriched.basis.ncols() {
-            assert_eq!(enriched.basis[(4, j)], 0.0, "column {j} on the boundary DOF");
+            assert_eq!(
+                enriched.basis[(4, j)],
+                0.0,
+                "column {j} on the boundary DOF"
+            );
         }
         let dense_m = crate::sparse_ops::csmat_to_dense(&m);
         let exact_mass = enriched.basis.transpose() * &dense_m * &enriched.basis;
@@ -150,7 +160,12 @@ mod tests {
             .expect("reduced eigenproblem");
         for j in 0..4 {
             let rel = (values[j] - lambda[j]).abs() / lambda[j];
-            assert!(rel < 1e-12, "mode {j}: {} vs {} ({rel:e})", values[j], lambda[j]);
+            assert!(
+                rel < 1e-12,
+                "mode {j}: {} vs {} ({rel:e})",
+                values[j],
+                lambda[j]
+            );
         }
     }
 

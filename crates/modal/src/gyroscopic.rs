@@ -64,7 +64,11 @@ fn check_gyroscopic_input(w2: &[f64], g: MatRef<'_, f64>) -> Result<(), ModalErr
             });
         }
     }
-    if let Some((k, v)) = w2.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v > 0.0)) {
+    if let Some((k, v)) = w2
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && **v > 0.0))
+    {
         return Err(ModalError::InvalidArgument(format!(
             "squared circular frequency {k} of the gyroscopic problem is {v:e} rad^2/s^2; \
              expected finite and > 0 (a mode at or past divergence has no oscillation)"
@@ -142,7 +146,10 @@ mod tests {
             let f = projected_gyroscopic_frequencies(&basis, &modes, &g.to_csc(), 2).unwrap();
             let exact = [(w0 - omega) / (2.0 * PI), (w0 + omega) / (2.0 * PI)];
             for (got, want) in f.iter().zip(exact) {
-                assert!((got - want).abs() < 1e-12 * w0, "Omega {omega}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-12 * w0,
+                    "Omega {omega}: {got} vs {want}"
+                );
             }
         }
     }

@@ -156,7 +156,11 @@ pub(crate) mod tests {
         assert_eq!(basis.dimension(), 3, "the repeated mode is dropped");
         let modes = basis.solve(&k, 5).unwrap();
         assert_eq!(modes.eigenvalues.len(), 3);
-        for (got, exact) in modes.eigenvalues.iter().zip([lambda[0], lambda[1], lambda[3]]) {
+        for (got, exact) in modes
+            .eigenvalues
+            .iter()
+            .zip([lambda[0], lambda[1], lambda[3]])
+        {
             assert!((got - exact).abs() < 1e-12 * exact, "{got} vs {exact}");
         }
         for r in &modes.residuals {
@@ -185,7 +189,11 @@ pub(crate) mod tests {
             .solve(&k, 4)
             .unwrap();
         for (j, got) in modes.eigenvalues.iter().enumerate() {
-            assert!(*got >= lambda[j] * (1.0 - 1e-14), "{j}: {got} < {}", lambda[j]);
+            assert!(
+                *got >= lambda[j] * (1.0 - 1e-14),
+                "{j}: {got} < {}",
+                lambda[j]
+            );
             assert!(modes.residuals[j] > 1e-6);
         }
     }

@@ -85,7 +85,13 @@ mod tests {
     fn the_linear_family_interpolates_in_omega_squared() {
         let matrix = |scale: f64| {
             let mut t = TriMat::new((3, 3));
-            for (i, j, v) in [(0, 0, 4.0), (1, 1, 5.0), (2, 2, 6.0), (0, 2, -1.0), (2, 0, -1.0)] {
+            for (i, j, v) in [
+                (0, 0, 4.0),
+                (1, 1, 5.0),
+                (2, 2, 6.0),
+                (0, 2, -1.0),
+                (2, 0, -1.0),
+            ] {
                 t.add_triplet(i, j, scale * v + if i == j { 1.0 } else { 0.0 });
             }
             t.to_csc()
@@ -107,12 +113,17 @@ mod tests {
     #[test]
     fn the_secant_start_is_exact_for_states_proportional_to_omega_squared() {
         let mesh = box_mesh([0.3, 0.05, 0.04], [2, 1, 1], TetKind::Tet4).expect("mesh");
-        let dofs = DofMap::new(mesh.n_nodes(), &fixed_dofs(&mesh, &["xmin"]).expect("fixed"))
-            .expect("dofs");
+        let dofs = DofMap::new(
+            mesh.n_nodes(),
+            &fixed_dofs(&mesh, &["xmin"]).expect("fixed"),
+        )
+        .expect("dofs");
         let material = Isotropic::new(200e9, 0.3, 7800.0).expect("material");
         let axis = RotorAxis::new([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]).expect("axis");
         let model = RotatingModel::new(&mesh, material, axis, dofs.clone()).expect("model");
-        let unit: Vec<f64> = (0..dofs.n_free()).map(|i| 1e-9 * (i as f64 + 1.0).sin()).collect();
+        let unit: Vec<f64> = (0..dofs.n_free())
+            .map(|i| 1e-9 * (i as f64 + 1.0).sin())
+            .collect();
         let state = |omega: f64| {
             let free: Vec<f64> = unit.iter().map(|u| omega * omega * u).collect();
             StaticSolution {
