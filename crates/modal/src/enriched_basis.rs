@@ -14,8 +14,8 @@
 use faer::{Mat, MatRef};
 use sprs::CsMat;
 
+use crate::error::ModalError;
 use crate::m_orthonormal::{as_matrix, project_symmetric, MOrthonormalBasis};
-use crate::ModalError;
 
 /// The enlarged basis.
 pub struct EnrichedBasis {
@@ -156,8 +156,9 @@ mod tests {
         let dense_k = crate::sparse_ops::csmat_to_dense(&k);
         let k_r = enriched.basis.transpose() * &dense_k * &enriched.basis;
         let k_r = (&k_r + k_r.transpose()) * faer::Scale(0.5);
-        let (values, _) = crate::dense_generalized_eigen(k_r.as_ref(), enriched.mass.as_ref())
-            .expect("reduced eigenproblem");
+        let (values, _) =
+            crate::modes::dense_generalized_eigen(k_r.as_ref(), enriched.mass.as_ref())
+                .expect("reduced eigenproblem");
         for j in 0..4 {
             let rel = (values[j] - lambda[j]).abs() / lambda[j];
             assert!(

@@ -16,8 +16,8 @@
 use faer::{Mat, MatRef};
 use sprs::CsMat;
 
+use crate::error::ModalError;
 use crate::ritz::{RitzBasis, RitzModes};
-use crate::ModalError;
 
 /// The frequencies (Hz, ascending) of (lambda^2 I + lambda g + diag(w2)) y = 0 (module docs)
 /// for squared circular frequencies `w2` (rad^2/s^2, each finite and > 0) and a gyroscopic

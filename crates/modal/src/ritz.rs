@@ -10,9 +10,9 @@
 use faer::{Mat, MatRef};
 use sprs::CsMat;
 
+use crate::error::ModalError;
 use crate::m_orthonormal::{project_symmetric, MOrthonormalBasis};
 use crate::sparse_ops::check_square;
-use crate::ModalError;
 
 /// The Ritz basis: Q (d x r), M-orthonormal, and M Q.
 pub struct RitzBasis {
@@ -83,7 +83,8 @@ impl RitzBasis {
         let (k_q, k_r) = (projection.times_basis, projection.reduced);
         let r = k_r.nrows();
         let identity = Mat::<f64>::identity(r, r);
-        let (values, vectors) = crate::dense_generalized_eigen(k_r.as_ref(), identity.as_ref())?;
+        let (values, vectors) =
+            crate::modes::dense_generalized_eigen(k_r.as_ref(), identity.as_ref())?;
         let n = n.min(r);
         let coordinates = vectors.subcols(0, n).to_owned();
         let residuals = (0..n)
