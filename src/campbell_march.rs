@@ -12,13 +12,16 @@
 //! not a low-order polynomial in Omega^2 (a quadratic through three speeds was 0.6 % off
 //! between them).
 //!
-//! The march hands each speed's K(Omega), with the sparse Cholesky that solved its Newton
-//! systems (ordering and symbolic analysis reusable), to a visitor: what needs K(Omega) at a
-//! speed (the eigen-solves of the Ritz basis, the reduction of the parametric model) is done
-//! there and then, without assembling K(Omega) again. [`SpeedFamily::at`] assembles it again
-//! for the passes after the march (bit for bit the same matrix).
+//! The rotating model's physics along the speeds (the linear family, the secant start) is
+//! `nlmodes_fem::rotation::speed_march`'s; this module marches and hands each speed's
+//! K(Omega), with the sparse Cholesky that solved its Newton systems (ordering and symbolic
+//! analysis reusable), to a visitor: what needs K(Omega) at a speed (the eigen-solves of the
+//! Ritz basis, the reduction of the parametric model) is done there and then, without
+//! assembling K(Omega) again. [`SpeedFamily::at`] assembles it again for the passes after the
+//! march (bit for bit the same matrix).
 
 use anyhow::{Context, Result};
+use nlmodes_fem::rotation::speed_march::LinearStiffnessFamily;
 use nlmodes_fem::rotation::{RotatingModel, RotorAxis, StaticSolution};
 use nlmodes_fem::Isotropic;
 use sprs::CsMat;
@@ -28,14 +31,9 @@ use crate::rotation_mpi::FullSolver;
 
 /// How the stiffness at speed is known.
 enum Stiffness {
-    /// Linear prestress: K(x) = K_e + (x / x_top) (K_top - K_e), x = Omega^2, exact (the
-    /// static state is Omega^2 times one state); through the highest speed, not 1 rad/s, where
-    /// K - K_e is 1e-6 of K and the extrapolation would lose its digits.
-    Linear {
-        k_e: CsMat<f64>,
-        k_top: CsMat<f64>,
-        x_top: f64,
-    },
+    /// Linear prestress: K(x) = K_e + (x / x_top) (K_top - K_e), x = Omega^2, exact, through
+    /// the highest speed.
+    Linear(LinearStiffnessFamily),
     /// Nonlinear prestress: the total-Lagrangian static states at the speeds of the family,
     /// K(Omega) = K_T(u0(Omega)) - Omega^2 M_spin assembled from them on demand.
     Nonlinear(Vec<StaticSolution>),
@@ -152,11 +150,11 @@ impl<'m> SpeedFamily<'m> {
             let state = model
                 .solve_linearized(top, false, &mut solver)
                 .context("the linear centrifugal static solve")?;
-            let stiffness = Stiffness::Linear {
-                k_e: model.linear_operator(0.0)?,
-                k_top: model.stiffness_at_speed(&state)?,
-                x_top: top * top,
-            };
+            let stiffness = Stiffness::Linear(LinearStiffnessFamily::new(
+                model.linear_operator(0.0)?,
+                model.stiffness_at_speed(&state)?,
+                top,
+            ));
             for &omega in &sorted {
                 let k = linear_at(&stiffness, omega).expect("a linear family");
                 let scale = (omega / top).powi(2);
@@ -211,44 +209,10 @@ impl<'m> SpeedFamily<'m> {
 
 /// K(Omega) of a linear family, `None` for a nonlinear one.
 fn linear_at(stiffness: &Stiffness, omega: f64) -> Option<CsMat<f64>> {
-    let Stiffness::Linear { k_e, k_top, x_top } = stiffness else {
+    let Stiffness::Linear(family) = stiffness else {
         return None;
     };
-    let t = omega * omega / x_top;
-    Some(&k_e.map(|v| (1.0 - t) * v) + &k_top.map(|v| t * v))
-}
-
-/// The first Newton iterate at `omega` from the last two states: the secant extrapolation in
-/// Omega^2 of their displacements, as a start state at the last state's speed (the Newton
-/// iterations of `solve_nonlinear_from` begin at a start's displacement). On the default blade
-/// the plain previous state overshoots (residual 0.2 -> 1.4 of the load after the first
-/// iteration: the lateral bending is stiffened by the very stress the step adds); from the
-/// secant the march saves about one iteration per speed. `None` with fewer than two states.
-fn predictor(
-    states: &[StaticSolution],
-    omega: f64,
-    model: &RotatingModel<'_>,
-) -> Result<Option<StaticSolution>> {
-    let [.., a, b] = states else {
-        return Ok(None);
-    };
-    let (xa, xb, x) = (a.omega * a.omega, b.omega * b.omega, omega * omega);
-    if xb <= xa {
-        return Ok(None);
-    }
-    let t = (x - xb) / (xb - xa);
-    let free: Vec<f64> = b
-        .displacement_free
-        .iter()
-        .zip(&a.displacement_free)
-        .map(|(ub, ua)| ub + t * (ub - ua))
-        .collect();
-    Ok(Some(StaticSolution {
-        displacement: model.dofs().try_expand(&free)?,
-        displacement_free: free,
-        steps: Vec::new(),
-        ..b.clone()
-    }))
+    Some(family.at(omega))
 }
 
 /// The nonlinear static states at `marched` (rad/s, ascending, distinct), each from the
@@ -296,7 +260,9 @@ fn solve_at(
         load_steps: 1,
         ..Default::default()
     };
-    let start = predictor(states, omega, model)?;
+    // The secant extrapolation in Omega^2 of the last two states (about one Newton iteration
+    // saved per speed on the default blade).
+    let start = model.secant_start(states, omega)?;
     let (state, stiffness) = model
         .solve_nonlinear_with_stiffness(start.as_ref().or(states.last()), omega, &options, solver)
         .map_err(|e| crate::prestress::not_converged("rotation.campbell_range", omega, e))?;

@@ -198,9 +198,8 @@ impl<'a> ParametricBuilder<'a> {
     /// basis speeds): with the nonlinear prestress a Craig-Bampton basis of one speed misses
     /// the modes of the others (docs/ROTATION.md: 19 % on the third frequency of the coarse
     /// blade at rest from a 5000 rpm basis), and with them it holds every mode of the Ritz
-    /// model of the Campbell diagram. Each mode's part beyond the constraint modes (zero on the
-    /// contact DOFs, which stay physical coordinates) is M-orthogonalized twice against the
-    /// interior columns, normalized, and dropped when less than 1e-8 of its M-norm is left.
+    /// model of the Campbell diagram ([`nlmodes_modal::enrich_with_modes`]: each mode's part
+    /// beyond the constraint modes, M-orthogonalized twice against the interior columns).
     /// M_r = T^T M T of the enlarged basis replaces the reference model's.
     pub fn enrich(&mut self, modes: &[&Mat<f64>], m: &CsMat<f64>) -> Result<()> {
         let boundary: Vec<usize> = self
@@ -211,58 +210,20 @@ impl<'a> ParametricBuilder<'a> {
             .collect::<Result<_>>()?;
         let reference = self.reference.as_mut().context("no reference model")?;
         let t = reference.recovery.as_ref().context("no basis")?;
-        let (d, n_b) = (t.nrows(), boundary.len());
-        let mut columns: Vec<Vec<f64>> = (0..t.ncols())
-            .map(|j| t.col(j).iter().copied().collect())
-            .collect();
-        let m_times = |x: &[f64]| {
-            let mut y = Mat::<f64>::zeros(d, 1);
-            let x = Mat::from_fn(d, 1, |i, _| x[i]);
-            nlmodes_modal::sparse_ops::spmm_symmetric(m, x.as_ref(), y.as_mut());
-            (0..d).map(|i| y[(i, 0)]).collect::<Vec<f64>>()
-        };
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        let mut m_columns: Vec<Vec<f64>> = columns[n_b..].iter().map(|c| m_times(c)).collect();
-        let added_before = columns.len();
-        for v in modes
-            .iter()
-            .flat_map(|v| (0..v.ncols()).map(move |j| v.col(j)))
-        {
-            let mut w: Vec<f64> = v.iter().copied().collect();
-            for (j, &b) in boundary.iter().enumerate() {
-                let vb = v[b];
-                w.iter_mut()
-                    .zip(&columns[j])
-                    .for_each(|(x, c)| *x -= vb * c);
-            }
-            let original = dot(&w, &m_times(&w)).sqrt();
-            for _pass in 0..2 {
-                for (c, mc) in columns[n_b..].iter().zip(&m_columns) {
-                    let a = dot(mc, &w);
-                    w.iter_mut().zip(c).for_each(|(x, y)| *x -= a * y);
-                }
-            }
-            let mw = m_times(&w);
-            let norm = dot(&w, &mw).sqrt();
-            if original > 0.0 && norm > 1e-8 * original {
-                columns.push(w.iter().map(|x| x / norm).collect());
-                m_columns.push(mw.iter().map(|x| x / norm).collect());
-            }
-        }
+        let modes: Vec<_> = modes.iter().map(|&v| v.as_ref()).collect();
+        let enriched = nlmodes_modal::enrich_with_modes(t.as_ref(), &boundary, &modes, m)
+            .context("the enriched basis of the parametric model")?;
+        let n_b = boundary.len();
         tracing::info!(
             "parametric model: basis of {} vectors ({} constraint modes, {} fixed-interface \
              modes at the reference speed, {} modes of the other speeds)",
-            columns.len(),
+            enriched.basis.ncols(),
             n_b,
-            added_before - n_b,
-            columns.len() - added_before
+            t.ncols() - n_b,
+            enriched.added
         );
-        let t = Mat::from_fn(d, columns.len(), |i, j| columns[j][i]);
-        let mut mt = Mat::<f64>::zeros(d, t.ncols());
-        nlmodes_modal::sparse_ops::spmm_symmetric(m, t.as_ref(), mt.as_mut());
-        let m_r = t.transpose() * &mt;
-        reference.m = (&m_r + m_r.transpose()) * faer::Scale(0.5);
-        reference.recovery = Some(t);
+        reference.m = enriched.mass;
+        reference.recovery = Some(enriched.basis);
         Ok(())
     }
 
@@ -273,10 +234,7 @@ impl<'a> ParametricBuilder<'a> {
             .as_ref()
             .and_then(|r| r.recovery.as_ref())
             .context("the parametric model's basis (the reference speed was not visited)")?;
-        let mut kt = Mat::<f64>::zeros(t.nrows(), t.ncols());
-        nlmodes_modal::sparse_ops::spmm_symmetric(k, t.as_ref(), kt.as_mut());
-        let k_r = t.transpose() * &kt;
-        Ok((&k_r + k_r.transpose()) * faer::Scale(0.5))
+        Ok(nlmodes_modal::project_symmetric(k, t.as_ref()).reduced)
     }
 
     /// A sample speed's K(Omega) (N/m), with the full model's frequencies there (Hz,

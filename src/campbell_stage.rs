@@ -14,7 +14,7 @@ use faer::Mat;
 use nlmodes_fem::Isotropic;
 use serde::{Deserialize, Serialize};
 
-use crate::campbell::{BasisModes, RitzCampbell, SpeedModes};
+use crate::campbell::BasisModes;
 use crate::campbell_march::SpeedFamily;
 use crate::campbell_parametric::{check_speeds, ParametricBuilder, ParametricSummary};
 use crate::case::Case;
@@ -23,7 +23,7 @@ use crate::layout::Layout;
 use crate::rotation_settings::{RotationSection, RPM_TO_RAD_S};
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
-use nlmodes_modal::ParametricModel;
+use nlmodes_modal::{ParametricModel, RitzBasis, RitzModes};
 
 /// Tracked modes below this MAC with their predecessor are flagged (veering or a mode
 /// entering from above: the curve's identity is uncertain there).
@@ -194,7 +194,7 @@ impl<'a> CampbellStage<'a> {
                 builder.visit(&p)
             },
         )?;
-        let ritz = RitzCampbell::new(&basis_modes, &family.m)?;
+        let ritz = basis_modes.ritz_basis(&family.m)?;
         builder.enrich(&basis_modes.modes().collect::<Vec<_>>(), &family.m)?;
         let bar = crate::ui::bar((marched.len() + side.len()) as u64, "campbell");
         let mut modes = Vec::with_capacity(speeds.len());
@@ -266,9 +266,9 @@ impl Stage for CampbellStage<'_> {
 /// The Coriolis shift at the last (highest) speed.
 fn coriolis_shift(
     family: &SpeedFamily<'_>,
-    ritz: &RitzCampbell,
+    ritz: &RitzBasis,
     speeds: &[f64],
-    modes: &[SpeedModes],
+    modes: &[RitzModes],
     n: usize,
 ) -> Result<Option<CoriolisShift>> {
     let (Some(&rpm), Some(m)) = (speeds.last(), modes.last()) else {
@@ -298,10 +298,10 @@ fn direct_check(
     family: &mut SpeedFamily<'_>,
     speeds: &[f64],
     basis: &[f64],
-    modes: &[SpeedModes],
+    modes: &[RitzModes],
     n: usize,
 ) -> Result<Option<DirectCheck>> {
-    let worst = |m: &SpeedModes| m.residuals.iter().take(n).copied().fold(0.0, f64::max);
+    let worst = |m: &RitzModes| m.residuals.iter().take(n).copied().fold(0.0, f64::max);
     let Some(s) = (0..speeds.len())
         .filter(|&s| !basis.contains(&speeds[s]))
         .max_by(|&a, &b| worst(&modes[a]).total_cmp(&worst(&modes[b])))
@@ -346,7 +346,7 @@ fn mac(a: &Mat<f64>, i: usize, b: &Mat<f64>, j: usize) -> f64 {
 
 /// Follows the `n` lowest modes of the first speed across the speeds: at each speed, curve k
 /// takes the unused mode of largest MAC with its mode at the previous speed.
-fn track(speeds: &[f64], modes: &[SpeedModes], n: usize) -> Vec<Curve> {
+fn track(speeds: &[f64], modes: &[RitzModes], n: usize) -> Vec<Curve> {
     let mut at: Vec<usize> = (0..n).collect();
     let mut curves: Vec<Curve> = (0..n)
         .map(|k| Curve {

@@ -10,7 +10,7 @@
 //!
 //! The master's displacement is u_m(t) = sum_{k < r} phi_mk q_k(t) - sum_j c_j lambda_j(t),
 //! c_j = sum_{k >= r} phi_mk b_jk / w_k^2: the kept modes and the discarded modes' static
-//! response to the contact forces. Its first harmonic (the backbone's amplitude q, as the
+//! response to the contact forces (`master_row`). Its first harmonic (the backbone's amplitude q, as the
 //! harmonic balance's e_master . u_1) and its largest value come from `MASTER_SAMPLES` instants.
 
 use std::cell::{Cell, RefCell};
@@ -21,13 +21,9 @@ use serde::{Deserialize, Serialize};
 use crate::arc_length::{CurveEnd, CurveEquations};
 use crate::free_flow::{BoundaryFlow, FlowState};
 use crate::free_shooting::{exponents_of, half_period, ShotOrbit};
-use crate::model::{BoundaryModel, ModalData};
+use crate::master_row::{MasterRow, MASTER_SAMPLES};
+use crate::model::BoundaryModel;
 use nlmodes_hb::HbError;
-
-/// Instants per period at which the master's displacement is sampled (its first harmonic by
-/// the trapezoid rule, exact for a smooth periodic function up to aliasing from harmonics 127
-/// and 129).
-pub(crate) const MASTER_SAMPLES: usize = 128;
 
 /// One exact orbit of the boundary's backbone.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -111,38 +107,6 @@ pub fn covered_ranges(pieces: &[BoundaryPiece]) -> Vec<(f64, f64)> {
 /// (s), its largest non-trivial multiplier modulus and its verdict (`stable`, `unstable` or
 /// `undetermined`). The caller's rule: the stability analysis's for the shooting method.
 pub type Judge<'a> = dyn Fn(&[c64], f64) -> (f64, &'static str) + Sync + 'a;
-
-/// The master's displacement on the boundary from q and lambda (module docs).
-#[derive(Clone)]
-pub struct MasterRow {
-    pub(crate) kept: Vec<f64>,
-    pub(crate) contact: Vec<f64>,
-}
-
-impl MasterRow {
-    /// The master's row of the model keeping the first `r` modes of `modal`.
-    pub fn new(modal: &ModalData<'_>, r: usize) -> Self {
-        let phi_m = modal.master;
-        let b = modal.contact_modal;
-        let contact = (0..b.nrows())
-            .map(|j| {
-                (r..modal.omega.len())
-                    .map(|k| phi_m[k] * b[(j, k)] / (modal.omega[k] * modal.omega[k]))
-                    .sum()
-            })
-            .collect();
-        Self {
-            kept: phi_m[..r].to_vec(),
-            contact,
-        }
-    }
-
-    /// u_m (m) at kept coordinates q and contact forces lambda (N).
-    pub fn at(&self, q: &[f64], lambda: &[f64]) -> f64 {
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        dot(&self.kept, q) - dot(&self.contact, lambda)
-    }
-}
 
 /// The backbone's shooting equations (module docs) and what each accepted point records.
 pub(crate) struct BackboneEquations<'m> {

@@ -30,9 +30,10 @@ use std::cell::{Cell, RefCell};
 use serde::{Deserialize, Serialize};
 
 use crate::arc_length::{trace_curve, CurveEnd, CurveSettings};
-use crate::backbone_curve::{covered_ranges, BackboneEquations, BoundaryPiece, Judge, MasterRow};
+use crate::backbone_curve::{covered_ranges, BackboneEquations, BoundaryPiece, Judge};
 use crate::free_flow::BoundaryFlow;
 use crate::holes::{follow_holes, HoleFollow};
+use crate::master_row::MasterRow;
 use crate::model::{norm, BoundaryModel};
 use nlmodes_hb::HbError;
 
@@ -336,10 +337,7 @@ mod tests {
     fn the_bilinear_backbone_has_the_exact_period_from_the_linear_mode_through_contact() {
         for flex in [0.1, 1.0, 10.0] {
             let model = bilinear(flex);
-            let master = MasterRow {
-                kept: vec![1.0],
-                contact: vec![0.0],
-            };
+            let master = MasterRow::from_coefficients(vec![1.0], vec![0.0]);
             let z0 = vec![0.5 / 3.0, 1.0];
             let curve = trace_curve(
                 &equations(&model, master, 3.0),
@@ -384,10 +382,7 @@ mod tests {
     #[test]
     fn a_three_mode_backbone_returns_to_its_start_under_rk4_and_ends_at_its_4_to_1_tongue() {
         let model = three_modes();
-        let master = MasterRow {
-            kept: vec![1.0, 0.5, 0.2],
-            contact: vec![0.1, 0.0, 0.05],
-        };
+        let master = MasterRow::from_coefficients(vec![1.0, 0.5, 0.2], vec![0.1, 0.0, 0.05]);
         let curve = trace_curve(
             &equations(&model, master, 4.0),
             vec![0.1, 0.0, 0.0, 1.0],

@@ -75,61 +75,125 @@ pub fn shoot(
     q0: Vec<f64>,
     period: f64,
 ) -> Result<Option<ShotOrbit>, HbError> {
-    let r = q0.len();
     let mut flow = BoundaryFlow::new(model);
-    let (q_scale, t_scale) = (norm(&q0), period);
+    let q_scale = norm(&q0);
     if q_scale.is_nan() || q_scale <= 0.0 || period.is_nan() || period <= 0.0 {
         return Ok(None);
     }
-    let v_scale = q_scale * 2.0 * std::f64::consts::PI / period;
-    let (mut q, mut t) = (q0, period);
-    let mut hp = half_period(&mut flow, &q, t)?;
-    let mut res = norm(&hp.velocity) / v_scale;
-    let mut converged = res < NEWTON_TOLERANCE;
-    for _ in 0..NEWTON_ITERATIONS {
-        if converged {
-            break;
-        }
-        // Scaled Jacobian J = [d_q0 q_scale, d_period t_scale] / v_scale (r x (r + 1)).
+    let scales = Scales {
+        q: q_scale,
+        t: period,
+        v: q_scale * 2.0 * std::f64::consts::PI / period,
+    };
+    let Some((q, t)) = newton(&mut flow, &scales, q0, period)? else {
+        return Ok(None);
+    };
+    one_period(&mut flow, q, t).map(Some)
+}
+
+/// The scales of the shooting problem: of q0 (the start's norm), of T (the start's period) and
+/// of the residual q'(T/2) (q_scale 2 pi / T).
+struct Scales {
+    q: f64,
+    t: f64,
+    v: f64,
+}
+
+impl Scales {
+    /// The minimum-norm Newton step of the scaled system J dz = -q'(T/2) / v_scale, J = [d_q0
+    /// q_scale, d_period t_scale] / v_scale (r x (r + 1)): dz = J^T (J J^T)^-1 rhs ((r + 1) x
+    /// 1, in q0 / q_scale and T / t_scale); `None` when J J^T is not positive definite.
+    fn newton_step(&self, hp: &HalfPeriod) -> Option<Mat<f64>> {
+        let r = hp.velocity.len();
         let jac = Mat::from_fn(r, r + 1, |i, k| {
             if k < r {
-                hp.d_q0[(i, k)] * q_scale / v_scale
+                hp.d_q0[(i, k)] * self.q / self.v
             } else {
-                hp.d_period[i] * t_scale / v_scale
+                hp.d_period[i] * self.t / self.v
             }
         });
-        let rhs = Mat::from_fn(r, 1, |i, _| -hp.velocity[i] / v_scale);
+        let rhs = Mat::from_fn(r, 1, |i, _| -hp.velocity[i] / self.v);
         let jjt = &jac * jac.transpose();
-        let Ok(llt) = jjt.llt(Side::Lower) else {
+        let llt = jjt.llt(Side::Lower).ok()?;
+        Some(jac.transpose() * llt.solve(&rhs))
+    }
+}
+
+/// One Newton iterate: (q0, T), its half-period residual and the residual's scaled norm.
+struct Iterate {
+    q: Vec<f64>,
+    t: f64,
+    hp: HalfPeriod,
+    res: f64,
+}
+
+impl Iterate {
+    fn at(
+        flow: &mut BoundaryFlow<'_>,
+        scales: &Scales,
+        q: Vec<f64>,
+        t: f64,
+    ) -> Result<Self, HbError> {
+        let hp = half_period(flow, &q, t)?;
+        let res = norm(&hp.velocity) / scales.v;
+        Ok(Self { q, t, hp, res })
+    }
+}
+
+/// Gauss-Newton on q'(T/2) = 0 from (q0, T) (module docs), at most `NEWTON_ITERATIONS` steps,
+/// each with its line search: the converged (q0, T), or `None`.
+fn newton(
+    flow: &mut BoundaryFlow<'_>,
+    scales: &Scales,
+    q0: Vec<f64>,
+    period: f64,
+) -> Result<Option<(Vec<f64>, f64)>, HbError> {
+    let mut current = Iterate::at(flow, scales, q0, period)?;
+    for _ in 0..NEWTON_ITERATIONS {
+        if current.res < NEWTON_TOLERANCE {
+            break;
+        }
+        let Some(step) = scales.newton_step(&current.hp) else {
             return Ok(None);
         };
-        let step = jac.transpose() * llt.solve(&rhs);
-        let mut accepted = false;
-        let mut factor = 1.0;
-        for _ in 0..=LINE_SEARCH_HALVINGS {
-            let q_try: Vec<f64> = (0..r)
-                .map(|i| q[i] + factor * step[(i, 0)] * q_scale)
-                .collect();
-            let t_try = t + factor * step[(r, 0)] * t_scale;
-            if t_try > 0.0 {
-                let trial = half_period(&mut flow, &q_try, t_try)?;
-                let res_try = norm(&trial.velocity) / v_scale;
-                if res_try < res {
-                    (q, t, hp, res) = (q_try, t_try, trial, res_try);
-                    accepted = true;
-                    break;
-                }
-            }
-            factor *= 0.5;
-        }
-        if !accepted {
+        let Some(next) = line_search(flow, scales, &current, &step)? else {
             return Ok(None);
+        };
+        current = next;
+    }
+    Ok((current.res < NEWTON_TOLERANCE).then_some((current.q, current.t)))
+}
+
+/// The first of the steps `step`, `step` / 2, ... (at most `LINE_SEARCH_HALVINGS` halvings)
+/// from `current` to a positive period and a smaller residual, or `None`.
+fn line_search(
+    flow: &mut BoundaryFlow<'_>,
+    scales: &Scales,
+    current: &Iterate,
+    step: &Mat<f64>,
+) -> Result<Option<Iterate>, HbError> {
+    let r = current.q.len();
+    let mut factor = 1.0;
+    for _ in 0..=LINE_SEARCH_HALVINGS {
+        let q_try: Vec<f64> = (0..r)
+            .map(|i| current.q[i] + factor * step[(i, 0)] * scales.q)
+            .collect();
+        let t_try = current.t + factor * step[(r, 0)] * scales.t;
+        if t_try > 0.0 {
+            let trial = Iterate::at(flow, scales, q_try, t_try)?;
+            if trial.res < current.res {
+                return Ok(Some(trial));
+            }
         }
-        converged = res < NEWTON_TOLERANCE;
+        factor *= 0.5;
     }
-    if !converged {
-        return Ok(None);
-    }
+    Ok(None)
+}
+
+/// The orbit released at rest from q over one period T: its monodromy, switches and contact
+/// shares.
+fn one_period(flow: &mut BoundaryFlow<'_>, q: Vec<f64>, t: f64) -> Result<ShotOrbit, HbError> {
+    let r = q.len();
     let mut active = flow.active_set_at(&q)?;
     let mut state = FlowState {
         q: q.clone(),
@@ -145,13 +209,13 @@ pub fn shoot(
         .zip(&closed_before)
         .map(|(after, before)| (after - before) / t)
         .collect();
-    Ok(Some(ShotOrbit {
+    Ok(ShotOrbit {
         q0: q,
         period: t,
         monodromy,
         switches: flow.switches - before,
         contact_shares,
-    }))
+    })
 }
 
 /// Largest relative distance |w_shot - w| / w between the harmonic-balance orbit and the shot

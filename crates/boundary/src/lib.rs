@@ -43,6 +43,7 @@ mod free_flow;
 mod free_shooting;
 mod history;
 mod holes;
+mod master_row;
 mod model;
 mod orbit_at_q;
 mod response_curve;
@@ -53,7 +54,7 @@ mod switch_scan;
 mod test_models;
 
 pub use arc_length::{CurveEnd, CurveSettings};
-pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece, Judge, MasterRow};
+pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece, Judge};
 pub use converged::{converged_orbit, ConvergedOrbit, ConvergenceSettings, ConvergenceStop};
 pub use driven_curve::driven_end_text;
 pub use driven_model::{
@@ -64,6 +65,7 @@ pub use exact_backbone::{exact_backbone, BoundaryBackbone, BranchStart};
 pub use free_shooting::{exponents_of, shot_orbit, OrbitGuess, ShotOrbit, SHOOTING_SHIFT_LIMIT};
 pub use history::{contact_history, BoundaryHistory};
 pub use holes::{HoleFollow, HoleFollowEnd};
+pub use master_row::MasterRow;
 pub use model::{residual_sum, BoundaryModel, ModalData};
 pub use orbit_at_q::ExactOrbitAtQ;
 pub use response_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};

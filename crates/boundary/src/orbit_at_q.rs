@@ -21,9 +21,9 @@ use faer::linalg::solvers::Solve;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::backbone_curve::{MasterRow, MASTER_SAMPLES};
 use crate::free_flow::{BoundaryFlow, FlowState};
 use crate::free_shooting::OrbitGuess;
+use crate::master_row::{MasterRow, MASTER_SAMPLES};
 use crate::model::{norm, BoundaryModel, ModalData};
 use nlmodes_hb::HbError;
 
@@ -362,10 +362,7 @@ mod tests {
         for flex in [0.1, 1.0, 10.0] {
             let model = bilinear(flex);
             for target in [1.2, 2.0, 5.0] {
-                let master = || MasterRow {
-                    kept: vec![1.0],
-                    contact: vec![0.0],
-                };
+                let master = || MasterRow::from_coefficients(vec![1.0], vec![0.0]);
                 // From 10 % off in amplitude and 5 % off in period.
                 let start = 1.1 * target;
                 let (q0, t) = solve(
@@ -400,10 +397,7 @@ mod tests {
     #[test]
     fn a_three_mode_orbit_at_q_is_periodic_and_has_that_amplitude() {
         let model = three_modes();
-        let master = || MasterRow {
-            kept: vec![1.0, 0.5, 0.2],
-            contact: vec![0.1, 0.0, 0.05],
-        };
+        let master = || MasterRow::from_coefficients(vec![1.0, 0.5, 0.2], vec![0.1, 0.0, 0.05]);
         let target = 1.5;
         let (q0, t) = solve(
             &model,

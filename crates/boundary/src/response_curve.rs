@@ -10,8 +10,8 @@
 //! The master's displacement on the boundary is u_m(t) = sum_{k < r} phi_mk q_k(t) +
 //! sum_{k >= r} phi_mk (p_k(t) - b_k . lambda(t)) / w_k^2 (p = Phi^T f, b_k the contact rows of
 //! mode k): the kept modes, and the discarded modes' static response to the load and the
-//! contact forces. Its first harmonic and its largest value come from `MASTER_SAMPLES` instants
-//! of the exact flow.
+//! contact forces (`master_row`). Its first harmonic and its largest value come from
+//! `MASTER_SAMPLES` instants of the exact flow.
 
 use faer::Mat;
 
@@ -19,13 +19,9 @@ use crate::arc_length::{CurveEnd, CurveSettings};
 use crate::driven_curve::trace_driven_curve;
 use crate::driven_flow::sample_orbit;
 use crate::driven_model::{driven_model, modal_start, DrivenBoundary, DrivenInputs};
+use crate::master_row::{MasterRow, MASTER_SAMPLES};
 use nlmodes_hb::floquet::{multipliers_of, Verdict};
 use nlmodes_hb::HbError;
-
-/// Instants per period at which the master's displacement is sampled (its first harmonic by
-/// the trapezoid rule, exact for a smooth periodic function up to aliasing from harmonics
-/// 127 and 129).
-const MASTER_SAMPLES: usize = 128;
 
 /// One exact orbit of the boundary's curve.
 #[derive(Clone, Debug)]
@@ -54,57 +50,6 @@ pub struct BoundaryCurve {
     pub modes: usize,
     /// Why it ended.
     pub end: CurveEnd,
-}
-
-/// The master's displacement on the boundary from q and lambda (module docs).
-struct MasterRow {
-    kept: Vec<f64>,
-    contact: Vec<f64>,
-    /// Per load harmonic: (h, cos part, sin part) of the discarded modes' static response.
-    drive: Vec<(usize, f64, f64)>,
-}
-
-impl MasterRow {
-    fn new(inputs: &DrivenInputs<'_>, r: usize) -> Self {
-        let system = inputs.system;
-        let (phi, lambda) = (system.modes(), system.eigenvalues());
-        let (n, m) = (lambda.len(), system.master());
-        let b = system.contact_rows() * phi;
-        let modal = |f: &[f64], k: usize| (0..n).map(|i| phi[(i, k)] * f[i]).sum::<f64>();
-        let discarded = |value: &dyn Fn(usize) -> f64| {
-            (r..n)
-                .map(|k| phi[(m, k)] * value(k) / lambda[k])
-                .sum::<f64>()
-        };
-        Self {
-            kept: (0..r).map(|k| phi[(m, k)]).collect(),
-            contact: (0..b.nrows()).map(|j| discarded(&|k| b[(j, k)])).collect(),
-            drive: inputs
-                .load
-                .iter()
-                .map(|h| {
-                    (
-                        h.harmonic,
-                        discarded(&|k| modal(h.cos, k)),
-                        discarded(&|k| modal(h.sin, k)),
-                    )
-                })
-                .collect(),
-        }
-    }
-
-    fn at(&self, q: &[f64], lambda: &[f64], omega: f64, t: f64) -> f64 {
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        let drive: f64 = self
-            .drive
-            .iter()
-            .map(|&(h, c, s)| {
-                let (sn, cs) = (h as f64 * omega * t).sin_cos();
-                c * cs + s * sn
-            })
-            .sum();
-        dot(&self.kept, q) + drive - dot(&self.contact, lambda)
-    }
 }
 
 /// The exact curve of the level of `inputs` from the first of the harmonic-balance orbits
@@ -140,7 +85,7 @@ pub fn boundary_curve(
     let Some(curve) = trace_driven_curve(&model, &start, q_scale, &settings)? else {
         return Ok(None);
     };
-    let row = MasterRow::new(inputs, r);
+    let row = MasterRow::driven(inputs, r);
     let trace: f64 = (0..r).map(|i| model.damping[(i, i)]).sum();
     let points = curve
         .points
@@ -180,7 +125,7 @@ fn master_measures(
     let samples = sample_orbit(model, start, MASTER_SAMPLES)?;
     let (mut a, mut b, mut largest, mut force) = (0.0, 0.0, 0.0_f64, 0.0_f64);
     for s in &samples {
-        let u = row.at(&s.q, &s.lambda, model.omega, s.time);
+        let u = row.at_time(&s.q, &s.lambda, model.omega, s.time);
         let (sn, cs) = (model.omega * s.time).sin_cos();
         a += u * cs;
         b += u * sn;

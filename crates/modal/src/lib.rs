@@ -1,6 +1,7 @@
 //! nlmodes-modal: sparse SPD factorization, the ARPACK shift-invert
-//! generalized eigensolver, Craig-Bampton reduction, the reduced-model files and the
-//! parametric reduced model in the rotation speed.
+//! generalized eigensolver, Craig-Bampton reduction, the reduced-model files, the
+//! parametric reduced model in the rotation speed, and the Campbell diagram's numerics:
+//! Rayleigh-Ritz on a multi-speed basis and the gyroscopic (Coriolis) correction.
 //!
 //! This crate knows nothing of meshes: it works on sparse symmetric matrices
 //! (`sprs::CsMat<f64>`, CSC with both triangles stored) and index lists.
@@ -16,7 +17,10 @@ pub mod craig_bampton;
 /// The dense linear algebra this crate uses: `nlmodes-dense` (its old module path).
 pub use nlmodes_dense as dense;
 pub mod eigen_options;
+pub mod enriched_basis;
 pub mod error;
+pub mod gyroscopic;
+pub mod m_orthonormal;
 pub mod matrix_market;
 pub mod matrix_market_general;
 mod matrix_market_io;
@@ -27,6 +31,7 @@ pub mod ordering;
 pub mod parametric;
 mod recovery_codec;
 pub mod reduced_model;
+pub mod ritz;
 pub mod sparse_ops;
 pub mod spline;
 mod tall;
@@ -39,12 +44,16 @@ pub use craig_bampton::{
     craig_bampton, craig_bampton_with_check, craig_bampton_with_loads, reduced_eigen, CraigBampton,
 };
 pub use eigen_options::{EigenMethod, EigenOptions};
+pub use enriched_basis::{enrich_with_modes, EnrichedBasis};
 pub use error::ModalError;
+pub use gyroscopic::{gyroscopic_frequencies, projected_gyroscopic_frequencies};
+pub use m_orthonormal::{project_symmetric, MOrthonormalBasis, Projection};
 pub use modes::{dense_generalized_eigen, Modes};
 pub use ordering::FillOrdering;
 pub use parametric::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel};
 pub use reduced_model::{
     ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
 };
+pub use ritz::{RitzBasis, RitzModes};
 pub use sparse_ops::csmat_to_dense;
 pub use tall::tall_gram;

@@ -21,6 +21,7 @@ pub mod linear_solver;
 pub mod model;
 pub mod points;
 pub mod prestress;
+pub mod speed_march;
 pub mod static_solve;
 pub mod stress_stiffness;
 pub mod total_lagrangian;
