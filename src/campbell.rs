@@ -240,7 +240,6 @@ fn m_orthonormal(v: &Mat<f64>, m: &CsMat<f64>) -> (Mat<f64>, Mat<f64>) {
 mod tests {
     use super::*;
     use crate::fe_model::FeModel;
-    use crate::prestress::MetisCholesky;
     use nlmodes_fem::rotation::{RotatingModel, RotorAxis};
     use nlmodes_fem::Isotropic;
 
@@ -257,9 +256,9 @@ mod tests {
                 load_steps: 1,
                 ..Default::default()
             };
-            model.solve_nonlinear(omega, &options, &mut MetisCholesky::default())
+            model.solve_nonlinear(omega, &options, &mut nlmodes_sparse::CholeskySolver::default())
         } else {
-            model.solve_linearized(omega, false, &mut MetisCholesky::default())
+            model.solve_linearized(omega, false, &mut nlmodes_sparse::CholeskySolver::default())
         };
         model.stiffness_at_speed(&state.unwrap()).unwrap()
     }

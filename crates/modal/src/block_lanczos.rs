@@ -40,7 +40,7 @@ use faer::prelude::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
-use crate::cholesky::FactoredSolve;
+use crate::factored::FactoredSolve;
 use crate::eigen_options::{BlockShape, EigenOptions};
 use crate::error::ModalError;
 use crate::sparse_ops::spmm_symmetric;
@@ -459,7 +459,7 @@ fn no_convergence(converged: usize, requested: usize, solves: usize, cap: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cholesky::SparseCholesky;
+    use nlmodes_sparse::SparseCholesky;
     use crate::modes::dense_generalized_eigen;
     use crate::modes::finalize_modes;
     use crate::sparse_ops::csmat_to_dense;

@@ -25,7 +25,7 @@ use sprs::CsMat;
 
 use crate::arpack::{check_pair, eigs_factored_deferred_k, eigs_factored_prechecked};
 use crate::bordered::BorderedSolve;
-use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
+use nlmodes_sparse::{CholeskyAnalysis, SparseCholesky};
 use crate::eigen_options::{eigensolver_bytes, EigenOptions};
 use crate::error::ModalError;
 use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
@@ -376,7 +376,7 @@ fn factor_interior(
         &estimate,
         available_bytes(),
     )?;
-    analysis.factorize(k_ii).map_err(|e| match e {
+    analysis.factorize(k_ii).map_err(|e| match ModalError::from(e) {
         ModalError::NotPositiveDefinite { what, index, .. } => ModalError::NotPositiveDefinite {
             what,
             index: interior[index],

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use nlmodes_dense::{SymmetryError, SYMMETRY_TOLERANCE};
+use nlmodes_sparse::SparseError;
 
 /// Errors returned by the factorizations, eigensolvers, reduction and file I/O
 /// of this crate.
@@ -269,6 +270,107 @@ impl ModalError {
                 a_ji,
                 tolerance: SYMMETRY_TOLERANCE,
             },
+        }
+    }
+}
+
+/// The sparse crate's errors as the variants of the same name and message (a factor that is not
+/// positive definite without a hint: the eigensolvers add theirs).
+impl From<SparseError> for ModalError {
+    fn from(e: SparseError) -> Self {
+        match e {
+            SparseError::NotSquare { what, nrows, ncols } => Self::NotSquare { what, nrows, ncols },
+            SparseError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => Self::DimensionMismatch {
+                what,
+                expected,
+                found,
+            },
+            SparseError::NotFinite {
+                what,
+                row,
+                col,
+                value,
+            } => Self::NotFinite {
+                what,
+                row,
+                col,
+                value,
+            },
+            SparseError::NotSymmetric {
+                what,
+                row,
+                col,
+                a_ij,
+                a_ji,
+                tolerance,
+            } => Self::NotSymmetric {
+                what,
+                row,
+                col,
+                a_ij,
+                a_ji,
+                tolerance,
+            },
+            SparseError::NotPositiveDefinite { what, index } => Self::NotPositiveDefinite {
+                what,
+                index,
+                hint: String::new(),
+            },
+            SparseError::Factorization { what, message } => Self::Factorization { what, message },
+            SparseError::InvalidArgument(message) => Self::InvalidArgument(message),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every error of the sparse crate reads the same once converted (the messages users saw
+    /// when the Cholesky lived here).
+    #[test]
+    fn sparse_errors_keep_their_messages() {
+        let what = || "K".to_string();
+        for e in [
+            SparseError::NotSquare {
+                what: what(),
+                nrows: 2,
+                ncols: 3,
+            },
+            SparseError::DimensionMismatch {
+                what: what(),
+                expected: 4,
+                found: 5,
+            },
+            SparseError::NotFinite {
+                what: what(),
+                row: 1,
+                col: 0,
+                value: f64::NAN,
+            },
+            SparseError::NotSymmetric {
+                what: what(),
+                row: 1,
+                col: 0,
+                a_ij: 1.0,
+                a_ji: 2.0,
+                tolerance: SYMMETRY_TOLERANCE,
+            },
+            SparseError::NotPositiveDefinite {
+                what: what(),
+                index: 7,
+            },
+            SparseError::Factorization {
+                what: what(),
+                message: "out of memory".to_string(),
+            },
+            SparseError::InvalidArgument("sigma".to_string()),
+        ] {
+            assert_eq!(ModalError::from(e.clone()).to_string(), e.to_string());
         }
     }
 }

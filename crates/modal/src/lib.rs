@@ -1,5 +1,5 @@
-//! nlmodes-modal: sparse SPD factorization, the ARPACK shift-invert
-//! generalized eigensolver, Craig-Bampton reduction, the reduced-model files and the
+//! nlmodes-modal: the ARPACK and block Lanczos shift-invert generalized eigensolvers on the
+//! sparse Cholesky of `nlmodes-sparse`, Craig-Bampton reduction, the reduced-model files and the
 //! parametric reduced model in the rotation speed.
 //!
 //! This crate knows nothing of meshes: it works on sparse symmetric matrices
@@ -10,30 +10,30 @@
 pub mod arpack;
 pub mod block_lanczos;
 pub mod bordered;
-pub mod cholesky;
 pub mod contact_geometry;
 pub mod craig_bampton;
 /// The dense linear algebra this crate uses: `nlmodes-dense` (its old module path).
 pub use nlmodes_dense as dense;
 pub mod eigen_options;
 pub mod error;
+pub mod factored;
 pub mod matrix_market;
 pub mod matrix_market_general;
 mod matrix_market_io;
 pub mod memory;
 pub mod model_checks;
 pub mod modes;
-pub mod ordering;
 pub mod parametric;
 mod recovery_codec;
 pub mod reduced_model;
-pub mod sparse_ops;
+/// The sparse matrix checks and products: `nlmodes_sparse::ops` (its old module path).
+pub use nlmodes_sparse::ops as sparse_ops;
 pub mod spline;
 mod tall;
 
 pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored};
 pub use bordered::BorderedSolve;
-pub use cholesky::{shifted, CholeskyAnalysis, CholeskyOptions, FactoredSolve, SparseCholesky};
+pub use factored::FactoredSolve;
 pub use contact_geometry::{radial_unit_vector, RotorAxis};
 pub use craig_bampton::{
     craig_bampton, craig_bampton_with_check, craig_bampton_with_loads, reduced_eigen, CraigBampton,
@@ -41,9 +41,11 @@ pub use craig_bampton::{
 pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
 pub use modes::{dense_generalized_eigen, Modes};
-pub use ordering::FillOrdering;
 pub use parametric::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel};
 pub use reduced_model::{
     ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
 };
-pub use sparse_ops::csmat_to_dense;
+/// The one sparse Cholesky (`nlmodes-sparse`), at the paths modal's users know.
+pub use nlmodes_sparse::{
+    csmat_to_dense, shifted, CholeskyAnalysis, CholeskyOptions, FillOrdering, SparseCholesky,
+};

@@ -12,7 +12,7 @@ use faer::{Mat, MatMut, MatRef};
 use rayon::prelude::*;
 use sprs::CsMat;
 
-use crate::error::ModalError;
+use crate::error::SparseError;
 
 /// Relative tolerance of the symmetry checks, |a_ij - a_ji| <= tol * max|a|: the one shared by
 /// modal and nnm (`nlmodes_dense`). Finite-element assembly produces matrices symmetric to a few
@@ -39,9 +39,9 @@ pub fn as_csc(a: &CsMat<f64>) -> Cow<'_, CsMat<f64>> {
 }
 
 /// Checks that `a` is square and returns its order.
-pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
+pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
     if a.rows() != a.cols() {
-        return Err(ModalError::NotSquare {
+        return Err(SparseError::NotSquare {
             what: what.to_string(),
             nrows: a.rows(),
             ncols: a.cols(),
@@ -51,10 +51,10 @@ pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
 }
 
 /// Checks that every stored entry of `a` is finite.
-pub fn check_finite(a: &CsMat<f64>, what: &str) -> Result<(), ModalError> {
+pub fn check_finite(a: &CsMat<f64>, what: &str) -> Result<(), SparseError> {
     for (&value, (row, col)) in a.iter() {
         if !value.is_finite() {
-            return Err(ModalError::NotFinite {
+            return Err(SparseError::NotFinite {
                 what: what.to_string(),
                 row,
                 col,
@@ -76,7 +76,7 @@ pub fn max_abs(a: &CsMat<f64>) -> f64 {
 /// with row j, read from the columns after j through one cursor per column that only moves
 /// forward (sprs keeps the indices of each column sorted), about a second for a million-DOF
 /// stiffness where a binary search per entry took 14 s of CPU.
-pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), ModalError> {
+pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), SparseError> {
     let n = check_square(a, what)?;
     let bound = rel_tol * max_abs(a);
     let (indptr, indices, data) = (a.proper_indptr(), a.indices(), a.data());
@@ -127,7 +127,7 @@ pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), M
             } else {
                 (outer, inner)
             };
-            Err(ModalError::NotSymmetric {
+            Err(SparseError::NotSymmetric {
                 what: what.to_string(),
                 row,
                 col,
@@ -141,7 +141,7 @@ pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), M
 }
 
 /// Square, finite and symmetric: the checks every solver entry point runs.
-pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
+pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
     let n = check_square(a, what)?;
     check_finite(a, what)?;
     check_symmetric(a, what, SYMMETRY_TOLERANCE)?;
@@ -149,13 +149,13 @@ pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, ModalE
 }
 
 /// y = A x (overwrites `y`). Errors when the lengths do not match the matrix.
-pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), ModalError> {
+pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), SparseError> {
     for (what, expected, found) in [
         ("length of x in y = A x", a.cols(), x.len()),
         ("length of y in y = A x", a.rows(), y.len()),
     ] {
         if expected != found {
-            return Err(ModalError::DimensionMismatch {
+            return Err(SparseError::DimensionMismatch {
                 what: what.to_string(),
                 expected,
                 found,
@@ -166,8 +166,9 @@ pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), ModalError> 
     Ok(())
 }
 
-/// y = A x for lengths already known to match (internal hot loops).
-pub(crate) fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
+/// y = A x for lengths already known to match (the eigensolvers' hot loops; lengths that do
+/// not match panic: [`spmv`] checks them).
+pub fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
     debug_assert_eq!(x.len(), a.cols());
     debug_assert_eq!(y.len(), a.rows());
     let indptr = a.proper_indptr();
@@ -197,18 +198,18 @@ pub(crate) fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
 /// K - sigma M on the union of the two sparsity patterns (CSC).
 ///
 /// Errors when the matrices are not square or differ in size.
-pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>, ModalError> {
+pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>, SparseError> {
     let n = check_square(k, "K")?;
     let n_m = check_square(m, "M")?;
     if n != n_m {
-        return Err(ModalError::DimensionMismatch {
+        return Err(SparseError::DimensionMismatch {
             what: "order of M compared with K".to_string(),
             expected: n,
             found: n_m,
         });
     }
     if !sigma.is_finite() {
-        return Err(ModalError::InvalidArgument(format!(
+        return Err(SparseError::InvalidArgument(format!(
             "the shift sigma must be finite, got {sigma}"
         )));
     }
@@ -249,11 +250,11 @@ pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>,
 /// The block A[rows, cols] as a CSC matrix (row and column order as given).
 ///
 /// Errors when an index is out of range or a row index is repeated.
-pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat<f64>, ModalError> {
+pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat<f64>, SparseError> {
     let mut seen = vec![false; a.rows()];
     for &r in rows {
         if r >= a.rows() || seen[r] {
-            return Err(ModalError::InvalidArgument(format!(
+            return Err(SparseError::InvalidArgument(format!(
                 "row index {r} of a submatrix is out of range (0..{}) or repeated",
                 a.rows()
             )));
@@ -261,7 +262,7 @@ pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat
         seen[r] = true;
     }
     if let Some(&c) = cols.iter().find(|&&c| c >= a.cols()) {
-        return Err(ModalError::InvalidArgument(format!(
+        return Err(SparseError::InvalidArgument(format!(
             "column index {c} of a submatrix is out of range (0..{})",
             a.cols()
         )));
@@ -269,8 +270,9 @@ pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat
     Ok(submatrix_unchecked(a, rows, cols))
 }
 
-/// [`submatrix`] for indices already validated (in range, rows distinct).
-pub(crate) fn submatrix_unchecked(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> CsMat<f64> {
+/// [`submatrix`] for indices already validated (in range, rows distinct; an index out of range
+/// panics).
+pub fn submatrix_unchecked(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> CsMat<f64> {
     let a = as_csc(a);
     let mut row_map = vec![usize::MAX; a.rows()];
     for (local, &global) in rows.iter().enumerate() {
@@ -463,7 +465,7 @@ mod tests {
             ] {
                 let a: CsMat<f64> = to_storage(&base(&extra));
                 let err = check_symmetric(&a, "A", SYMMETRY_TOLERANCE).unwrap_err();
-                let ModalError::NotSymmetric {
+                let SparseError::NotSymmetric {
                     row: r,
                     col: c,
                     a_ij: v,
