@@ -325,11 +325,13 @@ fn nonlinear_minus_linearized_matches_the_one_dimensional_nonlinear_bar() {
 /// linearized without spin softening, so that the growth is exactly proportional to Omega^2
 /// (the operator K_e does not depend on the speed, the load is Omega^2 times a fixed vector):
 /// the tip centre node's radial growth is the closed-form u(L) within the tolerance and its
-/// radial displacement to round-off (it moves along its radius: 1e-12 relative), its running
+/// radial displacement up to the second-order effect of its small lateral motion, its running
 /// gap is the cold gap minus it, the root stress is the largest von Mises over the clamp's
 /// group "xmin" (the roller root face). A cold gap of half the growth closes: the error names
 /// the tip node and the closure speed Omega sqrt(1/2), at which a second solve grows the tip by
-/// exactly the cold gap (1e-12 relative: the Omega^2 law, checked by the solver itself).
+/// the cold gap: exactly for the displacement (the Omega^2 law), up to the lateral motion's
+/// second-order share of the growth (v^2 / 2r at Omega, a quarter of it at the closure speed:
+/// bounded by v^2 / r).
 #[test]
 fn prestress_at_speed_gives_the_growth_the_running_gap_and_the_closure_speed() {
     let (hub, omega) = (0.5, 1500.0);
@@ -353,9 +355,15 @@ fn prestress_at_speed_gives_the_growth_the_running_gap_and_the_closure_speed() {
     let p = prestress_at_speed(&problem(2.0 * u_l), omega, &mut solver).expect("open");
     let growth = p.growth[0];
     let radial = tip_radial(&model, &p.solution);
-    println!("tip growth {growth:.9e}, radial displacement {radial:.9e}, closed form {u_l:.9e}");
+    // The growth |P(X + u)| - |P X| and the radial component of u differ by the lateral motion
+    // v (along y here) at second order, v^2 / (2 r): bounded by v^2 / r, plus round-off.
+    let (v, r) = (p.solution.displacement[3 * tip + 1], mesh.nodes[tip][0]);
+    println!(
+        "tip growth {growth:.9e}, radial displacement {radial:.9e} (lateral {v:.2e} m), \
+         closed form {u_l:.9e}"
+    );
     assert!((growth - u_l).abs() < TOLERANCE * u_l);
-    assert!((growth - radial).abs() < 1e-12 * growth);
+    assert!((growth - radial).abs() <= v * v / r + 1e-14 * growth);
     assert_eq!(p.running_gaps, vec![2.0 * u_l - growth]);
     let (node, vm) = p.root_stress.expect("root group");
     assert_eq!(
@@ -384,7 +392,11 @@ fn prestress_at_speed_gives_the_growth_the_running_gap_and_the_closure_speed() {
         Err(RotationError::ClearanceClosed { growth, .. }) => growth,
         Err(e) => panic!("unexpected {e}"),
     };
-    let rel = (growth_at_closure - 0.5 * growth).abs() / (0.5 * growth);
-    println!("growth at the closure speed {closure:.6} rad/s: {growth_at_closure:.9e} (rel {rel:.1e})");
-    assert!(rel < 1e-12);
+    let miss = (growth_at_closure - 0.5 * growth).abs();
+    println!(
+        "growth at the closure speed {closure:.6} rad/s: {growth_at_closure:.9e}, {miss:.1e} m \
+         from the cold gap (lateral bound {:.1e} m)",
+        v * v / r
+    );
+    assert!(miss <= v * v / r + 1e-14 * growth);
 }
