@@ -274,12 +274,13 @@ impl ModalError {
     }
 }
 
-/// The sparse crate's errors as the variants of the same name and message (a factor that is not
-/// positive definite without a hint: the eigensolvers add theirs).
+/// The sparse crate's errors as the variants of the same name and message (a refused matrix as
+/// the dense checks' errors, [`ModalError::symmetry`]; a factor that is not positive definite
+/// without a hint: the eigensolvers add theirs).
 impl From<SparseError> for ModalError {
     fn from(e: SparseError) -> Self {
         match e {
-            SparseError::NotSquare { what, nrows, ncols } => Self::NotSquare { what, nrows, ncols },
+            SparseError::Matrix { what, source } => Self::symmetry(&what)(source),
             SparseError::DimensionMismatch {
                 what,
                 expected,
@@ -288,32 +289,6 @@ impl From<SparseError> for ModalError {
                 what,
                 expected,
                 found,
-            },
-            SparseError::NotFinite {
-                what,
-                row,
-                col,
-                value,
-            } => Self::NotFinite {
-                what,
-                row,
-                col,
-                value,
-            },
-            SparseError::NotSymmetric {
-                what,
-                row,
-                col,
-                a_ij,
-                a_ji,
-                tolerance,
-            } => Self::NotSymmetric {
-                what,
-                row,
-                col,
-                a_ij,
-                a_ji,
-                tolerance,
             },
             SparseError::NotPositiveDefinite { what, index } => Self::NotPositiveDefinite {
                 what,
@@ -330,39 +305,73 @@ impl From<SparseError> for ModalError {
 mod tests {
     use super::*;
 
-    /// Every error of the sparse crate reads the same once converted (the messages users saw
-    /// when the Cholesky lived here).
+    /// Every error of the sparse crate reads, once converted, as modal's own errors read (the
+    /// messages users saw when the Cholesky lived here).
     #[test]
     fn sparse_errors_keep_their_messages() {
         let what = || "K".to_string();
+        let refused = |source| SparseError::Matrix {
+            what: what(),
+            source,
+        };
+        for (sparse, modal) in [
+            (
+                refused(SymmetryError::NotSquare { rows: 2, cols: 3 }),
+                ModalError::NotSquare {
+                    what: what(),
+                    nrows: 2,
+                    ncols: 3,
+                },
+            ),
+            (
+                refused(SymmetryError::NonFinite {
+                    row: 1,
+                    col: 0,
+                    value: f64::INFINITY,
+                }),
+                ModalError::NotFinite {
+                    what: what(),
+                    row: 1,
+                    col: 0,
+                    value: f64::INFINITY,
+                },
+            ),
+            (
+                refused(SymmetryError::NotSymmetric {
+                    row: 1,
+                    col: 0,
+                    a_ij: 1.0,
+                    a_ji: 2.0,
+                    scale: 2.0,
+                }),
+                ModalError::NotSymmetric {
+                    what: what(),
+                    row: 1,
+                    col: 0,
+                    a_ij: 1.0,
+                    a_ji: 2.0,
+                    tolerance: SYMMETRY_TOLERANCE,
+                },
+            ),
+            (
+                SparseError::NotPositiveDefinite {
+                    what: what(),
+                    index: 7,
+                },
+                ModalError::NotPositiveDefinite {
+                    what: what(),
+                    index: 7,
+                    hint: String::new(),
+                },
+            ),
+        ] {
+            assert_eq!(ModalError::from(sparse).to_string(), modal.to_string());
+        }
         for e in [
-            SparseError::NotSquare {
-                what: what(),
-                nrows: 2,
-                ncols: 3,
-            },
             SparseError::DimensionMismatch {
                 what: what(),
                 expected: 4,
                 found: 5,
-            },
-            SparseError::NotFinite {
-                what: what(),
-                row: 1,
-                col: 0,
-                value: f64::NAN,
-            },
-            SparseError::NotSymmetric {
-                what: what(),
-                row: 1,
-                col: 0,
-                a_ij: 1.0,
-                a_ji: 2.0,
-                tolerance: SYMMETRY_TOLERANCE,
-            },
-            SparseError::NotPositiveDefinite {
-                what: what(),
-                index: 7,
             },
             SparseError::Factorization {
                 what: what(),

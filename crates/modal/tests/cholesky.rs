@@ -6,6 +6,7 @@ mod common;
 use common::{laplacian_3d, mul, norm, Lcg};
 use faer::prelude::Solve;
 use faer::{Mat, Side};
+use nlmodes_sparse::error::SymmetryError;
 use nlmodes_sparse::{
     csmat_to_dense, shifted, CholeskyOptions, FillOrdering, SparseCholesky, SparseError,
 };
@@ -131,9 +132,8 @@ fn bad_inputs_are_rejected() {
     let rect: CsMat<f64> = t.to_csc();
     assert!(matches!(
         SparseCholesky::new(&rect),
-        Err(SparseError::NotSquare {
-            nrows: 2,
-            ncols: 3,
+        Err(SparseError::Matrix {
+            source: SymmetryError::NotSquare { rows: 2, cols: 3 },
             ..
         })
     ));
@@ -145,7 +145,10 @@ fn bad_inputs_are_rejected() {
     let asym: CsMat<f64> = t.to_csc();
     assert!(matches!(
         SparseCholesky::new(&asym),
-        Err(SparseError::NotSymmetric { row: 1, col: 0, .. })
+        Err(SparseError::Matrix {
+            source: SymmetryError::NotSymmetric { row: 1, col: 0, .. },
+            ..
+        })
     ));
     // NaN entry.
     let mut t = TriMat::new((2, 2));
@@ -154,7 +157,10 @@ fn bad_inputs_are_rejected() {
     let nan: CsMat<f64> = t.to_csc();
     assert!(matches!(
         SparseCholesky::new(&nan),
-        Err(SparseError::NotFinite { .. })
+        Err(SparseError::Matrix {
+            source: SymmetryError::NonFinite { .. },
+            ..
+        })
     ));
     // Wrong right-hand side length.
     let a = laplacian_3d(3, 3, 3, 1.0);

@@ -1,19 +1,21 @@
 //! Typed errors of the sparse checks, products and factorizations. Every message names the
 //! matrix concerned (the caller's `what`) and what was expected; `nlmodes_modal::ModalError`
-//! converts each into its variant of the same name and message.
+//! converts each into its variant of the same name (a refused matrix as its dense checks'
+//! errors are converted).
+
+pub use nlmodes_dense::SymmetryError;
 
 /// Errors of this crate.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SparseError {
-    /// A matrix that must be square is not.
-    #[error("{what} must be square, but it is {nrows} x {ncols}")]
-    NotSquare {
+    /// A matrix is not square, has a non-finite entry, or is not symmetric to
+    /// [`nlmodes_dense::SYMMETRY_TOLERANCE`] (the dense crate's reasons, one definition).
+    #[error("{what}: {source}")]
+    Matrix {
         /// Which matrix.
         what: String,
-        /// Rows found.
-        nrows: usize,
-        /// Columns found.
-        ncols: usize,
+        /// Why it is refused.
+        source: SymmetryError,
     },
 
     /// Two operands have incompatible sizes.
@@ -25,36 +27,6 @@ pub enum SparseError {
         expected: usize,
         /// Size found.
         found: usize,
-    },
-
-    /// A stored entry is NaN or infinite.
-    #[error("{what} has a non-finite entry {value} at ({row}, {col}) (0-based)")]
-    NotFinite {
-        /// Which matrix.
-        what: String,
-        /// Row and column (0-based).
-        row: usize,
-        col: usize,
-        /// The entry.
-        value: f64,
-    },
-
-    /// |a_ij - a_ji| exceeds `tolerance` times the largest entry.
-    #[error(
-        "{what} is not symmetric: entry ({row}, {col}) = {a_ij:e} but ({col}, {row}) = {a_ji:e} \
-         (0-based; tolerance {tolerance:e} relative to the largest entry)"
-    )]
-    NotSymmetric {
-        /// Which matrix.
-        what: String,
-        /// Row and column of the first offending entry (0-based).
-        row: usize,
-        col: usize,
-        /// Entries (row, col) and (col, row).
-        a_ij: f64,
-        a_ji: f64,
-        /// Relative tolerance of the check.
-        tolerance: f64,
     },
 
     /// The numeric Cholesky factorization met a non-positive pivot.

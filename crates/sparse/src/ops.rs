@@ -12,7 +12,7 @@ use faer::{Mat, MatMut, MatRef};
 use rayon::prelude::*;
 use sprs::CsMat;
 
-use crate::error::SparseError;
+use crate::error::{SparseError, SymmetryError};
 
 /// Relative tolerance of the symmetry checks, |a_ij - a_ji| <= tol * max|a|: the one shared by
 /// modal and nnm (`nlmodes_dense`). Finite-element assembly produces matrices symmetric to a few
@@ -41,10 +41,12 @@ pub fn as_csc(a: &CsMat<f64>) -> Cow<'_, CsMat<f64>> {
 /// Checks that `a` is square and returns its order.
 pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
     if a.rows() != a.cols() {
-        return Err(SparseError::NotSquare {
+        return Err(SparseError::Matrix {
             what: what.to_string(),
-            nrows: a.rows(),
-            ncols: a.cols(),
+            source: SymmetryError::NotSquare {
+                rows: a.rows(),
+                cols: a.cols(),
+            },
         });
     }
     Ok(a.rows())
@@ -54,11 +56,9 @@ pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
 pub fn check_finite(a: &CsMat<f64>, what: &str) -> Result<(), SparseError> {
     for (&value, (row, col)) in a.iter() {
         if !value.is_finite() {
-            return Err(SparseError::NotFinite {
+            return Err(SparseError::Matrix {
                 what: what.to_string(),
-                row,
-                col,
-                value,
+                source: SymmetryError::NonFinite { row, col, value },
             });
         }
     }
@@ -70,15 +70,16 @@ pub fn max_abs(a: &CsMat<f64>) -> f64 {
     a.data().iter().fold(0.0_f64, |acc, v| acc.max(v.abs()))
 }
 
-/// Checks |a_ij - a_ji| <= `rel_tol` * max|a| for every stored entry (an entry whose
+/// Checks |a_ij - a_ji| <= [`SYMMETRY_TOLERANCE`] * max|a| for every stored entry (an entry whose
 /// transpose is not stored is compared with 0; the first offending entry found, in the order
 /// of the outer dimension, is reported). Linear time: each column (row for CSR) j is merged
 /// with row j, read from the columns after j through one cursor per column that only moves
 /// forward (sprs keeps the indices of each column sorted), about a second for a million-DOF
 /// stiffness where a binary search per entry took 14 s of CPU.
-pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), SparseError> {
+pub fn check_symmetric(a: &CsMat<f64>, what: &str) -> Result<(), SparseError> {
     let n = check_square(a, what)?;
-    let bound = rel_tol * max_abs(a);
+    let scale = max_abs(a);
+    let bound = SYMMETRY_TOLERANCE * scale;
     let (indptr, indices, data) = (a.proper_indptr(), a.indices(), a.data());
     // cursor[c]: the next entry of outer c above the diagonal (inner < c) not yet matched.
     let mut cursor: Vec<usize> = indptr[..n].to_vec();
@@ -127,13 +128,15 @@ pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), S
             } else {
                 (outer, inner)
             };
-            Err(SparseError::NotSymmetric {
+            Err(SparseError::Matrix {
                 what: what.to_string(),
-                row,
-                col,
-                a_ij,
-                a_ji,
-                tolerance: rel_tol,
+                source: SymmetryError::NotSymmetric {
+                    row,
+                    col,
+                    a_ij,
+                    a_ji,
+                    scale,
+                },
             })
         }
         None => Ok(()),
@@ -144,7 +147,7 @@ pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), S
 pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
     let n = check_square(a, what)?;
     check_finite(a, what)?;
-    check_symmetric(a, what, SYMMETRY_TOLERANCE)?;
+    check_symmetric(a, what)?;
     Ok(n)
 }
 
@@ -426,9 +429,9 @@ mod tests {
         t.add_triplet(1, 1, 1.0);
         t.add_triplet(1, 0, 0.5);
         let a: CsMat<f64> = t.to_csc();
-        let err = check_symmetric(&a, "test matrix", SYMMETRY_TOLERANCE).unwrap_err();
+        let err = check_symmetric(&a, "test matrix").unwrap_err();
         assert!(
-            err.to_string().contains("test matrix is not symmetric"),
+            err.to_string().contains("test matrix: not symmetric"),
             "{err}"
         );
     }
@@ -456,7 +459,7 @@ mod tests {
         };
         for to_storage in [TriMat::to_csc, TriMat::to_csr] {
             let symmetric: CsMat<f64> = to_storage(&base(&[]));
-            assert!(check_symmetric(&symmetric, "A", SYMMETRY_TOLERANCE).is_ok());
+            assert!(check_symmetric(&symmetric, "A").is_ok());
             for (extra, row, col, a_ij, a_ji) in [
                 (vec![(5, 1, 1e-3)], 5, 1, 2.001, 2.0),
                 (vec![(1, 3, 7.0)], 1, 3, 7.0, 0.0),
@@ -464,12 +467,16 @@ mod tests {
                 (vec![(2, 5, 7.0)], 2, 5, 7.0, 0.0),
             ] {
                 let a: CsMat<f64> = to_storage(&base(&extra));
-                let err = check_symmetric(&a, "A", SYMMETRY_TOLERANCE).unwrap_err();
-                let SparseError::NotSymmetric {
-                    row: r,
-                    col: c,
-                    a_ij: v,
-                    a_ji: w,
+                let err = check_symmetric(&a, "A").unwrap_err();
+                let SparseError::Matrix {
+                    source:
+                        SymmetryError::NotSymmetric {
+                            row: r,
+                            col: c,
+                            a_ij: v,
+                            a_ji: w,
+                            ..
+                        },
                     ..
                 } = err
                 else {
