@@ -256,7 +256,11 @@ mod tests {
                 load_steps: 1,
                 ..Default::default()
             };
-            model.solve_nonlinear(omega, &options, &mut nlmodes_sparse::CholeskySolver::default())
+            model.solve_nonlinear(
+                omega,
+                &options,
+                &mut nlmodes_sparse::CholeskySolver::default(),
+            )
         } else {
             model.solve_linearized(omega, false, &mut nlmodes_sparse::CholeskySolver::default())
         };

@@ -7,8 +7,7 @@
 
 use anyhow::{Context, Result};
 use nlmodes_fem::rotation::{
-    prestress_at_speed, Kinematics, LinearSolver, LoadStep, RotationError, RotorAxis,
-    SpeedProblem,
+    prestress_at_speed, Kinematics, LinearSolver, LoadStep, RotationError, RotorAxis, SpeedProblem,
 };
 use nlmodes_fem::Isotropic;
 

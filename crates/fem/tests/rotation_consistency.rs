@@ -13,8 +13,8 @@ use nlmodes_fem::element::element_matrices;
 use nlmodes_fem::generate::box_mesh;
 use nlmodes_fem::rotation::{
     centrifugal_load_element, centrifugal_load_from_spin_matrix,
-    internal_force_and_tangent_element, spin_softening_element, ElementRef,
-    Kinematics, NewtonOptions, RotatingModel, RotationError, RotorAxis, StopReason,
+    internal_force_and_tangent_element, spin_softening_element, ElementRef, Kinematics,
+    NewtonOptions, RotatingModel, RotationError, RotorAxis, StopReason,
 };
 use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, Mesh, TetKind};
 use nlmodes_sparse::CholeskySolver;

@@ -22,8 +22,7 @@ mod common;
 use nlmodes_fem::generate::box_mesh;
 use nlmodes_fem::rotation::{
     max_over_nodes, prestress_at_speed, Kinematics, NewtonOptions, RotatingModel, RotationError,
-    RotorAxis, SpeedProblem,
-    StaticSolution,
+    RotorAxis, SpeedProblem, StaticSolution,
 };
 use nlmodes_fem::{DofMap, Isotropic, Mesh, TetKind};
 use nlmodes_sparse::{CholeskySolver, LuSolver};

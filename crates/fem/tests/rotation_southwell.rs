@@ -28,9 +28,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Mat, Side};
 use nlmodes_dense::generalized_eigen;
 use nlmodes_fem::generate::{kuhn_split, orient_positive, tet4_to_tet10};
-use nlmodes_fem::rotation::{
-    Kinematics, NewtonOptions, RotatingModel, RotorAxis, StaticSolution,
-};
+use nlmodes_fem::rotation::{Kinematics, NewtonOptions, RotatingModel, RotorAxis, StaticSolution};
 use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, Mesh, PhysicalGroup, TetKind};
 use nlmodes_sparse::CholeskySolver;
 use sprs::CsMat;

@@ -40,9 +40,9 @@ use faer::prelude::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
-use crate::factored::FactoredSolve;
 use crate::eigen_options::{BlockShape, EigenOptions};
 use crate::error::ModalError;
+use crate::factored::FactoredSolve;
 use crate::sparse_ops::spmm_symmetric;
 use crate::tall::{tall_gram, tall_product, tall_sub_product, tall_transform_in_place};
 
@@ -459,10 +459,10 @@ fn no_convergence(converged: usize, requested: usize, solves: usize, cap: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nlmodes_sparse::SparseCholesky;
     use crate::modes::dense_generalized_eigen;
     use crate::modes::finalize_modes;
     use crate::sparse_ops::csmat_to_dense;
+    use nlmodes_sparse::SparseCholesky;
     use sprs::TriMat;
 
     /// Fixed-free chain of n unit masses with springs 1 + i / n (no repeated eigenvalues).

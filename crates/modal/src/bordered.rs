@@ -17,9 +17,9 @@ use faer::linalg::solvers::{Llt, Solve};
 use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
+use crate::error::ModalError;
 use crate::factored::FactoredSolve;
 use nlmodes_sparse::SparseCholesky;
-use crate::error::ModalError;
 
 /// x = K^-1 f for the whole K (shift sigma = 0) from the factor of K_ii and the Schur complement.
 pub struct BorderedSolve<'a> {

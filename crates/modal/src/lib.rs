@@ -33,19 +33,19 @@ mod tall;
 
 pub use arpack::{eigs_shift_invert, eigs_shift_invert_factored};
 pub use bordered::BorderedSolve;
-pub use factored::FactoredSolve;
 pub use contact_geometry::{radial_unit_vector, RotorAxis};
 pub use craig_bampton::{
     craig_bampton, craig_bampton_with_check, craig_bampton_with_loads, reduced_eigen, CraigBampton,
 };
 pub use eigen_options::{EigenMethod, EigenOptions};
 pub use error::ModalError;
+pub use factored::FactoredSolve;
 pub use modes::{dense_generalized_eigen, Modes};
-pub use parametric::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel};
-pub use reduced_model::{
-    ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
-};
 /// The one sparse Cholesky (`nlmodes-sparse`), at the paths modal's users know.
 pub use nlmodes_sparse::{
     csmat_to_dense, shifted, CholeskyAnalysis, CholeskyOptions, FillOrdering, SparseCholesky,
+};
+pub use parametric::{Accuracy, AccuracyCheck, ParametricContact, ParametricModel};
+pub use reduced_model::{
+    ContactNode, MasterCoordinate, MeshReference, RecoveryStorage, ReducedModel,
 };

@@ -59,7 +59,6 @@ impl SparseCholesky {
     ) -> Result<Self, SparseError> {
         CholeskyAnalysis::new(a, what, options)?.factorize(a)
     }
-
 }
 
 /// The symbolic half of a sparse Cholesky factorization: the fill-reducing ordering and the
@@ -215,4 +214,3 @@ impl CholeskyAnalysis {
         ))
     }
 }
-

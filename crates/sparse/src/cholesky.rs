@@ -203,4 +203,3 @@ impl SparseCholesky {
         a.rows() == self.n && a.cols() == self.n && pattern_fingerprint(a) == self.pattern
     }
 }
-

@@ -253,7 +253,11 @@ pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>,
 /// The block A[rows, cols] as a CSC matrix (row and column order as given).
 ///
 /// Errors when an index is out of range or a row index is repeated.
-pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat<f64>, SparseError> {
+pub fn submatrix(
+    a: &CsMat<f64>,
+    rows: &[usize],
+    cols: &[usize],
+) -> Result<CsMat<f64>, SparseError> {
     let mut seen = vec![false; a.rows()];
     for &r in rows {
         if r >= a.rows() || seen[r] {

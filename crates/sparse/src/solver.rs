@@ -63,10 +63,12 @@ impl CholeskySolver {
                 self.factor = Some(SparseCholesky::with_options(a, what, options)?);
             }
         }
-        self.factor.as_ref().ok_or_else(|| SparseError::Factorization {
-            what: what.to_string(),
-            message: "no factor after the factorization".to_string(),
-        })
+        self.factor
+            .as_ref()
+            .ok_or_else(|| SparseError::Factorization {
+                what: what.to_string(),
+                message: "no factor after the factorization".to_string(),
+            })
     }
 }
 

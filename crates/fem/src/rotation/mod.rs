@@ -35,10 +35,10 @@ pub use centrifugal::{
 pub use element_ref::ElementRef;
 pub use error::{NewtonIteration, RotationError, StopReason};
 pub use global::BlockPattern;
+pub use model::{ResidualAndTangent, RotatingModel, StressField};
 /// The linear solve of the Newton steps (`nlmodes-sparse`: its sparse Cholesky, LU, or the
 /// caller's own).
 pub use nlmodes_sparse::{LinearSolveError, LinearSolver};
-pub use model::{ResidualAndTangent, RotatingModel, StressField};
 pub use points::PointGeometry;
 pub use prestress::{max_over_nodes, von_mises};
 pub use static_solve::{Kinematics, LoadStep, NewtonOptions, StaticSolution};
