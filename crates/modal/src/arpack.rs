@@ -31,8 +31,8 @@ use crate::error::ModalError;
 use crate::factored::FactoredSolve;
 use crate::modes::dense_generalized_eigen;
 use crate::modes::{finalize_modes, Modes};
-use crate::sparse_ops::csmat_to_dense;
-use crate::sparse_ops::{check_symmetric_input, shifted, spmv_unchecked};
+use nlmodes_sparse::ops::csmat_to_dense;
+use nlmodes_sparse::ops::{check_symmetric_input, shifted, spmv_unchecked};
 
 /// ARPACK is not reentrant (Fortran SAVE state): one session at a time.
 static ARPACK_LOCK: Mutex<()> = Mutex::new(());

@@ -30,8 +30,8 @@ use crate::error::ModalError;
 use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
 use crate::modes::dense_generalized_eigen;
 use crate::modes::Modes;
-use crate::sparse_ops::{spmm_symmetric, submatrix_unchecked};
 use nlmodes_dense::{relative_asymmetry, symmetrize};
+use nlmodes_sparse::ops::{spmm_symmetric, submatrix_unchecked};
 use nlmodes_sparse::{CholeskyAnalysis, SparseCholesky};
 
 /// A Craig-Bampton reduced model and the basis that produced it.
