@@ -94,7 +94,6 @@ pub fn coriolis_frequencies(
 mod tests {
     use super::*;
     use crate::fe_model::FeModel;
-    use crate::prestress::MetisCholesky;
     use nlmodes_fem::rotation::{RotatingModel, RotorAxis};
     use nlmodes_fem::Isotropic;
 
@@ -111,9 +110,13 @@ mod tests {
                 load_steps: 1,
                 ..Default::default()
             };
-            model.solve_nonlinear(omega, &options, &mut MetisCholesky::default())
+            model.solve_nonlinear(
+                omega,
+                &options,
+                &mut nlmodes_sparse::CholeskySolver::default(),
+            )
         } else {
-            model.solve_linearized(omega, false, &mut MetisCholesky::default())
+            model.solve_linearized(omega, false, &mut nlmodes_sparse::CholeskySolver::default())
         };
         model.stiffness_at_speed(&state.unwrap()).unwrap()
     }

@@ -2,7 +2,8 @@
 
 use anyhow::{Context, Result};
 use nlmodes_fem::{assemble, fixed_dofs, read_msh, DofMap, Isotropic, Mesh};
-use nlmodes_modal::{eigs_shift_invert_factored, Modes, SparseCholesky};
+use nlmodes_modal::{eigs_shift_invert_factored, Modes};
+use nlmodes_sparse::SparseCholesky;
 use sprs::CsMat;
 use std::path::Path;
 
@@ -71,7 +72,7 @@ impl FeModel {
         }
         let stage = ui::Stage::start("modes");
         let t = std::time::Instant::now();
-        let shifted = nlmodes_modal::shifted(&self.k, &self.m, sigma)?;
+        let shifted = nlmodes_sparse::shifted(&self.k, &self.m, sigma)?;
         let factor = SparseCholesky::new(&shifted)
             .with_context(|| format!("factorizing K - sigma M (sigma = {sigma:e} rad^2/s^2)"))?;
         drop(shifted);

@@ -13,18 +13,18 @@ use anyhow::Result;
 use nlmodes_fem::rotation::{LinearSolveError, LinearSolver};
 use nlmodes_fem::{DofMap, Isotropic, Mesh};
 use nlmodes_modal::{Modes, ReducedModel};
+use nlmodes_sparse::CholeskySolver;
 use sprs::CsMat;
 
 use crate::fe_model::FeModel;
-use crate::prestress::MetisCholesky;
 use crate::reduce::ReduceSettings;
 use crate::reduce_mpi::{lead, Delivered, FeSource, RootData, Task};
 
 /// Where the full model's solves at speed run.
 pub enum FullSolver {
     /// On this process (the serial path): the METIS-ordered sparse Cholesky, its ordering and
-    /// symbolic analysis reused while the pattern stays ([`MetisCholesky`]).
-    Here(MetisCholesky),
+    /// symbolic analysis reused while the pattern stays ([`CholeskySolver`]).
+    Here(CholeskySolver),
     /// Under mpirun, on rank 0: every solve a task of all the ranks.
     OverRanks(OverRanks),
 }
@@ -32,7 +32,7 @@ pub enum FullSolver {
 impl Default for FullSolver {
     /// The serial path's solver.
     fn default() -> Self {
-        Self::Here(MetisCholesky::default())
+        Self::Here(CholeskySolver::default())
     }
 }
 
@@ -160,7 +160,7 @@ mod tests {
     use super::*;
 
     /// Without mpirun the solver is the serial path's: its Newton steps and its modes are those
-    /// of `MetisCholesky` and the shift-invert solve on its factor, bit for bit.
+    /// of `CholeskySolver` and the shift-invert solve on its factor, bit for bit.
     #[test]
     fn without_mpirun_the_solver_is_the_serial_cholesky() {
         let fe = crate::campbell_march::fixtures::beam([4, 1, 1]);
@@ -169,10 +169,10 @@ mod tests {
         assert!(matches!(solver, FullSolver::Here(_)));
         let b: Vec<f64> = (0..fe.k.rows()).map(|i| (i as f64).sin()).collect();
         let x = solver.solve(&fe.k, &b).unwrap();
-        let y = MetisCholesky::default().solve(&fe.k, &b).unwrap();
+        let y = CholeskySolver::default().solve(&fe.k, &b).unwrap();
         assert_eq!(x, y);
         let modes = solver.lowest_modes(&fe.k, &fe.m, 3, "test").unwrap();
-        let mut cholesky = MetisCholesky::default();
+        let mut cholesky = CholeskySolver::default();
         let factor = cholesky.factorize(&fe.k, "K").unwrap();
         let opts = nlmodes_modal::EigenOptions::default();
         let direct =

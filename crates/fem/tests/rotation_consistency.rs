@@ -13,10 +13,11 @@ use nlmodes_fem::element::element_matrices;
 use nlmodes_fem::generate::box_mesh;
 use nlmodes_fem::rotation::{
     centrifugal_load_element, centrifugal_load_from_spin_matrix,
-    internal_force_and_tangent_element, spin_softening_element, ElementRef, FaerCholesky,
-    Kinematics, NewtonOptions, RotatingModel, RotationError, RotorAxis, StopReason,
+    internal_force_and_tangent_element, spin_softening_element, ElementRef, Kinematics,
+    NewtonOptions, RotatingModel, RotationError, RotorAxis, StopReason,
 };
 use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, Mesh, TetKind};
+use nlmodes_sparse::CholeskySolver;
 use sprs::CsMat;
 
 fn steel() -> Isotropic {
@@ -319,7 +320,7 @@ fn every_term_at_rest_equals_todays_model() {
     let (k_ref, m_ref) = assemble(&mesh, &mat).expect("assemble");
     let k_ref_free = dofs.restrict(&k_ref);
     let scale = common::max_abs(&k_ref_free);
-    let mut solver = FaerCholesky::default();
+    let mut solver = CholeskySolver::default();
     let nonlinear = model
         .solve_nonlinear(0.0, &NewtonOptions::default(), &mut solver)
         .expect("solve");
@@ -375,7 +376,7 @@ fn stiffness_at_speed_is_exactly_symmetric_and_coriolis_skew_symmetric() {
     )
     .expect("dofs");
     let model = RotatingModel::new(&mesh, steel(), axis(), dofs).expect("model");
-    let mut solver = FaerCholesky::default();
+    let mut solver = CholeskySolver::default();
     let omega = 3000.0;
     let sol = model
         .solve_nonlinear(omega, &NewtonOptions::default(), &mut solver)
@@ -421,7 +422,7 @@ fn global_residual_tangent_matches_finite_differences() {
         .solve_nonlinear(
             omega,
             &NewtonOptions::default(),
-            &mut FaerCholesky::default(),
+            &mut CholeskySolver::default(),
         )
         .expect("solve");
     let mut rng = Lcg(77);
@@ -470,7 +471,7 @@ fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
         .solve_nonlinear(
             1000.0,
             &NewtonOptions::default(),
-            &mut FaerCholesky::default(),
+            &mut CholeskySolver::default(),
         )
         .expect_err("singular");
     match &err {
@@ -509,7 +510,7 @@ fn failed_static_solve_names_the_step_the_speed_and_the_reason() {
         ..NewtonOptions::default()
     };
     let err = model
-        .solve_nonlinear(1500.0, &options, &mut FaerCholesky::default())
+        .solve_nonlinear(1500.0, &options, &mut CholeskySolver::default())
         .expect_err("limit");
     match &err {
         RotationError::StaticSolve {
@@ -549,7 +550,7 @@ fn marching_in_speed_reaches_the_state_solved_from_rest() {
         load_steps: 1,
         ..NewtonOptions::default()
     };
-    let mut solver = FaerCholesky::default();
+    let mut solver = CholeskySolver::default();
     let direct = model
         .solve_nonlinear(3000.0, &NewtonOptions::default(), &mut solver)
         .expect("from rest");

@@ -21,10 +21,11 @@ mod common;
 
 use nlmodes_fem::generate::box_mesh;
 use nlmodes_fem::rotation::{
-    max_over_nodes, FaerCholesky, FaerLu, Kinematics, NewtonOptions, RotatingModel, RotorAxis,
-    StaticSolution,
+    max_over_nodes, prestress_at_speed, Kinematics, NewtonOptions, RotatingModel, RotationError,
+    RotorAxis, SpeedProblem, StaticSolution,
 };
 use nlmodes_fem::{DofMap, Isotropic, Mesh, TetKind};
+use nlmodes_sparse::{CholeskySolver, LuSolver};
 
 const E: f64 = 2.0e11;
 const RHO: f64 = 7800.0;
@@ -136,7 +137,7 @@ fn linearized_bar_without_spin_softening_matches_the_closed_form() {
         let mesh = bar(hub, 10);
         let model = model(&mesh, hub);
         let sol = model
-            .solve_linearized(omega, false, &mut FaerCholesky::default())
+            .solve_linearized(omega, false, &mut CholeskySolver::default())
             .expect("solve");
         assert_eq!(sol.kinematics, Kinematics::Linear);
         let exact = |s| closed_form_plain(hub, omega, s);
@@ -183,7 +184,7 @@ fn linearized_bar_with_spin_softening_matches_its_closed_form() {
         let mesh = bar(hub, 10);
         let model = model(&mesh, hub);
         let sol = model
-            .solve_linearized(omega, true, &mut FaerLu::default())
+            .solve_linearized(omega, true, &mut LuSolver::default())
             .expect("solve");
         let exact = |s| closed_form_spin(hub, omega, s);
         let (eu, es) = centre_line_errors(&model, &sol, hub, exact);
@@ -274,7 +275,7 @@ fn nonlinear_minus_linearized_matches_the_one_dimensional_nonlinear_bar() {
     for hub in [0.0, 0.5] {
         let mesh = bar(hub, 10);
         let model = model(&mesh, hub);
-        let mut solver = FaerCholesky::default();
+        let mut solver = CholeskySolver::default();
         let options = NewtonOptions::default();
         let nonlinear = model
             .solve_nonlinear(omega, &options, &mut solver)
@@ -317,4 +318,84 @@ fn nonlinear_minus_linearized_matches_the_one_dimensional_nonlinear_bar() {
         assert!(rel < 0.01 && tip_err < 5e-4);
         assert!(d_1d.abs() > 0.01 * closed);
     }
+}
+
+/// The prestressed bar at a speed through `prestress_at_speed` (the speed stage's path),
+/// linearized without spin softening, so that the growth is exactly proportional to Omega^2
+/// (the operator K_e does not depend on the speed, the load is Omega^2 times a fixed vector):
+/// the tip centre node's radial growth is the closed-form u(L) within the tolerance and its
+/// radial displacement up to the second-order effect of its small lateral motion, its running
+/// gap is the cold gap minus it, the root stress is the largest von Mises over the clamp's
+/// group "xmin" (the roller root face). A cold gap of half the growth closes: the error names
+/// the tip node and the closure speed Omega sqrt(1/2), at which a second solve grows the tip by
+/// the cold gap: exactly for the displacement (the Omega^2 law), up to the lateral motion's
+/// second-order share of the growth (v^2 / 2r at Omega, a quarter of it at the closure speed:
+/// bounded by v^2 / r).
+#[test]
+fn prestress_at_speed_gives_the_growth_the_running_gap_and_the_closure_speed() {
+    let (hub, omega) = (0.5, 1500.0);
+    let mesh = bar(hub, 10);
+    let model = model(&mesh, hub);
+    let tip = *centre_line(&mesh).last().expect("nodes");
+    let clamp = ["xmin".to_string()];
+    let dofs = roller_root(&mesh, hub);
+    let problem = |cold_gap| SpeedProblem {
+        mesh: &mesh,
+        dofs: &dofs,
+        clamp: &clamp,
+        material: Isotropic::new(E, 0.0, RHO).expect("material"),
+        axis: RotorAxis::new([0.0; 3], [0.0, 0.0, 1.0]).expect("axis"),
+        contact: std::slice::from_ref(&tip),
+        cold_gap,
+        kinematics: Kinematics::Linear,
+    };
+    let mut solver = CholeskySolver::default();
+    let u_l = closed_form_plain(hub, omega, L).0;
+    let p = prestress_at_speed(&problem(2.0 * u_l), omega, &mut solver).expect("open");
+    let growth = p.growth[0];
+    let radial = tip_radial(&model, &p.solution);
+    // The growth |P(X + u)| - |P X| and the radial component of u differ by the lateral motion
+    // v (along y here) at second order, v^2 / (2 r): bounded by v^2 / r, plus round-off.
+    let (v, r) = (p.solution.displacement[3 * tip + 1], mesh.nodes[tip][0]);
+    println!(
+        "tip growth {growth:.9e}, radial displacement {radial:.9e} (lateral {v:.2e} m), \
+         closed form {u_l:.9e}"
+    );
+    assert!((growth - u_l).abs() < TOLERANCE * u_l);
+    assert!((growth - radial).abs() <= v * v / r + 1e-14 * growth);
+    assert_eq!(p.running_gaps, vec![2.0 * u_l - growth]);
+    let (node, vm) = p.root_stress.expect("root group");
+    assert_eq!(
+        model
+            .max_von_mises_in_group(&p.solution, "xmin")
+            .expect("group"),
+        Some((node, vm))
+    );
+    let err = prestress_at_speed(&problem(0.5 * growth), omega, &mut solver)
+        .err()
+        .expect("the gap closes");
+    let RotationError::ClearanceClosed {
+        contact: 0,
+        mesh_node,
+        closure_omega: Some(closure),
+        ..
+    } = err
+    else {
+        panic!("unexpected {err}");
+    };
+    assert_eq!(mesh_node, tip);
+    assert_eq!(closure, omega * 0.5_f64.sqrt());
+    let at_closure = prestress_at_speed(&problem(growth), closure, &mut solver);
+    let growth_at_closure = match at_closure {
+        Ok(p) => p.growth[0],
+        Err(RotationError::ClearanceClosed { growth, .. }) => growth,
+        Err(e) => panic!("unexpected {e}"),
+    };
+    let miss = (growth_at_closure - 0.5 * growth).abs();
+    println!(
+        "growth at the closure speed {closure:.6} rad/s: {growth_at_closure:.9e}, {miss:.1e} m \
+         from the cold gap (lateral bound {:.1e} m)",
+        v * v / r
+    );
+    assert!(miss <= v * v / r + 1e-14 * growth);
 }

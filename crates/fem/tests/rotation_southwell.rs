@@ -28,10 +28,9 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Mat, Side};
 use nlmodes_dense::generalized_eigen;
 use nlmodes_fem::generate::{kuhn_split, orient_positive, tet4_to_tet10};
-use nlmodes_fem::rotation::{
-    FaerCholesky, Kinematics, NewtonOptions, RotatingModel, RotorAxis, StaticSolution,
-};
+use nlmodes_fem::rotation::{Kinematics, NewtonOptions, RotatingModel, RotorAxis, StaticSolution};
 use nlmodes_fem::{assemble, fixed_dofs, DofMap, Isotropic, Mesh, PhysicalGroup, TetKind};
+use nlmodes_sparse::CholeskySolver;
 use sprs::CsMat;
 
 const L: f64 = 1.0;
@@ -247,7 +246,7 @@ fn flap_and_chord(
     omega: f64,
     kinematics: Kinematics,
 ) -> (f64, f64) {
-    let mut solver = FaerCholesky::default();
+    let mut solver = CholeskySolver::default();
     let sol: StaticSolution = match kinematics {
         Kinematics::GreenLagrange => {
             model.solve_nonlinear(omega, &NewtonOptions::default(), &mut solver)
@@ -361,7 +360,7 @@ fn subspace_iteration_matches_the_dense_eigensolver() {
         .solve_nonlinear(
             omega_of_lambda(1.0),
             &NewtonOptions::default(),
-            &mut FaerCholesky::default(),
+            &mut CholeskySolver::default(),
         )
         .expect("static");
     let k = model.stiffness_at_speed(&sol).expect("K");

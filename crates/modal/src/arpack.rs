@@ -23,14 +23,16 @@ use std::sync::Mutex;
 use faer::Mat;
 use sprs::CsMat;
 
+use nlmodes_sparse::SparseCholesky;
+
 use crate::block_lanczos::block_lanczos;
-use crate::cholesky::{FactoredSolve, SparseCholesky};
 use crate::eigen_options::{auto_prefers_arpack, use_dense, EigenMethod, EigenOptions};
 use crate::error::ModalError;
+use crate::factored::FactoredSolve;
 use crate::modes::dense_generalized_eigen;
 use crate::modes::{finalize_modes, Modes};
-use crate::sparse_ops::csmat_to_dense;
-use crate::sparse_ops::{check_symmetric_input, shifted, spmv_unchecked};
+use nlmodes_sparse::ops::csmat_to_dense;
+use nlmodes_sparse::ops::{check_symmetric_input, shifted, spmv_unchecked};
 
 /// ARPACK is not reentrant (Fortran SAVE state): one session at a time.
 static ARPACK_LOCK: Mutex<()> = Mutex::new(());
@@ -55,7 +57,8 @@ pub fn eigs_shift_invert(
     }
     let what = format!("K - sigma M (sigma = {sigma:e})");
     let a = shifted(k, m, sigma)?;
-    let factor = SparseCholesky::with_options(&a, &what, opts.cholesky).map_err(add_shift_hint)?;
+    let factor = SparseCholesky::with_options(&a, &what, opts.cholesky)
+        .map_err(|e| add_shift_hint(e.into()))?;
     drop(a);
     run_iterative(k, m, sigma, &factor, nev, ncv, opts)
 }

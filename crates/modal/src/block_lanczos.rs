@@ -28,7 +28,7 @@
 //! problem ([`BlockShape::for_problem`]): blocks of 16 and no restart for small problems, blocks
 //! of 8 and a basis of 3 nev with thick restarts for large ones. The tall dense products of the
 //! Gram-Schmidt passes run in row chunks on rayon ([`crate::tall`]); the block solves split
-//! their columns between the threads ([`crate::SparseCholesky::solve_many`]).
+//! their columns between the threads ([`nlmodes_sparse::SparseCholesky::solve_many`]).
 //!
 //! The iteration sees the problem only through [`BlockProblem`]: M and the solve applied to
 //! blocks whose rows this process holds, and the sum over processes of partial inner products.
@@ -40,11 +40,11 @@ use faer::prelude::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
-use crate::cholesky::FactoredSolve;
 use crate::eigen_options::{BlockShape, EigenOptions};
 use crate::error::ModalError;
-use crate::sparse_ops::spmm_symmetric;
+use crate::factored::FactoredSolve;
 use crate::tall::{tall_gram, tall_product, tall_sub_product, tall_transform_in_place};
+use nlmodes_sparse::ops::spmm_symmetric;
 
 /// Thick restarts allowed before giving up.
 const MAX_RESTARTS: usize = 10;
@@ -459,10 +459,10 @@ fn no_convergence(converged: usize, requested: usize, solves: usize, cap: usize)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cholesky::SparseCholesky;
     use crate::modes::dense_generalized_eigen;
     use crate::modes::finalize_modes;
-    use crate::sparse_ops::csmat_to_dense;
+    use nlmodes_sparse::ops::csmat_to_dense;
+    use nlmodes_sparse::SparseCholesky;
     use sprs::TriMat;
 
     /// Fixed-free chain of n unit masses with springs 1 + i / n (no repeated eigenvalues).

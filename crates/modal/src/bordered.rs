@@ -17,8 +17,9 @@ use faer::linalg::solvers::{Llt, Solve};
 use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
 use sprs::CsMat;
 
-use crate::cholesky::{FactoredSolve, SparseCholesky};
 use crate::error::ModalError;
+use crate::factored::FactoredSolve;
+use nlmodes_sparse::SparseCholesky;
 
 /// x = K^-1 f for the whole K (shift sigma = 0) from the factor of K_ii and the Schur complement.
 pub struct BorderedSolve<'a> {
@@ -52,13 +53,13 @@ impl<'a> BorderedSolve<'a> {
                 found: n_i + n_b,
             });
         }
-        let k_bb = crate::sparse_ops::submatrix_unchecked(k, boundary, boundary);
+        let k_bb = nlmodes_sparse::ops::submatrix_unchecked(k, boundary, boundary);
         let mut s = Mat::<f64>::zeros(n_b, n_b);
         for (&v, (p, j)) in k_bb.iter() {
             s[(p, j)] += v;
         }
         // (K_bi Psi)[p, j] = sum_r K_ib[r, p] Psi[r, j]; column p of K_ib (CSC) holds K_ib[., p].
-        let k_ib = crate::sparse_ops::as_csc(k_ib);
+        let k_ib = nlmodes_sparse::ops::as_csc(k_ib);
         for (p, col) in k_ib.outer_iterator().enumerate() {
             for (r, &v) in col.iter() {
                 for j in 0..n_b {

@@ -25,14 +25,14 @@ use sprs::CsMat;
 
 use crate::arpack::{check_pair, eigs_factored_deferred_k, eigs_factored_prechecked};
 use crate::bordered::BorderedSolve;
-use crate::cholesky::{CholeskyAnalysis, SparseCholesky};
 use crate::eigen_options::{eigensolver_bytes, EigenOptions};
 use crate::error::ModalError;
 use crate::memory::{available_bytes, check_fits, MemoryEstimate, StepTimer};
 use crate::modes::dense_generalized_eigen;
 use crate::modes::Modes;
-use crate::sparse_ops::{spmm_symmetric, submatrix_unchecked};
 use nlmodes_dense::{relative_asymmetry, symmetrize};
+use nlmodes_sparse::ops::{spmm_symmetric, submatrix_unchecked};
+use nlmodes_sparse::{CholeskyAnalysis, SparseCholesky};
 
 /// A Craig-Bampton reduced model and the basis that produced it.
 #[derive(Clone, Debug)]
@@ -376,7 +376,15 @@ fn factor_interior(
         &estimate,
         available_bytes(),
     )?;
-    analysis.factorize(k_ii).map_err(|e| match e {
+    analysis
+        .factorize(k_ii)
+        .map_err(|e| in_input_numbering(e.into(), interior))
+}
+
+/// A non-positive pivot of K_ii named in the input numbering (`interior` maps K_ii's rows to
+/// K's), with why it happens; other errors unchanged.
+fn in_input_numbering(e: ModalError, interior: &[usize]) -> ModalError {
+    match e {
         ModalError::NotPositiveDefinite { what, index, .. } => ModalError::NotPositiveDefinite {
             what,
             index: interior[index],
@@ -386,7 +394,7 @@ fn factor_interior(
                 .to_string(),
         },
         other => other,
-    })
+    }
 }
 
 /// The `n_modes` lowest modes of K_ii phi = lambda M_ii phi (shift-invert at sigma = 0 with the

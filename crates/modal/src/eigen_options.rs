@@ -3,7 +3,7 @@
 //! ([`crate::arpack`]): both solvers read these options, and neither needs the other to know
 //! them.
 
-use crate::cholesky::CholeskyOptions;
+use nlmodes_sparse::CholeskyOptions;
 
 /// Which algorithm computes the eigenpairs.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]

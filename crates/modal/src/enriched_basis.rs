@@ -72,7 +72,7 @@ fn check_sizes(
     modes: &[MatRef<'_, f64>],
     m: &CsMat<f64>,
 ) -> Result<(), ModalError> {
-    let d = crate::sparse_ops::check_square(m, "M of the enriched basis")?;
+    let d = nlmodes_sparse::ops::check_square(m, "M of the enriched basis")?;
     let mismatch = |what: &str, found: usize| ModalError::DimensionMismatch {
         what: what.to_string(),
         expected: d,
@@ -146,14 +146,14 @@ mod tests {
                 "column {j} on the boundary DOF"
             );
         }
-        let dense_m = crate::sparse_ops::csmat_to_dense(&m);
+        let dense_m = nlmodes_sparse::ops::csmat_to_dense(&m);
         let exact_mass = enriched.basis.transpose() * &dense_m * &enriched.basis;
         for i in 0..enriched.mass.nrows() {
             for j in 0..enriched.mass.ncols() {
                 assert!((enriched.mass[(i, j)] - exact_mass[(i, j)]).abs() < 1e-13);
             }
         }
-        let dense_k = crate::sparse_ops::csmat_to_dense(&k);
+        let dense_k = nlmodes_sparse::ops::csmat_to_dense(&k);
         let k_r = enriched.basis.transpose() * &dense_k * &enriched.basis;
         let k_r = (&k_r + k_r.transpose()) * faer::Scale(0.5);
         let (values, _) =

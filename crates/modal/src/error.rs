@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use nlmodes_dense::{SymmetryError, SYMMETRY_TOLERANCE};
+use nlmodes_sparse::SparseError;
 
 /// Errors returned by the factorizations, eigensolvers, reduction and file I/O
 /// of this crate.
@@ -269,6 +270,116 @@ impl ModalError {
                 a_ji,
                 tolerance: SYMMETRY_TOLERANCE,
             },
+        }
+    }
+}
+
+/// The sparse crate's errors as the variants of the same name and message (a refused matrix as
+/// the dense checks' errors, [`ModalError::symmetry`]; a factor that is not positive definite
+/// without a hint: the eigensolvers add theirs).
+impl From<SparseError> for ModalError {
+    fn from(e: SparseError) -> Self {
+        match e {
+            SparseError::Matrix { what, source } => Self::symmetry(&what)(source),
+            SparseError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            } => Self::DimensionMismatch {
+                what,
+                expected,
+                found,
+            },
+            SparseError::NotPositiveDefinite { what, index } => Self::NotPositiveDefinite {
+                what,
+                index,
+                hint: String::new(),
+            },
+            SparseError::Factorization { what, message } => Self::Factorization { what, message },
+            SparseError::InvalidArgument(message) => Self::InvalidArgument(message),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every error of the sparse crate reads, once converted, as modal's own errors read (the
+    /// messages users saw when the Cholesky lived here).
+    #[test]
+    fn sparse_errors_keep_their_messages() {
+        let what = || "K".to_string();
+        let refused = |source| SparseError::Matrix {
+            what: what(),
+            source,
+        };
+        for (sparse, modal) in [
+            (
+                refused(SymmetryError::NotSquare { rows: 2, cols: 3 }),
+                ModalError::NotSquare {
+                    what: what(),
+                    nrows: 2,
+                    ncols: 3,
+                },
+            ),
+            (
+                refused(SymmetryError::NonFinite {
+                    row: 1,
+                    col: 0,
+                    value: f64::INFINITY,
+                }),
+                ModalError::NotFinite {
+                    what: what(),
+                    row: 1,
+                    col: 0,
+                    value: f64::INFINITY,
+                },
+            ),
+            (
+                refused(SymmetryError::NotSymmetric {
+                    row: 1,
+                    col: 0,
+                    a_ij: 1.0,
+                    a_ji: 2.0,
+                    scale: 2.0,
+                }),
+                ModalError::NotSymmetric {
+                    what: what(),
+                    row: 1,
+                    col: 0,
+                    a_ij: 1.0,
+                    a_ji: 2.0,
+                    tolerance: SYMMETRY_TOLERANCE,
+                },
+            ),
+            (
+                SparseError::NotPositiveDefinite {
+                    what: what(),
+                    index: 7,
+                },
+                ModalError::NotPositiveDefinite {
+                    what: what(),
+                    index: 7,
+                    hint: String::new(),
+                },
+            ),
+        ] {
+            assert_eq!(ModalError::from(sparse).to_string(), modal.to_string());
+        }
+        for e in [
+            SparseError::DimensionMismatch {
+                what: what(),
+                expected: 4,
+                found: 5,
+            },
+            SparseError::Factorization {
+                what: what(),
+                message: "out of memory".to_string(),
+            },
+            SparseError::InvalidArgument("sigma".to_string()),
+        ] {
+            assert_eq!(ModalError::from(e.clone()).to_string(), e.to_string());
         }
     }
 }

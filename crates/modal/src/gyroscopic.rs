@@ -104,7 +104,7 @@ pub fn projected_gyroscopic_frequencies(
     let mut y = vec![0.0; g.rows()];
     for j in 0..n {
         let xj: Vec<f64> = x.col(j).iter().copied().collect();
-        crate::sparse_ops::spmv(g, &xj, &mut y)?;
+        nlmodes_sparse::ops::spmv(g, &xj, &mut y)?;
         for (i, v) in y.iter().enumerate() {
             g_x[(i, j)] = *v;
         }

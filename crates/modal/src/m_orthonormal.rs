@@ -11,7 +11,7 @@
 use faer::{Mat, MatRef};
 use sprs::CsMat;
 
-use crate::sparse_ops::spmm_symmetric;
+use nlmodes_sparse::ops::spmm_symmetric;
 
 /// A vector is dropped when less than this fraction of its M-norm is left after it is
 /// orthogonalized (a mode repeated between two basis speeds, or one the basis already holds).
@@ -177,7 +177,7 @@ mod tests {
         let m = diagonal_mass(4);
         let t = Mat::from_fn(4, 2, |i, j| (i as f64 + 1.0) * (j as f64 - 0.5));
         let p = project_symmetric(&m, t.as_ref());
-        let dense = crate::sparse_ops::csmat_to_dense(&m);
+        let dense = nlmodes_sparse::ops::csmat_to_dense(&m);
         let exact = t.transpose() * &dense * &t;
         for i in 0..2 {
             for j in 0..2 {

@@ -32,7 +32,7 @@ use sprs::{CsMat, TriMat};
 
 use crate::error::ModalError;
 use crate::matrix_market_io::{write_atomic, DataLines};
-use crate::sparse_ops::{as_csc, check_symmetric_input, SYMMETRY_TOLERANCE};
+use nlmodes_sparse::ops::{as_csc, check_symmetric_input, SYMMETRY_TOLERANCE};
 
 /// Writes a dense symmetric matrix (lower triangle, every entry).
 ///

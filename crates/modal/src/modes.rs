@@ -7,8 +7,8 @@ use rayon::prelude::*;
 use sprs::CsMat;
 
 use crate::error::ModalError;
-use crate::sparse_ops::{norm_one, spmv_unchecked};
 use nlmodes_dense::{check_symmetric, fix_sign};
+use nlmodes_sparse::ops::{norm_one, spmv_unchecked};
 
 /// Below this value of |lambda| ||M phi|| / (||K||_1 ||phi||) a mode is
 /// treated as a rigid-body (zero-frequency) mode by [`Modes::residuals`]:

@@ -1,12 +1,14 @@
-//! Sparse Cholesky (faer + METIS) against dense solves and fill counts.
+//! The sparse Cholesky of `nlmodes-sparse` (faer + METIS), as modal uses it, against dense
+//! solves and fill counts (here for the 3-D grids of modal's test fixtures).
 
 mod common;
 
 use common::{laplacian_3d, mul, norm, Lcg};
 use faer::prelude::Solve;
 use faer::{Mat, Side};
-use nlmodes_modal::{
-    csmat_to_dense, shifted, CholeskyOptions, FillOrdering, ModalError, SparseCholesky,
+use nlmodes_sparse::error::SymmetryError;
+use nlmodes_sparse::{
+    csmat_to_dense, shifted, CholeskyOptions, FillOrdering, SparseCholesky, SparseError,
 };
 use sprs::{CsMat, TriMat};
 
@@ -115,7 +117,7 @@ fn indefinite_matrix_is_reported() {
         let bad: CsMat<f64> = t.to_csc();
         let err = SparseCholesky::new(&bad).unwrap_err();
         match &err {
-            ModalError::NotPositiveDefinite { index, .. } => assert_eq!(*index, bad_row),
+            SparseError::NotPositiveDefinite { index, .. } => assert_eq!(*index, bad_row),
             other => panic!("unexpected error {other}"),
         }
         assert!(err.to_string().contains("not positive definite"), "{err}");
@@ -130,9 +132,8 @@ fn bad_inputs_are_rejected() {
     let rect: CsMat<f64> = t.to_csc();
     assert!(matches!(
         SparseCholesky::new(&rect),
-        Err(ModalError::NotSquare {
-            nrows: 2,
-            ncols: 3,
+        Err(SparseError::Matrix {
+            source: SymmetryError::NotSquare { rows: 2, cols: 3 },
             ..
         })
     ));
@@ -144,7 +145,10 @@ fn bad_inputs_are_rejected() {
     let asym: CsMat<f64> = t.to_csc();
     assert!(matches!(
         SparseCholesky::new(&asym),
-        Err(ModalError::NotSymmetric { row: 1, col: 0, .. })
+        Err(SparseError::Matrix {
+            source: SymmetryError::NotSymmetric { row: 1, col: 0, .. },
+            ..
+        })
     ));
     // NaN entry.
     let mut t = TriMat::new((2, 2));
@@ -153,7 +157,10 @@ fn bad_inputs_are_rejected() {
     let nan: CsMat<f64> = t.to_csc();
     assert!(matches!(
         SparseCholesky::new(&nan),
-        Err(ModalError::NotFinite { .. })
+        Err(SparseError::Matrix {
+            source: SymmetryError::NonFinite { .. },
+            ..
+        })
     ));
     // Wrong right-hand side length.
     let a = laplacian_3d(3, 3, 3, 1.0);
@@ -161,7 +168,7 @@ fn bad_inputs_are_rejected() {
     let mut short = vec![1.0; 5];
     assert!(matches!(
         chol.solve_in_place(&mut short),
-        Err(ModalError::DimensionMismatch {
+        Err(SparseError::DimensionMismatch {
             expected: 27,
             found: 5,
             ..

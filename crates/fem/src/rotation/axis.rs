@@ -81,6 +81,19 @@ impl RotorAxis {
             d[2] - along * self.direction[2],
         ]
     }
+
+    /// The distance |P (x - p)| of a position x (m) from the axis, m.
+    pub fn distance(&self, x: [f64; 3]) -> f64 {
+        let r = self.radial_vector(x);
+        dot(&r, &r).sqrt()
+    }
+
+    /// The radial growth (m) of the point at X (m) displaced by u (m): the change of its
+    /// distance from the axis, |P (X + u - p)| - |P (X - p)| (a contact node's growth closes
+    /// its gap to the casing).
+    pub fn radial_growth(&self, x: [f64; 3], u: [f64; 3]) -> f64 {
+        self.distance([x[0] + u[0], x[1] + u[1], x[2] + u[2]]) - self.distance(x)
+    }
 }
 
 /// Dot product of two 3-vectors.

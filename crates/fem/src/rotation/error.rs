@@ -97,4 +97,27 @@ pub enum RotationError {
         /// The Newton iterations of the last attempt.
         history: Vec<NewtonIteration>,
     },
+
+    /// A contact node's radial growth at speed reaches its gap to the casing at rest: the
+    /// running gap is not positive, the structure touches the casing statically.
+    #[error(
+        "the clearance closes statically at {omega:.6e} rad/s: contact node {contact} (0-based; \
+         mesh node {mesh_node}) grows radially by {growth:.4e} m, more than the cold gap \
+         {cold_gap:.4e} m"
+    )]
+    ClearanceClosed {
+        /// The speed, rad/s.
+        omega: f64,
+        /// The node with the smallest running gap: its index among the contact nodes.
+        contact: usize,
+        /// Its mesh node (0-based).
+        mesh_node: usize,
+        /// Its radial growth, m.
+        growth: f64,
+        /// The gap at rest, m.
+        cold_gap: f64,
+        /// The speed at which its gap closes, rad/s, estimated from the Omega^2 law
+        /// ([`crate::rotation::closure_speed`]); `None` for a node that does not grow.
+        closure_omega: Option<f64>,
+    },
 }

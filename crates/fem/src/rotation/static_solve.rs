@@ -31,8 +31,9 @@ use sprs::CsMat;
 
 use crate::FemError;
 
+use nlmodes_sparse::LinearSolver;
+
 use crate::rotation::error::{NewtonIteration, RotationError, StopReason};
-use crate::rotation::linear_solver::LinearSolver;
 use crate::rotation::model::RotatingModel;
 use crate::rotation::stress_stiffness::{linear_stress_at, stress_stiffness_with_rule};
 

@@ -12,7 +12,7 @@ use faer::{Mat, MatMut, MatRef};
 use rayon::prelude::*;
 use sprs::CsMat;
 
-use crate::error::ModalError;
+use crate::error::{SparseError, SymmetryError};
 
 /// Relative tolerance of the symmetry checks, |a_ij - a_ji| <= tol * max|a|: the one shared by
 /// modal and nnm (`nlmodes_dense`). Finite-element assembly produces matrices symmetric to a few
@@ -39,26 +39,26 @@ pub fn as_csc(a: &CsMat<f64>) -> Cow<'_, CsMat<f64>> {
 }
 
 /// Checks that `a` is square and returns its order.
-pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
+pub fn check_square(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
     if a.rows() != a.cols() {
-        return Err(ModalError::NotSquare {
+        return Err(SparseError::Matrix {
             what: what.to_string(),
-            nrows: a.rows(),
-            ncols: a.cols(),
+            source: SymmetryError::NotSquare {
+                rows: a.rows(),
+                cols: a.cols(),
+            },
         });
     }
     Ok(a.rows())
 }
 
 /// Checks that every stored entry of `a` is finite.
-pub fn check_finite(a: &CsMat<f64>, what: &str) -> Result<(), ModalError> {
+pub fn check_finite(a: &CsMat<f64>, what: &str) -> Result<(), SparseError> {
     for (&value, (row, col)) in a.iter() {
         if !value.is_finite() {
-            return Err(ModalError::NotFinite {
+            return Err(SparseError::Matrix {
                 what: what.to_string(),
-                row,
-                col,
-                value,
+                source: SymmetryError::NonFinite { row, col, value },
             });
         }
     }
@@ -70,15 +70,16 @@ pub fn max_abs(a: &CsMat<f64>) -> f64 {
     a.data().iter().fold(0.0_f64, |acc, v| acc.max(v.abs()))
 }
 
-/// Checks |a_ij - a_ji| <= `rel_tol` * max|a| for every stored entry (an entry whose
+/// Checks |a_ij - a_ji| <= [`SYMMETRY_TOLERANCE`] * max|a| for every stored entry (an entry whose
 /// transpose is not stored is compared with 0; the first offending entry found, in the order
 /// of the outer dimension, is reported). Linear time: each column (row for CSR) j is merged
 /// with row j, read from the columns after j through one cursor per column that only moves
 /// forward (sprs keeps the indices of each column sorted), about a second for a million-DOF
 /// stiffness where a binary search per entry took 14 s of CPU.
-pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), ModalError> {
+pub fn check_symmetric(a: &CsMat<f64>, what: &str) -> Result<(), SparseError> {
     let n = check_square(a, what)?;
-    let bound = rel_tol * max_abs(a);
+    let scale = max_abs(a);
+    let bound = SYMMETRY_TOLERANCE * scale;
     let (indptr, indices, data) = (a.proper_indptr(), a.indices(), a.data());
     // cursor[c]: the next entry of outer c above the diagonal (inner < c) not yet matched.
     let mut cursor: Vec<usize> = indptr[..n].to_vec();
@@ -127,13 +128,15 @@ pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), M
             } else {
                 (outer, inner)
             };
-            Err(ModalError::NotSymmetric {
+            Err(SparseError::Matrix {
                 what: what.to_string(),
-                row,
-                col,
-                a_ij,
-                a_ji,
-                tolerance: rel_tol,
+                source: SymmetryError::NotSymmetric {
+                    row,
+                    col,
+                    a_ij,
+                    a_ji,
+                    scale,
+                },
             })
         }
         None => Ok(()),
@@ -141,21 +144,21 @@ pub fn check_symmetric(a: &CsMat<f64>, what: &str, rel_tol: f64) -> Result<(), M
 }
 
 /// Square, finite and symmetric: the checks every solver entry point runs.
-pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, ModalError> {
+pub fn check_symmetric_input(a: &CsMat<f64>, what: &str) -> Result<usize, SparseError> {
     let n = check_square(a, what)?;
     check_finite(a, what)?;
-    check_symmetric(a, what, SYMMETRY_TOLERANCE)?;
+    check_symmetric(a, what)?;
     Ok(n)
 }
 
 /// y = A x (overwrites `y`). Errors when the lengths do not match the matrix.
-pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), ModalError> {
+pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), SparseError> {
     for (what, expected, found) in [
         ("length of x in y = A x", a.cols(), x.len()),
         ("length of y in y = A x", a.rows(), y.len()),
     ] {
         if expected != found {
-            return Err(ModalError::DimensionMismatch {
+            return Err(SparseError::DimensionMismatch {
                 what: what.to_string(),
                 expected,
                 found,
@@ -166,8 +169,9 @@ pub fn spmv(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) -> Result<(), ModalError> 
     Ok(())
 }
 
-/// y = A x for lengths already known to match (internal hot loops).
-pub(crate) fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
+/// y = A x for lengths already known to match (the eigensolvers' hot loops; lengths that do
+/// not match panic: [`spmv`] checks them).
+pub fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
     debug_assert_eq!(x.len(), a.cols());
     debug_assert_eq!(y.len(), a.rows());
     let indptr = a.proper_indptr();
@@ -197,18 +201,18 @@ pub(crate) fn spmv_unchecked(a: &CsMat<f64>, x: &[f64], y: &mut [f64]) {
 /// K - sigma M on the union of the two sparsity patterns (CSC).
 ///
 /// Errors when the matrices are not square or differ in size.
-pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>, ModalError> {
+pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>, SparseError> {
     let n = check_square(k, "K")?;
     let n_m = check_square(m, "M")?;
     if n != n_m {
-        return Err(ModalError::DimensionMismatch {
+        return Err(SparseError::DimensionMismatch {
             what: "order of M compared with K".to_string(),
             expected: n,
             found: n_m,
         });
     }
     if !sigma.is_finite() {
-        return Err(ModalError::InvalidArgument(format!(
+        return Err(SparseError::InvalidArgument(format!(
             "the shift sigma must be finite, got {sigma}"
         )));
     }
@@ -249,11 +253,15 @@ pub fn shifted(k: &CsMat<f64>, m: &CsMat<f64>, sigma: f64) -> Result<CsMat<f64>,
 /// The block A[rows, cols] as a CSC matrix (row and column order as given).
 ///
 /// Errors when an index is out of range or a row index is repeated.
-pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat<f64>, ModalError> {
+pub fn submatrix(
+    a: &CsMat<f64>,
+    rows: &[usize],
+    cols: &[usize],
+) -> Result<CsMat<f64>, SparseError> {
     let mut seen = vec![false; a.rows()];
     for &r in rows {
         if r >= a.rows() || seen[r] {
-            return Err(ModalError::InvalidArgument(format!(
+            return Err(SparseError::InvalidArgument(format!(
                 "row index {r} of a submatrix is out of range (0..{}) or repeated",
                 a.rows()
             )));
@@ -261,7 +269,7 @@ pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat
         seen[r] = true;
     }
     if let Some(&c) = cols.iter().find(|&&c| c >= a.cols()) {
-        return Err(ModalError::InvalidArgument(format!(
+        return Err(SparseError::InvalidArgument(format!(
             "column index {c} of a submatrix is out of range (0..{})",
             a.cols()
         )));
@@ -269,8 +277,9 @@ pub fn submatrix(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> Result<CsMat
     Ok(submatrix_unchecked(a, rows, cols))
 }
 
-/// [`submatrix`] for indices already validated (in range, rows distinct).
-pub(crate) fn submatrix_unchecked(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> CsMat<f64> {
+/// [`submatrix`] for indices already validated (in range, rows distinct; an index out of range
+/// panics).
+pub fn submatrix_unchecked(a: &CsMat<f64>, rows: &[usize], cols: &[usize]) -> CsMat<f64> {
     let a = as_csc(a);
     let mut row_map = vec![usize::MAX; a.rows()];
     for (local, &global) in rows.iter().enumerate() {
@@ -424,9 +433,9 @@ mod tests {
         t.add_triplet(1, 1, 1.0);
         t.add_triplet(1, 0, 0.5);
         let a: CsMat<f64> = t.to_csc();
-        let err = check_symmetric(&a, "test matrix", SYMMETRY_TOLERANCE).unwrap_err();
+        let err = check_symmetric(&a, "test matrix").unwrap_err();
         assert!(
-            err.to_string().contains("test matrix is not symmetric"),
+            err.to_string().contains("test matrix: not symmetric"),
             "{err}"
         );
     }
@@ -454,7 +463,7 @@ mod tests {
         };
         for to_storage in [TriMat::to_csc, TriMat::to_csr] {
             let symmetric: CsMat<f64> = to_storage(&base(&[]));
-            assert!(check_symmetric(&symmetric, "A", SYMMETRY_TOLERANCE).is_ok());
+            assert!(check_symmetric(&symmetric, "A").is_ok());
             for (extra, row, col, a_ij, a_ji) in [
                 (vec![(5, 1, 1e-3)], 5, 1, 2.001, 2.0),
                 (vec![(1, 3, 7.0)], 1, 3, 7.0, 0.0),
@@ -462,12 +471,16 @@ mod tests {
                 (vec![(2, 5, 7.0)], 2, 5, 7.0, 0.0),
             ] {
                 let a: CsMat<f64> = to_storage(&base(&extra));
-                let err = check_symmetric(&a, "A", SYMMETRY_TOLERANCE).unwrap_err();
-                let ModalError::NotSymmetric {
-                    row: r,
-                    col: c,
-                    a_ij: v,
-                    a_ji: w,
+                let err = check_symmetric(&a, "A").unwrap_err();
+                let SparseError::Matrix {
+                    source:
+                        SymmetryError::NotSymmetric {
+                            row: r,
+                            col: c,
+                            a_ij: v,
+                            a_ji: w,
+                            ..
+                        },
                     ..
                 } = err
                 else {
