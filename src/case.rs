@@ -31,16 +31,16 @@ pub struct Case {
     pub algorithm: SolverSettings,
     /// Floquet stability of every backbone point (Hill's method, docs/STABILITY.md).
     pub stability: StabilitySection,
-    /// The forced-response study (issue 22): `crate::forced_settings::ForcedSection`.
-    pub forced: crate::forced_settings::ForcedSection,
-    /// The rotating blade (issue 23): `crate::rotation_settings::RotationSection`; absent, the
+    /// The forced-response study (issue 22): `crate::forced::forced_settings::ForcedSection`.
+    pub forced: crate::forced::forced_settings::ForcedSection,
+    /// The rotating blade (issue 23): `crate::rotation::rotation_settings::RotationSection`; absent, the
     /// blade is at rest and every stage gives today's results.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub rotation: Option<crate::rotation_settings::RotationSection>,
+    pub rotation: Option<crate::rotation::rotation_settings::RotationSection>,
     /// The speed sweeps through the Campbell crossings (issue 39):
-    /// `crate::speed_sweep_settings::SpeedSweepSection`; absent, none run. Needs `[rotation]`.
+    /// `crate::speed_sweep::speed_sweep_settings::SpeedSweepSection`; absent, none run. Needs `[rotation]`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub speed_sweep: Option<crate::speed_sweep_settings::SpeedSweepSection>,
+    pub speed_sweep: Option<crate::speed_sweep::speed_sweep_settings::SpeedSweepSection>,
 }
 
 /// `[stability]`: Floquet multipliers of every backbone point by Hill's method.
@@ -188,7 +188,7 @@ impl Default for Case {
             continuation: ContinuationSettings::default(),
             algorithm: SolverSettings::default(),
             stability: StabilitySection::default(),
-            forced: crate::forced_settings::ForcedSection::default(),
+            forced: crate::forced::forced_settings::ForcedSection::default(),
             rotation: None,
             speed_sweep: None,
         }
@@ -428,21 +428,24 @@ mod tests {
         c.mesh.parameters.clear();
         assert_eq!(
             c.rotation.take(),
-            Some(crate::rotation_settings::RotationSection::default())
+            Some(crate::rotation::rotation_settings::RotationSection::default())
         );
         assert_eq!(
             c.speed_sweep.take(),
-            Some(crate::speed_sweep_settings::SpeedSweepSection {
-                engine_orders: vec![3],
-                levels: vec![2.0],
-                adapt_harmonics: crate::speed_sweep_settings::SweepHarmonics::Check,
-                casing: Some(crate::speed_sweep_settings::CasingSection {
-                    amplitudes: [0.0, 1.5],
-                    points: 16,
+            Some(
+                crate::speed_sweep::speed_sweep_settings::SpeedSweepSection {
+                    engine_orders: vec![3],
+                    levels: vec![2.0],
+                    adapt_harmonics:
+                        crate::speed_sweep::speed_sweep_settings::SweepHarmonics::Check,
+                    casing: Some(crate::speed_sweep::speed_sweep_settings::CasingSection {
+                        amplitudes: [0.0, 1.5],
+                        points: 16,
+                        ..Default::default()
+                    }),
                     ..Default::default()
-                }),
-                ..Default::default()
-            })
+                }
+            )
         );
         let as_json = |c: &Case| serde_json::to_string(c).unwrap();
         assert_eq!(as_json(&c), as_json(&Case::default()));

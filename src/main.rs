@@ -2,63 +2,22 @@
 //! after Laxalde, Legrand & Pierre (2009). Units: SI throughout (m, kg, s, Pa, Hz).
 
 mod backbone;
-mod backbone_exact;
-mod backbone_holes;
-mod backbone_stage;
 mod campbell;
-mod campbell_march;
-mod campbell_parametric;
-mod campbell_stage;
 mod case;
 mod child;
-mod converged;
 mod exit;
-mod fe_model;
-mod figures;
 mod forced;
-mod forced_distortion;
-mod forced_exact;
-mod forced_inputs;
-mod forced_output;
-mod forced_paraview;
-mod forced_settings;
-mod forced_speed;
-mod forced_speed_casing;
-mod forced_speed_command;
-mod forced_speed_distortion;
-mod forced_speed_figure;
-mod forced_speed_output;
-mod forced_speed_report;
-mod forced_speed_stage;
-mod forced_stage;
-mod gmsh;
 mod layout;
-mod level_sweep;
-mod mesh_stage;
-mod output;
+mod mesh;
 mod post;
-mod prestress;
 mod problems;
 mod reduce;
-mod reduce_mpi;
-mod reduce_stage;
-mod render;
-mod report;
-mod results;
-mod rotation_mpi;
-mod rotation_settings;
+mod rotation;
 mod run;
-mod speed_stage;
-mod speed_sweep_settings;
+mod speed_sweep;
 mod stage;
 mod stage_hash;
 mod study;
-mod study_file;
-mod study_gather;
-mod study_job;
-mod study_plan;
-mod study_report;
-mod study_snakefile;
 mod ui;
 mod validate;
 
@@ -365,7 +324,7 @@ fn main() -> std::process::ExitCode {
     nlmodes_distributed::crew::abort_on_panic();
     // Under mpirun rank 0 runs the command and the other ranks serve its distributed tasks.
     let result = match rank {
-        Some(r) if r > 0 => reduce_mpi::serve(),
+        Some(r) if r > 0 => reduce::reduce_mpi::serve(),
         Some(_) => {
             nlmodes_distributed::crew::lead();
             run(cli.command)
@@ -390,7 +349,7 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run(command: Command) -> Result<()> {
-    if reduce_mpi::distributed()
+    if reduce::reduce_mpi::distributed()
         && !matches!(
             command,
             Command::Modes { .. } | Command::Reduce(_) | Command::Run { .. }
@@ -411,7 +370,7 @@ fn run(command: Command) -> Result<()> {
             validate::check_output_file(&out, "--out")?;
             let params: BTreeMap<String, f64> = set.into_iter().collect();
             let stage = ui::Stage::start("mesh");
-            gmsh::mesh(&geo, &params, order, &out)?;
+            mesh::gmsh::mesh(&geo, &params, order, &out)?;
             stage.done(&format!("wrote {}", out.display()));
             Ok(())
         }
@@ -430,14 +389,14 @@ fn run(command: Command) -> Result<()> {
                 )));
             }
             validate::check_output_dir(&out, "--out")?;
-            if reduce_mpi::distributed() {
-                let source = reduce_mpi::FeSource::new(&mesh, &fix, &material.material()?);
-                return reduce_mpi::write_full_modes(source, modes, sigma, &out);
+            if reduce::reduce_mpi::distributed() {
+                let source = reduce::reduce_mpi::FeSource::new(&mesh, &fix, &material.material()?);
+                return reduce::reduce_mpi::write_full_modes(source, modes, sigma, &out);
             }
-            let fe = fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
+            let fe = mesh::fe_model::FeModel::build(&mesh, &material.material()?, &fix)?;
             let m = fe.modes(modes, sigma)?;
-            fe_model::write_modes(&fe, &m, &out)?;
-            ui::say(&fe_model::frequency_table(&m));
+            mesh::fe_model::write_modes(&fe, &m, &out)?;
+            ui::say(&mesh::fe_model::frequency_table(&m));
             Ok(())
         }
         Command::Reduce(args) => reduce_command(args),
@@ -458,8 +417,8 @@ fn run(command: Command) -> Result<()> {
             };
             study::study(&study, &opts)
         }
-        Command::StudyJob { dir, job } => study_job::run(&dir, &job),
-        Command::StudyGather { dir } => study_report::write_gathered(&dir).map(drop),
+        Command::StudyJob { dir, job } => study::study_job::run(&dir, &job),
+        Command::StudyGather { dir } => study::study_report::write_gathered(&dir).map(drop),
     }
 }
 
@@ -484,18 +443,23 @@ fn reduce_command(a: ReduceArgs) -> Result<()> {
         .map_err(|e| bad_input(format!("--axis-point/--axis-direction: {e}")))?;
     validate::check_output_dir(&a.out, "--out")?;
     let material = a.material.material()?;
-    let (mut model, full) = if reduce_mpi::distributed() {
-        let (mesh, dofs) = fe_model::read_mesh(&a.mesh, &a.fix)?;
+    let (mut model, full) = if reduce::reduce_mpi::distributed() {
+        let (mesh, dofs) = mesh::fe_model::read_mesh(&a.mesh, &a.fix)?;
         let settings = reduce_settings(&a, axis, dofs.n_free());
         let side = reduce::MeshSide {
             mesh: &mesh,
             dofs: &dofs,
             clamp: &a.fix,
         };
-        let source = reduce_mpi::FeSource::new(&a.mesh, &a.fix, &material);
-        reduce::reduce_distributed(&side, source, &settings, reduce_mpi::RootData::default())?
+        let source = reduce::reduce_mpi::FeSource::new(&a.mesh, &a.fix, &material);
+        reduce::reduce_distributed(
+            &side,
+            source,
+            &settings,
+            reduce::reduce_mpi::RootData::default(),
+        )?
     } else {
-        let fe = fe_model::FeModel::build(&a.mesh, &material, &a.fix)?;
+        let fe = mesh::fe_model::FeModel::build(&a.mesh, &material, &a.fix)?;
         reduce::reduce(&fe, &reduce_settings(&a, axis, fe.dofs.n_free()))?
     };
     reduce::write_model(&mut model, &a.out, &a.mesh)?;
@@ -595,10 +559,10 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
     let hs = nlmodes_nnm::HarmonicSettings::new(a.harmonics, a.samples)?;
     let mut b = backbone::trace(&system, hs, &params, &cont)?;
     backbone::stability(&system, &mut b, &stab)?;
-    converged::converge(&system, &mut b, &stab, &convergence)?;
-    let exact = backbone_exact::exact_outputs(&system, &b, &[], &stab, cont.q_max)?;
+    backbone::converged::converge(&system, &mut b, &stab, &convergence)?;
+    let exact = backbone::backbone_exact::exact_outputs(&system, &b, &[], &stab, cont.q_max)?;
     backbone::write(&b, &a.out)?;
-    backbone_exact::write(&exact, &b, &a.out)?;
+    backbone::backbone_exact::write(&exact, &b, &a.out)?;
     ui::say(&backbone::summary(&b, &params));
     backbone::stopped_early(&b, &a.out)
 }
@@ -608,19 +572,24 @@ fn backbone_command(a: BackboneArgs) -> Result<()> {
 fn forced_command(a: ForcedArgs) -> Result<()> {
     let (section, source) = forced_section(a.settings.as_deref())?;
     if a.speed_sweep {
-        return forced_speed_command::sweep(&a.model, a.settings.as_deref(), section, &a.out);
+        return speed_sweep::forced_speed_command::sweep(
+            &a.model,
+            a.settings.as_deref(),
+            section,
+            &a.out,
+        );
     }
     let backbone = match &a.backbone {
         Some(p) => Some(
-            results::read_json::<results::BackboneFile>(p)
+            post::results::read_json::<post::results::BackboneFile>(p)
                 .map_err(|e| e.context(exit::BadInput(format!("--backbone {}", p.display()))))?,
         ),
         None => None,
     };
     validate::check_output_dir(&a.out, "--out")?;
     let reduced = match a.speed {
-        Some(rpm) => forced_speed::model_at_speed(
-            &forced_speed::read_parametric(&a.model)?,
+        Some(rpm) => speed_sweep::forced_speed::model_at_speed(
+            &speed_sweep::forced_speed::read_parametric(&a.model)?,
             &a.model,
             rpm,
             "--speed",
@@ -635,33 +604,35 @@ fn forced_command(a: ForcedArgs) -> Result<()> {
             a.model.display()
         )))
     })?;
-    let model = forced_inputs::ForcedModel {
+    let model = forced::forced_inputs::ForcedModel {
         dir: &a.model,
         reduced: &reduced,
         system: &system,
     };
     let given = a.backbone.as_deref().zip(backbone.as_ref());
-    let inputs = forced_inputs::check(&model, &section, &source, given)?;
+    let inputs = forced::forced_inputs::check(&model, &section, &source, given)?;
     let (c, f) = (inputs.damping_matrix, inputs.file_load);
     let study = forced::run(&system, &section, c, f.as_ref(), backbone.as_ref())?;
-    forced_output::write(&study, backbone.as_ref(), &a.out)?;
-    level_sweep::write(&study, &a.out)?;
-    let orbits = forced_paraview::write_chosen_orbits(&study, &reduced, &a.out)?;
+    forced::forced_output::write(&study, backbone.as_ref(), &a.out)?;
+    forced::level_sweep::write(&study, &a.out)?;
+    let orbits = forced::forced_paraview::write_chosen_orbits(&study, &reduced, &a.out)?;
     tracing::info!(
         "{orbits} orbits written for ParaView in {}",
         a.out.join("orbits").display()
     );
-    ui::say(&(forced_output::summary(&study) + &level_sweep::summary(&study)));
+    ui::say(&(forced::forced_output::summary(&study) + &forced::level_sweep::summary(&study)));
     forced::stopped_early(&study, &a.out)
 }
 
 /// The `[forced]` table of `--settings` (the defaults without it), checked, and its source's
 /// name for messages.
-fn forced_section(settings: Option<&Path>) -> Result<(forced_settings::ForcedSection, String)> {
+fn forced_section(
+    settings: Option<&Path>,
+) -> Result<(forced::forced_settings::ForcedSection, String)> {
     let (section, source) = match settings {
-        Some(p) => (forced_settings::load(p)?, p.display().to_string()),
+        Some(p) => (forced::forced_settings::load(p)?, p.display().to_string()),
         None => (
-            forced_settings::ForcedSection::default(),
+            forced::forced_settings::ForcedSection::default(),
             "defaults".to_string(),
         ),
     };

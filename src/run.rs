@@ -9,16 +9,16 @@
 use anyhow::{Context, Result};
 use nlmodes_fem::Isotropic;
 
-use crate::backbone_stage::BackboneStage;
-use crate::campbell_stage::CampbellStage;
+use crate::backbone::backbone_stage::BackboneStage;
+use crate::campbell::campbell_stage::CampbellStage;
 use crate::case::Case;
-use crate::forced_speed_stage::SpeedSweepStage;
-use crate::forced_stage::ForcedStage;
+use crate::forced::forced_stage::ForcedStage;
 use crate::layout::Layout;
-use crate::mesh_stage::MeshStage;
+use crate::mesh::mesh_stage::MeshStage;
 use crate::post;
-use crate::reduce_stage::{ModelRequest, ModesStage, ReduceStage};
-use crate::speed_stage::SpeedStage;
+use crate::reduce::reduce_stage::{ModelRequest, ModesStage, ReduceStage};
+use crate::rotation::speed_stage::SpeedStage;
+use crate::speed_sweep::forced_speed_stage::SpeedSweepStage;
 use crate::stage::{run_if_needed, Stage};
 
 pub use crate::stage::Only;
@@ -98,11 +98,11 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
         case.material.density,
     )
     .context("[material] of the case file")?;
-    let fe_hash = crate::reduce_stage::fe_hash(&case, mesh.hash());
+    let fe_hash = crate::reduce::reduce_stage::fe_hash(&case, mesh.hash());
     let reduce = ReduceStage::new(&case, &layout, &material, &fe_hash);
     let modes = ModesStage::new(&case, &layout, &fe_hash);
     // The full model's modes run in a child process beside the stages below, until forced.
-    let pending_modes = crate::reduce_stage::modes_and_reduce(
+    let pending_modes = crate::reduce::reduce_stage::modes_and_reduce(
         &modes,
         &reduce,
         ModelRequest {
@@ -162,7 +162,7 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
     }
     if let Some(r) = &case.rotation {
         if sel.wants_any(&[Only::Campbell, Only::Post]) {
-            crate::campbell_stage::draw(&case, r, &layout)?;
+            crate::campbell::campbell_stage::draw(&case, r, &layout)?;
         }
     }
     if sel.wants(Only::Post) {

@@ -54,7 +54,7 @@ pub fn up_to_date(stage: &dyn Stage) -> bool {
 pub fn stamp(stage: &dyn Stage) -> Result<()> {
     let p = stage.layout().stamp(&stage.name());
     std::fs::create_dir_all(p.parent().unwrap_or(Path::new(".")))?;
-    crate::output::write_atomic(&p, stage.hash().as_bytes())
+    crate::post::output::write_atomic(&p, stage.hash().as_bytes())
 }
 
 /// Runs the stage unless it is up to date (`force`: even then), and stamps it. The old stamp

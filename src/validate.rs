@@ -112,8 +112,8 @@ fn check_speed_sweep(case: &Case, p: &mut Problems) {
     if !case.forced.enabled {
         check_forced(case, p);
     }
-    crate::speed_sweep_settings::check_forced_for_sweeps(&case.forced, p);
-    crate::forced_speed_distortion::check(&case.forced, sweep, p);
+    crate::speed_sweep::speed_sweep_settings::check_forced_for_sweeps(&case.forced, p);
+    crate::speed_sweep::forced_speed_distortion::check(&case.forced, sweep, p);
 }
 
 fn check_mesh(case: &Case, p: &mut Problems) {
@@ -138,7 +138,7 @@ fn check_mesh(case: &Case, p: &mut Problems) {
             &format!("cannot read {}: {e}", mesh.geo.display()),
         ),
         Ok(text) => {
-            let known = crate::gmsh::geo_parameters(&text);
+            let known = crate::mesh::gmsh::geo_parameters(&text);
             for name in mesh.parameters.keys().filter(|n| !known.contains(n)) {
                 p.note(
                     &format!("mesh.parameters.{name}"),
@@ -254,7 +254,7 @@ fn check_forced(case: &Case, p: &mut Problems) {
     }
     let model = case.out_dir().join("model");
     let f_mtx = model.join("F.mtx");
-    if f.load == crate::forced_settings::ForcedLoadKind::File && !f_mtx.is_file() {
+    if f.load == crate::forced::forced_settings::ForcedLoadKind::File && !f_mtx.is_file() {
         p.check(
             false,
             "forced.load",

@@ -1,0 +1,220 @@
+//! What the summary reads of the other stages' files: the backbones' headline numbers, the
+//! forced responses' peaks (`forced/frf.csv`), and what stopped early or is missing (the
+//! terminations in `frf.json`, `speed_sweep.json` and the backbones at speed).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::ReportInputs;
+use crate::case::Case;
+use crate::post::results::{read_json, BackboneFile};
+use crate::speed_sweep::forced_speed_report::significant;
+
+/// One line on a backbone: the linear frequency, grazing, the last main-branch point, how many
+/// of its points are unstable, and how it ended when it did not reach q_max.
+pub(super) fn backbone_headline(at: &str, b: &BackboneFile) -> String {
+    let g0 = b.gap_reference;
+    let f1 = b.omega_linear / std::f64::consts::TAU;
+    let main: Vec<_> = b.points.iter().filter(|p| !b.on_tongue(p)).collect();
+    let Some(last) = main.iter().max_by(|a, c| a.q.total_cmp(&c.q)) else {
+        return String::new();
+    };
+    let unstable = (main.iter())
+        .filter(|p| p.verdict() == Some("unstable"))
+        .count();
+    let grazing = b
+        .grazing_amplitude
+        .map_or("never".to_string(), |q| format!("at q/g0 = {:.2}", q / g0));
+    let end = if b.reached_q_max() {
+        String::new()
+    } else {
+        format!("; stopped early: {}", b.termination_text())
+    };
+    let gap = if at.is_empty() { "cold" } else { "running" };
+    format!(
+        "- **Free nonlinear mode{at}** (amplitudes over the {gap} gap): linear frequency {f1:.2} \
+         Hz, grazing {grazing}, w/w1 = {:.4} at q/g0 = {:.1} ({} main-branch points, \
+         {unstable} unstable){end}.\n",
+        last.omega_ratio,
+        last.q / g0,
+        main.len()
+    )
+}
+
+/// Per level of `frf.csv`: the peak (largest q1/g0) with its W/w and verdict, and the largest
+/// contact force.
+struct LevelPeak {
+    q: f64,
+    ratio: f64,
+    stability: String,
+    force: f64,
+}
+
+/// The peaks of `dir/frf.csv` by level (in file order), `None` when absent or unreadable.
+fn level_peaks(dir: &Path) -> Option<Vec<(String, LevelPeak)>> {
+    let text = std::fs::read_to_string(dir.join("frf.csv")).ok()?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next()?.split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name);
+    let (l, q, w) = (col("level")?, col("q1_over_g0")?, col("omega_ratio")?);
+    let (f, st) = (col("max_contact_force_N")?, col("stability")?);
+    let mut out: Vec<(String, LevelPeak)> = Vec::new();
+    let mut index = BTreeMap::new();
+    for line in lines {
+        let c: Vec<&str> = line.split(',').collect();
+        let num = |i: usize| c.get(i).and_then(|v| v.parse::<f64>().ok());
+        let (Some(qv), Some(wv)) = (num(q), num(w)) else {
+            continue;
+        };
+        let level = c.get(l)?.to_string();
+        let k = *index.entry(level.clone()).or_insert_with(|| {
+            out.push((
+                level,
+                LevelPeak {
+                    q: -1.0,
+                    ratio: 0.0,
+                    stability: String::new(),
+                    force: 0.0,
+                },
+            ));
+            out.len() - 1
+        });
+        let peak = &mut out[k].1;
+        peak.force = peak.force.max(num(f).unwrap_or(0.0));
+        if qv > peak.q {
+            (peak.q, peak.ratio) = (qv, wv);
+            peak.stability = c.get(st).unwrap_or(&"").to_string();
+        }
+    }
+    Some(out)
+}
+
+/// One line on the forced response in `dir` (`at`: "" or " at 8000 rpm"); empty without it.
+pub(super) fn forced_headline(case: &Case, dir: &Path, at: &str) -> String {
+    let Some(peaks) = level_peaks(dir) else {
+        return String::new();
+    };
+    let unit = match case.forced.level_unit {
+        crate::forced::forced_settings::LevelUnit::Grazing => " x grazing".to_string(),
+        _ => format!(" {}", case.forced.load.unit()),
+    };
+    let parts: Vec<String> = (peaks.iter())
+        .map(|(level, p)| {
+            let contact = if p.force > 0.0 {
+                format!("largest contact force {} N", significant(p.force, 3))
+            } else {
+                "no contact".into()
+            };
+            let stability = if p.stability.is_empty() {
+                String::new()
+            } else {
+                format!(", {}", p.stability)
+            };
+            format!(
+                "level {level}{unit}: peak q/g0 = {:.2} at W/w = {:.3}{stability}, {contact}",
+                p.q, p.ratio
+            )
+        })
+        .collect();
+    format!(
+        "- **Forced response{at}** around mode {} (`[forced]`, amplitudes over the {} gap): \
+         {}.\n",
+        case.forced.mode + 1,
+        if at.is_empty() { "cold" } else { "running" },
+        parts.join("; ")
+    )
+}
+
+#[derive(Deserialize)]
+struct FrfHead {
+    curves: Vec<CurveHead>,
+}
+
+#[derive(Deserialize)]
+struct CurveHead {
+    level: f64,
+    termination: String,
+}
+
+/// The forced curves in `dir` that did not cover their range, or the study missing.
+fn forced_partial(dir: &Path, what: &str, out: &mut Vec<String>) {
+    match read_json::<FrfHead>(&dir.join("frf.json")) {
+        Err(_) => out.push(format!(
+            "{what}: not computed (`nlmodes run --only forced`)"
+        )),
+        Ok(f) => out.extend(
+            (f.curves.iter())
+                .filter(|c| !c.termination.starts_with("complete"))
+                .map(|c| format!("{what}, level {}: {}", c.level, c.termination)),
+        ),
+    }
+}
+
+/// A backbone at a speed that stopped before q_max, or is missing.
+fn backbone_partial(dir: &Path, rpm: f64, out: &mut Vec<String>) {
+    match read_json::<BackboneFile>(&dir.join("backbone/backbone.json")) {
+        Err(_) => out.push(format!("the backbone at {rpm:.0} rpm: not computed")),
+        Ok(b) if !b.reached_q_max() => out.push(format!(
+            "the backbone at {rpm:.0} rpm stopped early ({})",
+            b.termination_text()
+        )),
+        Ok(_) => {}
+    }
+}
+
+/// Everything the case asks for that stopped early or is missing, as phrases.
+pub(super) fn partial_results(r: &ReportInputs<'_>) -> Vec<String> {
+    let (case, shared) = (r.case, &r.layout.shared);
+    let mut out = Vec::new();
+    if case.forced.enabled {
+        forced_partial(
+            &shared.join("forced"),
+            "the forced response at rest",
+            &mut out,
+        );
+    }
+    let Some(rot) = &case.rotation else {
+        return out;
+    };
+    let op = rot.operating_speed;
+    backbone_partial(&shared.join("speed"), op, &mut out);
+    for rpm in rot.extra_map_speeds() {
+        let dir = crate::rotation::speed_stage::map_speed_layout(r.layout, rpm).root;
+        backbone_partial(&dir, rpm, &mut out);
+    }
+    if case.forced.enabled {
+        let what = format!("the forced response at {op:.0} rpm");
+        forced_partial(&shared.join("speed/forced"), &what, &mut out);
+    }
+    if case.speed_sweep.as_ref().is_some_and(|s| s.enabled) {
+        match crate::speed_sweep::forced_speed_report::swept(case, r.layout) {
+            Ok(Some(f)) => out.extend((f.sweeps.iter()).filter(|s| !s.complete).map(|s| {
+                format!(
+                    "the speed sweep at EO {}, level {}: {}",
+                    s.engine_order, s.level, s.end
+                )
+            })),
+            _ => {
+                out.push("the speed sweeps: not computed (`nlmodes run --only speed-sweep`)".into())
+            }
+        }
+    }
+    let casing = (case.speed_sweep.as_ref())
+        .is_some_and(|s| s.enabled && s.casing.as_ref().is_some_and(|c| c.enabled));
+    if casing {
+        let dir = shared.join("speed_sweep");
+        let read = crate::post::results::speed_sweep::read_casing::<
+            crate::speed_sweep::forced_speed_casing::CasingSummary,
+        >(&dir);
+        match read {
+            Ok(Some(c)) if !c.complete => out.push(format!("the casing distortion: {}", c.end)),
+            Ok(Some(_)) => {}
+            _ => out.push(
+                "the casing distortion: not computed (`nlmodes run --only speed-sweep`)".into(),
+            ),
+        }
+    }
+    out
+}

@@ -1,0 +1,491 @@
+//! The casing distortion at the operating speed (issue 39, item 6; `[speed_sweep.casing]`;
+//! docs/ROTATION.md "Casing distortion at the operating speed"): the blade at one speed on the
+//! parametric model, no aerodynamic load, an n-lobed casing whose intrusion delta grows over a
+//! grid (`nlmodes_forced::casing_sweep`): does the casing's distortion make the blade rub, how
+//! hard, stable or not. W is the lobe-passing frequency n Omega; every contact row sees the
+//! gap g0_j(Omega) - delta cos(n Omega t + phase). Writes `casing.csv`, `casing.json` and
+//! `casing.png/.svg` beside the speed sweeps. Units: m, N, rpm, Hz; amplitudes also over the
+//! mean running gap g0 at the speed.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use faer::Mat;
+use nlmodes_forced::{
+    casing_sweep, CasingPoint, CasingSweep, CasingSweepSettings, ForcedSettings, Verdict,
+};
+use nlmodes_modal::ParametricModel;
+use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, RefLine, Series};
+use nlmodes_output::{CsvTable, CsvValue};
+use serde::{Deserialize, Serialize};
+
+use crate::forced::forced_output::{
+    contact_summary, harmonic, max_abs_over_period, opt, verdict_word,
+};
+use crate::forced::forced_settings::ForcedSection;
+use crate::rotation::rotation_settings::RPM_TO_RAD_S;
+use crate::speed_sweep::speed_sweep_settings::CasingSection;
+
+const TAU: f64 = std::f64::consts::TAU;
+
+/// The study's result.
+pub struct CasingStudy {
+    pub lobes: usize,
+    /// Omega and W = n Omega (rad/s); the swept mode's frequency at Omega (rad/s).
+    pub speed: f64,
+    pub omega: f64,
+    pub mode_frequency: f64,
+    pub mode: usize,
+    /// The mean, smallest and largest running gap at the speed (m).
+    pub gap_reference: f64,
+    pub smallest_gap: f64,
+    pub largest_gap: f64,
+    pub master: usize,
+    pub contacts: usize,
+    pub phase: f64,
+    /// `[forced] harmonic_tolerance`.
+    pub tolerance: f64,
+    pub sweep: CasingSweep,
+}
+
+/// What the sweep shares with the speed sweeps of the stage: the parametric model read from
+/// `dir`, `[forced]`, its solver settings (N, the penalty law of the reference speed) and its
+/// damping matrix.
+pub struct CasingInputs<'a> {
+    pub model: &'a ParametricModel,
+    pub dir: &'a Path,
+    pub forced: &'a ForcedSection,
+    pub solver: &'a ForcedSettings,
+    pub damping_matrix: Option<&'a Mat<f64>>,
+    /// `[speed_sweep] adapt_harmonics`, which the casing sweep follows too.
+    pub policy: crate::speed_sweep::speed_sweep_settings::SweepHarmonics,
+}
+
+/// Runs `[speed_sweep.casing]` at its speed (`operating_rpm` by default).
+pub fn run(
+    inputs: &CasingInputs<'_>,
+    c: &CasingSection,
+    operating_rpm: f64,
+) -> Result<CasingStudy> {
+    let rpm = c.speed.unwrap_or(operating_rpm);
+    let reduced = crate::speed_sweep::forced_speed::model_at_speed(
+        inputs.model,
+        inputs.dir,
+        rpm,
+        "speed_sweep.casing.speed",
+    )?;
+    let system = crate::backbone::system_of(&reduced, None)?;
+    let damping = (inputs.forced)
+        .damping(inputs.damping_matrix.cloned())
+        .matrix(&system)?;
+    let gaps = system.gaps();
+    let smallest = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+    let largest = gaps.iter().copied().fold(0.0, f64::max);
+    let g0 = system.gap_reference();
+    let lobes = c.lobes.max(1) as usize;
+    let speed = rpm * RPM_TO_RAD_S;
+    let mut settings = CasingSweepSettings::new(
+        lobes as f64 * speed,
+        c.grid(g0, smallest),
+        inputs.solver.clone(),
+    );
+    settings.phase = c.phase;
+    settings.stability = inputs.forced.stability;
+    settings.harmonic_policy = inputs.policy.policy();
+    settings.max_harmonics = inputs.forced.top_harmonics();
+    settings.harmonic_tolerance = inputs.forced.harmonic_tolerance;
+    let bar = crate::ui::bar(settings.amplitudes.len() as u64, "casing distortion");
+    let sweep = casing_sweep(&system, &damping, &settings, |p| {
+        bar.set_message(format!("delta {:.3} g0", p.amplitude / g0));
+        bar.inc(1);
+    })
+    .context("the casing distortion sweep of [speed_sweep.casing]")?;
+    bar.finish_and_clear();
+    Ok(CasingStudy {
+        lobes,
+        speed,
+        omega: settings.omega,
+        mode_frequency: system.linear_frequencies()[inputs.forced.mode],
+        mode: inputs.forced.mode,
+        gap_reference: g0,
+        smallest_gap: smallest,
+        largest_gap: largest,
+        master: system.master(),
+        contacts: system.n_contacts(),
+        phase: c.phase,
+        tolerance: inputs.forced.harmonic_tolerance,
+        sweep,
+    })
+}
+
+/// Runs `[speed_sweep.casing]` of `sweep` when enabled, at its speed (`operating_rpm` by
+/// default), writes its files into `out` and prints its answer: the one path of the stage
+/// (`forced_speed_stage`) and of `nlmodes forced --speed-sweep`.
+pub fn run_enabled(
+    sweep: &crate::speed_sweep::speed_sweep_settings::SpeedSweepSection,
+    inputs: &CasingInputs<'_>,
+    operating_rpm: f64,
+    out: &Path,
+) -> Result<Option<CasingStudy>> {
+    let Some(c) = sweep.casing.as_ref().filter(|c| c.enabled) else {
+        return Ok(None);
+    };
+    let study = run(inputs, c, operating_rpm)?;
+    write(&study, out)?;
+    let answer = sentence(&summarize(&study)).replace("**", "");
+    crate::ui::say(&format!("casing distortion, {answer}"));
+    Ok(Some(study))
+}
+
+/// What `casing.json` says (and the report reads back, `crate::post::results::speed_sweep`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CasingSummary {
+    pub lobes: usize,
+    pub speed_rpm: f64,
+    /// W = n Omega (Hz), the swept mode's frequency at the speed (Hz) and W over it.
+    pub lobe_passing_hz: f64,
+    pub mode: usize,
+    pub mode_frequency_hz: f64,
+    pub detuning: f64,
+    /// The mean (g0), smallest and largest running gap at the speed (m).
+    pub mean_running_gap_m: f64,
+    pub smallest_running_gap_m: f64,
+    pub largest_running_gap_m: f64,
+    /// delta at which the casing first reaches the blade (the smallest running gap, m, and
+    /// over g0); `None` when the amplitudes stay below it.
+    pub onset_m: Option<f64>,
+    pub onset_over_g0: Option<f64>,
+    pub phase_rad: f64,
+    /// The largest amplitude reached (m, over g0) and the response there.
+    pub largest_amplitude_m: f64,
+    pub largest_amplitude_over_g0: f64,
+    pub q1_over_g0_at_largest: f64,
+    pub master_max_over_g0_at_largest: f64,
+    pub nodes_in_contact_at_largest: usize,
+    pub max_contact_force_n_at_largest: f64,
+    /// The largest contact force over the sweep (N).
+    pub max_contact_force_n: f64,
+    /// Points stable, unstable, undetermined: all, and those in contact.
+    pub stability: [usize; 3],
+    pub contact_stability: [usize; 3],
+    /// Amplitudes (m) where the response jumps (a fold in delta).
+    pub jumps_m: Vec<f64>,
+    /// N of every point, the N of every trace, and the check at 2N of the last.
+    pub harmonics: usize,
+    pub traced: Vec<usize>,
+    pub checked: bool,
+    pub not_converged: usize,
+    pub largest_change: [f64; 2],
+    pub complete: bool,
+    pub end: String,
+}
+
+/// The summary of `st`.
+pub fn summarize(st: &CasingStudy) -> CasingSummary {
+    let pts = &st.sweep.points;
+    let g0 = st.gap_reference;
+    let last = pts.last().expect("a sweep has points");
+    let (_, nodes, force) = contact_summary(&last.point, st.contacts);
+    let largest = pts
+        .iter()
+        .map(|p| contact_summary(&p.point, st.contacts).2)
+        .fold(0.0, f64::max);
+    let count = |v: Verdict, contact_only: bool| {
+        (pts.iter())
+            .filter(|p| !contact_only || p.point.touches())
+            .filter(|p| p.stability.is_some_and(|s| s.verdict == v))
+            .count()
+    };
+    let verdicts = [Verdict::Stable, Verdict::Unstable, Verdict::Undetermined];
+    let onset = (last.amplitude >= st.smallest_gap).then_some(st.smallest_gap);
+    let change = pts
+        .iter()
+        .filter_map(|p| p.harmonic_change)
+        .fold([0.0_f64; 2], |m, c| [m[0].max(c[0]), m[1].max(c[1])]);
+    CasingSummary {
+        lobes: st.lobes,
+        speed_rpm: st.speed / RPM_TO_RAD_S,
+        lobe_passing_hz: st.omega / TAU,
+        mode: st.mode,
+        mode_frequency_hz: st.mode_frequency / TAU,
+        detuning: st.omega / st.mode_frequency,
+        mean_running_gap_m: g0,
+        smallest_running_gap_m: st.smallest_gap,
+        largest_running_gap_m: st.largest_gap,
+        onset_m: onset,
+        onset_over_g0: onset.map(|v| v / g0),
+        phase_rad: st.phase,
+        largest_amplitude_m: last.amplitude,
+        largest_amplitude_over_g0: last.amplitude / g0,
+        q1_over_g0_at_largest: harmonic(&last.point, st.master, 1).0 / g0,
+        master_max_over_g0_at_largest: max_abs_over_period(&last.point, st.master) / g0,
+        nodes_in_contact_at_largest: nodes,
+        max_contact_force_n_at_largest: force,
+        max_contact_force_n: largest,
+        stability: verdicts.map(|v| count(v, false)),
+        contact_stability: verdicts.map(|v| count(v, true)),
+        jumps_m: pts.iter().filter(|p| p.jump).map(|p| p.amplitude).collect(),
+        harmonics: st.sweep.harmonics,
+        traced: st.sweep.traced.clone(),
+        checked: st.sweep.checked,
+        not_converged: st.sweep.not_converged(st.tolerance),
+        largest_change: change,
+        complete: st.sweep.stopped.is_none(),
+        end: st
+            .sweep
+            .stopped
+            .as_ref()
+            .map_or("complete".into(), |(a, why)| {
+                format!("stopped at delta = {a:.4e} m: {why}")
+            }),
+    }
+}
+
+const HEADER: [&str; 17] = [
+    "point",
+    "lobes",
+    "speed_rpm",
+    "lobe_passing_hz",
+    "amplitude_m",
+    "amplitude_over_g0",
+    "q1_m",
+    "q1_over_g0",
+    "master_max_over_g0",
+    "contact_fraction",
+    "nodes_in_contact",
+    "max_contact_force_N",
+    "stability",
+    "largest_multiplier",
+    "jump",
+    "harmonics",
+    "harmonic_change_q1",
+];
+
+/// `casing.csv`: one row per amplitude.
+pub fn csv(st: &CasingStudy) -> Result<CsvTable> {
+    let mut table = CsvTable::new(&HEADER);
+    let g0 = st.gap_reference;
+    for (i, p) in st.sweep.points.iter().enumerate() {
+        let (share, nodes, force) = contact_summary(&p.point, st.contacts);
+        let q1 = harmonic(&p.point, st.master, 1).0;
+        table.push_row(vec![
+            CsvValue::from(i),
+            st.lobes.into(),
+            (st.speed / RPM_TO_RAD_S).into(),
+            (st.omega / TAU).into(),
+            p.amplitude.into(),
+            (p.amplitude / g0).into(),
+            q1.into(),
+            (q1 / g0).into(),
+            (max_abs_over_period(&p.point, st.master) / g0).into(),
+            share.into(),
+            nodes.into(),
+            force.into(),
+            verdict_word(p.stability.as_ref()).into(),
+            opt(p.stability.and_then(|s| s.largest_multiplier)),
+            usize::from(p.jump).into(),
+            st.sweep.harmonics.into(),
+            opt(p.harmonic_change.map(|c| c[0])),
+        ])?;
+    }
+    Ok(table)
+}
+
+/// Writes `casing.csv`, `casing.json` and `casing.png/.svg` into `dir`.
+pub fn write(st: &CasingStudy, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    csv(st)?.write(&dir.join("casing.csv"))?;
+    nlmodes_output::write_json(&dir.join("casing.json"), &summarize(st))?;
+    plot(st).write_svg_and_png(&dir.join("casing"))?;
+    Ok(())
+}
+
+/// The figure: the largest contact force (N) against delta / g0, stable solid, unstable
+/// dashed, undetermined dotted; the onset (the smallest running gap) a reference line; the
+/// jumps as black dots; the legend below the plot.
+fn plot(st: &CasingStudy) -> LinePlot {
+    let g0 = st.gap_reference;
+    let pts = &st.sweep.points;
+    let xy = |idx: &[usize]| -> (Vec<f64>, Vec<f64>) {
+        (idx.iter())
+            .map(|&i| {
+                let p = &pts[i];
+                (p.amplitude / g0, contact_summary(&p.point, st.contacts).2)
+            })
+            .unzip()
+    };
+    let blue = Color(31, 119, 180);
+    let mut plot = LinePlot::new(
+        format!(
+            "Casing with {} lobes at {:.0} rpm (W = {} x speed = {:.1} Hz, no load)",
+            st.lobes,
+            st.speed / RPM_TO_RAD_S,
+            st.lobes,
+            st.omega / TAU
+        ),
+        "casing intrusion delta / mean running gap",
+        "largest contact force (N)",
+    )
+    .with_size(860.0, 520.0)
+    .with_legend(LegendPosition::Below);
+    for (v, idx) in verdict_runs(pts) {
+        let style = match v {
+            Some(Verdict::Unstable) => LineStyle::Dashed,
+            Some(Verdict::Undetermined) => LineStyle::Dotted,
+            _ => LineStyle::Solid,
+        };
+        let (x, y) = xy(&idx);
+        plot = plot.with_series(Series::new("", x, y).color(blue).style(style));
+    }
+    let jumps: Vec<usize> = (0..pts.len()).filter(|&i| pts[i].jump).collect();
+    if !jumps.is_empty() {
+        let (x, y) = xy(&jumps);
+        let dots = Series::new("the response jumps", x, y).style(LineStyle::None);
+        plot = plot.with_series(dots.markers(true).color(Color(0, 0, 0)));
+    }
+    plot = plot.with_ref_line(RefLine::vertical(
+        st.smallest_gap / g0,
+        "smallest running gap".to_string(),
+    ));
+    for (label, style) in [
+        ("stable", LineStyle::Solid),
+        ("unstable", LineStyle::Dashed),
+        ("undetermined", LineStyle::Dotted),
+    ] {
+        let key = Series::new(label, Vec::new(), Vec::new()).color(blue);
+        plot = plot.with_series(key.style(style));
+    }
+    plot
+}
+
+/// Runs of consecutive points sharing a verdict, overlapping by one point.
+fn verdict_runs(pts: &[CasingPoint]) -> Vec<(Option<Verdict>, Vec<usize>)> {
+    let mut runs: Vec<(Option<Verdict>, Vec<usize>)> = Vec::new();
+    for (i, p) in pts.iter().enumerate() {
+        let v = p.stability.map(|s| s.verdict);
+        match runs.last_mut() {
+            Some((last, idx)) if *last == v => idx.push(i),
+            _ => {
+                let mut idx = runs
+                    .last()
+                    .map_or_else(Vec::new, |(_, r)| vec![r[r.len() - 1]]);
+                idx.push(i);
+                runs.push((v, idx));
+            }
+        }
+    }
+    runs
+}
+
+/// The answer in one sentence (the report's summary and the terminal).
+pub fn sentence(s: &CasingSummary) -> String {
+    let head = format!(
+        "{} lobes at {:.0} rpm (W = {:.1} Hz, {:.2} x mode {}'s {:.1} Hz; no aerodynamic load; \
+         running gaps {:.3}-{:.3} mm)",
+        s.lobes,
+        s.speed_rpm,
+        s.lobe_passing_hz,
+        s.detuning,
+        s.mode + 1,
+        s.mode_frequency_hz,
+        1e3 * s.smallest_running_gap_m,
+        1e3 * s.largest_running_gap_m
+    );
+    let rub = match s.onset_m {
+        None => format!(
+            "no rub up to delta = {:.3} mm (below the smallest running gap)",
+            1e3 * s.largest_amplitude_m
+        ),
+        Some(onset) => format!(
+            "**rubs once delta exceeds {:.3} mm** ({:.2} g0, the smallest running gap); at \
+             delta = {:.3} mm ({:.2} g0) {} contact nodes touch, the largest contact force is \
+             {} N and the master's first harmonic q1/g0 = {:.3}",
+            1e3 * onset,
+            s.onset_over_g0.unwrap_or(0.0),
+            1e3 * s.largest_amplitude_m,
+            s.largest_amplitude_over_g0,
+            s.nodes_in_contact_at_largest,
+            crate::speed_sweep::forced_speed_report::significant(
+                s.max_contact_force_n_at_largest,
+                3
+            ),
+            s.q1_over_g0_at_largest
+        ),
+    };
+    let [st, un, und] = s.contact_stability;
+    let stability = if st + un + und == 0 {
+        "no point in contact".to_string()
+    } else if un > 0 {
+        format!("{un} of {} points in contact unstable", st + un + und)
+    } else if und > 0 {
+        format!(
+            "stability undetermined at {und} of {} points in contact (the massless boundary \
+             has constant gaps; docs/DESIGN.md §10.11)",
+            st + un + und
+        )
+    } else {
+        "stable".to_string()
+    };
+    let jumps = if s.jumps_m.is_empty() {
+        String::new()
+    } else {
+        let mm: Vec<String> = s
+            .jumps_m
+            .iter()
+            .map(|j| format!("{:.4}", 1e3 * j))
+            .collect();
+        format!("; the response jumps at delta = {} mm", mm.join(", "))
+    };
+    let n = if !s.checked {
+        format!("N = {}, not checked", s.harmonics)
+    } else if s.not_converged == 0 {
+        format!(
+            "N = {} converged (largest change at 2N {:.1e} in q1, {:.1e} in force)",
+            s.harmonics, s.largest_change[0], s.largest_change[1]
+        )
+    } else {
+        format!(
+            "N = {} NOT converged at {} points (largest change at 2N {:.1e} in q1)",
+            s.harmonics, s.not_converged, s.largest_change[0]
+        )
+    };
+    let end = if s.complete {
+        String::new()
+    } else {
+        format!("; {}", s.end)
+    };
+    format!("{head}: {rub}; {stability}{jumps}; {n}{end}")
+}
+
+/// The report's section (appended to `speed_sweep/section.md`).
+pub fn section(st: &CasingStudy) -> String {
+    format!(
+        "## Casing distortion at {:.0} rpm\n\n`[speed_sweep.casing]`: a casing with {} lobes, every \
+         contact row's gap g0_j - delta cos({} x speed x t + {} rad), its intrusion delta swept \
+         at the fixed lobe-passing frequency W = {} x speed on the parametric model at that \
+         speed, no aerodynamic load, the damping, N and penalty law of the speed sweeps; the \
+         points worth checking solved again at 2N (docs/DESIGN.md §10.11, docs/ROTATION.md). \
+         {}.\n\n\
+         ![casing distortion](speed_sweep/casing.png)\n\nSolid: stable, dashed: unstable, \
+         dotted: undetermined. Data: `speed_sweep/casing.csv`, `speed_sweep/casing.json`.\n\n",
+        st.speed / RPM_TO_RAD_S,
+        st.lobes,
+        st.lobes,
+        st.phase,
+        st.lobes,
+        sentence(&summarize(st)).replace("**", "")
+    )
+}
+
+/// Ok when the sweep reached its last amplitude; otherwise a `StoppedEarly` error (exit code
+/// 3) saying where it stopped and where the points are.
+pub fn stopped_early(st: &CasingStudy, dir: &Path) -> Result<()> {
+    match &st.sweep.stopped {
+        None => Ok(()),
+        Some((a, why)) => Err(anyhow::Error::new(crate::exit::StoppedEarly(format!(
+            "the casing distortion sweep stopped at delta = {a:.4e} m ({why}); the points \
+             computed are in {}",
+            dir.display()
+        )))),
+    }
+}
