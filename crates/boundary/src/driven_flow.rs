@@ -18,6 +18,7 @@ use faer::{c64, Mat, MatRef, Side};
 
 use crate::driven_model::DrivenBoundary;
 use crate::switch_scan::{next_switch, settle_active_set, EventPath, RowsAt};
+use nlmodes_dense::{balance, Balanced};
 use nlmodes_hb::HbError;
 
 /// Most switches over one period before the contact set is declared chattering.
@@ -285,13 +286,20 @@ fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError
     };
     let x_a = generator(model, &set, e.as_ref());
     let events = event_functionals(model, &set, e.as_ref());
-    let eig = x_a.eigen().map_err(|err| HbError::Decomposition {
+    // Balanced first (`balance`): X_a mixes q, q' ~ W q, the drive's unit cos/sin and the
+    // constant 1, with entries from 1 to w_max^2; unbalanced, its eigenvectors carried errors
+    // of 1e-8..1e-6 of the orbit into the flow (docs/STABILITY.md 9.2).
+    let Balanced { matrix, scales } = balance(x_a.as_ref());
+    let eig = matrix.eigen().map_err(|err| HbError::Decomposition {
         what: "eigen-decomposition of a piece of the massless boundary",
         detail: format!("{err:?}"),
     })?;
     let values: Vec<c64> = (0..m).map(|k| eig.S()[k]).collect();
-    let vectors = eig.U().to_owned();
-    let inverse = vectors.partial_piv_lu().solve(Mat::<c64>::identity(m, m));
+    let u = eig.U().to_owned();
+    let u_inverse = u.partial_piv_lu().solve(Mat::<c64>::identity(m, m));
+    // X_a = D X_b D^-1 = (D U) diag(l) (U^-1 D^-1).
+    let vectors = Mat::from_fn(m, m, |i, k| u[(i, k)] * scales[i]);
+    let inverse = Mat::from_fn(m, m, |i, k| u_inverse[(i, k)] / scales[k]);
     if inverse
         .col_iter()
         .any(|col| col.iter().any(|z| !z.is_finite()))
