@@ -11,7 +11,8 @@
 //! oscillator (the latter over a range that starts in contact), a 2-DOF chain with the stop on
 //! the first mass, the force on the second and the level in the program's grazing unit, a 3-DOF
 //! chain whose second mode lies in the range, and a chain with a stiff coordinate coupled to
-//! nothing, loaded by `load = "mode"`.
+//! nothing, loaded by `load = "mode"`; and a stop at zero clearance, which the program refuses
+//! (exit 2, naming the file and the gap: its amplitudes are over the gap).
 //!
 //! The checks are issue 37's, at its tolerances ("How it is checked"):
 //!
@@ -37,7 +38,7 @@ mod common;
 #[path = "../crates/forced/tests/pwl/mod.rs"]
 mod pwl;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::{csv_columns, nlmodes, padded_contact_model};
 use pwl::trace::{first_harmonic, ExactCurve};
@@ -306,7 +307,7 @@ fn force_and_penalty(spec: &Spec, modes: &Modal, f: &[f64]) -> (f64, f64) {
     (force, spec.penalty_factor / compliance)
 }
 
-fn settings_text(spec: &Spec, force: f64) -> String {
+fn settings_text(spec: &Spec) -> String {
     let (level, unit) = match spec.level {
         Level::Newtons(v) => (v, "N"),
         Level::Grazing(v) => (v, "grazing"),
@@ -315,12 +316,47 @@ fn settings_text(spec: &Spec, force: f64) -> String {
         Load::Master => "load = \"master\"\n".to_string(),
         Load::Mode(r) => format!("load = \"mode\"\nload_mode = {r}\n"),
     };
-    let _ = force;
     format!(
         "[forced]\nrange = [{:?}, {:?}]\n{load}levels = [{level:?}]\nlevel_unit = \"{unit}\"\n\
          contact = \"penalty\"\npenalty_factor = {:?}\ndamping_ratio = {:?}\n",
         spec.range.0, spec.range.1, spec.penalty_factor, spec.zeta
     )
+}
+
+/// The model directory, the settings file and the output directory of a run named `name`
+/// under the test binary's temporary directory, the first two written.
+fn write_inputs(spec: &Spec, modes: &Modal, name: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("forced_heldout")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&root);
+    let (model, out) = (root.join("model"), root.join("out"));
+    let contact_master = (spec.contact, spec.master);
+    padded_contact_model(
+        &model,
+        &spec.mass,
+        &spec.stiffness,
+        contact_master,
+        &modes.omega,
+    );
+    let settings = root.join("forced.toml");
+    std::fs::write(&settings, settings_text(spec)).unwrap();
+    (model, settings, out)
+}
+
+/// `nlmodes forced MODEL --settings S --out O`.
+fn run_cli(model: &Path, settings: &Path, out: &Path) -> std::process::Output {
+    let path = |p: &Path| p.to_str().expect("a UTF-8 path").to_string();
+    let args = [
+        path(model),
+        "--settings".into(),
+        path(settings),
+        "--out".into(),
+        path(out),
+    ];
+    let mut all = vec!["forced"];
+    all.extend(args.iter().map(String::as_str));
+    nlmodes(&all)
 }
 
 /// What `nlmodes forced` reported on its one curve.
@@ -347,31 +383,10 @@ fn num(s: &str) -> f64 {
 
 /// Writes the model and the settings under the test binary's temporary directory, runs the
 /// command and reads frf.csv and frf.json.
-fn run_forced(spec: &Spec, modes: &Modal, force: f64) -> Reported {
-    let root = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("forced_heldout")
-        .join(spec.name);
-    let _ = std::fs::remove_dir_all(&root);
-    let (model, out) = (root.join("model"), root.join("out"));
-    let contact_master = (spec.contact, spec.master);
-    padded_contact_model(
-        &model,
-        &spec.mass,
-        &spec.stiffness,
-        contact_master,
-        &modes.omega,
-    );
-    let settings = root.join("forced.toml");
-    std::fs::write(&settings, settings_text(spec, force)).unwrap();
+fn run_forced(spec: &Spec, modes: &Modal) -> Reported {
+    let (model, settings, out) = write_inputs(spec, modes, spec.name);
     let started = std::time::Instant::now();
-    let args = ["forced", model.to_str().unwrap(), "--settings"];
-    let run = nlmodes(
-        &[
-            &args[..],
-            &[settings.to_str().unwrap(), "--out", out.to_str().unwrap()],
-        ]
-        .concat(),
-    );
+    let run = run_cli(&model, &settings, &out);
     let seconds = started.elapsed().as_secs_f64();
     let log = format!(
         "{}{}",
@@ -548,7 +563,7 @@ fn analyse(spec: &Spec) -> Analysis {
     let modes = modal(spec);
     let f = pattern(spec, &modes);
     let (force, kc) = force_and_penalty(spec, &modes, &f);
-    let reported = run_forced(spec, &modes, force);
+    let reported = run_forced(spec, &modes);
     let started = std::time::Instant::now();
     let n = spec.mass.len();
     let w1 = modes.omega[0];
@@ -851,4 +866,26 @@ fn three_dof_chain_with_its_second_mode_in_range() {
 #[test]
 fn stiff_uncoupled_coordinate_and_a_mode_load() {
     held_out(stiff_uncoupled_mode_load, true);
+}
+
+/// A stop at zero clearance (a bilinear spring, contact at rest): the program's amplitudes are
+/// over the gap, so it refuses the model before any work, exit 2, naming the file, the contact
+/// node, the value and what was expected.
+#[test]
+fn a_stop_at_zero_clearance_is_refused_naming_the_file_and_the_gap() {
+    let spec = heavy_damping();
+    let (model, settings, out) = write_inputs(&spec, &modal(&spec), "zero_clearance");
+    let json = model.join("model.json");
+    let text = std::fs::read_to_string(&json).unwrap();
+    assert!(text.contains("\"gap\":1.0"), "{text}");
+    std::fs::write(&json, text.replace("\"gap\":1.0", "\"gap\":0.0")).unwrap();
+    let run = run_cli(&model, &settings, &out);
+    let log = String::from_utf8_lossy(&run.stderr);
+    println!("zero clearance: exit {:?}: {log}", run.status.code());
+    assert_eq!(run.status.code(), Some(2), "{log}");
+    assert!(
+        log.contains("model.json") && log.contains("gap 0") && log.contains("> 0"),
+        "{log}"
+    );
+    assert!(!out.join("frf.json").exists());
 }
