@@ -238,7 +238,7 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
 
     /// One accepted step, or the reason the smallest step failed.
     pub(crate) fn advance(&mut self) -> Result<(), String> {
-        let tangent = self.tangent.clone();
+        let mut tangent = self.tangent.clone();
         let exact = self.solver().integrates_exactly();
         let mut reason = String::from("no step tried");
         let mut grazing_tried = false;
@@ -256,6 +256,9 @@ impl<'l, 'a, 's> FrfTrace<'l, 'a, 's> {
                     self.step = GRAZING_STEP.max(self.settings.min_step);
                     return Ok(());
                 }
+                // A passage that stopped short may still have pushed points (and moved N):
+                // the steps go on from the new last point along its tangent.
+                tangent = self.tangent.clone();
             }
             if self.step < self.settings.min_step {
                 return Err(reason);

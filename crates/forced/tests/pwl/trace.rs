@@ -31,7 +31,11 @@
 //! A fold is where W's component of the tangent changes sign between two samples: it is solved
 //! for by `fold_near` (a multiplier at +1) from the sample with the smaller component, checked to
 //! lie between the two (W beyond both, within their distance of each) and inserted between them
-//! as a sample of its own, so that the polyline of the samples reaches every fold's W. The peak
+//! as a sample of its own, so that the polyline of the samples reaches every fold's W. A fold
+//! `fold_near` does not find between them (in a grazing corner of a stiff stop its Newton fails;
+//! next to another fold it may converge to that one) is located by bisection between the two
+//! samples when they lie within `CORNER_FOLD` of each other (`fold_in_corner`; the held-out
+//! systems of tests/forced_heldout_cli.rs). The peak
 //! (largest first harmonic of the observed coordinate) is the vertex of the parabola through
 //! the largest sample and its neighbours on a local re-trace at `PEAK_STEP`.
 
@@ -55,6 +59,10 @@ const PEAK_STEP: f64 = 1e-3;
 /// may lie from the last sample (module docs).
 const GRAZING_HOP: f64 = 1e-6;
 const HOP_REACH: f64 = 1e-3;
+/// The largest scaled distance between two samples around a fold that `fold_in_corner` locates
+/// by bisection when `fold_near` fails, unless their tangents lie within `MAX_TURN` (as every
+/// ordinary step's): then each hyperplane normal to their chord meets the arc between them once.
+const CORNER_FOLD: f64 = 1e-3;
 
 /// One sample of the exact curve: the periodic orbit, its unit scaled tangent and the first
 /// harmonic (m) of the observed coordinate.
@@ -268,26 +276,17 @@ impl ExactCurve {
         }
         let near = if ta.abs() <= tb.abs() { a } else { next };
         let (wa, wb) = (a.orbit.omega, next.orbit.omega);
-        let orbit = fold_near(&self.sys, &near.orbit.z0, near.orbit.omega, self.tol)
-            .ok_or(format!("no fold found between W = {wa} and {wb} rad/s"))?;
         let turns_back = ta > 0.0;
-        // W is an extremum at the fold (to the fold solver's 1e-11 in W).
-        let beyond = if turns_back {
-            orbit.omega >= wa.max(wb) * (1.0 - 1e-10)
-        } else {
-            orbit.omega <= wa.min(wb) * (1.0 + 1e-10)
-        };
-        let span = distance(&self.scaled(&a.orbit), &self.scaled(&next.orbit));
-        let x = self.scaled(&orbit);
-        let close = [&a.orbit, &next.orbit]
-            .iter()
-            .all(|o| distance(&x, &self.scaled(o)) <= span);
-        if !(beyond && close) {
-            return Err(format!(
-                "the fold found at W = {} rad/s is not between the samples at {wa} and {wb}",
-                orbit.omega
-            ));
-        }
+        let between = |orbit: &Orbit| self.lies_between(a, next, orbit, turns_back);
+        let orbit = fold_near(&self.sys, &near.orbit.z0, near.orbit.omega, self.tol)
+            .filter(|o| between(o))
+            .or_else(|| {
+                self.fold_in_corner(a, next, turns_back)
+                    .filter(|o| between(o))
+            })
+            .ok_or(format!(
+                "no fold found between the samples at W = {wa} and {wb} rad/s"
+            ))?;
         let tangent = exact_tangent(&self.sys, &orbit, &a.tangent, self.scales);
         self.folds.push(Fold {
             sample: self.samples.len(),
@@ -296,6 +295,64 @@ impl ExactCurve {
         let sample = self.sample(orbit, tangent);
         self.samples.push(sample);
         Ok(())
+    }
+
+    /// Whether a fold's orbit lies between the samples `a` and `b`: W beyond both (to the fold
+    /// solver's 1e-11 in W) and within their distance of each.
+    fn lies_between(&self, a: &Sample, b: &Sample, orbit: &Orbit, turns_back: bool) -> bool {
+        let (wa, wb) = (a.orbit.omega, b.orbit.omega);
+        let beyond = if turns_back {
+            orbit.omega >= wa.max(wb) * (1.0 - 1e-10)
+        } else {
+            orbit.omega <= wa.min(wb) * (1.0 + 1e-10)
+        };
+        let span = distance(&self.scaled(&a.orbit), &self.scaled(&b.orbit));
+        let x = self.scaled(orbit);
+        beyond
+            && [&a.orbit, &b.orbit]
+                .iter()
+                .all(|o| distance(&x, &self.scaled(o)) <= span)
+    }
+
+    /// A fold that `fold_near` cannot solve for, or solves for elsewhere on the curve: in a
+    /// grazing corner (a stiff stop: the determinant it zeroes changes like the square root of a
+    /// penetration far below its finite-difference steps), or next to another fold (the second
+    /// resonance of the 3-DOF chain of tests/forced_heldout_cli.rs), when the samples `a` and `b`
+    /// around it lie within `CORNER_FOLD` of each other or their tangents within `MAX_TURN`: bisection on the sign of W's tangent component between them, on the
+    /// hyperplanes normal to their chord (`periodic_on_plane`), until the bracket is below 1e-13
+    /// or an orbit is not found; the orbit with W largest (`turns_back`) or smallest among the
+    /// bracket's ends and `a`, `b`. Its W is the fold's within the bracket, far below the 1e-3
+    /// the comparisons resolve.
+    fn fold_in_corner(&self, a: &Sample, b: &Sample, turns_back: bool) -> Option<Orbit> {
+        let (xa, xb) = (self.scaled(&a.orbit), self.scaled(&b.orbit));
+        let span = distance(&xa, &xb);
+        if span > CORNER_FOLD && dot(&a.tangent, &b.tangent) < MAX_TURN.cos() {
+            return None;
+        }
+        let dim = a.orbit.z0.len();
+        let chord: Vec<f64> = xa.iter().zip(&xb).map(|(p, q)| (q - p) / span).collect();
+        let (gs, ws) = self.scales;
+        let (mut lo, mut hi) = (0.0, span);
+        let mut ends = vec![a.orbit.clone(), b.orbit.clone()];
+        while hi - lo > 1e-13 {
+            let s = 0.5 * (lo + hi);
+            let z: Vec<f64> = (0..dim).map(|i| (xa[i] + s * chord[i]) * gs).collect();
+            let w = (xa[dim] + s * chord[dim]) * ws;
+            let Some(orbit) = periodic_on_plane(&self.sys, &z, w, &chord, self.scales, self.tol)
+            else {
+                break;
+            };
+            let tangent = exact_tangent(&self.sys, &orbit, &chord, self.scales);
+            if tangent[dim] * a.tangent[dim] > 0.0 {
+                lo = s;
+            } else {
+                hi = s;
+            }
+            ends.push(orbit);
+        }
+        let sign = if turns_back { 1.0 } else { -1.0 };
+        ends.into_iter()
+            .max_by(|p, q| (sign * p.omega).total_cmp(&(sign * q.omega)))
     }
 
     /// The peak: (W rad/s, first harmonic m) at the largest first harmonic (module docs).
