@@ -29,7 +29,7 @@ use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
 use crate::load::Load;
-use crate::point_stability::{assess_point, PointStability};
+use crate::point_stability::{assess_point_with, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
 use crate::trace::norm;
@@ -425,7 +425,15 @@ impl Problem<'_> {
         sweep.points.par_iter_mut().for_each(|p| {
             let st = self
                 .solver(solver, p.amplitude)
-                .and_then(|sv| assess_point(&sv, &p.point, s.stability_margin, s.period_tolerance));
+                .and_then(|sv| {
+                    assess_point_with(
+                        &sv,
+                        Some(self.damping),
+                        &p.point,
+                        s.stability_margin,
+                        s.period_tolerance,
+                    )
+                });
             p.stability = Some(st.unwrap_or_else(|e| {
                 tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
                 PointStability::unchecked()

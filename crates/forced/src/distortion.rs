@@ -19,6 +19,7 @@
 //! does not depend on W (dR/dW is the structure's alone) nor on the unknowns (the Jacobian is
 //! unchanged).
 
+use nlmodes_boundary::GapHarmonic;
 use nlmodes_hb::FullBasis;
 
 use crate::error::ForcedError;
@@ -80,6 +81,16 @@ impl CasingDistortion {
     /// coordinates (rows x `terms`).
     pub fn offsets(&self, rows: usize, terms: usize) -> Vec<f64> {
         self.series(terms).repeat(rows)
+    }
+
+    /// The intrusion on each of `rows` contact rows as a moving gap of the massless boundary
+    /// (docs/STABILITY.md Sec. 9.5): delta cos(phi) on cos h W t, -delta sin(phi) on sin h W t.
+    pub fn gap_harmonic(&self, rows: usize) -> GapHarmonic {
+        let (s, co) = self.phase.sin_cos();
+        GapHarmonic {
+            harmonic: self.harmonic,
+            intrusion: [vec![self.amplitude * co; rows], vec![-self.amplitude * s; rows]],
+        }
     }
 
     /// The intrusion at phase theta = W t (m).

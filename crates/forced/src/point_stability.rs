@@ -1,11 +1,15 @@
 //! The Floquet stability of each point of a response curve (docs/STABILITY.md Secs. 8-9): the
 //! exact monodromy of the massless contact boundary's shot orbit for points in contact where
-//! that model applies, else the switched monodromy of the harmonic-balance orbit backed by one
-//! period of independent time integration (`period_check`); then the changes of stability
-//! between consecutive determined points of one piece.
+//! that model applies (under a casing distortion with the gaps moving, Sec. 9.5), else the
+//! switched monodromy of the harmonic-balance orbit backed by one period of independent time
+//! integration (`period_check`); then the changes of stability between consecutive determined
+//! points of one piece.
 
+use faer::Mat;
+use nlmodes_hb::ContactMethod;
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 
+use crate::boundary::{moving_gap_monodromy, BoundaryInputs, BoundaryMonodromy};
 use crate::error::ForcedError;
 use crate::solver::{ForcedPoint, ForcedSolver};
 
@@ -117,9 +121,27 @@ pub(crate) fn assess_point(
     margin: f64,
     period_tolerance: f64,
 ) -> Result<PointStability, ForcedError> {
+    assess_point_with(solver, None, point, margin, period_tolerance)
+}
+
+/// [`assess_point`] given the damping matrix C (n x n, N s/m) of `solver`'s problem: under a
+/// casing distortion the massless boundary is then built with the moving gaps
+/// ([`moving_gap_boundary`]); without C (or without a distortion) it is the solver's own
+/// (constant gaps: no boundary under a distortion).
+pub(crate) fn assess_point_with(
+    solver: &ForcedSolver<'_>,
+    damping: Option<&Mat<f64>>,
+    point: &ForcedPoint,
+    margin: f64,
+    period_tolerance: f64,
+) -> Result<PointStability, ForcedError> {
+    let boundary = |keep_all: bool| match (solver.settings().distortion.as_ref(), damping) {
+        (Some(_), Some(c)) => moving_gap_boundary(solver, c, point, keep_all),
+        _ => solver.boundary_monodromy(point, keep_all),
+    };
     let touching = point.touches();
     if touching {
-        if let Some(b) = solver.boundary_monodromy(point, false)? {
+        if let Some(b) = boundary(false)? {
             return Ok(PointStability::on_boundary(&b, margin));
         }
     }
@@ -130,7 +152,7 @@ pub(crate) fn assess_point(
         // orbit of that equation next to the point answers (its verdict, unless
         // farther than the shift limit); otherwise no verdict to compute.
         let exact = if touching && solver.every_mode_resolved(point.omega) {
-            solver.boundary_monodromy(point, true)?
+            boundary(true)?
         } else {
             None
         };
@@ -143,4 +165,37 @@ pub(crate) fn assess_point(
     };
     st.period_residual = residual;
     Ok(st)
+}
+
+/// The multipliers of `point` on the massless boundary of `solver`'s problem (damping C, n x n,
+/// N s/m) with every row's gap moving as the solver's casing distortion says (docs/STABILITY.md
+/// Sec. 9.5); `None` without a distortion, where the model does not apply or shooting does not
+/// converge. `keep_all` as `ForcedSolver::boundary_monodromy`.
+pub(crate) fn moving_gap_boundary(
+    solver: &ForcedSolver<'_>,
+    damping: &Mat<f64>,
+    point: &ForcedPoint,
+    keep_all: bool,
+) -> Result<Option<BoundaryMonodromy>, ForcedError> {
+    let Some(distortion) = solver.settings().distortion else {
+        return Ok(None);
+    };
+    let load = solver.load().scaled(point.level);
+    let inputs = BoundaryInputs {
+        system: solver.system(),
+        damping: damping.as_ref(),
+        load: &load,
+        penalty: match solver.settings().algorithm.method {
+            ContactMethod::Penalty { stiffness } => Some(stiffness),
+            ContactMethod::AugmentedLagrangian => None,
+        },
+        harmonics: solver.basis().harmonics(),
+        keep_all,
+    };
+    Ok(moving_gap_monodromy(
+        &inputs,
+        &distortion,
+        &point.coefficients,
+        point.omega,
+    )?)
 }
