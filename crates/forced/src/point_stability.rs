@@ -10,6 +10,7 @@ use nlmodes_hb::ContactMethod;
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
 
 use crate::boundary::{moving_gap_monodromy, BoundaryInputs, BoundaryMonodromy};
+use nlmodes_boundary::check_driven_by_rk4;
 use crate::error::ForcedError;
 use crate::solver::{ForcedPoint, ForcedSolver};
 
@@ -48,6 +49,11 @@ pub struct PointStability {
     /// multipliers these are; above `BOUNDARY_SHIFT_LIMIT` the verdict is undetermined. `None`
     /// where the massive model's monodromy and the period check were used.
     pub boundary_shift: Option<f64>,
+    /// Where that boundary verdict was checked by one period of RK4 of the boundary model
+    /// (`nlmodes_boundary::check_driven_by_rk4`): the larger of the change of the largest |mu|
+    /// and the distance of the RK4 end state from the start (scaled); above
+    /// `SHOOTING_CHECK_LIMIT` the verdict is undetermined. `None`: not checked.
+    pub rk4_change: Option<f64>,
 }
 
 impl PointStability {
@@ -60,6 +66,25 @@ impl PointStability {
         st
     }
 
+    /// This boundary verdict checked by one period of RK4 of `b`'s model (module docs of
+    /// `nlmodes_boundary::rk4_check`): undetermined where the check disagrees or fails.
+    fn verified(mut self, b: &BoundaryMonodromy) -> Self {
+        match check_driven_by_rk4(b) {
+            Ok(check) => {
+                self.rk4_change = Some(check.max_multiplier_change.max(check.periodicity));
+                if !check.agrees() {
+                    tracing::warn!(?check, "the RK4 check disagrees with the boundary's verdict");
+                    self.verdict = Verdict::Undetermined;
+                }
+            }
+            Err(e) => {
+                tracing::warn!("the RK4 check of a boundary verdict failed: {e}");
+                self.verdict = Verdict::Undetermined;
+            }
+        }
+        self
+    }
+
     pub(crate) fn of(mono: &SampledMonodromy, margin: f64) -> Self {
         let first = mono.multipliers.first().copied().unwrap_or([0.0, 0.0]);
         Self {
@@ -70,6 +95,7 @@ impl PointStability {
             bifurcation: None,
             period_residual: None,
             boundary_shift: None,
+            rk4_change: None,
         }
     }
 
@@ -83,6 +109,7 @@ impl PointStability {
             bifurcation: None,
             period_residual: None,
             boundary_shift: None,
+            rk4_change: None,
         }
     }
 
@@ -121,7 +148,22 @@ pub(crate) fn assess_point(
     margin: f64,
     period_tolerance: f64,
 ) -> Result<PointStability, ForcedError> {
-    assess_point_with(solver, None, point, margin, period_tolerance)
+    let how = Assessment {
+        margin,
+        period_tolerance,
+        verify: false,
+    };
+    assess_point_with(solver, None, point, &how)
+}
+
+/// How a point is assessed: `margin` around |mu| = 1 (undetermined inside), the largest period
+/// residual given a verdict (`FrfSettings`), and whether a verdict of the massless boundary is
+/// checked by RK4 (`PointStability::rk4_change`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Assessment {
+    pub margin: f64,
+    pub period_tolerance: f64,
+    pub verify: bool,
 }
 
 /// [`assess_point`] given the damping matrix C (n x n, N s/m) of `solver`'s problem: under a
@@ -132,9 +174,17 @@ pub(crate) fn assess_point_with(
     solver: &ForcedSolver<'_>,
     damping: Option<&Mat<f64>>,
     point: &ForcedPoint,
-    margin: f64,
-    period_tolerance: f64,
+    how: &Assessment,
 ) -> Result<PointStability, ForcedError> {
+    let (margin, period_tolerance) = (how.margin, how.period_tolerance);
+    let on_boundary = |b: &BoundaryMonodromy| {
+        let st = PointStability::on_boundary(b, margin);
+        if how.verify {
+            st.verified(b)
+        } else {
+            st
+        }
+    };
     let boundary = |keep_all: bool| match (solver.settings().distortion.as_ref(), damping) {
         (Some(_), Some(c)) => moving_gap_boundary(solver, c, point, keep_all),
         _ => solver.boundary_monodromy(point, keep_all),
@@ -142,7 +192,7 @@ pub(crate) fn assess_point_with(
     let touching = point.touches();
     if touching {
         if let Some(b) = boundary(false)? {
-            return Ok(PointStability::on_boundary(&b, margin));
+            return Ok(on_boundary(&b));
         }
     }
     let residual = solver.period_residual(point);
@@ -156,9 +206,7 @@ pub(crate) fn assess_point_with(
         } else {
             None
         };
-        exact.map_or_else(PointStability::unchecked, |b| {
-            PointStability::on_boundary(&b, margin)
-        })
+        exact.map_or_else(PointStability::unchecked, |b| on_boundary(&b))
     } else {
         let mono = solver.monodromy(point)?;
         PointStability::of(&mono, margin)

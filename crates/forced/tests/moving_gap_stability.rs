@@ -21,7 +21,7 @@ mod common;
 mod pwl;
 
 use faer::Mat;
-use nlmodes_boundary::{check_driven_by_rk4, DrivenInputs, GapHarmonic};
+use nlmodes_boundary::{check_driven_by_rk4, DrivenInputs, GapHarmonic, SHOOTING_CHECK_LIMIT};
 use nlmodes_forced::{
     casing_sweep, CasingPoint, CasingSweepSettings, Damping, ForcedSettings, Verdict,
     BOUNDARY_SHIFT_LIMIT,
@@ -248,7 +248,8 @@ const ONSET_BAND: f64 = 1.02;
 /// (N = 12 not converged there), at least 10 points determined per sweep; the largest |mu| within 1e-2 of the
 /// reference at the sweep's W, from the point's state (the verdicts are those of the shot
 /// orbit, at its own W within the shift, or of the harmonic-balance orbit, N = 12, backed by its
-/// period check), and the verdict the reference's where that is farther than 1e-2 from 1.
+/// period check), and the verdict the reference's where that is farther than 1e-2 from 1; the
+/// sweep's RK4 checks (every fourth point in contact) within `SHOOTING_CHECK_LIMIT`.
 #[test]
 fn the_casing_sweep_gives_every_point_in_contact_a_verdict() {
     for harmonic in [1, 2] {
@@ -306,6 +307,15 @@ fn the_casing_sweep_gives_every_point_in_contact_a_verdict() {
              largest |mu| off the reference by {worst_boundary:.1e} (boundary), \
              {worst_massive:.1e} (massive model)"
         );
+        let checked: Vec<f64> = (plain.iter().chain(&padded))
+            .filter_map(|p| p.stability?.rk4_change)
+            .collect();
+        let rk4 = checked.iter().fold(0.0_f64, |a, &v| a.max(v));
+        println!(
+            "h = {harmonic}: {} verdicts checked by RK4, largest change {rk4:.1e}",
+            checked.len()
+        );
+        assert!(checked.len() >= 4 && rk4 <= SHOOTING_CHECK_LIMIT);
         let changes: Vec<String> = (plain.iter())
             .filter_map(|p| {
                 let b = p.stability?.bifurcation?;
