@@ -282,7 +282,7 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
     }
 }
 
-const HEADER: [&str; 18] = [
+const HEADER: [&str; 19] = [
     "point",
     "lobes",
     "speed_rpm",
@@ -297,6 +297,7 @@ const HEADER: [&str; 18] = [
     "max_contact_force_N",
     "stability",
     "largest_multiplier",
+    "boundary_shift",
     "rk4_change",
     "jump",
     "harmonics",
@@ -325,6 +326,7 @@ pub fn csv(st: &CasingStudy) -> Result<CsvTable> {
             force.into(),
             verdict_word(p.stability.as_ref()).into(),
             opt(p.stability.and_then(|s| s.largest_multiplier)),
+            opt(p.stability.and_then(|s| s.boundary_shift)),
             opt(p.stability.and_then(|s| s.rk4_change)),
             usize::from(p.jump).into(),
             st.sweep.harmonics.into(),

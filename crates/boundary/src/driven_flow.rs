@@ -484,12 +484,13 @@ mod tests {
         let period = 2.0 * std::f64::consts::PI / m.omega;
         let (q0, v0) = ([2.5, 0.3, -0.2], [0.0, 0.5, 1.0]);
         let (end, phi) = period_flow(&m, &q0, &v0);
-        let samples = sample_orbit(&m, &[q0.as_slice(), v0.as_slice()].concat(), 4000)
-            .expect("samples");
+        let samples =
+            sample_orbit(&m, &[q0.as_slice(), v0.as_slice()].concat(), 4000).expect("samples");
         let switches = samples
             .windows(2)
             .map(|w| {
-                let closed = |s: &OrbitSample| s.lambda.iter().map(|l| *l > 0.0).collect::<Vec<_>>();
+                let closed =
+                    |s: &OrbitSample| s.lambda.iter().map(|l| *l > 0.0).collect::<Vec<_>>();
                 (0..3)
                     .filter(|&j| closed(&w[0])[j] != closed(&w[1])[j])
                     .count()
@@ -522,7 +523,9 @@ mod tests {
             z[k] += d;
             period_flow(&m, &z[..3], &z[3..]).0
         };
-        let difference = Mat::from_fn(6, 6, |i, k| (shifted(k, h)[i] - shifted(k, -h)[i]) / (2.0 * h));
+        let difference = Mat::from_fn(6, 6, |i, k| {
+            (shifted(k, h)[i] - shifted(k, -h)[i]) / (2.0 * h)
+        });
         let det = phi.determinant();
         let exact = (-period * 0.15).exp();
         let (rk_error, fd_error) = (largest(&phi, &rk_phi), largest(&phi, &difference));

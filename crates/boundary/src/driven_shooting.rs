@@ -243,7 +243,10 @@ mod tests {
         };
         let check = crate::rk4_check::check_driven_by_rk4(&b).expect("rk4");
         let samples = crate::driven_flow::sample_orbit(&b.model, &b.start, 2000).expect("orbit");
-        let touching = samples.iter().filter(|s| s.lambda.iter().any(|l| *l > 0.0)).count();
+        let touching = samples
+            .iter()
+            .filter(|s| s.lambda.iter().any(|l| *l > 0.0))
+            .count();
         println!(
             "moving gap: W = {:.6} (guess 0.9), {} iterations, |mu| = {:.6}, in contact at \
              {touching} of 2000 instants; RK4 ({} steps): periodic to {:.1e}, |mu| {:.6} \

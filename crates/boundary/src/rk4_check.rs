@@ -111,7 +111,8 @@ fn compare(
     let v_scale = q_scale * 2.0 * std::f64::consts::PI / period;
     let periodicity = (0..r)
         .map(|i| {
-            ((end.q[i] - start.q[i]) / q_scale).powi(2) + ((end.v[i] - start.v[i]) / v_scale).powi(2)
+            ((end.q[i] - start.q[i]) / q_scale).powi(2)
+                + ((end.v[i] - start.v[i]) / v_scale).powi(2)
         })
         .sum::<f64>()
         .sqrt();

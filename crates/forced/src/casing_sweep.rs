@@ -436,20 +436,24 @@ impl Problem<'_> {
                 touching && s.verify_every > 0 && (in_contact - 1) % s.verify_every == 0
             })
             .collect();
-        sweep.points.par_iter_mut().zip(verify).for_each(|(p, verify)| {
-            let how = Assessment {
-                margin: s.stability_margin,
-                period_tolerance: s.period_tolerance,
-                verify,
-            };
-            let st = self
-                .solver(solver, p.amplitude)
-                .and_then(|sv| assess_point_with(&sv, Some(self.damping), &p.point, &how));
-            p.stability = Some(st.unwrap_or_else(|e| {
-                tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
-                PointStability::unchecked()
-            }));
-        });
+        sweep
+            .points
+            .par_iter_mut()
+            .zip(verify)
+            .for_each(|(p, verify)| {
+                let how = Assessment {
+                    margin: s.stability_margin,
+                    period_tolerance: s.period_tolerance,
+                    verify,
+                };
+                let st = self
+                    .solver(solver, p.amplitude)
+                    .and_then(|sv| assess_point_with(&sv, Some(self.damping), &p.point, &how));
+                p.stability = Some(st.unwrap_or_else(|e| {
+                    tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
+                    PointStability::unchecked()
+                }));
+            });
         crate::speed_sweep::classify_changes(
             sweep.points.iter_mut().filter_map(|p| p.stability.as_mut()),
         );

@@ -89,7 +89,10 @@ impl CasingDistortion {
         let (s, co) = self.phase.sin_cos();
         GapHarmonic {
             harmonic: self.harmonic,
-            intrusion: [vec![self.amplitude * co; rows], vec![-self.amplitude * s; rows]],
+            intrusion: [
+                vec![self.amplitude * co; rows],
+                vec![-self.amplitude * s; rows],
+            ],
         }
     }
 
@@ -117,6 +120,15 @@ mod tests {
             assert!((v - d.intrusion_at(th)).abs() < 1e-18, "{v}");
         }
         assert_eq!(d.offsets(2, 11).len(), 22);
+        // The boundary's moving gap (docs/STABILITY.md Sec. 9.5) is the same intrusion.
+        let g = d.gap_harmonic(2);
+        assert_eq!((g.harmonic, g.intrusion[0].len()), (3, 2));
+        for k in 0..50 {
+            let th = 0.13 * k as f64;
+            let (sn, co) = (3.0 * th).sin_cos();
+            let v = g.intrusion[0][1] * co + g.intrusion[1][1] * sn;
+            assert!((v - d.intrusion_at(th)).abs() < 1e-18, "{v}");
+        }
     }
 
     #[test]

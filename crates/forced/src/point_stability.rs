@@ -6,13 +6,13 @@
 //! points of one piece.
 
 use faer::Mat;
-use nlmodes_hb::ContactMethod;
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
+use nlmodes_hb::ContactMethod;
 
 use crate::boundary::{moving_gap_monodromy, BoundaryInputs, BoundaryMonodromy};
-use nlmodes_boundary::check_driven_by_rk4;
 use crate::error::ForcedError;
 use crate::solver::{ForcedPoint, ForcedSolver};
+use nlmodes_boundary::check_driven_by_rk4;
 
 /// What a change of stability between two points is, from the multiplier that crossed the unit
 /// circle (its argument within 0.05 rad of 0 or pi, else a complex pair).
@@ -73,7 +73,10 @@ impl PointStability {
             Ok(check) => {
                 self.rk4_change = Some(check.max_multiplier_change.max(check.periodicity));
                 if !check.agrees() {
-                    tracing::warn!(?check, "the RK4 check disagrees with the boundary's verdict");
+                    tracing::warn!(
+                        ?check,
+                        "the RK4 check disagrees with the boundary's verdict"
+                    );
                     self.verdict = Verdict::Undetermined;
                 }
             }

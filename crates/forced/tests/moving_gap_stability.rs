@@ -47,7 +47,13 @@ fn system(padded: bool) -> System {
             _ => 0.0,
         })
     };
-    let rows = Mat::from_fn(1, 4, |_, j| if j < 3 { rest.contact_rows()[(0, j)] } else { 0.0 });
+    let rows = Mat::from_fn(1, 4, |_, j| {
+        if j < 3 {
+            rest.contact_rows()[(0, j)]
+        } else {
+            0.0
+        }
+    });
     System::new(
         grow(rest.mass(), 1.0),
         grow(rest.stiffness(), 1e6),
@@ -63,9 +69,7 @@ fn settings() -> ForcedSettings {
     ForcedSettings {
         harmonics: HarmonicSettings::new(12, 128).unwrap(),
         algorithm: AlgorithmParams {
-            method: ContactMethod::Penalty {
-                stiffness: kc(),
-            },
+            method: ContactMethod::Penalty { stiffness: kc() },
             ..AlgorithmParams::default()
         },
         ..ForcedSettings::new(12).unwrap()
