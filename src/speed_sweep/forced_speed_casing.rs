@@ -168,6 +168,22 @@ pub struct CasingSummary {
     /// Points stable, unstable, undetermined: all, and those in contact.
     pub stability: [usize; 3],
     pub contact_stability: [usize; 3],
+    /// The largest multiplier modulus over the points in contact with a verdict and the
+    /// amplitudes (m) between which points in contact are unstable (lowest, highest); the
+    /// changes of stability in delta order (amplitude m, kind).
+    #[serde(default)]
+    pub largest_multiplier_in_contact: Option<f64>,
+    #[serde(default)]
+    pub unstable_span_m: Option<[f64; 2]>,
+    #[serde(default)]
+    pub stability_changes: Vec<(f64, String)>,
+    /// Verdicts of the massless boundary checked by RK4 (every `verify_every`-th point in
+    /// contact, docs/STABILITY.md Sec. 9.5) and the largest change it found (|mu|, and the
+    /// periodicity of the shot orbit).
+    #[serde(default)]
+    pub rk4_checked: usize,
+    #[serde(default)]
+    pub rk4_largest_change: Option<f64>,
     /// Amplitudes (m) where the response jumps (a fold in delta).
     pub jumps_m: Vec<f64>,
     /// N of every point, the N of every trace, and the check at 2N of the last.
@@ -197,6 +213,21 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
             .count()
     };
     let verdicts = [Verdict::Stable, Verdict::Unstable, Verdict::Undetermined];
+    let judged = (pts.iter())
+        .filter(|p| p.point.touches())
+        .filter_map(|p| p.stability.map(|s| (p.amplitude, s)))
+        .filter(|(_, s)| s.verdict != Verdict::Undetermined);
+    let largest_multiplier = judged
+        .clone()
+        .filter_map(|(_, s)| s.largest_multiplier)
+        .reduce(f64::max);
+    let unstable: Vec<f64> = (judged.filter(|(_, s)| s.verdict == Verdict::Unstable))
+        .map(|(a, _)| a)
+        .collect();
+    let rk4: Vec<f64> = pts
+        .iter()
+        .filter_map(|p| p.stability.and_then(|s| s.rk4_change))
+        .collect();
     let onset = (last.amplitude >= st.smallest_gap).then_some(st.smallest_gap);
     let change = pts
         .iter()
@@ -224,6 +255,16 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
         max_contact_force_n: largest,
         stability: verdicts.map(|v| count(v, false)),
         contact_stability: verdicts.map(|v| count(v, true)),
+        largest_multiplier_in_contact: largest_multiplier,
+        unstable_span_m: unstable.first().zip(unstable.last()).map(|(a, b)| [*a, *b]),
+        stability_changes: (pts.iter())
+            .filter_map(|p| {
+                let b = p.stability?.bifurcation?;
+                Some((p.amplitude, format!("{b:?}")))
+            })
+            .collect(),
+        rk4_checked: rk4.len(),
+        rk4_largest_change: rk4.iter().copied().reduce(f64::max),
         jumps_m: pts.iter().filter(|p| p.jump).map(|p| p.amplitude).collect(),
         harmonics: st.sweep.harmonics,
         traced: st.sweep.traced.clone(),
@@ -241,7 +282,7 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
     }
 }
 
-const HEADER: [&str; 17] = [
+const HEADER: [&str; 19] = [
     "point",
     "lobes",
     "speed_rpm",
@@ -256,6 +297,8 @@ const HEADER: [&str; 17] = [
     "max_contact_force_N",
     "stability",
     "largest_multiplier",
+    "boundary_shift",
+    "rk4_change",
     "jump",
     "harmonics",
     "harmonic_change_q1",
@@ -283,6 +326,8 @@ pub fn csv(st: &CasingStudy) -> Result<CsvTable> {
             force.into(),
             verdict_word(p.stability.as_ref()).into(),
             opt(p.stability.and_then(|s| s.largest_multiplier)),
+            opt(p.stability.and_then(|s| s.boundary_shift)),
+            opt(p.stability.and_then(|s| s.rk4_change)),
             usize::from(p.jump).into(),
             st.sweep.harmonics.into(),
             opt(p.harmonic_change.map(|c| c[0])),
@@ -412,20 +457,7 @@ pub fn sentence(s: &CasingSummary) -> String {
             s.q1_over_g0_at_largest
         ),
     };
-    let [st, un, und] = s.contact_stability;
-    let stability = if st + un + und == 0 {
-        "no point in contact".to_string()
-    } else if un > 0 {
-        format!("{un} of {} points in contact unstable", st + un + und)
-    } else if und > 0 {
-        format!(
-            "stability undetermined at {und} of {} points in contact (the massless boundary \
-             has constant gaps; docs/DESIGN.md §10.11)",
-            st + un + und
-        )
-    } else {
-        "stable".to_string()
-    };
+    let stability = stability_words(s);
     let jumps = if s.jumps_m.is_empty() {
         String::new()
     } else {
@@ -455,6 +487,41 @@ pub fn sentence(s: &CasingSummary) -> String {
         format!("; {}", s.end)
     };
     format!("{head}: {rub}; {stability}{jumps}; {n}{end}")
+}
+
+/// What the sentence says of the stability of the points in contact: the counts, where they
+/// are unstable, the largest multiplier, the undetermined ones and the RK4 checks.
+fn stability_words(s: &CasingSummary) -> String {
+    let [st, un, und] = s.contact_stability;
+    let total = st + un + und;
+    if total == 0 {
+        return "no point in contact".to_string();
+    }
+    let mut words = if un > 0 {
+        let span = s.unstable_span_m.map_or(String::new(), |[a, b]| {
+            format!(" (delta {:.4}-{:.4} mm)", 1e3 * a, 1e3 * b)
+        });
+        format!("**{un} of {total} points in contact unstable**{span}, {st} stable")
+    } else if st > 0 {
+        format!("stable at {st} of {total} points in contact")
+    } else {
+        format!("stability undetermined at all {total} points in contact")
+    };
+    if let Some(mu) = s.largest_multiplier_in_contact {
+        words += &format!(", largest |mu| {mu:.4}");
+    }
+    if und > 0 && st + un > 0 {
+        words += &format!(", {und} undetermined");
+    }
+    if s.rk4_checked > 0 {
+        words += &format!(
+            " (massless boundary with the moving gap; {} verdicts checked by RK4, largest \
+             change {:.1e})",
+            s.rk4_checked,
+            s.rk4_largest_change.unwrap_or(0.0)
+        );
+    }
+    words
 }
 
 /// The report's section (appended to `speed_sweep/section.md`).

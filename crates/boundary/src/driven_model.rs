@@ -14,12 +14,22 @@
 //!
 //! A penalty law kc adds 1 / kc to R's diagonal. f(t) = sum_h f_h^c cos(h W t) + f_h^s sin(h W t)
 //! (N). Its exact flow is `driven_flow`.
+//!
+//! A moving gap (a casing distortion, DESIGN §10.11; docs/STABILITY.md Sec. 9.5),
+//! g_j(t) = g0_j - c_j(t) with the intrusion c_j(t) = sum_h c_hj^c cos(h W t) + c_hj^s sin(h W t)
+//! ([`GapHarmonic`]), enters every contact law only through the free penetration
+//! B_j q + D_j(t) - g_j(t) = B_j q + (D_j(t) + c_j(t)) - g0_j: the multiplier of a closed row and
+//! the event function of an open one see D + c where they saw D. The intrusion is therefore
+//! added to the drive's contact part at its harmonic (a harmonic the load lacks gets a drive of
+//! its own without a modal part), and the flow, its switches and its monodromy are the
+//! constant-gap ones on that drive.
 
 use faer::{Mat, MatRef};
 
 use crate::model::{dynamic_modes, residual_flexibility, BoundaryModel};
 use nlmodes_hb::full_basis::FullBasis;
 use nlmodes_hb::system::System;
+use nlmodes_hb::HbError;
 
 /// Modes kept dynamic: w_k <= this x (N + 1) W (the modes whose resonant harmonics the orbit
 /// holds, as for the free modes).
@@ -32,8 +42,19 @@ pub struct BoundaryDrive {
     pub harmonic: usize,
     /// Phi_k^T f_h^c and Phi_k^T f_h^s (r each, N / sqrt(kg)).
     pub modal: [Vec<f64>; 2],
-    /// D_h^c and D_h^s: the discarded modes' static response at the contact rows (c each, m).
+    /// D_h^c and D_h^s: the discarded modes' static response at the contact rows, plus the
+    /// intrusion c_h of a moving gap (module docs; c each, m).
     pub contact: [Vec<f64>; 2],
+}
+
+/// One harmonic h of a moving gap: row j's gap is g0_j - (intrusion[0][j] cos(h W t) +
+/// intrusion[1][j] sin(h W t)) (module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GapHarmonic {
+    /// Harmonic h >= 1 of W.
+    pub harmonic: usize,
+    /// The intrusion's cosine and sine parts (c each, m): the gap's reduction.
+    pub intrusion: [Vec<f64>; 2],
 }
 
 /// The damped, driven massless-boundary model at one excitation frequency (module docs).
@@ -97,6 +118,42 @@ impl DrivenBoundary {
         m.omega = omega;
         m
     }
+
+    /// The model under the moving gap `motion` (module docs): each harmonic's intrusion added
+    /// to the drive's contact part at that harmonic, a drive without a modal part appended for
+    /// a harmonic the load lacks. Errors on a harmonic 0 or an intrusion not of one value per
+    /// contact row.
+    pub fn with_gap_motion(mut self, motion: &[GapHarmonic]) -> Result<Self, HbError> {
+        let (r, c) = (self.r(), self.gaps.len());
+        for g in motion {
+            if g.harmonic == 0 || g.intrusion.iter().any(|part| part.len() != c) {
+                return Err(HbError::StabilityInput {
+                    detail: format!(
+                        "a moving gap needs a harmonic >= 1 and one intrusion per contact row \
+                         ({c}); got harmonic {} with {} and {} values",
+                        g.harmonic,
+                        g.intrusion[0].len(),
+                        g.intrusion[1].len()
+                    ),
+                });
+            }
+            let at = match self.drive.iter().position(|d| d.harmonic == g.harmonic) {
+                Some(k) => k,
+                None => {
+                    self.drive.push(BoundaryDrive {
+                        harmonic: g.harmonic,
+                        modal: [vec![0.0; r], vec![0.0; r]],
+                        contact: [vec![0.0; c], vec![0.0; c]],
+                    });
+                    self.drive.len() - 1
+                }
+            };
+            for (part, add) in self.drive[at].contact.iter_mut().zip(&g.intrusion) {
+                part.iter_mut().zip(add).for_each(|(d, a)| *d += a);
+            }
+        }
+        Ok(self)
+    }
 }
 
 /// One harmonic h of the load f(t): f_h^c cos(h W t) + f_h^s sin(h W t) (n each, N).
@@ -121,12 +178,18 @@ pub struct DrivenInputs<'a> {
     /// Whether a penalty model whose modes are all below the cutoff is kept whole (the penalty
     /// equation itself, solved exactly); otherwise the boundary needs a discarded mode.
     pub keep_all: bool,
+    /// The gaps' motion (module docs; empty: constant gaps g0).
+    pub gap_motion: Vec<GapHarmonic>,
 }
 
 /// The driven boundary model at W (rad/s): the modes w_k <= [`BOUNDARY_CUTOFF`] (N + 1) W
-/// dynamic; `None` when it does not apply (every mode resolved under exact contact, or the
-/// residual flexibility not positive definite).
-pub fn driven_model(inputs: &DrivenInputs<'_>, omega: f64) -> Option<DrivenBoundary> {
+/// dynamic, the gaps moving as `inputs.gap_motion` says; `None` when it does not apply (every
+/// mode resolved under exact contact, or the residual flexibility not positive definite).
+/// Errors on a gap motion that does not fit the rows ([`DrivenBoundary::with_gap_motion`]).
+pub fn driven_model(
+    inputs: &DrivenInputs<'_>,
+    omega: f64,
+) -> Result<Option<DrivenBoundary>, HbError> {
     let system = inputs.system;
     let lambda = system.eigenvalues();
     let n = lambda.len();
@@ -136,14 +199,17 @@ pub fn driven_model(inputs: &DrivenInputs<'_>, omega: f64) -> Option<DrivenBound
     // coordinates and the obstacle (an impact, not this model); a penalty law keeps its spring
     // 1 / kc, and the model is then the penalty equation itself, solved exactly.
     if resolved >= n && !(inputs.keep_all && inputs.penalty.is_some()) {
-        return None;
+        return Ok(None);
     }
     let r = resolved.min(n);
     let phi = system.modes();
     let b_all = system.contact_rows() * phi;
     let c = b_all.nrows();
     let penalty = inputs.penalty.map(|kc| vec![kc; c]);
-    let flexibility = residual_flexibility(b_all.as_ref(), lambda, r, penalty.as_deref())?;
+    let Some(flexibility) = residual_flexibility(b_all.as_ref(), lambda, r, penalty.as_deref())
+    else {
+        return Ok(None);
+    };
     let phi_k = phi.subcols(0, r);
     let damping = phi_k.transpose() * inputs.damping * phi_k;
     let drive = inputs
@@ -167,7 +233,7 @@ pub fn driven_model(inputs: &DrivenInputs<'_>, omega: f64) -> Option<DrivenBound
             }
         })
         .collect();
-    Some(DrivenBoundary {
+    DrivenBoundary {
         omega2: lambda[..r].to_vec(),
         damping,
         contact_modal: b_all.subcols(0, r).to_owned(),
@@ -175,7 +241,9 @@ pub fn driven_model(inputs: &DrivenInputs<'_>, omega: f64) -> Option<DrivenBound
         gaps: system.gaps().to_vec(),
         drive,
         omega,
-    })
+    }
+    .with_gap_motion(&inputs.gap_motion)
+    .map(Some)
 }
 
 /// (q, q') at t = 0 of the harmonic-balance orbit `coefficients` (n x (2N + 1), full Fourier

@@ -218,4 +218,50 @@ mod tests {
         );
         assert!(gap < 1e-8, "{gap}");
     }
+
+    /// Under a moving gap (`driven_three_modes_moving_gap`) the shot orbit is periodic for RK4
+    /// and the RK4 check (`check_driven_by_rk4`: the contact problem solved at every stage with
+    /// that instant's gaps, 200 steps per fastest period) gives its multipliers within
+    /// `SHOOTING_CHECK_LIMIT`: the check a moving-gap verdict on a model gets.
+    #[test]
+    fn the_shot_orbit_under_a_moving_gap_is_confirmed_by_the_rk4_check() {
+        let m = crate::test_models::driven_three_modes_moving_gap(0.9);
+        let guess = [2.0, 0.2, -0.1, 0.1, 0.3, 0.5];
+        let orbit = shoot_driven(&m, &guess)
+            .expect("shooting")
+            .expect("converges");
+        let at = m.at(orbit.omega);
+        let trace = 0.15;
+        let period = 2.0 * std::f64::consts::PI / orbit.omega;
+        let b = crate::driven_stability::BoundaryMonodromy {
+            monodromy: nlmodes_hb::floquet::multipliers_of(orbit.monodromy, trace, period)
+                .expect("multipliers"),
+            shift: orbit.shift,
+            modes: 3,
+            model: at,
+            start: orbit.start,
+        };
+        let check = crate::rk4_check::check_driven_by_rk4(&b).expect("rk4");
+        let samples = crate::driven_flow::sample_orbit(&b.model, &b.start, 2000).expect("orbit");
+        let touching = samples
+            .iter()
+            .filter(|s| s.lambda.iter().any(|l| *l > 0.0))
+            .count();
+        println!(
+            "moving gap: W = {:.6} (guess 0.9), {} iterations, |mu| = {:.6}, in contact at \
+             {touching} of 2000 instants; RK4 ({} steps): periodic to {:.1e}, |mu| {:.6} \
+             ({:.1e}), multipliers within {:.1e}",
+            orbit.omega,
+            orbit.iterations,
+            b.monodromy.largest(),
+            check.steps,
+            check.periodicity,
+            check.max_multiplier_abs,
+            check.max_multiplier_change,
+            check.multiplier_distance
+        );
+        assert!(touching > 0 && touching < 2000, "{touching}");
+        assert!(check.agrees(), "{check:?}");
+        assert!(check.multiplier_distance < 1e-6, "{check:?}");
+    }
 }

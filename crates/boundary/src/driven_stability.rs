@@ -38,7 +38,7 @@ pub fn boundary_monodromy(
     coefficients: &Mat<f64>,
     omega: f64,
 ) -> Result<Option<BoundaryMonodromy>, HbError> {
-    let Some(model) = driven_model(inputs, omega) else {
+    let Some(model) = driven_model(inputs, omega)? else {
         return Ok(None);
     };
     let r = model.omega2.len();

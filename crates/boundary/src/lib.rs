@@ -58,7 +58,7 @@ pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece, Judge};
 pub use converged::{converged_orbit, ConvergedOrbit, ConvergenceSettings, ConvergenceStop};
 pub use driven_curve::driven_end_text;
 pub use driven_model::{
-    BoundaryDrive, DrivenBoundary, DrivenInputs, LoadHarmonic, BOUNDARY_CUTOFF,
+    BoundaryDrive, DrivenBoundary, DrivenInputs, GapHarmonic, LoadHarmonic, BOUNDARY_CUTOFF,
 };
 pub use driven_stability::{boundary_monodromy, BoundaryMonodromy, BOUNDARY_SHIFT_LIMIT};
 pub use exact_backbone::{exact_backbone, BoundaryBackbone, BranchStart};
@@ -69,4 +69,4 @@ pub use master_row::MasterRow;
 pub use model::{residual_sum, BoundaryModel, ModalData};
 pub use orbit_at_q::ExactOrbitAtQ;
 pub use response_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
-pub use rk4_check::{check_by_rk4, ShootingCheck, SHOOTING_CHECK_LIMIT};
+pub use rk4_check::{check_by_rk4, check_driven_by_rk4, ShootingCheck, SHOOTING_CHECK_LIMIT};

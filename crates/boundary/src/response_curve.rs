@@ -67,7 +67,7 @@ pub fn boundary_curve(
     let Some(&(coefficients, omega)) = orbits.first() else {
         return Ok(None);
     };
-    let Some(model) = driven_model(inputs, omega) else {
+    let Some(model) = driven_model(inputs, omega)? else {
         return Ok(None);
     };
     let r = model.omega2.len();

@@ -1,11 +1,14 @@
-//! The independent check of a shooting verdict on the free massless boundary (docs/STABILITY.md
+//! The independent check of a shooting verdict on the massless boundary (docs/STABILITY.md
 //! Sec. 9; `[stability] verify_every`): one period of the RK4 integration of `rk4` from the shot
-//! orbit's start, compared with the exact flow's end state and monodromy.
+//! orbit's start, compared with the exact flow's end state and monodromy. Free orbits
+//! ([`check_by_rk4`]) leave their trivial pair out of the comparison; forced ones
+//! ([`check_driven_by_rk4`], constant or moving gaps, Sec. 9.5) have none.
 
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::driven_model::DrivenBoundary;
+use crate::driven_stability::BoundaryMonodromy;
 use crate::free_shooting::ShotOrbit;
 use crate::model::{norm, BoundaryModel};
 use crate::rk4::{integrate, rk4_steps, Rk4State};
@@ -25,7 +28,8 @@ pub struct ShootingCheck {
     /// non-trivial exact one (the trivial pair, the two nearest +1, left out of both: a Jordan
     /// block that any perturbation delta splits by sqrt(delta)).
     pub multiplier_distance: f64,
-    /// Largest |mu| of the RK4 monodromy's non-trivial multipliers (1 if none is outside).
+    /// Largest |mu| of the RK4 monodromy's non-trivial multipliers (of a free orbit: 1 if none
+    /// is outside; of a forced orbit: of all its multipliers).
     pub max_multiplier_abs: f64,
     /// |max_multiplier_abs - the exact monodromy's|: the difference in the decision quantity.
     pub max_multiplier_change: f64,
@@ -56,26 +60,71 @@ pub fn check_by_rk4(model: &BoundaryModel, orbit: &ShotOrbit) -> Result<Shooting
         v: vec![0.0; r],
     };
     let driven = DrivenBoundary::undriven(model, orbit.period);
-    let steps = rk4_steps(&driven, orbit.period)?;
-    let (end, monodromy) = integrate(&driven, &start, orbit.period, steps)?;
-    let q_scale = norm(&orbit.q0);
-    let v_scale = q_scale * 2.0 * std::f64::consts::PI / orbit.period;
+    let compared = Compared {
+        period: orbit.period,
+        multipliers: nontrivial,
+        floor: 1.0,
+    };
+    compare(&driven, &start, &orbit.monodromy, &compared)
+}
+
+/// The independent RK4 check of a forced orbit shot on the driven boundary
+/// (`driven_stability`; constant or moving gaps): one period of `b.model` from the shot orbit's
+/// start, every multiplier compared (a forced orbit has no trivial pair).
+pub fn check_driven_by_rk4(b: &BoundaryMonodromy) -> Result<ShootingCheck, HbError> {
+    let r = b.modes;
+    let start = Rk4State {
+        q: b.start[..r].to_vec(),
+        v: b.start[r..].to_vec(),
+    };
+    let compared = Compared {
+        period: 2.0 * std::f64::consts::PI / b.model.omega,
+        multipliers: |v| v,
+        floor: 0.0,
+    };
+    compare(&b.model, &start, &b.monodromy.matrix, &compared)
+}
+
+/// What [`compare`] compares: over `period` (s), the multipliers `multipliers` keeps of each
+/// monodromy, their largest modulus taken from `floor` up (1 for a free orbit: only growth
+/// counts; 0 for a forced one).
+struct Compared {
+    period: f64,
+    multipliers: fn(Vec<faer::c64>) -> Vec<faer::c64>,
+    floor: f64,
+}
+
+/// One period of RK4 of `model` from `start` against the exact monodromy `exact`: the
+/// periodicity in the scaled state (q / |q0|, q' / (w |q0|), w = 2 pi / period) and the
+/// multipliers `what` says.
+fn compare(
+    model: &DrivenBoundary,
+    start: &Rk4State,
+    exact: &Mat<f64>,
+    what: &Compared,
+) -> Result<ShootingCheck, HbError> {
+    let r = start.q.len();
+    let period = what.period;
+    let steps = rk4_steps(model, period)?;
+    let (end, monodromy) = integrate(model, start, period, steps)?;
+    let q_scale = norm(&start.q);
+    let v_scale = q_scale * 2.0 * std::f64::consts::PI / period;
     let periodicity = (0..r)
-        .map(|i| ((end.q[i] - start.q[i]) / q_scale).powi(2) + (end.v[i] / v_scale).powi(2))
+        .map(|i| {
+            ((end.q[i] - start.q[i]) / q_scale).powi(2)
+                + ((end.v[i] - start.v[i]) / v_scale).powi(2)
+        })
         .sum::<f64>()
         .sqrt();
-    let eigenvalues = |m: &Mat<f64>, what: &'static str| {
+    let eigenvalues = |m: &Mat<f64>, name: &'static str| {
         m.eigenvalues()
-            .map(nontrivial)
+            .map(what.multipliers)
             .map_err(|e| HbError::Decomposition {
-                what,
+                what: name,
                 detail: format!("{e:?}"),
             })
     };
-    let exact = eigenvalues(
-        &orbit.monodromy,
-        "eigenvalues of the massless boundary's monodromy",
-    )?;
+    let exact = eigenvalues(exact, "eigenvalues of the massless boundary's monodromy")?;
     let integrated = eigenvalues(&monodromy, "eigenvalues of the RK4 monodromy")?;
     let multiplier_distance = integrated
         .iter()
@@ -86,7 +135,7 @@ pub fn check_by_rk4(model: &BoundaryModel, orbit: &ShotOrbit) -> Result<Shooting
                 .fold(f64::INFINITY, f64::min)
         })
         .fold(0.0, f64::max);
-    let largest = |v: &[faer::c64]| v.iter().map(|mu| mu.norm()).fold(1.0, f64::max);
+    let largest = |v: &[faer::c64]| v.iter().map(|mu| mu.norm()).fold(what.floor, f64::max);
     let max_multiplier_abs = largest(&integrated);
     let max_multiplier_change = (max_multiplier_abs - largest(&exact)).abs();
     Ok(ShootingCheck {

@@ -2,7 +2,7 @@
 
 use faer::{c64, Mat};
 
-use crate::driven_model::{BoundaryDrive, DrivenBoundary};
+use crate::driven_model::{BoundaryDrive, DrivenBoundary, GapHarmonic};
 use crate::model::BoundaryModel;
 
 /// One mode (w = 1) on one row of flexibility `flex`, gap 1: a bilinear oscillator.
@@ -74,6 +74,27 @@ pub(crate) fn driven_three_modes(omega: f64) -> DrivenBoundary {
         ],
         omega,
     }
+}
+
+/// `driven_three_modes` under a moving gap: the rows' gaps reduced by 0.3, 0.25 and 0.4
+/// cos(W t + phi_j) (phases 0.3, -0.7, 1.9 rad), a harmonic the load holds, and by
+/// 0.1 sin(2 W t) on the first row, one it lacks.
+pub(crate) fn driven_three_modes_moving_gap(omega: f64) -> DrivenBoundary {
+    let (amplitude, phase) = ([0.3, 0.25, 0.4], [0.3, -0.7, 1.9_f64]);
+    let first = GapHarmonic {
+        harmonic: 1,
+        intrusion: [
+            (0..3).map(|j| amplitude[j] * phase[j].cos()).collect(),
+            (0..3).map(|j| -amplitude[j] * phase[j].sin()).collect(),
+        ],
+    };
+    let second = GapHarmonic {
+        harmonic: 2,
+        intrusion: [vec![0.0; 3], vec![0.1, 0.0, 0.0]],
+    };
+    driven_three_modes(omega)
+        .with_gap_motion(&[first, second])
+        .expect("a gap motion that fits the rows")
 }
 
 /// A verdict for the tests: the multipliers exp(s T) without the two nearest +1 (the trivial

@@ -6,6 +6,7 @@
 
 use faer::{Mat, MatRef};
 
+use crate::distortion::CasingDistortion;
 use crate::load::Load;
 use nlmodes_boundary::{BoundaryCurve, DrivenInputs, LoadHarmonic};
 use nlmodes_hb::system::System;
@@ -48,6 +49,7 @@ impl BoundaryInputs<'_> {
             penalty: self.penalty,
             harmonics: self.harmonics,
             keep_all: self.keep_all,
+            gap_motion: Vec::new(),
         }
     }
 }
@@ -61,6 +63,20 @@ pub fn boundary_monodromy(
     omega: f64,
 ) -> Result<Option<BoundaryMonodromy>, HbError> {
     nlmodes_boundary::boundary_monodromy(&inputs.driven(), coefficients, omega)
+}
+
+/// [`boundary_monodromy`] under a casing distortion: every row's gap g0_j - delta cos(h W t +
+/// phi) (DESIGN §10.11; docs/STABILITY.md Sec. 9.5), the intrusion a harmonic of the boundary's
+/// drive.
+pub fn moving_gap_monodromy(
+    inputs: &BoundaryInputs<'_>,
+    distortion: &CasingDistortion,
+    coefficients: &Mat<f64>,
+    omega: f64,
+) -> Result<Option<BoundaryMonodromy>, HbError> {
+    let mut driven = inputs.driven();
+    driven.gap_motion = vec![distortion.gap_harmonic(inputs.system.n_contacts())];
+    nlmodes_boundary::boundary_monodromy(&driven, coefficients, omega)
 }
 
 /// The exact response curve of the level of `inputs` on the massless boundary

@@ -29,7 +29,7 @@ use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
 use crate::load::Load;
-use crate::point_stability::{assess_point, PointStability};
+use crate::point_stability::{assess_point_with, Assessment, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
 use crate::trace::norm;
@@ -58,6 +58,10 @@ pub struct CasingSweepSettings {
     pub stability: bool,
     pub stability_margin: f64,
     pub period_tolerance: f64,
+    /// Every k-th point in contact has its verdict on the massless boundary (moving gaps,
+    /// docs/STABILITY.md Sec. 9.5) checked by one period of RK4 of that model
+    /// (`PointStability::rk4_change`; a disagreement makes it undetermined); 0: none. Default 4.
+    pub verify_every: usize,
     /// How N is converged (default `SpeedHarmonics::Retrace`: module docs; `Check`: the first
     /// grid's points checked at 2N, not solved again; `Fixed`: none checked).
     pub harmonic_policy: SpeedHarmonics,
@@ -81,6 +85,7 @@ impl CasingSweepSettings {
             stability: true,
             stability_margin: 1e-3,
             period_tolerance: 1e-3,
+            verify_every: 4,
             harmonic_policy: SpeedHarmonics::Retrace,
             max_harmonics: 0,
             harmonic_tolerance: 1e-3,
@@ -415,22 +420,40 @@ impl Problem<'_> {
         }
     }
 
-    /// The Floquet stability of every point (when asked for), then the changes between
-    /// consecutive determined points.
+    /// The Floquet stability of every point (when asked for; the massless boundary with the
+    /// moving gaps in contact, every `verify_every`-th point in contact checked by RK4), then
+    /// the changes between consecutive determined points.
     fn assess(&self, solver: &ForcedSettings, sweep: &mut CasingSweep) {
         let s = self.settings;
         if !s.stability {
             return;
         }
-        sweep.points.par_iter_mut().for_each(|p| {
-            let st = self
-                .solver(solver, p.amplitude)
-                .and_then(|sv| assess_point(&sv, &p.point, s.stability_margin, s.period_tolerance));
-            p.stability = Some(st.unwrap_or_else(|e| {
-                tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
-                PointStability::unchecked()
-            }));
-        });
+        let mut in_contact = 0;
+        let verify: Vec<bool> = (sweep.points.iter())
+            .map(|p| {
+                let touching = p.point.touches();
+                in_contact += usize::from(touching);
+                touching && s.verify_every > 0 && (in_contact - 1) % s.verify_every == 0
+            })
+            .collect();
+        sweep
+            .points
+            .par_iter_mut()
+            .zip(verify)
+            .for_each(|(p, verify)| {
+                let how = Assessment {
+                    margin: s.stability_margin,
+                    period_tolerance: s.period_tolerance,
+                    verify,
+                };
+                let st = self
+                    .solver(solver, p.amplitude)
+                    .and_then(|sv| assess_point_with(&sv, Some(self.damping), &p.point, &how));
+                p.stability = Some(st.unwrap_or_else(|e| {
+                    tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
+                    PointStability::unchecked()
+                }));
+            });
         crate::speed_sweep::classify_changes(
             sweep.points.iter_mut().filter_map(|p| p.stability.as_mut()),
         );

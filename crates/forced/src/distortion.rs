@@ -19,6 +19,7 @@
 //! does not depend on W (dR/dW is the structure's alone) nor on the unknowns (the Jacobian is
 //! unchanged).
 
+use nlmodes_boundary::GapHarmonic;
 use nlmodes_hb::FullBasis;
 
 use crate::error::ForcedError;
@@ -82,6 +83,19 @@ impl CasingDistortion {
         self.series(terms).repeat(rows)
     }
 
+    /// The intrusion on each of `rows` contact rows as a moving gap of the massless boundary
+    /// (docs/STABILITY.md Sec. 9.5): delta cos(phi) on cos h W t, -delta sin(phi) on sin h W t.
+    pub fn gap_harmonic(&self, rows: usize) -> GapHarmonic {
+        let (s, co) = self.phase.sin_cos();
+        GapHarmonic {
+            harmonic: self.harmonic,
+            intrusion: [
+                vec![self.amplitude * co; rows],
+                vec![-self.amplitude * s; rows],
+            ],
+        }
+    }
+
     /// The intrusion at phase theta = W t (m).
     pub fn intrusion_at(&self, theta: f64) -> f64 {
         self.amplitude * (self.harmonic as f64 * theta + self.phase).cos()
@@ -106,6 +120,15 @@ mod tests {
             assert!((v - d.intrusion_at(th)).abs() < 1e-18, "{v}");
         }
         assert_eq!(d.offsets(2, 11).len(), 22);
+        // The boundary's moving gap (docs/STABILITY.md Sec. 9.5) is the same intrusion.
+        let g = d.gap_harmonic(2);
+        assert_eq!((g.harmonic, g.intrusion[0].len()), (3, 2));
+        for k in 0..50 {
+            let th = 0.13 * k as f64;
+            let (sn, co) = (3.0 * th).sin_cos();
+            let v = g.intrusion[0][1] * co + g.intrusion[1][1] * sn;
+            assert!((v - d.intrusion_at(th)).abs() < 1e-18, "{v}");
+        }
     }
 
     #[test]

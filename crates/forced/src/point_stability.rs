@@ -1,13 +1,18 @@
 //! The Floquet stability of each point of a response curve (docs/STABILITY.md Secs. 8-9): the
 //! exact monodromy of the massless contact boundary's shot orbit for points in contact where
-//! that model applies, else the switched monodromy of the harmonic-balance orbit backed by one
-//! period of independent time integration (`period_check`); then the changes of stability
-//! between consecutive determined points of one piece.
+//! that model applies (under a casing distortion with the gaps moving, Sec. 9.5), else the
+//! switched monodromy of the harmonic-balance orbit backed by one period of independent time
+//! integration (`period_check`); then the changes of stability between consecutive determined
+//! points of one piece.
 
+use faer::Mat;
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
+use nlmodes_hb::ContactMethod;
 
+use crate::boundary::{moving_gap_monodromy, BoundaryInputs, BoundaryMonodromy};
 use crate::error::ForcedError;
 use crate::solver::{ForcedPoint, ForcedSolver};
+use nlmodes_boundary::check_driven_by_rk4;
 
 /// What a change of stability between two points is, from the multiplier that crossed the unit
 /// circle (its argument within 0.05 rad of 0 or pi, else a complex pair).
@@ -44,6 +49,11 @@ pub struct PointStability {
     /// multipliers these are; above `BOUNDARY_SHIFT_LIMIT` the verdict is undetermined. `None`
     /// where the massive model's monodromy and the period check were used.
     pub boundary_shift: Option<f64>,
+    /// Where that boundary verdict was checked by one period of RK4 of the boundary model
+    /// (`nlmodes_boundary::check_driven_by_rk4`): the larger of the change of the largest |mu|
+    /// and the distance of the RK4 end state from the start (scaled); above
+    /// `SHOOTING_CHECK_LIMIT` the verdict is undetermined. `None`: not checked.
+    pub rk4_change: Option<f64>,
 }
 
 impl PointStability {
@@ -56,6 +66,28 @@ impl PointStability {
         st
     }
 
+    /// This boundary verdict checked by one period of RK4 of `b`'s model (module docs of
+    /// `nlmodes_boundary::rk4_check`): undetermined where the check disagrees or fails.
+    fn verified(mut self, b: &BoundaryMonodromy) -> Self {
+        match check_driven_by_rk4(b) {
+            Ok(check) => {
+                self.rk4_change = Some(check.max_multiplier_change.max(check.periodicity));
+                if !check.agrees() {
+                    tracing::warn!(
+                        ?check,
+                        "the RK4 check disagrees with the boundary's verdict"
+                    );
+                    self.verdict = Verdict::Undetermined;
+                }
+            }
+            Err(e) => {
+                tracing::warn!("the RK4 check of a boundary verdict failed: {e}");
+                self.verdict = Verdict::Undetermined;
+            }
+        }
+        self
+    }
+
     pub(crate) fn of(mono: &SampledMonodromy, margin: f64) -> Self {
         let first = mono.multipliers.first().copied().unwrap_or([0.0, 0.0]);
         Self {
@@ -66,6 +98,7 @@ impl PointStability {
             bifurcation: None,
             period_residual: None,
             boundary_shift: None,
+            rk4_change: None,
         }
     }
 
@@ -79,6 +112,7 @@ impl PointStability {
             bifurcation: None,
             period_residual: None,
             boundary_shift: None,
+            rk4_change: None,
         }
     }
 
@@ -117,10 +151,51 @@ pub(crate) fn assess_point(
     margin: f64,
     period_tolerance: f64,
 ) -> Result<PointStability, ForcedError> {
+    let how = Assessment {
+        margin,
+        period_tolerance,
+        verify: false,
+    };
+    assess_point_with(solver, None, point, &how)
+}
+
+/// How a point is assessed: `margin` around |mu| = 1 (undetermined inside), the largest period
+/// residual given a verdict (`FrfSettings`), and whether a verdict of the massless boundary is
+/// checked by RK4 (`PointStability::rk4_change`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Assessment {
+    pub margin: f64,
+    pub period_tolerance: f64,
+    pub verify: bool,
+}
+
+/// [`assess_point`] given the damping matrix C (n x n, N s/m) of `solver`'s problem: under a
+/// casing distortion the massless boundary is then built with the moving gaps
+/// ([`moving_gap_boundary`]); without C (or without a distortion) it is the solver's own
+/// (constant gaps: no boundary under a distortion).
+pub(crate) fn assess_point_with(
+    solver: &ForcedSolver<'_>,
+    damping: Option<&Mat<f64>>,
+    point: &ForcedPoint,
+    how: &Assessment,
+) -> Result<PointStability, ForcedError> {
+    let (margin, period_tolerance) = (how.margin, how.period_tolerance);
+    let on_boundary = |b: &BoundaryMonodromy| {
+        let st = PointStability::on_boundary(b, margin);
+        if how.verify {
+            st.verified(b)
+        } else {
+            st
+        }
+    };
+    let boundary = |keep_all: bool| match (solver.settings().distortion.as_ref(), damping) {
+        (Some(_), Some(c)) => moving_gap_boundary(solver, c, point, keep_all),
+        _ => solver.boundary_monodromy(point, keep_all),
+    };
     let touching = point.touches();
     if touching {
-        if let Some(b) = solver.boundary_monodromy(point, false)? {
-            return Ok(PointStability::on_boundary(&b, margin));
+        if let Some(b) = boundary(false)? {
+            return Ok(on_boundary(&b));
         }
     }
     let residual = solver.period_residual(point);
@@ -130,17 +205,48 @@ pub(crate) fn assess_point(
         // orbit of that equation next to the point answers (its verdict, unless
         // farther than the shift limit); otherwise no verdict to compute.
         let exact = if touching && solver.every_mode_resolved(point.omega) {
-            solver.boundary_monodromy(point, true)?
+            boundary(true)?
         } else {
             None
         };
-        exact.map_or_else(PointStability::unchecked, |b| {
-            PointStability::on_boundary(&b, margin)
-        })
+        exact.map_or_else(PointStability::unchecked, |b| on_boundary(&b))
     } else {
         let mono = solver.monodromy(point)?;
         PointStability::of(&mono, margin)
     };
     st.period_residual = residual;
     Ok(st)
+}
+
+/// The multipliers of `point` on the massless boundary of `solver`'s problem (damping C, n x n,
+/// N s/m) with every row's gap moving as the solver's casing distortion says (docs/STABILITY.md
+/// Sec. 9.5); `None` without a distortion, where the model does not apply or shooting does not
+/// converge. `keep_all` as `ForcedSolver::boundary_monodromy`.
+pub(crate) fn moving_gap_boundary(
+    solver: &ForcedSolver<'_>,
+    damping: &Mat<f64>,
+    point: &ForcedPoint,
+    keep_all: bool,
+) -> Result<Option<BoundaryMonodromy>, ForcedError> {
+    let Some(distortion) = solver.settings().distortion else {
+        return Ok(None);
+    };
+    let load = solver.load().scaled(point.level);
+    let inputs = BoundaryInputs {
+        system: solver.system(),
+        damping: damping.as_ref(),
+        load: &load,
+        penalty: match solver.settings().algorithm.method {
+            ContactMethod::Penalty { stiffness } => Some(stiffness),
+            ContactMethod::AugmentedLagrangian => None,
+        },
+        harmonics: solver.basis().harmonics(),
+        keep_all,
+    };
+    Ok(moving_gap_monodromy(
+        &inputs,
+        &distortion,
+        &point.coefficients,
+        point.omega,
+    )?)
 }
