@@ -7,7 +7,7 @@
 use faer::Mat;
 
 use crate::driven_model::{driven_model, modal_start, DrivenBoundary, DrivenInputs};
-use crate::driven_shooting::shoot_driven;
+use crate::driven_shooting::{shoot_driven, shoot_driven_at_fixed_frequency, DrivenOrbit};
 use nlmodes_hb::floquet::{multipliers_of, SampledMonodromy};
 use nlmodes_hb::HbError;
 
@@ -26,6 +26,11 @@ pub struct BoundaryMonodromy {
     pub model: DrivenBoundary,
     /// (q, q') of the shot orbit at t = 0.
     pub start: Vec<f64>,
+    /// The largest |mu| of the boundary's orbit at the point's own W (shot from the orbit
+    /// above): where it and `monodromy` give different verdicts the verdict changes within
+    /// the shift (a bifurcation nearby) and is not the point's. `None` where that shooting
+    /// did not converge (a steep flank: the orbit at the nearby W is the point's neighbour).
+    pub fixed_frequency_largest: Option<f64>,
 }
 
 /// The multipliers of the forced orbit `coefficients` (n x (2N + 1)) at W = `omega` on the
@@ -63,6 +68,7 @@ pub fn boundary_monodromy(
         "massless-boundary orbit"
     );
     let trace: f64 = (0..r).map(|i| model.damping[(i, i)]).sum();
+    let fixed_frequency_largest = fixed_frequency_largest(&model, &orbit, trace);
     let period = 2.0 * std::f64::consts::PI / orbit.omega;
     let mut model = model;
     model.omega = orbit.omega;
@@ -72,5 +78,21 @@ pub fn boundary_monodromy(
         modes: r,
         model,
         start: orbit.start,
+        fixed_frequency_largest,
     }))
+}
+
+/// The largest |mu| of the boundary's periodic orbit at `model`'s own W, shot from `orbit`
+/// (found with W free): the same orbit when W did not move.
+fn fixed_frequency_largest(model: &DrivenBoundary, orbit: &DrivenOrbit, trace: f64) -> Option<f64> {
+    let period = 2.0 * std::f64::consts::PI / model.omega;
+    if orbit.omega == model.omega {
+        return None;
+    }
+    let fixed = shoot_driven_at_fixed_frequency(model, &orbit.start).ok()??;
+    Some(
+        multipliers_of(fixed.monodromy, trace, period)
+            .ok()?
+            .largest(),
+    )
 }

@@ -63,6 +63,20 @@ impl PointStability {
         if b.shift > crate::boundary::BOUNDARY_SHIFT_LIMIT {
             st.verdict = Verdict::Undetermined;
         }
+        // The orbit at the point's own W says otherwise: a bifurcation lies within the shift.
+        if let Some(largest) = b.fixed_frequency_largest {
+            let tol = margin + b.monodromy.liouville_error.unwrap_or(0.0);
+            let fixed = if largest > 1.0 + tol {
+                Verdict::Unstable
+            } else if largest < 1.0 - tol {
+                Verdict::Stable
+            } else {
+                Verdict::Undetermined
+            };
+            if fixed != st.verdict {
+                st.verdict = Verdict::Undetermined;
+            }
+        }
         st
     }
 
