@@ -37,6 +37,8 @@ mod newton;
 mod period_check;
 mod point_stability;
 mod solver;
+#[cfg(test)]
+mod speed_column_check;
 mod speed_curve;
 mod speed_grazing;
 mod speed_harmonics;
@@ -63,7 +65,7 @@ pub use error::ForcedError;
 pub use frf::response_curve;
 pub use harmonic_check::HarmonicCheck;
 pub use load::{HarmonicLoad, Load};
-pub use newton::{ArcRow, OrbitState, Parameter};
+pub use newton::{ArcRow, MovingStructure, OrbitState, Parameter};
 pub use nlmodes_boundary::{BoundaryCurve, BoundaryCurvePoint};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};

@@ -19,7 +19,8 @@ use nlmodes_hb::{Multipliers, System};
 
 use crate::error::ForcedError;
 use crate::load::Load;
-use crate::newton::{ArcRow, OrbitState, Parameter};
+use crate::dynamics::ModalDynamics;
+use crate::newton::{ArcRow, MovingStructure, OrbitState, Parameter};
 use crate::point_stability::{assess_point, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
@@ -156,7 +157,10 @@ impl SpeedStepper<'_> {
         Ok(self.finish(speed, point, &solver, 1))
     }
 
-    /// The orbit on the row of `arc`, from `from` (module docs).
+    /// The orbit on the row of `arc`, from `from` (module docs): under the penalty law one
+    /// Newton solve in (orbit, W) with the structure following W = e Omega
+    /// ([`Self::on_arc_following`]), under exact contact the frozen speed corrected
+    /// ([`Self::on_row`]).
     pub(crate) fn on_arc(
         &self,
         from: &SpeedPoint,
@@ -167,10 +171,41 @@ impl SpeedStepper<'_> {
             state: row.predicted.clone(),
             multipliers: from.point.multipliers.clone(),
         };
+        let problem = self.problem(arc.speed)?;
+        let solver = problem.solver(&self.solver)?;
+        let following = StructureAtSpeed { stepper: self };
+        // The structure is built again where W moves by more than the speed tolerance.
+        let band = self.fundamental() * self.settings.speed_tolerance * self.settings.speed_scale;
+        if let Some(solved) = solver.solve_following(start.clone(), &row, (&following, band)) {
+            return self.on_arc_following(solved?);
+        }
         // A point on the row lies within about the step of the prediction (the judge takes
         // one step): twice that bounds the speed's corrections.
         let reach = 2.0 * arc.step * arc.speed_scale;
         self.on_row(start, arc.speed, &|_, _| row.clone(), &|_, _| true, reach)
+    }
+
+    /// The point of an orbit converged with the structure following W (`solved`: the orbit,
+    /// its multipliers, the Newton iterations and the W_s of the structure it converged on,
+    /// within the speed tolerance of its W): onto the speed line of that structure, W = W_s
+    /// at the speed W_s / e, from it (as the frozen-speed path's last solve; at a fold of the
+    /// speed that solve can fail: the row's point stays, on its structure).
+    fn on_arc_following(
+        &self,
+        solved: (ForcedStart, usize, f64),
+    ) -> Result<SpeedPoint, ForcedError> {
+        let (mut start, iterations, on) = solved;
+        let speed = on / self.fundamental();
+        let problem = self.problem(speed)?;
+        let solver = problem.solver(&self.solver)?;
+        let row = start.clone();
+        start.state.omega = on;
+        let mut point = match solver.solve(start, None) {
+            Ok(p) => p,
+            Err(_) => solver.solve(row, None)?,
+        };
+        point.newton_iterations += iterations;
+        Ok(self.finish(speed, point, &solver, 1))
     }
 
     /// The orbit on the row `row(solver, start)` builds at each frozen speed (from the speed
@@ -255,6 +290,25 @@ impl SpeedStepper<'_> {
             stability: None,
             corrections,
         }
+    }
+}
+
+/// The structure of a sweep at W: its problem at the speed W / k (k the orbit's fundamental
+/// order), condensed on the sweep's basis (`newton::MovingStructure`).
+struct StructureAtSpeed<'a> {
+    stepper: &'a SpeedStepper<'a>,
+}
+
+impl MovingStructure for StructureAtSpeed<'_> {
+    fn at(&self, omega: f64) -> Result<(ModalDynamics, Vec<f64>), ForcedError> {
+        let problem = self.stepper.problem(omega / self.stepper.fundamental())?;
+        let dynamics = ModalDynamics::new(
+            &problem.system,
+            &problem.damping,
+            &problem.load,
+            self.stepper.solver.harmonics.harmonics,
+        )?;
+        Ok((dynamics, problem.system.gaps().to_vec()))
     }
 }
 
