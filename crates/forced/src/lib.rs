@@ -69,7 +69,7 @@ pub use newton::{ArcRow, MovingStructure, OrbitState, Parameter};
 pub use nlmodes_boundary::{BoundaryCurve, BoundaryCurvePoint};
 pub use nlmodes_hb::floquet::Verdict;
 pub use point_stability::{ForcedBifurcation, PointStability};
-pub use solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+pub use solver::{FollowingSolve, ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 pub use speed_curve::{LobedCasing, SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
 pub use speed_harmonics::speed_sweep;
 pub use speed_step::{SpeedFamily, SpeedProblem};

@@ -14,7 +14,7 @@ use crate::error::ForcedError;
 use crate::harmonic_check::HarmonicCheck;
 use crate::load::Load;
 use crate::newton::{
-    contact_samples, ArcRow, ForceIntegration, Following, InnerNewton, InnerTolerance,
+    contact_samples, ArcRow, Following, ForceIntegration, InnerNewton, InnerTolerance,
     MovingStructure, OrbitState,
 };
 use crate::period_check::PeriodCheck;
@@ -25,8 +25,8 @@ use nlmodes_hb::penalty_integral::ContactPhases;
 /// takes 3-50 iterations, a failing attempt used to burn the free-mode budget of 400 (30 s).
 pub const FORCED_NEWTON_BUDGET: usize = 150;
 
-/// Runs of `ForcedSolver::solve_following` before it gives up: each squares the distance
-/// between the structure's W and the orbit's (two on the default blade's smooth stretches).
+/// Runs of `ForcedSolver::solve_following` before it gives up: each removes the previous
+/// run's linearization error (two or three per point on the default blade's EO 3 sweep).
 const FOLLOWING_RUNS: usize = 6;
 
 /// What a forced solve is configured with.
@@ -105,6 +105,19 @@ impl ForcedPoint {
     pub fn first_harmonic(&self, i: usize) -> f64 {
         self.coefficients[(i, 1)].hypot(self.coefficients[(i, 2)])
     }
+}
+
+/// What `ForcedSolver::solve_following` converged to.
+#[derive(Clone, Debug)]
+pub struct FollowingSolve {
+    /// The orbit (on the row) and its multipliers.
+    pub orbit: ForcedStart,
+    /// Newton iterations over the runs.
+    pub iterations: usize,
+    /// Runs (Newton solves, each on the structure where it started).
+    pub runs: usize,
+    /// W_s (rad/s) of the last run's structure, within the band of the orbit's W.
+    pub structure_omega: f64,
 }
 
 /// The forced problem for one system, damping and load.
@@ -533,15 +546,13 @@ impl<'s> ForcedSolver<'s> {
     /// contact, for the caller's frozen-structure path). Each run linearizes the structure
     /// around the W it starts from (`newton::Following`); while the converged W lies farther
     /// than `band` (rad/s) from that W, a run from the converged orbit on the structure there
-    /// removes the linearization's error (quadratically: one more run on smooth curves).
-    /// Returns the converged orbit and multipliers, the Newton iterations and the W_s of the
-    /// structure of the last run (within `band` of the orbit's W).
+    /// removes the linearization's error, starting from a residual of that error's size.
     pub fn solve_following(
         &self,
         start: ForcedStart,
         arc: &ArcRow,
         (structure, band): (&dyn MovingStructure, f64),
-    ) -> Option<Result<(ForcedStart, usize, f64), ForcedError>> {
+    ) -> Option<Result<FollowingSolve, ForcedError>> {
         if !self.integrates_exactly() {
             return None;
         }
@@ -551,7 +562,7 @@ impl<'s> ForcedSolver<'s> {
         } = start;
         multipliers.theta.iter_mut().for_each(|t| *t = 0.0);
         let mut iterations = 0;
-        for _ in 0..FOLLOWING_RUNS {
+        for runs in 1..=FOLLOWING_RUNS {
             let mut newton = self.inner_newton();
             newton.following = Some(Following::new(structure));
             match newton.run(&mut state, &multipliers, Some(arc)) {
@@ -567,7 +578,12 @@ impl<'s> ForcedSolver<'s> {
                 .and_then(Following::structure_omega)
                 .unwrap_or(state.omega);
             if (state.omega - on).abs() <= band {
-                return Some(Ok((ForcedStart { state, multipliers }, iterations, on)));
+                return Some(Ok(FollowingSolve {
+                    orbit: ForcedStart { state, multipliers },
+                    iterations,
+                    runs,
+                    structure_omega: on,
+                }));
             }
         }
         Some(Err(ForcedError::NotConverged {

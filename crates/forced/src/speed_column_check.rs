@@ -15,7 +15,7 @@ use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
 use crate::load::Load;
 use crate::newton::{
-    ForceIntegration, Following, InnerNewton, InnerTolerance, MovingStructure, OrbitState,
+    Following, ForceIntegration, InnerNewton, InnerTolerance, MovingStructure, OrbitState,
 };
 
 /// Engine order, N, speed scale Omega_r (rad/s), S, gap shrink a, penalty k (N/m).
@@ -113,14 +113,21 @@ fn speed_column_is_the_derivative_along_the_speed_line() {
     let h = 1e-5 * omega;
     let (rp, _) = residual_and_column(&moving, &basis, &y, omega + h);
     let (rm, _) = residual_and_column(&moving, &basis, &y, omega - h);
-    let fd: Vec<f64> = rp.iter().zip(&rm).map(|(a, b)| (a - b) / (2.0 * h)).collect();
+    let fd: Vec<f64> = rp
+        .iter()
+        .zip(&rm)
+        .map(|(a, b)| (a - b) / (2.0 * h))
+        .collect();
     let scale = fd.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
     let error = column
         .iter()
         .zip(&fd)
         .fold(0.0_f64, |a, (c, f)| a.max((c - f).abs()));
     eprintln!("column error {error:e} of {scale:e}");
-    assert!(scale > 0.0 && error <= 1e-6 * scale, "error {error:e} of {scale:e}");
+    assert!(
+        scale > 0.0 && error <= 1e-6 * scale,
+        "error {error:e} of {scale:e}"
+    );
 
     // The frozen structure's dR/dW (no motion of K, C and the gap) is far off.
     let frozen = Turning {
@@ -157,5 +164,8 @@ fn speed_column_is_the_derivative_along_the_speed_line() {
         .zip(&fd)
         .fold(0.0_f64, |a, (c, f)| a.max((c - f).abs()));
     eprintln!("frozen miss {miss:e}");
-    assert!(miss > 1e-2 * scale, "the structure's motion is {miss:e} of {scale:e}");
+    assert!(
+        miss > 1e-2 * scale,
+        "the structure's motion is {miss:e} of {scale:e}"
+    );
 }
