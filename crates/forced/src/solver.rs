@@ -11,11 +11,11 @@ use nlmodes_hb::{
 use crate::distortion::CasingDistortion;
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::following::{Following, MovingStructure};
 use crate::harmonic_check::HarmonicCheck;
 use crate::load::Load;
 use crate::newton::{
-    contact_samples, ArcRow, Following, ForceIntegration, InnerNewton, InnerTolerance,
-    MovingStructure, OrbitState,
+    contact_samples, ArcRow, ForceIntegration, InnerNewton, InnerTolerance, OrbitState,
 };
 use crate::period_check::PeriodCheck;
 use nlmodes_hb::penalty_integral::ContactPhases;
@@ -544,7 +544,7 @@ impl<'s> ForcedSolver<'s> {
     /// a speed sweep's structure at W / e), under the penalty law, whose one inner solve is the
     /// whole solve (Algorithm 1's outer loop holds one structure's gaps: `None` under exact
     /// contact, for the caller's frozen-structure path). Each run linearizes the structure
-    /// around the W it starts from (`newton::Following`); while the converged W lies farther
+    /// around the W it starts from (`following::Following`); while the converged W lies farther
     /// than `band` (rad/s) from that W, a run from the converged orbit on the structure there
     /// removes the linearization's error, starting from a residual of that error's size.
     pub fn solve_following(

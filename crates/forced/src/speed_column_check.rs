@@ -1,4 +1,4 @@
-//! The speed column of the bordered Newton solve of a speed sweep (`newton::Following`,
+//! The speed column of the bordered Newton solve of a speed sweep (`following::Following`,
 //! DESIGN §10.10) against a central difference of its residual along W = e Omega.
 //!
 //! A 3-DOF system turning (K(Omega) = K0 + S Omega^2 M, modal damping on the modes at each
@@ -13,10 +13,9 @@ use nlmodes_hb::{FullBasis, HarmonicSettings, Multipliers, System};
 use crate::damping::Damping;
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::following::{Following, MovingStructure};
 use crate::load::Load;
-use crate::newton::{
-    Following, ForceIntegration, InnerNewton, InnerTolerance, MovingStructure, OrbitState,
-};
+use crate::newton::{ForceIntegration, InnerNewton, InnerTolerance, OrbitState};
 
 /// Engine order, N, speed scale Omega_r (rad/s), S, gap shrink a, penalty k (N/m).
 const E: f64 = 3.0;

@@ -5,7 +5,7 @@
 //! below stands for k.
 //!
 //! Under the penalty law a row is one Newton solve in (orbit, W), the structure following
-//! W = e Omega (`ForcedSolver::solve_following`, `newton::Following`): the structure
+//! W = e Omega (`ForcedSolver::solve_following`, `following::Following`): the structure
 //! linearized in W around the speed where a run starts, the Newton matrix's column the total
 //! dR/dW = dR/dW|_structure + (1/e) dR/dOmega|_W (K, C and the contact rows by the difference
 //! of the structures at two speeds, the running gaps through the law's Jacobian), a second run
@@ -23,18 +23,19 @@
 //! frequency as the row's parameter, W / e playing Omega); then Omega_f is moved to W / e,
 //! first by a Newton step with the slope of F found at the last point (by substitution before
 //! any), then by the secant method on the mismatch F(Omega_f) = W(Omega_f) / e - Omega_f,
-//! until |F| <= `speed_tolerance` x Omega_ref. F' = 0 only where the row meets the true curve tangentially (the bordered system
-//! of the true curve is then singular too), so the secant converges superlinearly wherever
-//! the continuation is regular; substitution alone would diverge where the structure's
-//! frequency moves faster with the speed than e Omega does.
+//! until |F| <= `speed_tolerance` x Omega_ref. F' = 0 only where the row meets the true curve
+//! tangentially (the bordered system of the true curve is then singular too), so the secant
+//! converges superlinearly wherever the continuation is regular; substitution alone would
+//! diverge where the structure's frequency moves faster with the speed than e Omega does.
 
 use faer::Mat;
 use nlmodes_hb::{Multipliers, System};
 
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::following::MovingStructure;
 use crate::load::Load;
-use crate::newton::{ArcRow, MovingStructure, OrbitState, Parameter};
+use crate::newton::{ArcRow, OrbitState, Parameter};
 use crate::point_stability::{assess_point, PointStability};
 use crate::solver::{FollowingSolve, ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
