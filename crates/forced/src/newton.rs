@@ -12,6 +12,11 @@
 //! continuation one parameter p (W, or the load scale s at fixed W) is an unknown too, bordered
 //! by the pseudo-arc-length row t_y . (y - y_p) / y_s + t_p (p - p_p) / p_s = 0 (the bordered
 //! matrix stays regular at folds); its column is dR/dW = -dy_lin/dW or dR/ds = -y_F.
+//!
+//! On a speed sweep's row the structure moves with W (`following::Following`: the structure
+//! at the speed Omega = W / e, DESIGN §10.10), linearized in W around the structure where the
+//! solve starts, and the column is the total dR/dW = dR/dW|_structure + (1/e) dR/dOmega|_W
+//! (`InnerNewton::structure_rate`).
 
 use faer::Mat;
 use nlmodes_dense::DenseLu;
@@ -21,6 +26,7 @@ use nlmodes_hb::FullBasis;
 
 use crate::dynamics::{ContactCompliance, ModalDynamics};
 use crate::error::ForcedError;
+use crate::following::{Following, StructurePair, STRUCTURE_STEP};
 
 /// An orbit as the Newton solve sees it: contact coordinates y (signal-major, length unit), W
 /// and the load scale s.
@@ -266,20 +272,54 @@ pub struct InnerNewton<'p> {
     /// The casing's intrusion c on every row (signal-major; empty without a distortion): y is
     /// measured from the casing and R = y - c - s y_F + G Lambda (DESIGN §10.11).
     pub casing: &'p [f64],
+    /// The structure following W on a speed sweep's row (`dynamics` and `g0` are then only the
+    /// structure's until the first evaluation); `None`: the structure is fixed.
+    pub following: Option<Following<'p>>,
 }
 
 impl InnerNewton<'_> {
+    /// The condensed structure: the following structure's S_s once built, else the fixed one.
+    fn structure(&self) -> &ModalDynamics {
+        match self.following.as_ref().and_then(|f| f.built.as_ref()) {
+            Some(b) => &b.a.0,
+            None => self.dynamics,
+        }
+    }
+
+    /// Builds a following structure at W when it has none yet (nothing for a fixed one).
+    fn move_to(&mut self, omega: f64) -> Result<(), ForcedError> {
+        let Some(f) = &mut self.following else {
+            return Ok(());
+        };
+        if f.built.is_some() {
+            return Ok(());
+        }
+        let h = -STRUCTURE_STEP * omega;
+        f.built = Some(StructurePair {
+            omega,
+            a: f.structure.at(omega)?,
+            b: f.structure.at(omega + h)?,
+            h,
+        });
+        self.cache = None;
+        Ok(())
+    }
+
     fn compliance(&mut self, omega: f64) -> Result<&ContactCompliance, ForcedError> {
+        let dynamics = match self.following.as_ref().and_then(|f| f.built.as_ref()) {
+            Some(b) => &b.a.0,
+            None => self.dynamics,
+        };
         match &mut self.cache {
             Some(c) if c.omega == omega => {}
             Some(c) => {
                 // In place: an error leaves it half written, so it is dropped then.
-                if let Err(e) = self.dynamics.compliance_into(omega, c) {
+                if let Err(e) = dynamics.compliance_into(omega, c) {
                     self.cache = None;
                     return Err(e);
                 }
             }
-            None => self.cache = Some(self.dynamics.compliance(omega)?),
+            None => self.cache = Some(dynamics.compliance(omega)?),
         }
         Ok(self.cache.as_ref().expect("just set"))
     }
@@ -290,9 +330,12 @@ impl InnerNewton<'_> {
         s: &OrbitState,
         mu: &Multipliers,
     ) -> Result<(Vec<f64>, ContactSamples), ForcedError> {
+        self.move_to(s.omega)?;
+        let pair = self.following.as_ref().and_then(|f| f.built.as_ref());
+        let moved_gaps = pair.map(|p| p.gaps_at(s.omega));
         let cs = contact_samples_smoothed(
             self.basis,
-            self.g0,
+            moved_gaps.as_deref().unwrap_or(self.g0),
             &s.y,
             mu,
             self.smoothing,
@@ -305,6 +348,13 @@ impl InnerNewton<'_> {
             .map(|i| s.y[i] - s.level * comp.y_load[i] + g_lambda[i])
             .collect();
         r.iter_mut().zip(casing).for_each(|(v, c)| *v -= c);
+        if let Some(p) = self.following.as_ref().and_then(|f| f.built.as_ref()) {
+            if s.omega != p.omega {
+                let motion = structure_motion(p, s, &cs)?;
+                let shift = (s.omega - p.omega) / p.h;
+                r.iter_mut().zip(motion).for_each(|(v, d)| *v -= shift * d);
+            }
+        }
         Ok((r, cs))
     }
 
@@ -523,16 +573,13 @@ impl InnerNewton<'_> {
     ) -> Result<(Vec<f64>, f64), ForcedError> {
         let arc = arc_row.map(|(a, _)| a);
         let (t, m, l) = (self.basis.terms(), self.basis.samples(), s.y.len());
+        self.move_to(s.omega)?;
         let active: Vec<usize> = (0..self.g0.len())
             .filter(|&j| cs.row_active(j, m))
             .collect();
         let gj = self.compliance_times_slopes(s.omega, &active, cs)?;
         let rate = match arc.map(|a| a.parameter) {
-            Some(Parameter::Frequency) => {
-                let z = self.dynamics.response(s.omega, s.level, &cs.coefficients)?;
-                let rate = self.dynamics.response_rate(s.omega, &z)?;
-                rate.into_iter().map(|v| -v).collect()
-            }
+            Some(Parameter::Frequency) => self.frequency_column(s, cs, &active, &gj)?,
             Some(Parameter::Level) => self
                 .compliance(s.omega)?
                 .y_load
@@ -606,6 +653,75 @@ impl InnerNewton<'_> {
         Ok((dy, dw))
     }
 
+    /// dR/dW at `s` (L values): -dy_lin/dW of the structure as it stands, plus, for a following
+    /// structure, the structure's own motion (`structure_rate`). `gj`: G J over the `active`
+    /// rows (`compliance_times_slopes`).
+    fn frequency_column(
+        &mut self,
+        s: &OrbitState,
+        cs: &ContactSamples,
+        active: &[usize],
+        gj: &Mat<f64>,
+    ) -> Result<Vec<f64>, ForcedError> {
+        let dynamics = self.structure();
+        let z = dynamics.response(s.omega, s.level, &cs.coefficients)?;
+        let rate = dynamics.response_rate(s.omega, &z)?;
+        let mut rate: Vec<f64> = rate.into_iter().map(|v| -v).collect();
+        if self.following.is_some() {
+            let own = self.structure_rate(s, cs, active, gj)?;
+            rate.iter_mut().zip(own).for_each(|(r, o)| *r += o);
+        }
+        Ok(rate)
+    }
+
+    /// The following structure's own dR/dW at fixed y and W: with S the structure at W / e,
+    /// dR/dS dS/dW = -d y_lin/dS|_Lambda + G dLambda/dg0 dg0/dW, where y_lin = Psi z is the
+    /// linear response to the load and the forces Lambda(y) (`structure_motion`) and, the law
+    /// acting on y_j(t) - g0_j, dLambda_j/dg0_j = -J_j e_0 (e_0 the mean's coefficient), so the
+    /// gap term is -sum_j (dg0_j/dW) (G J)[:, mean of row j] (`gj`: G J over the `active`
+    /// rows); dS/dW by the difference of `Following`'s two structures.
+    fn structure_rate(
+        &mut self,
+        s: &OrbitState,
+        cs: &ContactSamples,
+        active: &[usize],
+        gj: &Mat<f64>,
+    ) -> Result<Vec<f64>, ForcedError> {
+        self.move_to(s.omega)?;
+        let t = self.basis.terms();
+        let f = self.following.as_ref().expect("a following structure");
+        let pair = f.built.as_ref().expect("just built");
+        let mut rate: Vec<f64> = (structure_motion(pair, s, cs)?.into_iter())
+            .map(|d| -d / pair.h)
+            .collect();
+        for (ai, &j) in active.iter().enumerate() {
+            let dg = (pair.b.1[j] - pair.a.1[j]) / pair.h;
+            let column = gj.col(ai * t);
+            rate.iter_mut()
+                .zip(column.iter())
+                .for_each(|(r, g)| *r -= dg * g);
+        }
+        Ok(rate)
+    }
+
+    /// R at `s` and the column dR/dW of its bordered Newton matrix (`frequency_column`), for
+    /// the check of that column against a difference of R (`speed_column_check`).
+    #[cfg(test)]
+    pub(crate) fn residual_and_column(
+        &mut self,
+        s: &OrbitState,
+        mu: &Multipliers,
+    ) -> Result<(Vec<f64>, Vec<f64>), ForcedError> {
+        let (r, cs) = self.residual(s, mu)?;
+        let m = self.basis.samples();
+        let active: Vec<usize> = (0..self.g0.len())
+            .filter(|&j| cs.row_active(j, m))
+            .collect();
+        let gj = self.compliance_times_slopes(s.omega, &active, &cs)?;
+        let column = self.frequency_column(s, &cs, &active, &gj)?;
+        Ok((r, column))
+    }
+
     /// G[:, active rows] times the block-diagonal J_Lambda of the active rows (L x La): the
     /// exact blocks of the integrated penalty law, or the projected slopes of the sampled law.
     fn compliance_times_slopes(
@@ -632,4 +748,26 @@ impl InnerNewton<'_> {
         }
         Ok(gj)
     }
+}
+
+/// y_lin(W, Lambda; S(W_s + h)) - y_lin(W, Lambda; S_s) at the orbit `s` (signal-major, L
+/// values): y_lin = Psi z the contact coordinates of the linear response to the load and the
+/// forces Lambda of `cs` (`ModalDynamics::response`), on each structure of `pair`.
+fn structure_motion(
+    pair: &StructurePair,
+    s: &OrbitState,
+    cs: &ContactSamples,
+) -> Result<Vec<f64>, ForcedError> {
+    let linear = |d: &ModalDynamics| -> Result<Mat<f64>, ForcedError> {
+        let z = d.response(s.omega, s.level, &cs.coefficients)?;
+        Ok(crate::dynamics::product(
+            d.contact_modes().as_ref(),
+            z.as_ref(),
+        ))
+    };
+    let (ya, yb) = (linear(&pair.a.0)?, linear(&pair.b.0)?);
+    let t = ya.ncols();
+    Ok((0..ya.nrows() * t)
+        .map(|i| yb[(i / t, i % t)] - ya[(i / t, i % t)])
+        .collect())
 }

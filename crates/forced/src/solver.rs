@@ -11,6 +11,7 @@ use nlmodes_hb::{
 use crate::distortion::CasingDistortion;
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::following::{Following, MovingStructure};
 use crate::harmonic_check::HarmonicCheck;
 use crate::load::Load;
 use crate::newton::{
@@ -23,6 +24,10 @@ use nlmodes_hb::penalty_integral::ContactPhases;
 /// continuation step that needs more is cheaper retried shorter: on the blade a converged point
 /// takes 3-50 iterations, a failing attempt used to burn the free-mode budget of 400 (30 s).
 pub const FORCED_NEWTON_BUDGET: usize = 150;
+
+/// Runs of `ForcedSolver::solve_following` before it gives up: each removes the previous
+/// run's linearization error (two or three per point on the default blade's EO 3 sweep).
+const FOLLOWING_RUNS: usize = 6;
 
 /// What a forced solve is configured with.
 #[derive(Clone, Debug)]
@@ -100,6 +105,19 @@ impl ForcedPoint {
     pub fn first_harmonic(&self, i: usize) -> f64 {
         self.coefficients[(i, 1)].hypot(self.coefficients[(i, 2)])
     }
+}
+
+/// What `ForcedSolver::solve_following` converged to.
+#[derive(Clone, Debug)]
+pub struct FollowingSolve {
+    /// The orbit (on the row) and its multipliers.
+    pub orbit: ForcedStart,
+    /// Newton iterations over the runs.
+    pub iterations: usize,
+    /// Runs (Newton solves, each on the structure where it started).
+    pub runs: usize,
+    /// W_s (rad/s) of the last run's structure, within the band of the orbit's W.
+    pub structure_omega: f64,
 }
 
 /// The forced problem for one system, damping and load.
@@ -448,6 +466,7 @@ impl<'s> ForcedSolver<'s> {
             smoothing: 0.0,
             integration: self.integration,
             casing: &self.casing,
+            following: None,
         }
     }
 
@@ -519,6 +538,61 @@ impl<'s> ForcedSolver<'s> {
         };
         let state = inner.state;
         self.point(state, multipliers, measure, solves, iterations)
+    }
+
+    /// The orbit on the arc row `arc` (W free) of a structure that moves with W (`structure`:
+    /// a speed sweep's structure at W / e), under the penalty law, whose one inner solve is the
+    /// whole solve (Algorithm 1's outer loop holds one structure's gaps: `None` under exact
+    /// contact, for the caller's frozen-structure path). Each run linearizes the structure
+    /// around the W it starts from (`following::Following`); while the converged W lies farther
+    /// than `band` (rad/s) from that W, a run from the converged orbit on the structure there
+    /// removes the linearization's error, starting from a residual of that error's size.
+    pub fn solve_following(
+        &self,
+        start: ForcedStart,
+        arc: &ArcRow,
+        (structure, band): (&dyn MovingStructure, f64),
+    ) -> Option<Result<FollowingSolve, ForcedError>> {
+        if !self.integrates_exactly() {
+            return None;
+        }
+        let ForcedStart {
+            mut state,
+            mut multipliers,
+        } = start;
+        multipliers.theta.iter_mut().for_each(|t| *t = 0.0);
+        let mut iterations = 0;
+        for runs in 1..=FOLLOWING_RUNS {
+            let mut newton = self.inner_newton();
+            newton.following = Some(Following::new(structure));
+            match newton.run(&mut state, &multipliers, Some(arc)) {
+                Ok(it) => iterations += it,
+                Err(e) => {
+                    return Some(Err(ForcedError::NotConverged {
+                        omega: arc.predicted.omega,
+                        reason: e.to_string(),
+                    }))
+                }
+            }
+            let on = (newton.following.as_ref())
+                .and_then(Following::structure_omega)
+                .unwrap_or(state.omega);
+            if (state.omega - on).abs() <= band {
+                return Some(Ok(FollowingSolve {
+                    orbit: ForcedStart { state, multipliers },
+                    iterations,
+                    runs,
+                    structure_omega: on,
+                }));
+            }
+        }
+        Some(Err(ForcedError::NotConverged {
+            omega: state.omega,
+            reason: format!(
+                "the structure's W and the orbit's did not agree within {band:.3e} rad/s after \
+                 {FOLLOWING_RUNS} runs"
+            ),
+        }))
     }
 
     fn point(

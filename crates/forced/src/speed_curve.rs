@@ -232,6 +232,7 @@ pub struct SpeedPoint {
     pub mode_frequency: f64,
     /// Floquet stability (when asked for).
     pub stability: Option<PointStability>,
-    /// Solves the point took (corrections of the frozen speed).
+    /// Solves the point took: the corrections of the frozen speed, or the runs of the solve
+    /// with the structure following W, each with the last solve onto the speed line.
     pub corrections: usize,
 }

@@ -4,24 +4,40 @@
 //! k = gcd(e, n), the load at its harmonic e / k and the gap at n / k (DESIGN §10.11); e
 //! below stands for k.
 //!
-//! On a row the structure is frozen at a speed Omega_f and its harmonic balance solved with W
-//! free on the row (`ForcedSolver::solve`, the frequency as the row's parameter, W / e playing
-//! Omega); then Omega_f is moved to W / e, first by a Newton step with the slope of F found at
-//! the last point (by substitution before any), then by the secant method on the mismatch
-//! F(Omega_f) = W(Omega_f) / e - Omega_f, until |F| <= `speed_tolerance` x
-//! Omega_ref. F' = 0 only where the row meets the true curve tangentially (the bordered system
-//! of the true curve is then singular too), so the secant converges superlinearly wherever
-//! the continuation is regular; substitution alone would diverge where the structure's
-//! frequency moves faster with the speed than e Omega does.
+//! Under the penalty law a row is one Newton solve in (orbit, W), the structure following
+//! W = e Omega (`ForcedSolver::solve_following`, `following::Following`): the structure
+//! linearized in W around the speed where a run starts, the Newton matrix's column the total
+//! dR/dW = dR/dW|_structure + (1/e) dR/dOmega|_W (K, C and the contact rows by the difference
+//! of the structures at two speeds, the running gaps through the law's Jacobian), a second run
+//! from the converged orbit on the structure at its speed removing the linearization's error,
+//! until the structure's speed and W / e agree within `speed_tolerance` x Omega_ref; then onto
+//! the speed line of that structure at fixed W, as below. The later runs start from a residual
+//! of the linearization's size, where each frozen-speed correction starts from the jump of the
+//! running gaps under the stiff penalty law (0.1 g0 on the default blade, 3-5 Newton
+//! iterations per correction): the default blade's EO 3 sweep at N = 10 traces in half the
+//! CPU time (docs/BENCHMARKS.md, session 20).
+//!
+//! Under exact contact (Algorithm 1, whose outer loop holds one structure's gaps), and on the
+//! grazing passages' and the harmonic checks' rows, the structure is frozen at a speed Omega_f
+//! and its harmonic balance solved with W free on the row (`ForcedSolver::solve`, the
+//! frequency as the row's parameter, W / e playing Omega); then Omega_f is moved to W / e,
+//! first by a Newton step with the slope of F found at the last point (by substitution before
+//! any), then by the secant method on the mismatch F(Omega_f) = W(Omega_f) / e - Omega_f,
+//! until |F| <= `speed_tolerance` x Omega_ref. F' = 0 only where the row meets the true curve
+//! tangentially (the bordered system of the true curve is then singular too), so the secant
+//! converges superlinearly wherever the continuation is regular; substitution alone would
+//! diverge where the structure's frequency moves faster with the speed than e Omega does.
 
 use faer::Mat;
 use nlmodes_hb::{Multipliers, System};
 
+use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::following::MovingStructure;
 use crate::load::Load;
 use crate::newton::{ArcRow, OrbitState, Parameter};
 use crate::point_stability::{assess_point, PointStability};
-use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
+use crate::solver::{FollowingSolve, ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
 
 /// Corrections of the frozen speed one point may take before its step is refused: the secant
@@ -156,7 +172,10 @@ impl SpeedStepper<'_> {
         Ok(self.finish(speed, point, &solver, 1))
     }
 
-    /// The orbit on the row of `arc`, from `from` (module docs).
+    /// The orbit on the row of `arc`, from `from` (module docs): under the penalty law one
+    /// Newton solve in (orbit, W) with the structure following W = e Omega
+    /// ([`Self::on_arc_following`]), under exact contact the frozen speed corrected
+    /// ([`Self::on_row`]).
     pub(crate) fn on_arc(
         &self,
         from: &SpeedPoint,
@@ -167,10 +186,39 @@ impl SpeedStepper<'_> {
             state: row.predicted.clone(),
             multipliers: from.point.multipliers.clone(),
         };
+        let problem = self.problem(arc.speed)?;
+        let solver = problem.solver(&self.solver)?;
+        let following = StructureAtSpeed { stepper: self };
+        // The structure is built again where W moves by more than the speed tolerance.
+        let band = self.fundamental() * self.settings.speed_tolerance * self.settings.speed_scale;
+        if let Some(solved) = solver.solve_following(start.clone(), &row, (&following, band)) {
+            return self.on_arc_following(solved?);
+        }
         // A point on the row lies within about the step of the prediction (the judge takes
         // one step): twice that bounds the speed's corrections.
         let reach = 2.0 * arc.step * arc.speed_scale;
         self.on_row(start, arc.speed, &|_, _| row.clone(), &|_, _| true, reach)
+    }
+
+    /// The point of an orbit converged with the structure following W (`solved`, its
+    /// structure's W_s within the speed tolerance of its W): onto the speed line of that
+    /// structure, W = W_s at the speed W_s / e, from it (as the frozen-speed path's last solve;
+    /// at a fold of the speed that solve can fail: the row's point stays, on its structure).
+    /// Its solves: the runs and that last one.
+    fn on_arc_following(&self, solved: FollowingSolve) -> Result<SpeedPoint, ForcedError> {
+        let on = solved.structure_omega;
+        let (mut start, iterations) = (solved.orbit, solved.iterations);
+        let speed = on / self.fundamental();
+        let problem = self.problem(speed)?;
+        let solver = problem.solver(&self.solver)?;
+        let row = start.clone();
+        start.state.omega = on;
+        let mut point = match solver.solve(start, None) {
+            Ok(p) => p,
+            Err(_) => solver.solve(row, None)?,
+        };
+        point.newton_iterations += iterations;
+        Ok(self.finish(speed, point, &solver, solved.runs + 1))
     }
 
     /// The orbit on the row `row(solver, start)` builds at each frozen speed (from the speed
@@ -255,6 +303,25 @@ impl SpeedStepper<'_> {
             stability: None,
             corrections,
         }
+    }
+}
+
+/// The structure of a sweep at W: its problem at the speed W / k (k the orbit's fundamental
+/// order), condensed on the sweep's basis (`newton::MovingStructure`).
+struct StructureAtSpeed<'a> {
+    stepper: &'a SpeedStepper<'a>,
+}
+
+impl MovingStructure for StructureAtSpeed<'_> {
+    fn at(&self, omega: f64) -> Result<(ModalDynamics, Vec<f64>), ForcedError> {
+        let problem = self.stepper.problem(omega / self.stepper.fundamental())?;
+        let dynamics = ModalDynamics::new(
+            &problem.system,
+            &problem.damping,
+            &problem.load,
+            self.stepper.solver.harmonics.harmonics,
+        )?;
+        Ok((dynamics, problem.system.gaps().to_vec()))
     }
 }
 
