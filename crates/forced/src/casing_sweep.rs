@@ -448,7 +448,7 @@ impl Problem<'_> {
                 };
                 let st = self
                     .solver(solver, p.amplitude)
-                    .and_then(|sv| assess_point_with(&sv, Some(self.damping), &p.point, &how));
+                    .and_then(|sv| assess_point_with(&sv, &p.point, &how));
                 p.stability = Some(st.unwrap_or_else(|e| {
                     tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
                     PointStability::unchecked()

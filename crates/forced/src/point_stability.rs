@@ -5,11 +5,9 @@
 //! integration (`period_check`); then the changes of stability between consecutive determined
 //! points of one piece.
 
-use faer::Mat;
 use nlmodes_hb::floquet::{SampledMonodromy, Verdict};
-use nlmodes_hb::ContactMethod;
 
-use crate::boundary::{moving_gap_monodromy, BoundaryInputs, BoundaryMonodromy};
+use crate::boundary::BoundaryMonodromy;
 use crate::error::ForcedError;
 use crate::solver::{ForcedPoint, ForcedSolver};
 use nlmodes_boundary::check_driven_by_rk4;
@@ -170,7 +168,7 @@ pub(crate) fn assess_point(
         period_tolerance,
         verify: false,
     };
-    assess_point_with(solver, None, point, &how)
+    assess_point_with(solver, point, &how)
 }
 
 /// How a point is assessed: `margin` around |mu| = 1 (undetermined inside), the largest period
@@ -183,13 +181,10 @@ pub(crate) struct Assessment {
     pub verify: bool,
 }
 
-/// [`assess_point`] given the damping matrix C (n x n, N s/m) of `solver`'s problem: under a
-/// casing distortion the massless boundary is then built with the moving gaps
-/// ([`moving_gap_boundary`]); without C (or without a distortion) it is the solver's own
-/// (constant gaps: no boundary under a distortion).
+/// [`assess_point`] as `how` says (under a casing distortion the massless boundary's gaps
+/// move with it: `ForcedSolver::boundary_monodromy`).
 pub(crate) fn assess_point_with(
     solver: &ForcedSolver<'_>,
-    damping: Option<&Mat<f64>>,
     point: &ForcedPoint,
     how: &Assessment,
 ) -> Result<PointStability, ForcedError> {
@@ -202,10 +197,7 @@ pub(crate) fn assess_point_with(
             st
         }
     };
-    let boundary = |keep_all: bool| match (solver.settings().distortion.as_ref(), damping) {
-        (Some(_), Some(c)) => moving_gap_boundary(solver, c, point, keep_all),
-        _ => solver.boundary_monodromy(point, keep_all),
-    };
+    let boundary = |keep_all: bool| solver.boundary_monodromy(point, keep_all);
     let touching = point.touches();
     if touching {
         if let Some(b) = boundary(false)? {
@@ -230,37 +222,4 @@ pub(crate) fn assess_point_with(
     };
     st.period_residual = residual;
     Ok(st)
-}
-
-/// The multipliers of `point` on the massless boundary of `solver`'s problem (damping C, n x n,
-/// N s/m) with every row's gap moving as the solver's casing distortion says (docs/STABILITY.md
-/// Sec. 9.5); `None` without a distortion, where the model does not apply or shooting does not
-/// converge. `keep_all` as `ForcedSolver::boundary_monodromy`.
-pub(crate) fn moving_gap_boundary(
-    solver: &ForcedSolver<'_>,
-    damping: &Mat<f64>,
-    point: &ForcedPoint,
-    keep_all: bool,
-) -> Result<Option<BoundaryMonodromy>, ForcedError> {
-    let Some(distortion) = solver.settings().distortion else {
-        return Ok(None);
-    };
-    let load = solver.load().scaled(point.level);
-    let inputs = BoundaryInputs {
-        system: solver.system(),
-        damping: damping.as_ref(),
-        load: &load,
-        penalty: match solver.settings().algorithm.method {
-            ContactMethod::Penalty { stiffness } => Some(stiffness),
-            ContactMethod::AugmentedLagrangian => None,
-        },
-        harmonics: solver.basis().harmonics(),
-        keep_all,
-    };
-    Ok(moving_gap_monodromy(
-        &inputs,
-        &distortion,
-        &point.coefficients,
-        point.omega,
-    )?)
 }

@@ -336,22 +336,21 @@ impl<'s> ForcedSolver<'s> {
 
     /// The multipliers of the point on the massless contact boundary (`boundary`), `None` where
     /// that model does not apply or shooting does not converge. `keep_all`: a penalty model
-    /// whose modes are all resolved is kept whole (the penalty equation, shot exactly). The
-    /// boundary's gaps are constant: `None` under a casing distortion (DESIGN §10.11).
+    /// whose modes are all resolved is kept whole (the penalty equation, shot exactly). Under a
+    /// casing distortion every row's gap moves with it (`boundary::moving_gap_monodromy`,
+    /// docs/STABILITY.md Sec. 9.5; DESIGN §10.11).
     pub fn boundary_monodromy(
         &self,
         point: &ForcedPoint,
         keep_all: bool,
     ) -> Result<Option<crate::boundary::BoundaryMonodromy>, ForcedError> {
-        if self.settings.distortion.is_some() {
-            return Ok(None);
-        }
         let load = self.load.scaled(point.level);
-        Ok(crate::boundary::boundary_monodromy(
-            &self.boundary_inputs(&load, keep_all),
-            &point.coefficients,
-            point.omega,
-        )?)
+        let inputs = self.boundary_inputs(&load, keep_all);
+        let (c, w) = (&point.coefficients, point.omega);
+        Ok(match &self.settings.distortion {
+            Some(d) => crate::boundary::moving_gap_monodromy(&inputs, d, c, w)?,
+            None => crate::boundary::boundary_monodromy(&inputs, c, w)?,
+        })
     }
 
     /// The exact response curve of the massless boundary (`boundary_curve`) at the level of the
