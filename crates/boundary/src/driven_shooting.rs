@@ -243,6 +243,24 @@ mod tests {
     use crate::rk4::{integrate, Rk4State};
     use crate::test_models::driven_three_modes as model;
 
+    /// How far RK4 (40000 steps over the period of `at`, the model at the orbit's W) brings
+    /// the three-mode orbit back to its start: the largest difference of q or q'.
+    fn rk4_period_gap(at: &DrivenBoundary, orbit: &DrivenOrbit) -> f64 {
+        let period = 2.0 * std::f64::consts::PI / at.omega;
+        let start = Rk4State {
+            q: orbit.start[..3].to_vec(),
+            v: orbit.start[3..].to_vec(),
+        };
+        let (end, _) = integrate(at, &start, period, 40_000).expect("rk4");
+        (0..3)
+            .map(|i| {
+                (end.q[i] - start.q[i])
+                    .abs()
+                    .max((end.v[i] - start.v[i]).abs())
+            })
+            .fold(0.0, f64::max)
+    }
+
     #[test]
     fn the_orbit_shot_at_a_fixed_frequency_keeps_it_and_is_periodic_for_rk4() {
         let m = model(0.9);
@@ -251,22 +269,8 @@ mod tests {
             .expect("shooting")
             .expect("converges");
         assert_eq!(orbit.omega, m.omega);
-        let period = 2.0 * std::f64::consts::PI / m.omega;
-        let start = Rk4State {
-            q: orbit.start[..3].to_vec(),
-            v: orbit.start[3..].to_vec(),
-        };
-        let (end, _) = integrate(&m, &start, period, 40_000).expect("rk4");
-        let gap = (0..3)
-            .map(|i| {
-                (end.q[i] - start.q[i])
-                    .abs()
-                    .max((end.v[i] - start.v[i]).abs())
-            })
-            .fold(0.0, f64::max);
-        // RK4 at 40000 steps a period against an exact flow: its own error, ~1e-9 here (as
-        // the W-free test below).
-        assert!(gap < 1e-7, "{gap:e}");
+        let gap = rk4_period_gap(&m, &orbit);
+        assert!(gap < 1e-8, "{gap:e}");
     }
 
     #[test]
@@ -277,21 +281,7 @@ mod tests {
         let orbit = shoot_driven(&m, &guess)
             .expect("shooting")
             .expect("converges");
-        let mut at = m.clone();
-        at.omega = orbit.omega;
-        let period = 2.0 * std::f64::consts::PI / at.omega;
-        let start = Rk4State {
-            q: orbit.start[..3].to_vec(),
-            v: orbit.start[3..].to_vec(),
-        };
-        let (end, _) = integrate(&at, &start, period, 40_000).expect("rk4");
-        let gap = (0..3)
-            .map(|i| {
-                (end.q[i] - start.q[i])
-                    .abs()
-                    .max((end.v[i] - start.v[i]).abs())
-            })
-            .fold(0.0, f64::max);
+        let gap = rk4_period_gap(&m.at(orbit.omega), &orbit);
         println!(
             "W = {:.6} (guess 0.9), {} iterations, shift {:.3}, RK4 period gap {gap:.1e}",
             orbit.omega, orbit.iterations, orbit.shift
