@@ -63,15 +63,7 @@ impl PointStability {
         }
         // The orbit at the point's own W says otherwise: a bifurcation lies within the shift.
         if let Some(largest) = b.fixed_frequency_largest {
-            let tol = margin + b.monodromy.liouville_error.unwrap_or(0.0);
-            let fixed = if largest > 1.0 + tol {
-                Verdict::Unstable
-            } else if largest < 1.0 - tol {
-                Verdict::Stable
-            } else {
-                Verdict::Undetermined
-            };
-            if fixed != st.verdict {
+            if b.monodromy.verdict_of(largest, margin) != st.verdict {
                 st.verdict = Verdict::Undetermined;
             }
         }

@@ -59,11 +59,16 @@ impl SampledMonodromy {
     /// The verdict with margin `margin` + the Liouville error (when it applies) around
     /// |mu| = 1.
     pub fn verdict(&self, margin: f64) -> Verdict {
+        self.verdict_of(self.largest(), margin)
+    }
+
+    /// The verdict of a largest |mu| `largest` judged with this monodromy's margin: `margin` +
+    /// its Liouville error (another orbit's multiplier measured against the same tolerance).
+    pub fn verdict_of(&self, largest: f64, margin: f64) -> Verdict {
         let tol = margin + self.liouville_error.unwrap_or(0.0);
-        let r = self.largest();
-        if r > 1.0 + tol {
+        if largest > 1.0 + tol {
             Verdict::Unstable
-        } else if r < 1.0 - tol {
+        } else if largest < 1.0 - tol {
             Verdict::Stable
         } else {
             Verdict::Undetermined
