@@ -57,17 +57,18 @@ impl MovingStructure for Turning {
 }
 
 /// (R, dR/dW column) at W for the structure `moving`, at the orbit `y`.
-fn residual_and_column(
-    moving: &Turning,
-    basis: &FullBasis,
-    y: &[f64],
-    omega: f64,
-) -> (Vec<f64>, Vec<f64>) {
-    let (dynamics, g0) = moving.at(omega).unwrap();
-    let mut newton = InnerNewton {
-        dynamics: &dynamics,
+/// The inner Newton of the test's penalty problem on `dynamics` at gaps `g0`, following the
+/// structure's motion when `following` is given.
+fn inner_newton<'p>(
+    dynamics: &'p ModalDynamics,
+    basis: &'p FullBasis,
+    g0: &'p [f64],
+    following: Option<Following<'p>>,
+) -> InnerNewton<'p> {
+    InnerNewton {
+        dynamics,
         basis,
-        g0: &g0,
+        g0,
         y_scale: GAP,
         settings: InnerTolerance {
             tolerance: 1e-10,
@@ -80,8 +81,18 @@ fn residual_and_column(
             phases: ContactPhases::new(basis.harmonics(), basis.samples()),
         },
         casing: &[],
-        following: Some(Following::new(moving)),
-    };
+        following,
+    }
+}
+
+fn residual_and_column(
+    moving: &Turning,
+    basis: &FullBasis,
+    y: &[f64],
+    omega: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let (dynamics, g0) = moving.at(omega).unwrap();
+    let mut newton = inner_newton(&dynamics, basis, &g0, Some(Following::new(moving)));
     let mu = Multipliers::uniform(&[PENALTY], basis.samples());
     let state = OrbitState {
         y: y.to_vec(),
@@ -133,24 +144,7 @@ fn speed_column_is_the_derivative_along_the_speed_line() {
         frozen: Some(speed),
     };
     let (dynamics, g0) = frozen.at(omega).unwrap();
-    let mut fixed = InnerNewton {
-        dynamics: &dynamics,
-        basis: &basis,
-        g0: &g0,
-        y_scale: GAP,
-        settings: InnerTolerance {
-            tolerance: 1e-10,
-            max_iterations: 30,
-        },
-        cache: None,
-        smoothing: 0.0,
-        integration: ForceIntegration::ExactPenalty {
-            stiffness: PENALTY,
-            phases: ContactPhases::new(basis.harmonics(), basis.samples()),
-        },
-        casing: &[],
-        following: None,
-    };
+    let mut fixed = inner_newton(&dynamics, &basis, &g0, None);
     let mu = Multipliers::uniform(&[PENALTY], basis.samples());
     let state = OrbitState {
         y: y.clone(),
