@@ -3,7 +3,7 @@
 //!
 //! With the nonlinear prestress (the default) each speed has its own total-Lagrangian static
 //! state, marched from rest through the speeds in ascending order (each Newton solve starts
-//! from the secant extrapolation of the two previous states), and its stiffness at speed
+//! from the quadratic extrapolation of the three previous states), and its stiffness at speed
 //! K(Omega) = K_T(u0(Omega)) - Omega^2 M_spin is the tangent of the last Newton iteration. On
 //! the twisted blade the linear prestress (u = Omega^2 u_1, K = K_e + K_sigma(u) - Omega^2
 //! M_spin, one static solve) is 1-2 % off on the second and third modes at 8000 rpm: the
@@ -247,7 +247,7 @@ fn march(
     Ok(all)
 }
 
-/// The static state at `omega` from the marched `states` below it (Newton from their secant
+/// The static state at `omega` from the marched `states` below it (Newton from their
 /// predictor), handed to `visit` with its K(Omega).
 fn solve_at(
     model: &RotatingModel<'_>,
@@ -260,8 +260,8 @@ fn solve_at(
         load_steps: 1,
         ..Default::default()
     };
-    // The secant extrapolation in Omega^2 of the last two states (about one Newton iteration
-    // saved per speed on the default blade).
+    // The extrapolation in Omega^2 of the last three states: on the default blade one Newton
+    // step and two or three chord steps per speed (docs/ROTATION.md, "Campbell diagram").
     let start = model.secant_start(states, omega)?;
     let (state, stiffness) = model
         .solve_nonlinear_with_stiffness(start.as_ref().or(states.last()), omega, &options, solver)

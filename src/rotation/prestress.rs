@@ -105,7 +105,8 @@ pub fn closure_rpm(omega: f64, growth: f64, cold_gap: f64) -> Option<f64> {
     nlmodes_fem::rotation::closure_speed(omega, growth, cold_gap).map(|w| w / RPM_TO_RAD_S)
 }
 
-/// The Newton history as text lines (`step k at .. rpm: ||r|| / ||f_c|| = ...`).
+/// The Newton history as text lines (`step k at .. rpm: ||r|| / ||f_c|| = ...`, "c" marking
+/// the states reached by a chord step).
 pub fn newton_history(steps: &[LoadStep]) -> Vec<String> {
     steps
         .iter()
@@ -115,13 +116,17 @@ pub fn newton_history(steps: &[LoadStep]) -> Vec<String> {
                 .iter()
                 .map(|i| {
                     format!(
-                        "{:.1e}",
-                        i.residual_norm / i.load_norm.max(f64::MIN_POSITIVE)
+                        "{:.1e}{}",
+                        i.residual_norm / i.load_norm.max(f64::MIN_POSITIVE),
+                        if i.chord { "c" } else { "" }
                     )
                 })
                 .collect();
+            let chord = s.iterations.iter().filter(|i| i.chord).count();
+            let newton = s.iterations.len().saturating_sub(1) - chord;
             format!(
-                "step {} at {:.1} rpm ({} cutbacks): ||r|| / ||f_c|| = {}",
+                "step {} at {:.1} rpm ({} cutbacks; {newton} Newton + {chord} chord steps): \
+                 ||r|| / ||f_c|| = {}",
                 s.step,
                 s.omega / RPM_TO_RAD_S,
                 s.cutbacks,

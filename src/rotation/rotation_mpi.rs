@@ -153,6 +153,15 @@ impl LinearSolver for FullSolver {
         // One rank only: nothing waits for this one, the Newton solve reports the failure.
         Err(LinearSolveError(format!("{failure:#}")))
     }
+
+    /// Here, on the Cholesky's last factor; over the ranks none is kept (each MUMPS task
+    /// factors its own matrix), so the Newton solves take full steps.
+    fn solve_with_last_factor(&mut self, b: &[f64]) -> Option<Result<Vec<f64>, LinearSolveError>> {
+        match self {
+            Self::Here(cholesky) => cholesky.solve_with_last_factor(b),
+            Self::OverRanks(_) => None,
+        }
+    }
 }
 
 #[cfg(test)]

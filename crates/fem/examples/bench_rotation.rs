@@ -96,6 +96,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         checksum(&rt.load),
         checksum(rt.tangent.data())
     );
+    let (t, r) = timed(runs, || model.residual(omega, &u_free));
+    let (residual, load) = r?;
+    println!(
+        "residual (no tangent): {:.3} s (CPU {:.2} s); checksums residual {:016x} load {:016x}",
+        t.0,
+        t.1,
+        checksum(&residual),
+        checksum(&load)
+    );
     let (t, m) = timed(runs, || model.spin_softening_matrix());
     println!(
         "spin_softening_matrix: {:.3} s (CPU {:.2} s); checksum {:016x}",

@@ -300,7 +300,10 @@ fn nonlinear_minus_linearized_matches_the_one_dimensional_nonlinear_bar() {
             let r: Vec<String> = step
                 .iterations
                 .iter()
-                .map(|i| format!("{:.1e}", i.residual_norm / i.load_norm))
+                .map(|i| {
+                    let chord = if i.chord { "c" } else { "" };
+                    format!("{:.1e}{chord}", i.residual_norm / i.load_norm)
+                })
                 .collect();
             println!(
                 "  step {} (Omega {:.1} rad/s, {} cutbacks): ||r|| / ||f_c|| = {}",
@@ -309,11 +312,9 @@ fn nonlinear_minus_linearized_matches_the_one_dimensional_nonlinear_bar() {
                 step.cutbacks,
                 r.join(" ")
             );
-            assert!(
-                step.iterations.len() <= 6,
-                "Newton took {} iterations",
-                step.iterations.len()
-            );
+            // At most 5 Newton steps (the consistent tangent); chord steps ("c") not counted.
+            let newton = step.iterations.iter().skip(1).filter(|i| !i.chord).count();
+            assert!(newton <= 5, "{newton} Newton steps");
         }
         assert!(rel < 0.01 && tip_err < 5e-4);
         assert!(d_1d.abs() > 0.01 * closed);

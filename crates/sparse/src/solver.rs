@@ -21,6 +21,13 @@ pub trait LinearSolver {
     /// Returns x = A^-1 b. Errors when A is singular (or, for a Cholesky solver, not positive
     /// definite) or the solution is not finite.
     fn solve(&mut self, a: &CsMat<f64>, b: &[f64]) -> Result<Vec<f64>, LinearSolveError>;
+
+    /// x = A_last^-1 b on the factor of the last matrix this solver factorized, if it keeps one
+    /// (`None` otherwise: the default). A Newton solve uses it for chord steps, which reuse an
+    /// earlier tangent's factor while it still contracts the residual fast (DESIGN §9).
+    fn solve_with_last_factor(&mut self, _b: &[f64]) -> Option<Result<Vec<f64>, LinearSolveError>> {
+        None
+    }
 }
 
 /// `x` when every entry is finite; otherwise the error of a numerically singular matrix.
@@ -43,6 +50,9 @@ pub(crate) fn finite_solution(x: Vec<f64>) -> Result<Vec<f64>, LinearSolveError>
 #[derive(Debug, Default)]
 pub struct CholeskySolver {
     factor: Option<SparseCholesky>,
+    /// Whether `factor` holds the factorization of the last matrix factorized (false after a
+    /// failed refactorization).
+    factor_valid: bool,
 }
 
 impl CholeskySolver {
@@ -55,6 +65,9 @@ impl CholeskySolver {
         a: &CsMat<f64>,
         what: &str,
     ) -> Result<&SparseCholesky, SparseError> {
+        // A failed factorization leaves no usable factor: [`LinearSolver::solve_with_last_factor`]
+        // must not solve on a half-refactorized one (the analysis is kept).
+        self.factor_valid = false;
         match &mut self.factor {
             Some(f) if f.same_pattern(a) => f.refactorize(a, what)?,
             _ => {
@@ -63,6 +76,7 @@ impl CholeskySolver {
                 self.factor = Some(SparseCholesky::with_options(a, what, options)?);
             }
         }
+        self.factor_valid = true;
         self.factor
             .as_ref()
             .ok_or_else(|| SparseError::Factorization {
@@ -85,6 +99,18 @@ impl LinearSolver for CholeskySolver {
             .solve_in_place(&mut x)
             .map_err(|e| LinearSolveError(format!("Cholesky solve failed: {e}")))?;
         finite_solution(x)
+    }
+
+    /// x on the last factor ([`CholeskySolver::factorize`] or [`LinearSolver::solve`]).
+    fn solve_with_last_factor(&mut self, b: &[f64]) -> Option<Result<Vec<f64>, LinearSolveError>> {
+        let factor = self.factor.as_ref().filter(|_| self.factor_valid)?;
+        let mut x = b.to_vec();
+        Some(
+            factor
+                .solve_in_place(&mut x)
+                .map_err(|e| LinearSolveError(format!("Cholesky solve failed: {e}")))
+                .and_then(|()| finite_solution(x)),
+        )
     }
 }
 
@@ -140,6 +166,29 @@ mod tests {
         assert!(residual(&other, &x, &b) < 1e-13);
         let err = solver.solve(&laplacian(n, -1.0, true), &b).unwrap_err();
         assert!(err.0.contains("not positive definite"), "{err}");
+    }
+
+    /// The last factor's solve (chord steps of a Newton solve): none before a factorization;
+    /// after one, the solution of the matrix factorized (bit for bit that of `solve`), also for
+    /// another right-hand side; after a failed refactorization none (not the half-refactorized
+    /// factor), and again after the next successful one.
+    #[test]
+    fn cholesky_solver_solves_on_its_last_factor_only_while_it_is_valid() {
+        let n = 200;
+        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let c: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
+        let mut solver = CholeskySolver::default();
+        assert!(solver.solve_with_last_factor(&b).is_none());
+        let a = laplacian(n, 0.1, false);
+        let x = solver.solve(&a, &b).unwrap();
+        assert_eq!(solver.solve_with_last_factor(&b).unwrap().unwrap(), x);
+        let y = solver.solve_with_last_factor(&c).unwrap().unwrap();
+        assert!(residual(&a, &y, &c) < 1e-13);
+        assert!(solver.solve(&laplacian(n, -1.0, false), &b).is_err());
+        assert!(solver.solve_with_last_factor(&b).is_none());
+        let x = solver.solve(&a, &c).unwrap();
+        assert_eq!(solver.solve_with_last_factor(&c).unwrap().unwrap(), x);
+        assert!(LuSolver::default().solve_with_last_factor(&b).is_none());
     }
 
     /// The LU solves the indefinite tridiag(-1, 2 + shift, -1) for shift -1.5 and -1.6

@@ -16,6 +16,9 @@ pub struct NewtonIteration {
     pub load_norm: f64,
     /// Euclidean norm of the correction that led to this state (m); `None` for iteration 0.
     pub correction_norm: Option<f64>,
+    /// Whether that correction was a chord step (the factor of an earlier tangent reused,
+    /// `crate::rotation::newton`) rather than a Newton step.
+    pub chord: bool,
 }
 
 /// Why a load step stopped without converging.

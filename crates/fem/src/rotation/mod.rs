@@ -20,6 +20,7 @@ pub mod element_ref;
 pub mod error;
 pub mod global;
 pub mod model;
+pub mod newton;
 pub mod points;
 pub mod prestress;
 pub mod speed_march;

@@ -175,6 +175,25 @@ impl<'m> RotatingModel<'m> {
         omega: f64,
         u: &[f64],
     ) -> Result<(Vec<f64>, CsMat<f64>), RotationError> {
+        match self.internal_force_with(omega, u, true)? {
+            (v, Some(m)) => Ok((v, m)),
+            _ => Err(FemError::InvalidMesh("nothing assembled".to_string()).into()),
+        }
+    }
+
+    /// Global total-Lagrangian internal force (N) at the global displacement `u` (m, length
+    /// 3n), without the tangent (a chord step's evaluation: several times cheaper).
+    pub fn internal_force(&self, u: &[f64]) -> Result<Vec<f64>, RotationError> {
+        Ok(self.internal_force_with(0.0, u, false)?.0)
+    }
+
+    /// The internal force and, `with_tangent`, K_T(u) - Omega^2 M_spin.
+    fn internal_force_with(
+        &self,
+        omega: f64,
+        u: &[f64],
+        with_tangent: bool,
+    ) -> Result<(Vec<f64>, Option<CsMat<f64>>), RotationError> {
         self.check_global(u)?;
         let (mesh, lame, rho, axis, rules) = (
             self.mesh,
@@ -183,12 +202,13 @@ impl<'m> RotatingModel<'m> {
             self.axis,
             &self.rules,
         );
-        let (v, m) = assemble_global(mesh, &self.pattern, true, true, &|e, el, f, k| {
+        let (v, m) = assemble_global(mesh, &self.pattern, true, with_tangent, &|e, el, f, k| {
             let n = el.ndof();
             let mut u_e = [0.0; 30];
             gather(mesh, e, u, &mut u_e[..n]);
-            internal_force_and_tangent_with_rule(el, rules[e], &u_e[..n], lame, f, Some(k))?;
-            if omega != 0.0 {
+            let tangent = with_tangent.then_some(&mut *k);
+            internal_force_and_tangent_with_rule(el, rules[e], &u_e[..n], lame, f, tangent)?;
+            if with_tangent && omega != 0.0 {
                 let mut spin = [0.0; 900];
                 spin_softening_element(el, rho, &axis, &mut spin)?;
                 for (kk, s) in k[..n * n].iter_mut().zip(&spin[..n * n]) {
@@ -197,10 +217,8 @@ impl<'m> RotatingModel<'m> {
             }
             Ok(())
         })?;
-        match (v, m) {
-            (Some(v), Some(m)) => Ok((v, m)),
-            _ => Err(FemError::InvalidMesh("nothing assembled".to_string()).into()),
-        }
+        let v = v.ok_or_else(|| FemError::InvalidMesh("nothing assembled".to_string()))?;
+        Ok((v, m))
     }
 
     /// Global stress stiffness K_sigma (N/m, 3n x 3n) of the stress field `stress`.
@@ -219,17 +237,40 @@ impl<'m> RotatingModel<'m> {
         u_free: &[f64],
     ) -> Result<ResidualAndTangent, RotationError> {
         let u = self.dofs.try_expand(u_free)?;
-        let load = self
-            .dofs
-            .try_restrict_vector(&self.centrifugal_load(omega, &u)?)?;
         let (f_int, k) = self.internal_force_and_tangent(omega, &u)?;
-        let f_int = self.dofs.try_restrict_vector(&f_int)?;
-        let residual = f_int.iter().zip(&load).map(|(a, b)| a - b).collect();
+        let (residual, load) = self.free_residual(omega, &u, &f_int)?;
         Ok(ResidualAndTangent {
             residual,
             load,
             tangent: self.dofs.try_restrict(&k)?,
         })
+    }
+
+    /// [`RotatingModel::residual_and_tangent`] without the tangent: (r, f_c) on the free DOFs
+    /// (N), the same bits.
+    pub fn residual(
+        &self,
+        omega: f64,
+        u_free: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>), RotationError> {
+        let u = self.dofs.try_expand(u_free)?;
+        let f_int = self.internal_force(&u)?;
+        self.free_residual(omega, &u, &f_int)
+    }
+
+    /// (f_int - f_c(u), f_c(u)) on the free DOFs (N) from the global `u` (m) and f_int (N).
+    fn free_residual(
+        &self,
+        omega: f64,
+        u: &[f64],
+        f_int: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>), RotationError> {
+        let load = self
+            .dofs
+            .try_restrict_vector(&self.centrifugal_load(omega, u)?)?;
+        let f_int = self.dofs.try_restrict_vector(f_int)?;
+        let residual = f_int.iter().zip(&load).map(|(a, b)| a - b).collect();
+        Ok((residual, load))
     }
 
     /// The rule of the total-Lagrangian terms and the stress stiffness of element `e`.

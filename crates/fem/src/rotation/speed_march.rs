@@ -1,7 +1,8 @@
 //! The rotating model along the speeds of a range (docs/ROTATION.md, "Campbell diagram"): the
 //! stiffness at speed of the linear prestress, exact in Omega^2 from two matrices
 //! ([`LinearStiffnessFamily`]), and the start of the nonlinear static solve at the next speed
-//! of a march from the states before it ([`RotatingModel::secant_start`]). Units: SI (rad/s,
+//! of a march from the states before it ([`RotatingModel::secant_start`]: quadratic in Omega^2
+//! through the last three). Units: SI (rad/s,
 //! m, N/m).
 
 use sprs::CsMat;
@@ -36,37 +37,51 @@ impl LinearStiffnessFamily {
 }
 
 impl RotatingModel<'_> {
-    /// The first Newton iterate at `omega` (rad/s) from the last two of `states` (ascending
-    /// speeds): the secant extrapolation in Omega^2 of their displacements, as a start state at
-    /// the last state's speed (the Newton iterations of `solve_nonlinear_from` begin at a
-    /// start's displacement). On the default blade the plain previous state overshoots
-    /// (residual 0.2 -> 1.4 of the load after the first iteration: the lateral bending is
-    /// stiffened by the very stress the step adds); from the secant the march saves about one
-    /// iteration per speed. `None` with fewer than two states or two at one speed.
+    /// The first Newton iterate at `omega` (rad/s) from the last states of `states` (ascending
+    /// speeds): the extrapolation in Omega^2 of their displacements, quadratic through the
+    /// last three (Lagrange), linear (the secant) through the last two when there are only
+    /// two, as a start state at the last state's speed (the Newton iterations of
+    /// `solve_nonlinear_from` begin at a start's displacement). On the default blade the plain
+    /// previous state overshoots (residual 0.2 -> 1.4 of the load after the first iteration:
+    /// the lateral bending is stiffened by the very stress the step adds); from the secant the
+    /// march saves about one iteration per speed, and the quadratic start lands the first
+    /// Newton step closer again (docs/BENCHMARKS.md, "Issue 39, session 21"). `None` with
+    /// fewer than two states or two at one speed.
     pub fn secant_start(
         &self,
         states: &[StaticSolution],
         omega: f64,
     ) -> Result<Option<StaticSolution>, RotationError> {
-        let [.., a, b] = states else {
-            return Ok(None);
+        let x = omega * omega;
+        let squared = |s: &StaticSolution| s.omega * s.omega;
+        let used = match states {
+            [.., a, b, c] if squared(a) < squared(b) && squared(b) < squared(c) => {
+                vec![a, b, c]
+            }
+            [.., b, c] if squared(b) < squared(c) => vec![b, c],
+            _ => return Ok(None),
         };
-        let (xa, xb, x) = (a.omega * a.omega, b.omega * b.omega, omega * omega);
-        if xb <= xa {
-            return Ok(None);
-        }
-        let t = (x - xb) / (xb - xa);
-        let free: Vec<f64> = b
-            .displacement_free
-            .iter()
-            .zip(&a.displacement_free)
-            .map(|(ub, ua)| ub + t * (ub - ua))
+        let nodes: Vec<f64> = used.iter().map(|s| squared(s)).collect();
+        let weights: Vec<f64> = (0..nodes.len())
+            .map(|i| {
+                (0..nodes.len())
+                    .filter(|&j| j != i)
+                    .map(|j| (x - nodes[j]) / (nodes[i] - nodes[j]))
+                    .product()
+            })
             .collect();
+        let last = used[used.len() - 1];
+        let mut free = vec![0.0; last.displacement_free.len()];
+        for (state, w) in used.iter().zip(&weights) {
+            for (f, u) in free.iter_mut().zip(&state.displacement_free) {
+                *f += w * u;
+            }
+        }
         Ok(Some(StaticSolution {
             displacement: self.dofs().try_expand(&free)?,
             displacement_free: free,
             steps: Vec::new(),
-            ..b.clone()
+            ..last.clone()
         }))
     }
 }
@@ -109,9 +124,10 @@ mod tests {
 
     /// States proportional to Omega^2 (the linear prestress) are extrapolated exactly: the start
     /// at 90 rad/s from states at 30 and 60 is (90 / 60)^2 times the last, zero on the clamped
-    /// DOFs; fewer than two states give none.
+    /// DOFs; fewer than two states give none. States quadratic in Omega^2 are extrapolated
+    /// exactly from three.
     #[test]
-    fn the_secant_start_is_exact_for_states_proportional_to_omega_squared() {
+    fn the_start_is_exact_for_states_linear_and_quadratic_in_omega_squared() {
         let mesh = box_mesh([0.3, 0.05, 0.04], [2, 1, 1], TetKind::Tet4).expect("mesh");
         let dofs = DofMap::new(
             mesh.n_nodes(),
@@ -143,5 +159,29 @@ mod tests {
             assert!((a - b).abs() <= 1e-14 * b.abs().max(1e-30), "{a} vs {b}");
         }
         assert_eq!(start.omega, 60.0, "a start at the last state's speed");
+        // Quadratic in Omega^2 (u = x u1 + x^2 u2, x = Omega^2): exact from three states (to
+        // round-off: the weights are O(1), the terms up to 4x the result), off from two.
+        let quadratic = |omega: f64| {
+            let mut s = state(omega);
+            let x = omega * omega;
+            for (u, u1) in s.displacement_free.iter_mut().zip(&unit) {
+                *u += x * x * 1e-4 * u1.abs();
+            }
+            s.displacement = dofs.try_expand(&s.displacement_free).expect("expand");
+            s
+        };
+        let exact = quadratic(90.0);
+        let error = |states: &[StaticSolution]| {
+            let start = model.secant_start(states, 90.0).unwrap().expect("a start");
+            start
+                .displacement
+                .iter()
+                .zip(&exact.displacement)
+                .map(|(a, b)| (a - b).abs() / b.abs().max(1e-30))
+                .fold(0.0, f64::max)
+        };
+        let three = [quadratic(20.0), quadratic(40.0), quadratic(60.0)];
+        assert!(error(&three) < 1e-13, "{}", error(&three));
+        assert!(error(&three[1..]) > 1e-3, "{}", error(&three[1..]));
     }
 }

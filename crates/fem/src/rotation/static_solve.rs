@@ -3,9 +3,10 @@
 //!
 //! - Geometrically nonlinear ([`RotatingModel::solve_nonlinear`]): total Lagrangian, St
 //!   Venant-Kirchhoff, the load following the deformed position; load steps in Omega^2
-//!   (nominally uniform, Omega_k^2 = Omega^2 k / n), full Newton in each step from the previous
+//!   (nominally uniform, Omega_k^2 = Omega^2 k / n), Newton in each step from the previous
 //!   converged state with the consistent tangent K_T(u) - Omega^2 M_spin (the load's
-//!   derivative included, so convergence is quadratic). A failed step is retried with half the
+//!   derivative included, so convergence is quadratic), with chord steps on the factor of an
+//!   earlier tangent while they contract the residual fast ([`crate::rotation::newton`]). A failed step is retried with half the
 //!   increment ([`NewtonOptions::max_cutbacks`]). Why this matters: the first iteration of the
 //!   first step uses K_e - Omega_1^2 M_spin, without stress stiffening, which is indefinite as
 //!   soon as Omega_1 exceeds the lowest in-plane frequency of the unstressed structure (a
@@ -61,7 +62,8 @@ pub struct NewtonOptions {
     /// falls below the nominal one / 2^max_cutbacks either (a limit point approached by steps
     /// that alternately fail and pass ends there). Default 10.
     pub max_cutbacks: usize,
-    /// Newton iterations allowed per step (>= 1). Default 25.
+    /// Newton iterations allowed per step (>= 1), chord steps not counted
+    /// ([`crate::rotation::newton`]). Default 25.
     pub max_iterations: usize,
     /// Convergence when ||r|| <= relative_tolerance ||f_c|| (module docs). Default 1e-10.
     pub relative_tolerance: f64,
@@ -139,9 +141,6 @@ pub struct StaticSolution {
     /// Per load step Newton history (one step with two entries for a linearized solve).
     pub steps: Vec<LoadStep>,
 }
-
-/// A Newton solve's history and converged tangent, or why it stopped with the history so far.
-type NewtonOutcome = Result<(Vec<NewtonIteration>, CsMat<f64>), (StopReason, Vec<NewtonIteration>)>;
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
@@ -272,72 +271,6 @@ impl RotatingModel<'_> {
         Ok((solution, stiffness))
     }
 
-    /// Newton iterations at speed `omega` from `u` (updated in place); the history and the
-    /// tangent at the converged `u`, or why it stopped with the history so far.
-    fn newton_step(
-        &self,
-        omega: f64,
-        u: &mut [f64],
-        options: &NewtonOptions,
-        solver: &mut dyn LinearSolver,
-    ) -> NewtonOutcome {
-        let mut history: Vec<NewtonIteration> = Vec::new();
-        let mut correction = None;
-        let mut initial = 0.0;
-        for iteration in 0..=options.max_iterations {
-            let rt = match self.residual_and_tangent(omega, u) {
-                Ok(rt) => rt,
-                Err(e) => return Err((StopReason::SingularTangent(e.to_string()), history)),
-            };
-            let (residual, load_norm) = (norm(&rt.residual), norm(&rt.load));
-            history.push(NewtonIteration {
-                iteration,
-                residual_norm: residual,
-                load_norm,
-                correction_norm: correction,
-            });
-            if !residual.is_finite() {
-                return Err((StopReason::NonFinite, history));
-            }
-            let tolerance = options.relative_tolerance * load_norm;
-            if residual <= tolerance {
-                return Ok((history, rt.tangent));
-            }
-            if iteration == 0 {
-                initial = residual;
-            } else if residual > options.divergence_factor * initial {
-                let factor = options.divergence_factor;
-                return Err((
-                    StopReason::Diverged {
-                        residual,
-                        initial,
-                        factor,
-                    },
-                    history,
-                ));
-            }
-            if iteration == options.max_iterations {
-                let iterations = options.max_iterations;
-                return Err((
-                    StopReason::MaxIterations {
-                        iterations,
-                        residual,
-                        tolerance,
-                    },
-                    history,
-                ));
-            }
-            let rhs: Vec<f64> = rt.residual.iter().map(|r| -r).collect();
-            let du = match solver.solve(&rt.tangent, &rhs) {
-                Ok(du) => du,
-                Err(e) => return Err((StopReason::SingularTangent(e.0), history)),
-            };
-            u.iter_mut().zip(&du).for_each(|(ui, d)| *ui += d);
-            correction = Some(norm(&du));
-        }
-        unreachable!("the loop returns at iteration max_iterations")
-    }
-
     /// Linearized static solution at speed `omega` (rad/s): K_e u = f_c(X), or
     /// (K_e - Omega^2 M_spin) u = f_c(X) when `spin_softening` (module docs). One load step,
     /// history: iteration 0 (u = 0, residual ||f_c(X)||) and 1 (the solve's residual).
@@ -367,6 +300,7 @@ impl RotatingModel<'_> {
             residual_norm: load_norm,
             load_norm,
             correction_norm: None,
+            chord: false,
         }];
         let u = solver
             .solve(&operator, &load)
@@ -380,6 +314,7 @@ impl RotatingModel<'_> {
             residual_norm: norm(&r),
             load_norm,
             correction_norm: Some(norm(&u)),
+            chord: false,
         });
         Ok(StaticSolution {
             omega,
