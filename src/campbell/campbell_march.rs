@@ -260,11 +260,12 @@ fn solve_at(
         load_steps: 1,
         ..Default::default()
     };
-    // The extrapolation in Omega^2 of the last three states: on the default blade one Newton
-    // step and two or three chord steps per speed (docs/ROTATION.md, "Campbell diagram").
-    let start = model.secant_start(states, omega)?;
+    // The extrapolation in Omega^2 of the last states with the smallest residual: on the
+    // default blade one Newton step and two or three chord steps per speed (docs/ROTATION.md,
+    // "Campbell diagram").
+    let start = model.march_start(states, omega)?;
     let (state, stiffness) = model
-        .solve_nonlinear_with_stiffness(start.as_ref().or(states.last()), omega, &options, solver)
+        .solve_nonlinear_with_stiffness(start.as_ref(), omega, &options, solver)
         .map_err(|e| {
             crate::rotation::prestress::not_converged("rotation.campbell_range", omega, e)
         })?;

@@ -10,6 +10,7 @@
 //! Omega^2 (its first bending frequency at rest is about 200 rad/s; the march goes to 400).
 
 use nlmodes_fem::generate::box_mesh;
+use nlmodes_fem::rotation::speed_march::OVERSHOOT;
 use nlmodes_fem::rotation::{
     LinearSolver, NewtonOptions, RotatingModel, RotorAxis, StaticSolution,
 };
@@ -27,7 +28,7 @@ fn cantilever() -> (Mesh, DofMap) {
 }
 
 /// The march over `speeds` (rad/s, ascending) from rest, each speed one load step from the
-/// secant start of the states before it (as the Campbell stage marches).
+/// start `march_start` picks from the states before it (as the Campbell stage marches).
 fn march(
     model: &RotatingModel<'_>,
     speeds: &[f64],
@@ -40,8 +41,8 @@ fn march(
     let mut states: Vec<StaticSolution> = Vec::new();
     let mut out = Vec::new();
     for &omega in speeds {
-        let secant = model.secant_start(&states, omega).expect("secant");
-        let start = secant.as_ref().or(states.last());
+        let start = model.march_start(&states, omega).expect("start");
+        let start = start.as_ref();
         let (state, k) = model
             .solve_nonlinear_with_stiffness(start, omega, &options, solver)
             .expect("converged");
@@ -100,4 +101,62 @@ fn chord_steps_land_on_the_newton_states_with_fewer_newton_steps() {
         newton_chord < newton_plain,
         "Newton steps: {newton_chord} with chord steps, {newton_plain} without"
     );
+}
+
+/// The residual of a chord step is that of a Newton step, bit for bit: `residual` assembles the
+/// same element forces as `residual_and_tangent`, without the tangent.
+#[test]
+fn residual_without_tangent_is_the_same_bits() {
+    let (mesh, dofs) = cantilever();
+    let material = Isotropic::new(200e9, 0.3, 7800.0).expect("material");
+    let axis = RotorAxis::new([0.0; 3], [0.0, 0.0, 1.0]).expect("axis");
+    let model = RotatingModel::new(&mesh, material, axis, dofs.clone()).expect("model");
+    let u: Vec<f64> = (0..dofs.n_free())
+        .map(|i| 1e-3 * (0.37 * i as f64).sin())
+        .collect();
+    let (residual, load) = model.residual(300.0, &u).expect("residual");
+    let rt = model
+        .residual_and_tangent(300.0, &u)
+        .expect("residual and tangent");
+    assert_eq!(residual, rt.residual);
+    assert_eq!(load, rt.load);
+}
+
+/// Where the state is far from polynomial in Omega^2 (the cantilever softening in its plane
+/// towards 300 rad/s) the extrapolations from 100, 200 and 250 rad/s overshoot: residuals of
+/// 853 (quadratic) and 806 (secant) times the load at 300 rad/s, against 0.31 for the state at
+/// 250 (the quadratic one was the start that met an indefinite tangent even after ten
+/// cutbacks); `march_start` falls back to the last state there, and the march converges from
+/// it (the test above).
+#[test]
+fn the_march_start_falls_back_from_an_overshooting_extrapolation() {
+    let (mesh, dofs) = cantilever();
+    let material = Isotropic::new(200e9, 0.3, 7800.0).expect("material");
+    let axis = RotorAxis::new([0.0; 3], [0.0, 0.0, 1.0]).expect("axis");
+    let model = RotatingModel::new(&mesh, material, axis, dofs).expect("model");
+    let speeds = [100.0, 200.0, 250.0];
+    let states: Vec<StaticSolution> = march(&model, &speeds, &mut CholeskySolver::default())
+        .into_iter()
+        .map(|(s, _)| s)
+        .collect();
+    let omega = 300.0;
+    let relative = |u: &[f64]| {
+        let (r, f) = model.residual(omega, u).expect("residual");
+        let n = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        n(&r) / n(&f)
+    };
+    let start = |count| model.extrapolated_start(&states, omega, count).unwrap();
+    let (quadratic, secant) = (start(3).expect("three"), start(2).expect("two"));
+    let chosen = model.march_start(&states, omega).unwrap().expect("a start");
+    let (q, s, l) = (
+        relative(&quadratic.displacement_free),
+        relative(&secant.displacement_free),
+        relative(&states[2].displacement_free),
+    );
+    assert!(
+        q > OVERSHOOT * l && s > OVERSHOOT * l,
+        "quadratic {q}, secant {s}, last state {l}: not the overshoot meant"
+    );
+    assert_eq!(chosen.displacement_free, states[2].displacement_free);
+    assert_eq!(chosen.omega, 250.0, "a start at the last state's speed");
 }
