@@ -543,9 +543,11 @@ mod tests {
             checkable: true,
         };
         let mut checks = vec![HarmonicCheck::NotConverged { change: None }; 6];
-        checks.extend([HarmonicCheck::Converged {
-            change: [2.2e-4, 2.1e-4],
-        }; 2]);
+        checks.extend(
+            [HarmonicCheck::Converged {
+                change: [2.2e-4, 2.1e-4],
+            }; 2],
+        );
         let note = check_note(&last, &[10], &checks, 1e-3);
         assert!(note.contains("0 move by more than 1e-3"), "{note}");
         assert!(note.contains("6 could not be solved again at 2N"), "{note}");

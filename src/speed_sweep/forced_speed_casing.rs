@@ -538,7 +538,10 @@ fn harmonics_words(s: &CasingSummary) -> String {
         return if s.not_converged == 0 {
             format!("N = {} converged ({change})", s.harmonics)
         } else {
-            format!("N = {} NOT converged at {} points ({change})", s.harmonics, s.not_converged)
+            format!(
+                "N = {} NOT converged at {} points ({change})",
+                s.harmonics, s.not_converged
+            )
         };
     }
     let carried: Vec<String> = (s.harmonics_in_contact.iter())

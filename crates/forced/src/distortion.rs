@@ -162,7 +162,9 @@ pub fn most_open_sample(point: &ForcedPoint) -> usize {
     let m = point.gaps.len() / rows;
     (0..m)
         .map(|j| {
-            let deepest = (0..rows).map(|r| point.gaps[r * m + j]).fold(f64::MIN, f64::max);
+            let deepest = (0..rows)
+                .map(|r| point.gaps[r * m + j])
+                .fold(f64::MIN, f64::max);
             (j, deepest)
         })
         .min_by(|a, b| a.1.total_cmp(&b.1))

@@ -91,7 +91,12 @@ fn errors(system: &System, out: &CasingSweep, w: f64, kc: f64) -> Vec<(f64, usiz
                 .unwrap_or_else(|| panic!("no exact orbit at delta = {}", p.amplitude));
             let exact = pwl::trace::first_harmonic(&sys, &orbit, &[0.0, 0.0, 1.0]);
             let q1 = p.point.first_harmonic(2);
-            (p.amplitude, p.point.harmonics, p.converged(1e-3), (q1 / exact - 1.0).abs())
+            (
+                p.amplitude,
+                p.point.harmonics,
+                p.converged(1e-3),
+                (q1 / exact - 1.0).abs(),
+            )
         })
         .collect()
 }
@@ -104,16 +109,26 @@ fn the_casing_sweep_raises_n_where_its_check_asks() {
     let r = errors(&system, &refined, w, kc);
     let f = errors(&system, &fixed, w, kc);
     for ((delta, n, ok, e), (_, _, _, e3)) in r.iter().zip(&f) {
-        println!("delta/gap {:.2}: N = {n:2} converged {ok:5}: {e:.2e} (N = 8: {e3:.2e})", delta / GAP);
+        println!(
+            "delta/gap {:.2}: N = {n:2} converged {ok:5}: {e:.2e} (N = 8: {e3:.2e})",
+            delta / GAP
+        );
     }
     assert!(r.len() >= 8, "points in contact: {}", r.len());
     assert!(r.iter().all(|&(_, n, _, _)| n == 16 || n == 32), "{r:?}");
-    assert!(r.iter().any(|&(_, n, _, _)| n == 32), "none raised to 32: {r:?}");
+    assert!(
+        r.iter().any(|&(_, n, _, _)| n == 32),
+        "none raised to 32: {r:?}"
+    );
     let converged: Vec<f64> = (r.iter()).filter(|p| p.2).map(|p| p.3).collect();
     assert!(converged.len() * 2 > r.len(), "{r:?}");
     let worst = converged.iter().copied().fold(0.0, f64::max);
     let worst_fixed = f.iter().map(|p| p.3).fold(0.0, f64::max);
-    println!("converged points: {} of {}, worst {worst:.2e}; N = 8: {worst_fixed:.2e}", converged.len(), r.len());
+    println!(
+        "converged points: {} of {}, worst {worst:.2e}; N = 8: {worst_fixed:.2e}",
+        converged.len(),
+        r.len()
+    );
     assert!(worst < 1e-3, "{worst}");
     assert!(worst_fixed > 1e-3, "{worst_fixed}");
     assert_eq!(
