@@ -36,10 +36,11 @@ use nlmodes_hb::{FullBasis, System};
 use rayon::prelude::*;
 
 use crate::curve_harmonics::points_worth_checking;
-use crate::distortion::{advanced_orbit, most_open_sample, CasingDistortion};
+use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
 use crate::load::Load;
+use crate::orbit_origin::{advanced_orbit, most_open_sample};
 use crate::point_stability::{assess_point_with, Assessment, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
@@ -491,7 +492,7 @@ impl Problem<'_> {
     }
 
     /// The stability of `p` on `solver`'s N as `how` says. A point in contact is assessed from
-    /// the time origin where it is farthest from contact (`distortion::most_open_sample`): the
+    /// the time origin where it is farthest from contact (`orbit_origin::most_open_sample`): the
     /// massless boundary is shot from the harmonic-balance state there and its verdict kept
     /// only when its orbit lies within the shift limit of that state; at a strike (t = 0 at
     /// phase 0, where the gap is smallest) the truncated series' velocity is off by the Gibbs

@@ -23,7 +23,6 @@ use nlmodes_boundary::GapHarmonic;
 use nlmodes_hb::FullBasis;
 
 use crate::error::ForcedError;
-use crate::solver::ForcedPoint;
 
 /// The casing's intrusion into the clearance, delta cos(h theta + phi), the same on every
 /// contact row (module docs).
@@ -110,65 +109,6 @@ impl CasingDistortion {
             ..*self
         }
     }
-}
-
-/// The orbit `point` seen from a time origin advanced by `j` of its m time samples (tau =
-/// j T / m, theta = W tau = 2 pi j / m): every series' harmonic k turned by k theta, the samples
-/// (contact forces, gaps, multipliers) rotated by j; the same periodic orbit, so the same
-/// Floquet multipliers (the monodromy from t = tau is similar to the one from 0). Returns the
-/// orbit and theta.
-pub fn advanced_orbit(point: &ForcedPoint, j: usize) -> (ForcedPoint, f64) {
-    let terms = 2 * point.harmonics + 1;
-    let rows = point.contact.len() / terms;
-    let m = point.contact_force.len() / rows.max(1);
-    let theta = std::f64::consts::TAU * j as f64 / m.max(1) as f64;
-    let turn = |series: &mut [f64]| {
-        for k in 1..=point.harmonics {
-            let (s, c) = (k as f64 * theta).sin_cos();
-            let (a, b) = (
-                series[FullBasis::cos_index(k)],
-                series[FullBasis::sin_index(k)],
-            );
-            series[FullBasis::cos_index(k)] = a * c + b * s;
-            series[FullBasis::sin_index(k)] = b * c - a * s;
-        }
-    };
-    let rotate = |samples: &[f64], m: usize| -> Vec<f64> {
-        (samples.chunks(m.max(1)))
-            .flat_map(|row| (0..row.len()).map(move |i| row[(i + j) % row.len()]))
-            .collect()
-    };
-    let mut out = point.clone();
-    for i in 0..out.coefficients.nrows() {
-        let mut series: Vec<f64> = (0..terms).map(|k| out.coefficients[(i, k)]).collect();
-        turn(&mut series);
-        (0..terms).for_each(|k| out.coefficients[(i, k)] = series[k]);
-    }
-    out.contact.chunks_mut(terms).for_each(turn);
-    out.contact_force = rotate(&point.contact_force, m);
-    out.gaps = rotate(&point.gaps, m);
-    let mu = &point.multipliers;
-    out.multipliers.theta = rotate(&mu.theta, mu.samples);
-    out.multipliers.kappa = rotate(&mu.kappa, mu.samples);
-    (out, theta)
-}
-
-/// The time sample of `point` farthest from contact (the largest clearance of its most
-/// penetrating row: argmin over samples j of max over rows of g_j; g = A u - g(t) > 0 in
-/// contact), where its state is smooth: the origin from which the massless boundary is shot.
-pub fn most_open_sample(point: &ForcedPoint) -> usize {
-    let terms = 2 * point.harmonics + 1;
-    let rows = (point.contact.len() / terms).max(1);
-    let m = point.gaps.len() / rows;
-    (0..m)
-        .map(|j| {
-            let deepest = (0..rows)
-                .map(|r| point.gaps[r * m + j])
-                .fold(f64::MIN, f64::max);
-            (j, deepest)
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(0, |(j, _)| j)
 }
 
 #[cfg(test)]
