@@ -24,7 +24,7 @@ use crate::forced::forced_output::{
 };
 use crate::forced::forced_settings::ForcedSection;
 use crate::rotation::rotation_settings::RPM_TO_RAD_S;
-use crate::speed_sweep::speed_sweep_settings::CasingSection;
+use crate::speed_sweep::speed_sweep_settings::{CasingHarmonics, CasingSection};
 
 const TAU: f64 = std::f64::consts::TAU;
 
@@ -45,6 +45,8 @@ pub struct CasingStudy {
     pub phase: f64,
     /// `[forced] harmonic_tolerance`.
     pub tolerance: f64,
+    /// Whether N was refined point by point (`adapt_harmonics = "refine"`).
+    pub refined: bool,
     pub sweep: CasingSweep,
 }
 
@@ -57,8 +59,6 @@ pub struct CasingInputs<'a> {
     pub forced: &'a ForcedSection,
     pub solver: &'a ForcedSettings,
     pub damping_matrix: Option<&'a Mat<f64>>,
-    /// `[speed_sweep] adapt_harmonics`, which the casing sweep follows too.
-    pub policy: crate::speed_sweep::speed_sweep_settings::SweepHarmonics,
 }
 
 /// Runs `[speed_sweep.casing]` at its speed (`operating_rpm` by default).
@@ -91,7 +91,7 @@ pub fn run(
     );
     settings.phase = c.phase;
     settings.stability = inputs.forced.stability;
-    settings.harmonic_policy = inputs.policy.policy();
+    settings.harmonic_policy = c.adapt_harmonics.policy();
     settings.max_harmonics = inputs.forced.top_harmonics();
     settings.harmonic_tolerance = inputs.forced.harmonic_tolerance;
     let bar = crate::ui::bar(settings.amplitudes.len() as u64, "casing distortion");
@@ -114,6 +114,7 @@ pub fn run(
         contacts: system.n_contacts(),
         phase: c.phase,
         tolerance: inputs.forced.harmonic_tolerance,
+        refined: c.adapt_harmonics == CasingHarmonics::Refine,
         sweep,
     })
 }
@@ -186,12 +187,24 @@ pub struct CasingSummary {
     pub rk4_largest_change: Option<f64>,
     /// Amplitudes (m) where the response jumps (a fold in delta).
     pub jumps_m: Vec<f64>,
-    /// N of every point, the N of every trace, and the check at 2N of the last.
+    /// N of the trace, the N of every trace, whether it was checked at 2N, the points whose
+    /// check moved them by more than `[forced] harmonic_tolerance` (or failed), and the largest
+    /// change ([q1, largest contact force], relative) at the points' last doubling.
     pub harmonics: usize,
     pub traced: Vec<usize>,
     pub checked: bool,
     pub not_converged: usize,
     pub largest_change: [f64; 2],
+    /// Under `adapt_harmonics = "refine"`: [N, points in contact carrying it, of them
+    /// converged] for every N carried, ascending.
+    #[serde(default)]
+    pub harmonics_in_contact: Vec<[usize; 3]>,
+    /// Checked points whose largest contact force moved by more than the tolerance at their
+    /// last doubling (not converged on: `CasingPoint::force_converged`).
+    #[serde(default)]
+    pub force_not_converged: usize,
+    #[serde(default)]
+    pub refined: bool,
     pub complete: bool,
     pub end: String,
 }
@@ -271,6 +284,11 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
         checked: st.sweep.checked,
         not_converged: st.sweep.not_converged(st.tolerance),
         largest_change: change,
+        harmonics_in_contact: harmonics_in_contact(st),
+        force_not_converged: (pts.iter())
+            .filter(|p| !p.force_converged(st.tolerance))
+            .count(),
+        refined: st.refined,
         complete: st.sweep.stopped.is_none(),
         end: st
             .sweep
@@ -282,7 +300,24 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
     }
 }
 
-const HEADER: [&str; 19] = [
+/// [N, points in contact at N, of them converged] for every N the points in contact carry.
+fn harmonics_in_contact(st: &CasingStudy) -> Vec<[usize; 3]> {
+    let mut out: Vec<[usize; 3]> = Vec::new();
+    for p in st.sweep.points.iter().filter(|p| p.point.touches()) {
+        let ok = usize::from(p.converged(st.tolerance));
+        match out.iter_mut().find(|e| e[0] == p.point.harmonics) {
+            Some(e) => {
+                e[1] += 1;
+                e[2] += ok;
+            }
+            None => out.push([p.point.harmonics, 1, ok]),
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+const HEADER: [&str; 20] = [
     "point",
     "lobes",
     "speed_rpm",
@@ -302,6 +337,7 @@ const HEADER: [&str; 19] = [
     "jump",
     "harmonics",
     "harmonic_change_q1",
+    "harmonic_change_force",
 ];
 
 /// `casing.csv`: one row per amplitude.
@@ -329,8 +365,9 @@ pub fn csv(st: &CasingStudy) -> Result<CsvTable> {
             opt(p.stability.and_then(|s| s.boundary_shift)),
             opt(p.stability.and_then(|s| s.rk4_change)),
             usize::from(p.jump).into(),
-            st.sweep.harmonics.into(),
+            p.point.harmonics.into(),
             opt(p.harmonic_change.map(|c| c[0])),
+            opt(p.harmonic_change.map(|c| c[1])),
         ])?;
     }
     Ok(table)
@@ -468,25 +505,59 @@ pub fn sentence(s: &CasingSummary) -> String {
             .collect();
         format!("; the response jumps at delta = {} mm", mm.join(", "))
     };
-    let n = if !s.checked {
-        format!("N = {}, not checked", s.harmonics)
-    } else if s.not_converged == 0 {
-        format!(
-            "N = {} converged (largest change at 2N {:.1e} in q1, {:.1e} in force)",
-            s.harmonics, s.largest_change[0], s.largest_change[1]
-        )
-    } else {
-        format!(
-            "N = {} NOT converged at {} points (largest change at 2N {:.1e} in q1)",
-            s.harmonics, s.not_converged, s.largest_change[0]
-        )
-    };
+    let n = harmonics_words(s);
     let end = if s.complete {
         String::new()
     } else {
         format!("; {}", s.end)
     };
     format!("{head}: {rub}; {stability}{jumps}; {n}{end}")
+}
+
+/// What the sentence says of N: the trace's, the N the points in contact carry (refined), and
+/// whether their check at 2N moved them by more than the tolerance.
+fn harmonics_words(s: &CasingSummary) -> String {
+    let force = if s.force_not_converged > 0 {
+        format!(
+            "; the largest contact force is NOT converged in N at {} points (up to {:.0} % at \
+             the last doubling)",
+            s.force_not_converged,
+            100.0 * s.largest_change[1]
+        )
+    } else {
+        String::new()
+    };
+    let change = format!(
+        "largest change of q1 at the last doubling {:.1e}{force}",
+        s.largest_change[0]
+    );
+    if !s.checked {
+        return format!("N = {}, not checked", s.harmonics);
+    }
+    if !s.refined {
+        return if s.not_converged == 0 {
+            format!("N = {} converged ({change})", s.harmonics)
+        } else {
+            format!(
+                "N = {} NOT converged at {} points ({change})",
+                s.harmonics, s.not_converged
+            )
+        };
+    }
+    let carried: Vec<String> = (s.harmonics_in_contact.iter())
+        .map(|[n, k, _]| format!("N = {n} at {k}"))
+        .collect();
+    let total: usize = s.harmonics_in_contact.iter().map(|e| e[1]).sum();
+    let verdict = if s.not_converged == 0 {
+        format!("converged at all {total}")
+    } else {
+        format!("**NOT converged at {} of {total}**", s.not_converged)
+    };
+    format!(
+        "N raised point by point from {} (points in contact: {}): {verdict} ({change})",
+        s.harmonics,
+        carried.join(", ")
+    )
 }
 
 /// What the sentence says of the stability of the points in contact: the counts, where they

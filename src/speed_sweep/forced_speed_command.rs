@@ -99,7 +99,6 @@ pub fn sweep(
         forced: &section,
         solver: &solver,
         damping_matrix: inputs.damping_matrix.as_ref(),
-        policy: sweep.adapt_harmonics,
     };
     let casing = crate::speed_sweep::forced_speed_casing::run_enabled(
         &sweep,

@@ -106,7 +106,6 @@ impl<'a> SpeedSweepStage<'a> {
             forced: &forced,
             solver: &solver,
             damping_matrix: inputs.damping_matrix.as_ref(),
-            policy: self.sweep.adapt_harmonics,
         };
         let rpm = self.rotation.operating_speed;
         let casing = crate::speed_sweep::forced_speed_casing::run_enabled(

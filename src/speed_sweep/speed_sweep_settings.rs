@@ -32,6 +32,34 @@ impl SweepHarmonics {
     }
 }
 
+/// How the casing study converges N (`[speed_sweep.casing] adapt_harmonics`; docs/ROTATION.md
+/// "The casing study's N").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CasingHarmonics {
+    /// Traced at `[forced] harmonics`; every point in contact solved again at 2N from its own
+    /// orbit, and again at 4N, ... while its doubling moves its first harmonic or largest
+    /// contact force by more than `[forced] harmonic_tolerance` (up to `[forced]
+    /// max_harmonics`); each point keeps its finer orbit and says its N.
+    Refine,
+    /// Traced at `[forced] harmonics`; its largest response and force, jumps and four points
+    /// spread over the contact checked at 2N and flagged, the orbits kept.
+    Check,
+    /// Traced at `[forced] harmonics`, unchecked.
+    Fixed,
+}
+
+impl CasingHarmonics {
+    /// The library's policy (`SpeedHarmonics::Retrace` is the casing sweep's refinement).
+    pub fn policy(self) -> nlmodes_forced::SpeedHarmonics {
+        match self {
+            Self::Refine => nlmodes_forced::SpeedHarmonics::Retrace,
+            Self::Check => nlmodes_forced::SpeedHarmonics::Check,
+            Self::Fixed => nlmodes_forced::SpeedHarmonics::Fixed,
+        }
+    }
+}
+
 /// The `[speed_sweep]` table; every key has a default.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -85,6 +113,8 @@ pub struct CasingSection {
     /// The speed (rpm; default: `[rotation] operating_speed`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub speed: Option<f64>,
+    /// How N is converged: "refine" (default), "check" or "fixed" ([`CasingHarmonics`]).
+    pub adapt_harmonics: CasingHarmonics,
 }
 
 impl Default for CasingSection {
@@ -96,6 +126,7 @@ impl Default for CasingSection {
             points: 41,
             phase: 0.0,
             speed: None,
+            adapt_harmonics: CasingHarmonics::Refine,
         }
     }
 }

@@ -13,15 +13,26 @@
 //! between the two amplitudes (a fold in delta, which this continuation does not follow). Where
 //! no solve converges at the smallest step (next to a row starting to touch) the sweep hops
 //! further on (`HOPS`); only when no hop converges does it stop.
-//! The points worth checking (the largest response and contact force, the jumps, four points
-//! spread over the contact: `curve_harmonics::points_worth_checking`) are solved again at 2N
-//! (same delta and W); under
-//! `SpeedHarmonics::Retrace`, while one moves by more than `harmonic_tolerance` (its master's
-//! first harmonic or its largest contact force, relative) and 4N is within `max_harmonics`,
-//! the grid is solved again at 2N (`Check`: the first grid kept, its points flagged).
+//!
+//! N is converged point by point (`SpeedHarmonics::Retrace`, the default; DESIGN §10.11,
+//! docs/ROTATION.md "The casing study's N"): every point in contact is solved again at 2N
+//! from its own orbit (same delta and W); while that moves its master's amplitude at the gap's
+//! harmonic h (the first harmonic when W is the lobe-passing frequency) by more than
+//! `harmonic_tolerance` (relative) and 4N is within `max_harmonics`, the 2N orbit is
+//! solved again at 4N, and so on (the change of the largest contact force is recorded beside
+//! it, not converged on: `CasingPoint::force_converged`). The point keeps the finer
+//! orbit of its last doubling, its N (`ForcedPoint::harmonics`) and that doubling's change
+//! (`harmonic_change`): converged when the change is within the tolerance. Each point is a
+//! solve at fixed delta and W of its own (natural-parameter continuation: no arclength
+//! couples the points), so this solves the equations a whole retrace at 2N would, at the
+//! points in contact only and at the N each needs. Points out of contact are at rest (linear:
+//! exact at any N). `Check`: the points worth checking (the largest response and contact
+//! force, the jumps, four points spread over the contact:
+//! `curve_harmonics::points_worth_checking`) are solved again at 2N and flagged, the orbits
+//! kept; `Fixed`: none checked.
 
 use faer::Mat;
-use nlmodes_hb::System;
+use nlmodes_hb::{FullBasis, System};
 use rayon::prelude::*;
 
 use crate::curve_harmonics::points_worth_checking;
@@ -29,6 +40,7 @@ use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
 use crate::load::Load;
+use crate::orbit_origin::{advanced_orbit, most_open_sample};
 use crate::point_stability::{assess_point_with, Assessment, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
@@ -62,13 +74,16 @@ pub struct CasingSweepSettings {
     /// docs/STABILITY.md Sec. 9.5) checked by one period of RK4 of that model
     /// (`PointStability::rk4_change`; a disagreement makes it undetermined); 0: none. Default 4.
     pub verify_every: usize,
-    /// How N is converged (default `SpeedHarmonics::Retrace`: module docs; `Check`: the first
-    /// grid's points checked at 2N, not solved again; `Fixed`: none checked).
+    /// How N is converged (default `SpeedHarmonics::Retrace`: every point in contact raised
+    /// to the N its check at 2N asks for, module docs; `Check`: the points worth checking
+    /// solved again at 2N, not kept; `Fixed`: none checked).
     pub harmonic_policy: SpeedHarmonics,
-    /// The largest N of a retrace (0: four times the solver's N).
+    /// The largest N a point may be solved at, its check included (0: four times the
+    /// solver's N).
     pub max_harmonics: usize,
-    /// A point's N is enough when doubling it moves its master's first harmonic and its largest
-    /// contact force by at most this (relative; default 1e-3).
+    /// A point's N is enough when doubling it moves its master's first harmonic by at most
+    /// this (relative; default 1e-3); the largest contact force's change is reported against
+    /// it too.
     pub harmonic_tolerance: f64,
 }
 
@@ -141,8 +156,10 @@ pub struct CasingPoint {
     /// Whether the response jumped from the previous point (module docs).
     pub jump: bool,
     /// [|dq1| / q1, |dF| / F] of the master's first harmonic and the largest contact force
-    /// when the point was solved again at 2N (`None`: not among the points checked, or that
-    /// solve failed: see `harmonic_failed`).
+    /// at the point's last doubling of N (its N: `point.harmonics`; `Check`: between the
+    /// point and its solve at 2N;
+    /// `Retrace`: between the orbit at N / 2 and the one kept at N); `None`: not checked, or
+    /// that solve failed: see `harmonic_failed`.
     pub harmonic_change: Option<[f64; 2]>,
     /// Whether the solve at 2N failed.
     pub harmonic_failed: bool,
@@ -153,25 +170,40 @@ pub struct CasingPoint {
 pub struct CasingSweep {
     /// The points, delta ascending (the grid's and the halved steps').
     pub points: Vec<CasingPoint>,
-    /// N of every point (the last trace's) and the N of every trace in order.
+    /// N of the trace (every point's, unless refined: `CasingPoint::harmonics`) and the N of
+    /// every trace in order (one).
     pub harmonics: usize,
     pub traced: Vec<usize>,
-    /// Whether 2N was within `max_harmonics` to check the last trace.
+    /// Whether 2N was within `max_harmonics` to check the trace.
     pub checked: bool,
     /// Where the sweep stopped before its last amplitude: delta (m) and why.
     pub stopped: Option<(f64, String)>,
 }
 
 impl CasingSweep {
-    /// Points in contact whose check at 2N moved them by more than `tolerance` or failed.
+    /// Points whose check at 2N moved their master's first harmonic by more than `tolerance`
+    /// or failed (`CasingPoint::converged`).
     pub fn not_converged(&self, tolerance: f64) -> usize {
         (self.points.iter())
-            .filter(|p| {
-                p.harmonic_failed
-                    || p.harmonic_change
-                        .is_some_and(|c| c.iter().any(|&v| v > tolerance))
-            })
+            .filter(|p| !p.converged(tolerance))
             .count()
+    }
+}
+
+impl CasingPoint {
+    /// Whether the point's check did not fail nor move its master's amplitude at the gap's harmonic h by more
+    /// than `tolerance` (true for a point not checked). The largest contact force is not part
+    /// of it: the peak sample of a stiff penalty pulse moves by tens of % per doubling up to
+    /// N = 40 on the default blade (docs/ROTATION.md "The casing study's N"); see
+    /// `force_converged`.
+    pub fn converged(&self, tolerance: f64) -> bool {
+        !self.harmonic_failed && !(self.harmonic_change).is_some_and(|c| c[0] > tolerance)
+    }
+
+    /// Whether the point's check moved its largest contact force by at most `tolerance`
+    /// (true for a point not checked).
+    pub fn force_converged(&self, tolerance: f64) -> bool {
+        !self.harmonic_failed && !(self.harmonic_change).is_some_and(|c| c[1] > tolerance)
     }
 }
 
@@ -184,52 +216,35 @@ pub fn casing_sweep(
     mut progress: impl FnMut(&CasingPoint),
 ) -> Result<CasingSweep, ForcedError> {
     settings.validate()?;
-    let base = settings.solver.harmonics.harmonics;
-    let top = match settings.max_harmonics {
-        0 => 4 * base,
-        m => m.max(base),
-    };
     let problem = Problem {
         system,
         damping,
         load: Load::fundamental(vec![0.0; system.n_dofs()]),
         settings,
     };
-    let mut solver = settings.solver.clone();
-    let mut traced = Vec::new();
-    loop {
-        let n = solver.harmonics.harmonics;
-        traced.push(n);
-        let mut sweep = problem.trace(&solver, &mut progress)?;
-        let checkable = 2 * n <= top && settings.harmonic_policy != SpeedHarmonics::Fixed;
-        let finer = checkable
-            .then(|| problem.solver(&solver, 0.0)?.with_harmonics(2 * n))
-            .transpose()?
-            .map(|s| s.settings().clone());
-        if let Some(f) = &finer {
-            problem.check(f, &mut sweep);
-        }
-        let moved = sweep.not_converged(settings.harmonic_tolerance) > 0;
-        let again = moved
-            && settings.harmonic_policy == SpeedHarmonics::Retrace
-            && 4 * n <= top
-            && sweep.points.iter().any(|p| p.point.touches());
-        tracing::info!(
-            harmonics = n,
-            not_converged = sweep.not_converged(settings.harmonic_tolerance),
-            "casing distortion sweep at N = {n} checked at 2N{}",
-            if again { "; solved again at 2N" } else { "" }
-        );
-        match (again, finer) {
-            (true, Some(f)) => solver = f,
-            _ => {
-                sweep.traced = traced;
-                sweep.checked = checkable;
-                problem.assess(&solver, &mut sweep);
-                return Ok(sweep);
-            }
-        }
+    let ladder = problem.ladder()?;
+    let mut sweep = problem.trace(&ladder[0], &mut progress)?;
+    sweep.traced = vec![sweep.harmonics];
+    sweep.checked = ladder.len() > 1 && settings.harmonic_policy != SpeedHarmonics::Fixed;
+    match settings.harmonic_policy {
+        SpeedHarmonics::Fixed => {}
+        _ if ladder.len() < 2 => {}
+        SpeedHarmonics::Check => problem.check(&ladder[1], &mut sweep),
+        SpeedHarmonics::Retrace => problem.refine(&ladder, &mut sweep),
     }
+    tracing::info!(
+        harmonics = sweep.harmonics,
+        not_converged = sweep.not_converged(settings.harmonic_tolerance),
+        "casing distortion sweep at N = {} checked at 2N{}",
+        sweep.harmonics,
+        if settings.harmonic_policy == SpeedHarmonics::Retrace {
+            ", the points in contact raised to the N their check asks for"
+        } else {
+            ""
+        }
+    );
+    problem.assess(&ladder, &mut sweep);
+    Ok(sweep)
 }
 
 /// What every solve of the sweep shares.
@@ -248,6 +263,25 @@ impl Problem<'_> {
             ..solver.clone()
         };
         ForcedSolver::new(self.system, self.damping, &self.load, settings)
+    }
+
+    /// The solver settings at N, 2N, 4N, ... up to `max_harmonics` (0: 4N), the time samples
+    /// grown as `ForcedSolver::with_harmonics` grows them.
+    fn ladder(&self) -> Result<Vec<ForcedSettings>, ForcedError> {
+        let first = &self.settings.solver;
+        let base = first.harmonics.harmonics;
+        let top = match self.settings.max_harmonics {
+            0 => 4 * base,
+            m => m.max(base),
+        };
+        let mut ladder = vec![first.clone()];
+        let mut n = 2 * base;
+        while n <= top {
+            let finer = self.solver(first, 0.0)?.with_harmonics(n)?;
+            ladder.push(finer.settings().clone());
+            n *= 2;
+        }
+        Ok(ladder)
     }
 
     /// The orbits over the grid (module docs).
@@ -399,19 +433,9 @@ impl Problem<'_> {
             .par_iter()
             .map(|&i| {
                 let p = &view.points[i];
-                let fine = self.solver(finer, p.amplitude).and_then(|s| {
-                    let start: ForcedStart = start_at(&p.point, &s);
-                    s.solve(start, None)
-                });
-                let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE);
-                fine.map_err(|e| tracing::debug!("casing sweep: the check at 2N failed: {e}"))
+                self.solve_again(finer, p)
                     .ok()
-                    .map(|f| {
-                        [
-                            rel(p.point.first_harmonic(master), f.first_harmonic(master)),
-                            rel(largest_force(&p.point), largest_force(&f)),
-                        ]
-                    })
+                    .map(|f| change(&p.point, &f, master, self.settings.harmonic))
             })
             .collect();
         for (&i, change) in checked.iter().zip(changes) {
@@ -420,10 +444,103 @@ impl Problem<'_> {
         }
     }
 
+    /// Every point in contact raised along `ladder` (N, 2N, ...) while its doubling moves its
+    /// master's amplitude at the gap's harmonic by more than `harmonic_tolerance` (module
+    /// docs); in parallel, each from its own orbit. A point whose solve at 2N fails from its
+    /// own orbit (next to a row starting to touch, as in `hop`) is tried once more, in delta
+    /// order, from its lower neighbour's refined orbit.
+    fn refine(&self, ladder: &[ForcedSettings], sweep: &mut CasingSweep) {
+        (sweep.points.par_iter_mut())
+            .filter(|p| p.point.touches())
+            .for_each(|p| self.raise(ladder, p, None));
+        for i in 1..sweep.points.len() {
+            let (before, rest) = sweep.points.split_at_mut(i);
+            let (p, last) = (&mut rest[0], &before[i - 1]);
+            if p.harmonic_failed && p.harmonic_change.is_none() && !last.harmonic_failed {
+                p.harmonic_failed = false;
+                self.raise(ladder, p, Some(&last.point));
+            }
+        }
+    }
+
+    /// Raises `p` along `ladder` (module docs), its first solve at 2N from `from` (its own
+    /// orbit when `None`).
+    fn raise(&self, ladder: &[ForcedSettings], p: &mut CasingPoint, from: Option<&ForcedPoint>) {
+        let master = self.system.master();
+        let mut from = from.cloned();
+        for finer in &ladder[1..] {
+            let start = from.take().unwrap_or_else(|| p.point.clone());
+            let Ok(fine) = self.solve_from(finer, p.amplitude, &start) else {
+                p.harmonic_failed = true;
+                return;
+            };
+            let moved = change(&p.point, &fine, master, self.settings.harmonic);
+            tracing::debug!(
+                delta = p.amplitude,
+                from = p.point.harmonics,
+                to = finer.harmonics.harmonics,
+                q1 = fine.first_harmonic(master),
+                ?moved,
+                "casing sweep: a point in contact at 2N"
+            );
+            p.point = fine;
+            p.harmonic_change = Some(moved);
+            if moved[0] <= self.settings.harmonic_tolerance {
+                return;
+            }
+        }
+    }
+
+    /// The stability of `p` on `solver`'s N as `how` says. A point in contact is assessed from
+    /// the time origin where it is farthest from contact (`orbit_origin::most_open_sample`): the
+    /// massless boundary is shot from the harmonic-balance state there and its verdict kept
+    /// only when its orbit lies within the shift limit of that state; at a strike (t = 0 at
+    /// phase 0, where the gap is smallest) the truncated series' velocity is off by the Gibbs
+    /// error of the kink the strike puts in it, whatever N (docs/ROTATION.md "The casing
+    /// study's N"). The multipliers do not depend on the origin.
+    fn stability(
+        &self,
+        solver: &ForcedSettings,
+        p: &CasingPoint,
+        how: &Assessment,
+    ) -> Result<PointStability, ForcedError> {
+        let (point, theta) = if p.point.touches() {
+            advanced_orbit(&p.point, most_open_sample(&p.point))
+        } else {
+            (p.point.clone(), 0.0)
+        };
+        let settings = ForcedSettings {
+            distortion: Some(self.settings.distortion(p.amplitude).advanced(theta)),
+            ..solver.clone()
+        };
+        let sv = ForcedSolver::new(self.system, self.damping, &self.load, settings)?;
+        assess_point_with(&sv, &point, how)
+    }
+
+    /// The orbit of `p` solved again on `finer`'s N from its own (same delta and W).
+    fn solve_again(&self, finer: &ForcedSettings, p: &CasingPoint) -> Result<ForcedPoint, ()> {
+        self.solve_from(finer, p.amplitude, &p.point)
+    }
+
+    /// The orbit at `delta` (m) on `finer`'s N, Newton from `start`'s orbit.
+    fn solve_from(
+        &self,
+        finer: &ForcedSettings,
+        delta: f64,
+        start: &ForcedPoint,
+    ) -> Result<ForcedPoint, ()> {
+        self.solver(finer, delta)
+            .and_then(|s| {
+                let begin: ForcedStart = start_at(start, &s);
+                s.solve(begin, None)
+            })
+            .map_err(|e| tracing::debug!(delta, "casing sweep: the solve at 2N failed: {e}"))
+    }
+
     /// The Floquet stability of every point (when asked for; the massless boundary with the
     /// moving gaps in contact, every `verify_every`-th point in contact checked by RK4), then
     /// the changes between consecutive determined points.
-    fn assess(&self, solver: &ForcedSettings, sweep: &mut CasingSweep) {
+    fn assess(&self, ladder: &[ForcedSettings], sweep: &mut CasingSweep) {
         let s = self.settings;
         if !s.stability {
             return;
@@ -446,9 +563,10 @@ impl Problem<'_> {
                     period_tolerance: s.period_tolerance,
                     verify,
                 };
-                let st = self
-                    .solver(solver, p.amplitude)
-                    .and_then(|sv| assess_point_with(&sv, &p.point, &how));
+                let solver = (ladder.iter())
+                    .find(|l| l.harmonics.harmonics == p.point.harmonics)
+                    .unwrap_or(&ladder[0]);
+                let st = self.stability(solver, p, &how);
                 p.stability = Some(st.unwrap_or_else(|e| {
                     tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
                     PointStability::unchecked()
@@ -458,6 +576,22 @@ impl Problem<'_> {
             sweep.points.iter_mut().filter_map(|p| p.stability.as_mut()),
         );
     }
+}
+
+/// [|dq_h| / q_h, |dF| / F] from `coarse` to `fine`: the master's amplitude at harmonic `h`
+/// (the one the casing drives: the first when W is the lobe-passing frequency; with the gap at
+/// harmonic 2 the orbit has period T / 2 and its first harmonic is round-off) and the largest
+/// contact force, relative to `fine`'s.
+fn change(coarse: &ForcedPoint, fine: &ForcedPoint, master: usize, h: usize) -> [f64; 2] {
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE);
+    let amplitude = |p: &ForcedPoint| {
+        let c = &p.coefficients;
+        c[(master, FullBasis::cos_index(h))].hypot(c[(master, FullBasis::sin_index(h))])
+    };
+    [
+        rel(amplitude(coarse), amplitude(fine)),
+        rel(largest_force(coarse), largest_force(fine)),
+    ]
 }
 
 /// The largest contact force of an orbit over its samples and rows (force units).

@@ -100,6 +100,15 @@ impl CasingDistortion {
     pub fn intrusion_at(&self, theta: f64) -> f64 {
         self.amplitude * (self.harmonic as f64 * theta + self.phase).cos()
     }
+
+    /// The same casing seen from a time origin advanced by theta = W tau (rad): its phase
+    /// phi + h theta (the gap at t is the old one at t + tau).
+    pub fn advanced(&self, theta: f64) -> Self {
+        Self {
+            phase: self.phase + self.harmonic as f64 * theta,
+            ..*self
+        }
+    }
 }
 
 #[cfg(test)]

@@ -35,6 +35,7 @@ mod harmonic_check;
 mod ladder;
 mod load;
 mod newton;
+mod orbit_origin;
 mod period_check;
 mod point_stability;
 mod solver;

@@ -262,7 +262,16 @@ fn the_casing_sweep_gives_every_point_in_contact_a_verdict() {
         assert_eq!(plain.len(), padded.len());
         let (mut counts, mut worst_boundary, mut worst_massive) = ([0; 3], 0.0_f64, 0.0_f64);
         let mut undetermined_far = 0;
+        let mut unrefined = 0;
         for (p, q) in plain.iter().zip(&padded).filter(|(p, _)| p.point.touches()) {
+            if p.harmonic_failed || q.harmonic_failed {
+                // The sweep's own flag: its solve at 2N failed (next to a row starting to
+                // touch), so the point stays at N = 12, unconverged; the oracle's shooting
+                // from that orbit's state does not converge either.
+                assert!(p.amplitude < ONSET_BAND * GAP, "delta = {}", p.amplitude);
+                unrefined += 1;
+                continue;
+            }
             let exact = reference(p.amplitude, harmonic, w, &start_of(p, w)).largest;
             for (st, model) in [(p, "plain"), (q, "padded")]
                 .map(|(x, m)| (x.stability.expect("stability asked"), m))
@@ -306,6 +315,8 @@ fn the_casing_sweep_gives_every_point_in_contact_a_verdict() {
             let (a, b) = (p.stability.unwrap(), q.stability.unwrap());
             assert_eq!(a.verdict, b.verdict, "delta = {}", p.amplitude);
         }
+        println!("h = {harmonic}: {unrefined} points whose refinement to 2N failed (not compared)");
+        assert!(unrefined <= 10, "{unrefined}");
         println!(
             "h = {harmonic}: stable / unstable / undetermined over both sweeps {counts:?}; \
              largest |mu| off the reference by {worst_boundary:.1e} (boundary), \
