@@ -37,6 +37,7 @@ mod load;
 mod newton;
 mod period_check;
 mod point_stability;
+mod raised_segments;
 mod solver;
 #[cfg(test)]
 mod speed_column_check;
@@ -57,7 +58,7 @@ pub use casing_sweep::{
 };
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
-    Sweep,
+    RaisedSegments, Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use distortion::CasingDistortion;
