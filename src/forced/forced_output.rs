@@ -609,9 +609,14 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
         format!("converged at its {} checked points", last.checked.len())
     } else {
         format!(
-            "{} of its {} checked points move by more than {tolerance:e} at 2N",
+            "{} of its {} checked points move by more than {tolerance:e} at 2N{}",
             last.not_converged,
-            last.checked.len()
+            last.checked.len(),
+            if r.raised.is_some() {
+                " (N raised around them: next line)"
+            } else {
+                ""
+            }
         )
     };
     let mut out = format!(
