@@ -647,7 +647,9 @@ fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -
         })
         .collect();
     let check = &raised.check;
-    let verdict = if raised.converged() {
+    let verdict = if !check.checkable {
+        format!("not checked ({} harmonics above the largest check)", 2 * n)
+    } else if raised.converged() {
         "converged".to_string()
     } else {
         format!(

@@ -18,7 +18,7 @@ use crate::curve_harmonics::check_curve;
 use crate::curve_stability::assess_stability;
 use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
-use crate::raised_segments::Raising;
+use crate::raised_segments::{Raising, MAX_CHECK_HARMONICS};
 use crate::solver::{ForcedPoint, ForcedSolver};
 use crate::trace::FrfTrace;
 
@@ -84,7 +84,10 @@ fn retraced_curve(
                 let raising = Raising {
                     base: current,
                     finer: ladder.solver(1),
-                    check: current.with_harmonics(4 * n)?,
+                    check: match 4 * n <= MAX_CHECK_HARMONICS {
+                        true => Some(current.with_harmonics(4 * n)?),
+                        false => None,
+                    },
                     settings,
                 };
                 let raised = raising.raise(&mut curve, moving)?;

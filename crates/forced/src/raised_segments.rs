@@ -21,6 +21,11 @@ use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::{resize_signals, solve_same_orbit, start_at, verdict};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 
+/// The largest N at which the raised points are checked: the solve's condensed Newton matrix is
+/// dense in (2N + 1) x contact rows (0.74 GB at N = 200 on the blade's 24 rows, the CLI's
+/// largest `max_harmonics`); above it the raised points are left unchecked.
+pub(crate) const MAX_CHECK_HARMONICS: usize = 200;
+
 /// Points in a row converged at N (or failing at 2N) that end a segment on one side: one
 /// could be a change of sign of the truncation error between two moving points.
 const EDGE: usize = 2;
@@ -31,8 +36,8 @@ pub(crate) struct Raising<'a, 's> {
     pub base: &'a ForcedSolver<'s>,
     /// 2N: the N of the raised points.
     pub finer: &'a ForcedSolver<'s>,
-    /// 4N: the check of the raised points.
-    pub check: ForcedSolver<'s>,
+    /// 4N: the check of the raised points (`None` above `MAX_CHECK_HARMONICS`).
+    pub check: Option<ForcedSolver<'s>>,
     pub settings: &'a FrfSettings,
 }
 
@@ -74,7 +79,7 @@ impl Raising<'_, '_> {
                 checked: Vec::new(),
                 not_converged: 0,
                 largest_change: [0.0; 2],
-                checkable: true,
+                checkable: self.check.is_some(),
             },
         };
         let mut segments = Vec::new();
@@ -92,10 +97,13 @@ impl Raising<'_, '_> {
                 }
             }
         }
-        let checks: Vec<(usize, ForcedPoint)> = segments
-            .iter()
-            .flat_map(|s| self.representatives(s))
-            .collect();
+        let checks: Vec<(usize, ForcedPoint)> = match self.check {
+            Some(_) => segments
+                .iter()
+                .flat_map(|s| self.representatives(s))
+                .collect(),
+            None => Vec::new(),
+        };
         let checked: Vec<(usize, HarmonicCheck)> = checks
             .par_iter()
             .map(|(i, p)| (*i, self.check_at_4n(curve, *i, p)))
@@ -238,9 +246,12 @@ impl Raising<'_, '_> {
         i: usize,
         fine: &ForcedPoint,
     ) -> HarmonicCheck {
+        let Some(check) = &self.check else {
+            return HarmonicCheck::Unchecked;
+        };
         let row = normal_row(self.base, self.settings, curve, i);
         let row = crate::ladder::resize_arc(&row, self.finer);
-        let solved = solve_same_orbit(&self.check, fine, Some(&row), None);
+        let solved = solve_same_orbit(check, fine, Some(&row), None);
         verdict(solved.map(|s| s.1), self.settings.harmonic_tolerance)
     }
 }
