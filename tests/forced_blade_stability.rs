@@ -514,8 +514,22 @@ fn boundary_point(
     );
     assert!(periodic <= 1e-6, "W = {omega}: {periodic}");
     if word == "undetermined" {
+        // The reasons (docs/STABILITY.md Sec. 9): the shot orbit too far, |mu| within the
+        // margin, or the orbit shot at the point's own W giving another verdict than the W-free
+        // one (a bifurcation within the shift; session 20, `PointStability::on_boundary`, at the
+        // default stability margin 1e-3).
+        let margin = 1e-3;
+        let fixed_differs = b.fixed_frequency_largest.is_some_and(|l| {
+            b.monodromy.verdict_of(l, margin) != b.monodromy.verdict_of(mu, margin)
+        });
+        eprintln!(
+            "  undetermined: fixed-W |mu| {:?}",
+            b.fixed_frequency_largest
+        );
         assert!(
-            shift > nlmodes_forced::BOUNDARY_SHIFT_LIMIT || (mu - 1.0).abs() < 2e-3,
+            shift > nlmodes_forced::BOUNDARY_SHIFT_LIMIT
+                || (mu - 1.0).abs() < 2e-3
+                || fixed_differs,
             "undetermined at W = {omega} without a reason"
         );
     }

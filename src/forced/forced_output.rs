@@ -6,7 +6,9 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use nlmodes_forced::{ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, Verdict};
+use nlmodes_forced::{
+    ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, RaisedSegments, Verdict,
+};
 use nlmodes_hb::FullBasis;
 use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, Series, PALETTE};
 use nlmodes_output::{CsvTable, CsvValue};
@@ -248,6 +250,22 @@ struct CurveRecord<'a> {
     exact_curve: Option<crate::forced::forced_exact::ExactCurveRecord>,
     /// `adapt_harmonics = "retrace"`: every trace of the curve at its N, the last the curve's.
     retraces: Vec<RetraceRecord>,
+    /// `adapt_harmonics = "retrace"`: the points raised to twice the last trace's N where its
+    /// check found them moving (`null` when none was).
+    raised: Option<RaisedRecord>,
+}
+
+/// The points of a retraced curve raised to 2N and their check at 4N (DESIGN §10.8).
+#[derive(Serialize)]
+struct RaisedRecord {
+    /// Each segment's first and last point (indices into `orbits`, inclusive).
+    segments: Vec<[usize; 2]>,
+    /// Points solved at the raised N in place of the trace's.
+    raised: Vec<usize>,
+    /// Points whose solve at the raised N failed.
+    failed: Vec<usize>,
+    /// The check of the raised points at twice their N.
+    check: RetraceRecord,
 }
 
 /// One trace of a curve at one N and its check at 2N (DESIGN §10.8).
@@ -281,6 +299,16 @@ struct StudyRecord<'a> {
     curves: Vec<CurveRecord<'a>>,
 }
 
+fn retrace_record(t: &nlmodes_forced::CurveHarmonics) -> RetraceRecord {
+    RetraceRecord {
+        harmonics: t.harmonics,
+        checked: t.checked.clone(),
+        not_converged: t.not_converged,
+        largest_change: t.largest_change,
+        checkable: t.checkable,
+    }
+}
+
 fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
     let r = &c.response;
     let orbits = r
@@ -312,19 +340,16 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
             }
         })
         .collect();
-    let retraces = r
-        .retraces
-        .iter()
-        .map(|t| RetraceRecord {
-            harmonics: t.harmonics,
-            checked: t.checked.clone(),
-            not_converged: t.not_converged,
-            largest_change: t.largest_change,
-            checkable: t.checkable,
-        })
-        .collect();
+    let retraces = r.retraces.iter().map(retrace_record).collect();
+    let raised = r.raised.as_ref().map(|d| RaisedRecord {
+        segments: d.segments.clone(),
+        raised: d.raised.clone(),
+        failed: d.failed.clone(),
+        check: retrace_record(&d.check),
+    });
     CurveRecord {
         retraces,
+        raised,
         level: c.level,
         force_n: c.force,
         termination: r.end_text(),
@@ -566,8 +591,8 @@ pub fn peak_note(c: &ForcedCurve, peak: usize) -> &'static str {
     }
 }
 
-/// Under `adapt_harmonics = "retrace"`: the N of the curve and what its check at 2N found
-/// (one line, empty under the other policies).
+/// Under `adapt_harmonics = "retrace"`: the N of the curve, what its check at 2N found and
+/// where N was raised (one or two lines, empty under the other policies).
 pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -> String {
     let Some(last) = r.retraces.last() else {
         return String::new();
@@ -577,23 +602,73 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
         _ => String::new(),
     };
     let traced: Vec<String> = r.retraces.iter().map(|t| t.harmonics.to_string()).collect();
+    let converged = r.harmonics_converged() == Some(true);
     let verdict = if !last.checkable {
         "not checked (2N above max_harmonics)".to_string()
     } else if last.converged() {
         format!("converged at its {} checked points", last.checked.len())
     } else {
         format!(
-            "NOT converged: {} of its {} checked points move by more than {tolerance:e} at 2N",
+            "{} of its {} checked points move by more than {tolerance:e} at 2N{}",
             last.not_converged,
-            last.checked.len()
+            last.checked.len(),
+            if r.raised.is_some() {
+                " (N raised around them: next line)"
+            } else {
+                ""
+            }
+        )
+    };
+    let mut out = format!(
+        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{at_peak}\n",
+        last.harmonics,
+        traced.join(", "),
+        if converged || !last.checkable { "" } else { "NOT converged: " },
+        last.largest_change[0],
+        last.largest_change[1]
+    );
+    if let Some(raised) = &r.raised {
+        out += &raised_note(r, raised, tolerance);
+    }
+    out
+}
+
+/// Where N was raised around the points that moved, and what the check of the raised points
+/// found (one line).
+fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -> String {
+    let n = raised.check.harmonics;
+    let ranges: Vec<String> = raised
+        .segments
+        .iter()
+        .map(|[a, b]| {
+            let w = r.points[*a..=*b].iter().map(|p| p.omega);
+            let (lo, hi) = w.fold((f64::INFINITY, 0.0_f64), |(l, h), v| (l.min(v), h.max(v)));
+            format!("W = {lo:.6e}..{hi:.6e} rad/s")
+        })
+        .collect();
+    let check = &raised.check;
+    let verdict = if !check.checkable {
+        format!("not checked ({} harmonics above the largest check)", 2 * n)
+    } else if raised.converged() {
+        "converged".to_string()
+    } else {
+        format!(
+            "NOT converged: {} of {} checked move by more than {tolerance:e} at {}, {} not solved at {n}",
+            check.not_converged,
+            check.checked.len(),
+            2 * n,
+            raised.failed.len()
         )
     };
     format!(
-        "           N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{at_peak}\n",
-        last.harmonics,
-        traced.join(", "),
-        last.largest_change[0],
-        last.largest_change[1]
+        "           N raised to {n} at {} points in {} segments ({}), {} checked at {}: {verdict}; largest change {:.1e} in q1, {:.1e} in W\n",
+        raised.raised.len(),
+        raised.segments.len(),
+        ranges.join(", "),
+        check.checked.len(),
+        2 * n,
+        check.largest_change[0],
+        check.largest_change[1]
     )
 }
 

@@ -68,6 +68,32 @@ impl CurveHarmonics {
     }
 }
 
+/// The points of a retraced curve raised to 2N where the check of its N found them moving
+/// (DESIGN §10.8, `raised_segments`): each not converged checked point and its neighbours
+/// along the curve until two in a row are converged at N.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RaisedSegments {
+    /// Each segment's first and last point (indices into the curve, inclusive): the points
+    /// solved again at 2N around one not converged checked point.
+    pub segments: Vec<[usize; 2]>,
+    /// The points raised: solved at 2N (`check.harmonics`) in place of N.
+    pub raised: Vec<usize>,
+    /// Points of the segments whose 2N solve failed (kept at N, `check_failed`), and not
+    /// converged checked points that could not be raised.
+    pub failed: Vec<usize>,
+    /// The check of the raised points at twice their N: in each segment its not converged
+    /// checked points and its point of largest change from N to 2N. `harmonics` is the raised
+    /// N; `checkable` whether that check was solved at all.
+    pub check: CurveHarmonics,
+}
+
+impl RaisedSegments {
+    /// Whether the raised points are enough: every one checked converged and nothing failed.
+    pub fn converged(&self) -> bool {
+        self.check.converged() && self.failed.is_empty()
+    }
+}
+
 /// Settings of one continuation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrfSettings {
@@ -276,9 +302,23 @@ pub struct FrequencyResponse {
     /// Under `HarmonicPolicy::Retrace`, every trace at its N, the last one being this curve's
     /// (empty under the other policies).
     pub retraces: Vec<CurveHarmonics>,
+    /// Under `HarmonicPolicy::Retrace`, the points raised to twice the last trace's N where
+    /// its check found that N too small (`None` when nothing was raised).
+    pub raised: Option<RaisedSegments>,
 }
 
 impl FrequencyResponse {
+    /// Under `HarmonicPolicy::Retrace`: whether the curve's N is converged at every point
+    /// checked (the last trace's checked points, and those of its raised segments); `None`
+    /// under the other policies.
+    pub fn harmonics_converged(&self) -> Option<bool> {
+        let last = self.retraces.last()?;
+        Some(match &self.raised {
+            Some(raised) => last.checkable && raised.converged(),
+            None => last.converged(),
+        })
+    }
+
     /// The swept parameter of a point (W in rad/s, or the load scale).
     pub fn parameter(&self, p: &ForcedPoint) -> f64 {
         match self.sweep {
@@ -298,6 +338,7 @@ impl FrequencyResponse {
             termination: FrfTermination::Complete,
             pieces: vec![0],
             retraces: Vec::new(),
+            raised: None,
         }
     }
 

@@ -15,13 +15,22 @@ use crate::trace::{norm, scales};
 /// contact.
 const SPREAD: usize = 4;
 
+/// A checked point that moved by more than the tolerance at 2N, or whose 2N solve failed.
+pub(crate) struct MovingPoint {
+    /// Its index in the curve.
+    pub index: usize,
+    /// Its solve at 2N on its normal row, when that converged on the same orbit.
+    pub finer: Option<ForcedPoint>,
+}
+
 /// Checks `curve` (traced at the base N of `ladder`, whose level 1, when there is one, is 2N)
-/// at the points of the module docs, marks them, and says what it found.
+/// at the points of the module docs, marks them, and says what it found, with the checked
+/// points that moved (for `raised_segments`).
 pub(crate) fn check_curve(
     ladder: &HarmonicLadder<'_, '_>,
     settings: &FrfSettings,
     curve: &mut FrequencyResponse,
-) -> CurveHarmonics {
+) -> (CurveHarmonics, Vec<MovingPoint>) {
     let base = ladder.solver(0);
     let checked = points_to_check(curve, base.system().master());
     let mut out = CurveHarmonics {
@@ -31,17 +40,21 @@ pub(crate) fn check_curve(
         largest_change: [0.0; 2],
         checkable: ladder.levels() > 1,
     };
+    let mut moving = Vec::new();
     if !out.checkable {
-        return out;
+        return (out, moving);
     }
     for i in checked {
         let row = normal_row(base, settings, curve, i);
         let point = curve.points[i].clone();
-        let point = ladder.checked(point, 0, Some(&row));
+        let (point, finer) = ladder.checked_with_solve(point, 0, Some(&row));
         record_check(&mut out, point.harmonic_check);
+        if matches!(point.harmonic_check, HarmonicCheck::NotConverged { .. }) {
+            moving.push(MovingPoint { index: i, finer });
+        }
         curve.points[i] = point;
     }
-    out
+    (out, moving)
 }
 
 /// Adds one checked point's verdict to `out` (its largest changes, its count of points not
@@ -100,7 +113,8 @@ pub(crate) fn points_worth_checking(
 
 /// The row through point `i` normal to the curve there: its tangent from the solver, oriented
 /// (and, should the tangent fail, replaced) by the secant of its neighbours in its piece.
-fn normal_row(
+/// Every point of `curve` is at `solver`'s N.
+pub(crate) fn normal_row(
     solver: &ForcedSolver<'_>,
     settings: &FrfSettings,
     curve: &FrequencyResponse,

@@ -18,6 +18,7 @@ use crate::curve_harmonics::check_curve;
 use crate::curve_stability::assess_stability;
 use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
+use crate::raised_segments::{Raising, MAX_CHECK_HARMONICS};
 use crate::solver::{ForcedPoint, ForcedSolver};
 use crate::trace::FrfTrace;
 
@@ -49,7 +50,8 @@ pub fn response_curve(
 /// The curve at one N after another (`HarmonicPolicy::Retrace`): traced at the solver's N,
 /// checked at 2N (`curve_harmonics::check_curve`), traced again at 2N while a checked point
 /// moved by more than the tolerance and 4N is within `top`. The last trace is the curve; every
-/// trace is listed in its `retraces`.
+/// trace is listed in its `retraces`. When the last trace's check still finds points moving and
+/// 2N is within `top`, N is raised to 2N around them alone (`raised_segments`, checked at 4N).
 fn retraced_curve(
     solver: &ForcedSolver<'_>,
     settings: &FrfSettings,
@@ -64,8 +66,9 @@ fn retraced_curve(
         let ladder = HarmonicLadder::new(current, (2 * n).min(top), settings.harmonic_tolerance)?
             .with_policy(HarmonicPolicy::Retrace);
         let mut curve = trace_range(&ladder, settings, progress)?;
-        let check = check_curve(&ladder, settings, &mut curve);
-        let again = !check.converged() && 4 * n <= top && curve.points.iter().any(|p| p.touches());
+        let (check, moving) = check_curve(&ladder, settings, &mut curve);
+        let touches = curve.points.iter().any(|p| p.touches());
+        let again = !check.converged() && 4 * n <= top && touches;
         tracing::info!(
             harmonics = n,
             checked = check.checked.len(),
@@ -77,6 +80,29 @@ fn retraced_curve(
         );
         retraces.push(check);
         if !again {
+            if !moving.is_empty() && ladder.levels() > 1 {
+                let raising = Raising {
+                    base: current,
+                    finer: ladder.solver(1),
+                    check: match 4 * n <= MAX_CHECK_HARMONICS {
+                        true => Some(current.with_harmonics(4 * n)?),
+                        false => None,
+                    },
+                    settings,
+                };
+                let raised = raising.raise(&mut curve, moving)?;
+                tracing::info!(
+                    segments = raised.segments.len(),
+                    raised = raised.raised.len(),
+                    failed = raised.failed.len(),
+                    not_converged = raised.check.not_converged,
+                    change_q1 = raised.check.largest_change[0],
+                    change_omega = raised.check.largest_change[1],
+                    "forced response: N raised to {} around the points that moved",
+                    2 * n
+                );
+                curve.raised = Some(raised);
+            }
             assess_stability(&ladder, settings, &mut curve)?;
             curve.retraces = retraces;
             return Ok(curve);

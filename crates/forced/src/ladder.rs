@@ -141,75 +141,104 @@ impl<'a, 's> HarmonicLadder<'a, 's> {
     /// the point itself kept (unchecked when `level` is the top).
     pub(crate) fn checked(
         &self,
-        mut point: ForcedPoint,
+        point: ForcedPoint,
         level: usize,
         arc: Option<&ArcRow>,
     ) -> ForcedPoint {
-        if level + 1 >= self.levels() {
-            return point;
-        }
-        point.harmonic_check = match self.same_orbit(&point, level + 1, arc) {
-            Some((_, change)) if change.iter().all(|&c| c <= self.tolerance) => {
-                HarmonicCheck::Converged { change }
-            }
-            Some((_, change)) => HarmonicCheck::NotConverged {
-                change: Some(change),
-            },
-            None => HarmonicCheck::NotConverged { change: None },
-        };
-        point
+        self.checked_with_solve(point, level, arc).0
     }
 
-    /// The orbit of `point` solved again at `level` on the same row (or at the same W), and the
-    /// relative change [q1, W] between the two; `None` when that solve fails or lands on
-    /// another orbit (a change beyond `REFINE_REACH`, or in or out of contact when the point is
-    /// not: next to grazing the row crosses orbits in and out of contact close together).
+    /// `checked`, with the solve at the next level when it converged on the same orbit.
+    pub(crate) fn checked_with_solve(
+        &self,
+        mut point: ForcedPoint,
+        level: usize,
+        arc: Option<&ArcRow>,
+    ) -> (ForcedPoint, Option<ForcedPoint>) {
+        if level + 1 >= self.levels() {
+            return (point, None);
+        }
+        let finer = self.same_orbit(&point, level + 1, arc);
+        point.harmonic_check = verdict(finer.as_ref().map(|f| f.1), self.tolerance);
+        (point, finer.map(|f| f.0))
+    }
+
+    /// The orbit of `point` solved again at `level` on the same row (or at the same W)
+    /// (`solve_same_orbit`).
     fn same_orbit(
         &self,
         point: &ForcedPoint,
         level: usize,
         arc: Option<&ArcRow>,
     ) -> Option<(ForcedPoint, [f64; 2])> {
-        let solver = self.solver(level);
-        let row = arc.map(|a| resize_arc(a, solver));
-        let other = match solver.solve(start_at(point, solver), row.as_ref()) {
-            Ok(p) => p,
-            Err(e) => {
-                tracing::debug!(
-                    omega = point.omega,
-                    harmonics = solver.basis().harmonics(),
-                    "forced response: the check of N did not converge: {e}"
-                );
-                return None;
-            }
-        };
-        let change = self.change(point, &other);
-        if change.iter().any(|&c| c > REFINE_REACH) || other.touches() != point.touches() {
+        solve_same_orbit(self.solver(level), point, arc, None)
+    }
+}
+
+/// The verdict of a check whose solve at the next N moved the point by `change` (`None`: that
+/// solve failed or landed on another orbit).
+pub(crate) fn verdict(change: Option<[f64; 2]>, tolerance: f64) -> HarmonicCheck {
+    match change {
+        Some(change) if change.iter().all(|&c| c <= tolerance) => {
+            HarmonicCheck::Converged { change }
+        }
+        Some(change) => HarmonicCheck::NotConverged {
+            change: Some(change),
+        },
+        None => HarmonicCheck::NotConverged { change: None },
+    }
+}
+
+/// The orbit of `point` solved again by `solver` (another N) on `arc` re-expressed at that N
+/// (or at the same W without a row), from `start` (default: the point itself, padded or
+/// truncated), and the relative change [q1, W] between the two (`relative_change`); `None`
+/// when that solve fails or lands on another orbit (a change beyond `REFINE_REACH`, or in or
+/// out of contact when the point is not: next to grazing the row crosses orbits in and out of
+/// contact close together).
+pub(crate) fn solve_same_orbit(
+    solver: &ForcedSolver<'_>,
+    point: &ForcedPoint,
+    arc: Option<&ArcRow>,
+    start: Option<ForcedStart>,
+) -> Option<(ForcedPoint, [f64; 2])> {
+    let row = arc.map(|a| resize_arc(a, solver));
+    let start = start.unwrap_or_else(|| start_at(point, solver));
+    let other = match solver.solve(start, row.as_ref()) {
+        Ok(p) => p,
+        Err(e) => {
             tracing::debug!(
                 omega = point.omega,
-                ?change,
-                "forced response: the check of N landed on another orbit"
+                harmonics = solver.basis().harmonics(),
+                "forced response: the check of N did not converge: {e}"
             );
             return None;
         }
-        Some((other, change))
+    };
+    let change = relative_change(point, &other, solver.system().master());
+    if change.iter().any(|&c| c > REFINE_REACH) || other.touches() != point.touches() {
+        tracing::debug!(
+            omega = point.omega,
+            ?change,
+            "forced response: the check of N landed on another orbit"
+        );
+        return None;
     }
+    Some((other, change))
+}
 
-    /// [|dq1| / q1, |dW| / W] between two solves of one orbit at different N (relative to
-    /// the one at the larger N).
-    fn change(&self, a: &ForcedPoint, b: &ForcedPoint) -> [f64; 2] {
-        let (coarse, fine) = if a.harmonics <= b.harmonics {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        let master = self.base.system().master();
-        let (q, qf) = (coarse.first_harmonic(master), fine.first_harmonic(master));
-        [
-            (q - qf).abs() / qf.abs().max(f64::MIN_POSITIVE),
-            (coarse.omega - fine.omega).abs() / fine.omega,
-        ]
-    }
+/// [|dq1| / q1, |dW| / W] between two solves of one orbit at different N (relative to the one
+/// at the larger N; q1 the first harmonic of coordinate `master`).
+pub(crate) fn relative_change(a: &ForcedPoint, b: &ForcedPoint, master: usize) -> [f64; 2] {
+    let (coarse, fine) = if a.harmonics <= b.harmonics {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let (q, qf) = (coarse.first_harmonic(master), fine.first_harmonic(master));
+    [
+        (q - qf).abs() / qf.abs().max(f64::MIN_POSITIVE),
+        (coarse.omega - fine.omega).abs() / fine.omega,
+    ]
 }
 
 /// A vector of `rows` signals of `from` coefficients each, truncated or padded with zeros to

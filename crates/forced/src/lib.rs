@@ -38,6 +38,7 @@ mod newton;
 mod orbit_origin;
 mod period_check;
 mod point_stability;
+mod raised_segments;
 mod solver;
 #[cfg(test)]
 mod speed_column_check;
@@ -58,7 +59,7 @@ pub use casing_sweep::{
 };
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
-    Sweep,
+    RaisedSegments, Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use distortion::CasingDistortion;
