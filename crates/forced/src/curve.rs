@@ -308,6 +308,13 @@ pub struct FrequencyResponse {
 }
 
 impl FrequencyResponse {
+    /// The first point of the piece holding point `i` and the end of that piece (exclusive).
+    pub(crate) fn piece_of(&self, i: usize) -> (usize, usize) {
+        let start = self.pieces.iter().copied().filter(|&k| k <= i).max();
+        let end = self.pieces.iter().copied().filter(|&k| k > i).min();
+        (start.unwrap_or(0), end.unwrap_or(self.points.len()))
+    }
+
     /// Under `HarmonicPolicy::Retrace`: whether the curve's N is converged at every point
     /// checked (the last trace's checked points, and those of its raised segments); `None`
     /// under the other policies.

@@ -126,15 +126,8 @@ pub(crate) fn normal_row(
         v.push(curve.parameter(p) / p_scale);
         v
     };
-    let piece_start = curve.pieces.iter().copied().filter(|&k| k <= i).max();
-    let piece_end = curve
-        .pieces
-        .iter()
-        .copied()
-        .filter(|&k| k > i)
-        .min()
-        .unwrap_or(curve.points.len());
-    let before = if Some(i) == piece_start { i } else { i - 1 };
+    let (piece_start, piece_end) = curve.piece_of(i);
+    let before = if i == piece_start { i } else { i - 1 };
     let after = if i + 1 == piece_end { i } else { i + 1 };
     let (a, b) = (scaled(&curve.points[before]), scaled(&curve.points[after]));
     let secant: Vec<f64> = b.iter().zip(&a).map(|(x, y)| x - y).collect();

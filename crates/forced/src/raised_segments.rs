@@ -149,7 +149,7 @@ impl Raising<'_, '_> {
             failed: Vec::new(),
             seed,
         };
-        let (start, end) = piece_of(curve, seed);
+        let (start, end) = curve.piece_of(seed);
         for step in [-1_isize, 1] {
             let (mut prev, mut prev_fine) = (seed, finer.clone());
             let (mut quiet, mut fixed) = (0, false);
@@ -254,25 +254,6 @@ impl Raising<'_, '_> {
         let solved = solve_same_orbit(check, fine, Some(&row), None);
         verdict(solved.map(|s| s.1), self.settings.harmonic_tolerance)
     }
-}
-
-/// The first point of the piece holding point `i` and the end of that piece (exclusive).
-fn piece_of(curve: &FrequencyResponse, i: usize) -> (usize, usize) {
-    let start = curve
-        .pieces
-        .iter()
-        .copied()
-        .filter(|&k| k <= i)
-        .max()
-        .unwrap_or(0);
-    let end = curve
-        .pieces
-        .iter()
-        .copied()
-        .filter(|&k| k > i)
-        .min()
-        .unwrap_or(curve.points.len());
-    (start, end)
 }
 
 /// The start at `finer`'s N of `point` from a neighbour solved at the curve's N and at
