@@ -14,10 +14,10 @@
 //! Newton step. The rule: the first correction is a Newton step; then a chord step is tried on
 //! its factor; a chord step is kept when it reduces the residual norm at least by
 //! [`CHORD_RATE`], and chord steps follow while they do; otherwise it is undone, a Newton step
-//! is taken from the state before it, and chord steps are tried again on its fresh factor. The converged
-//! state's tangent is assembled at the end (the stiffness at speed, the same bits as
-//! [`crate::rotation::RotatingModel::stiffness_at_speed`]). A solver that keeps no factor (MPI)
-//! makes every step a Newton step: the iterations of plain Newton.
+//! is taken from the state before it, and chord steps are tried again on its fresh factor.
+//! The converged state's tangent is assembled at the end (the stiffness at speed, the same
+//! bits as [`crate::rotation::RotatingModel::stiffness_at_speed`]). A solver that keeps no
+//! factor (MPI) makes every step a Newton step: the iterations of plain Newton.
 //!
 //! Convergence criterion and divergence test: [`crate::rotation::NewtonOptions`] (the limit
 //! on iterations counts Newton steps; chord steps are bounded by [`MAX_CHORD_STEPS_PER_NEWTON`]
