@@ -23,7 +23,7 @@ use nlmodes_forced::{
     casing_sweep, CasingSweep, CasingSweepSettings, Damping, ForcedSettings, SpeedHarmonics,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
-use pwl::{Dense, GapWave, Pwl};
+use pwl::{GapWave, Pwl};
 
 const GAP: f64 = 0.5;
 const ZETA: f64 = 0.02;
@@ -56,23 +56,14 @@ fn sweep(system: &System, policy: SpeedHarmonics) -> (CasingSweep, f64, f64) {
 /// The exact system with the moving gap at amplitude `delta`.
 fn oracle(system: &System, delta: f64, kc: f64) -> Pwl {
     let c = Damping::ModalRatios(vec![ZETA]).matrix(system).unwrap();
-    let dense = |a: faer::MatRef<'_, f64>| Dense::from_fn(3, |i, j| a[(i, j)]);
-    Pwl {
-        n: 3,
-        m: dense(system.mass()),
-        c: dense(c.as_ref()),
-        k: dense(system.stiffness()),
-        a: (0..3).map(|j| system.contact_rows()[(0, j)]).collect(),
-        gap: GAP,
-        kc,
-        fc: vec![0.0; 3],
-        fs: vec![0.0; 3],
-        distortion: Some(GapWave {
-            harmonic: 1,
-            amplitude: delta,
-            phase: PHASE,
-        }),
-    }
+    let wave = GapWave {
+        harmonic: 1,
+        amplitude: delta,
+        phase: PHASE,
+    };
+    let matrices = [system.mass(), c.as_ref(), system.stiffness()];
+    let a = (0..3).map(|j| system.contact_rows()[(0, j)]).collect();
+    Pwl::with_gap_wave(matrices, a, (GAP, kc), vec![0.0; 3], wave)
 }
 
 /// Per point in contact: (delta, N, converged, |q1 / q1_exact - 1|).

@@ -29,7 +29,7 @@ use nlmodes_forced::{
     SpeedSweep, SpeedSweepSettings,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
-use pwl::{Dense, GapWave, Pwl};
+use pwl::{GapWave, Pwl};
 
 /// The 3-DOF system of the other tests (`common::three_dof`, gap 0.5, contact row
 /// 0.2 x0 + x2, master x2) turning: K(Omega) = K0 + S Omega^2 M, modal damping `zeta`, a force
@@ -231,23 +231,14 @@ fn top(q: &[f64]) -> (f64, f64) {
 fn oracle(t: &Turning, speed: f64, (casing, k): (&LobedCasing, usize), kc: f64) -> Pwl {
     let system = t.system(speed);
     let c = Damping::ModalRatios(vec![t.zeta]).matrix(&system).unwrap();
-    let dense = |a: faer::MatRef<'_, f64>| Dense::from_fn(3, |i, j| a[(i, j)]);
-    Pwl {
-        n: 3,
-        m: dense(system.mass()),
-        c: dense(c.as_ref()),
-        k: dense(system.stiffness()),
-        a: (0..3).map(|j| system.contact_rows()[(0, j)]).collect(),
-        gap: GAP,
-        kc,
-        fc: vec![0.0, 0.0, t.force],
-        fs: vec![0.0; 3],
-        distortion: Some(GapWave {
-            harmonic: casing.lobes / k,
-            amplitude: casing.amplitude,
-            phase: casing.phase,
-        }),
-    }
+    let wave = GapWave {
+        harmonic: casing.lobes / k,
+        amplitude: casing.amplitude,
+        phase: casing.phase,
+    };
+    let matrices = [system.mass(), c.as_ref(), system.stiffness()];
+    let a = (0..3).map(|j| system.contact_rows()[(0, j)]).collect();
+    Pwl::with_gap_wave(matrices, a, (GAP, kc), vec![0.0, 0.0, t.force], wave)
 }
 
 /// Every `every`-th point of `sweep` shot by the oracle at its speed from its state: the

@@ -84,23 +84,14 @@ fn kc() -> f64 {
 fn oracle(delta: f64, harmonic: usize) -> Pwl {
     let s = system(false);
     let c = Damping::ModalRatios(vec![ZETA]).matrix(&s).unwrap();
-    let dense = |a: faer::MatRef<'_, f64>| Dense::from_fn(3, |i, j| a[(i, j)]);
-    Pwl {
-        n: 3,
-        m: dense(s.mass()),
-        c: dense(c.as_ref()),
-        k: dense(s.stiffness()),
-        a: (0..3).map(|j| s.contact_rows()[(0, j)]).collect(),
-        gap: GAP,
-        kc: kc(),
-        fc: vec![0.0; 3],
-        fs: vec![0.0; 3],
-        distortion: Some(GapWave {
-            harmonic,
-            amplitude: delta,
-            phase: PHASE,
-        }),
-    }
+    let wave = GapWave {
+        harmonic,
+        amplitude: delta,
+        phase: PHASE,
+    };
+    let matrices = [s.mass(), c.as_ref(), s.stiffness()];
+    let a = (0..3).map(|j| s.contact_rows()[(0, j)]).collect();
+    Pwl::with_gap_wave(matrices, a, (GAP, kc()), vec![0.0; 3], wave)
 }
 
 /// The reference at a point: the exact periodic orbit of the oracle shot from the point's

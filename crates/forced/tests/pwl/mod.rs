@@ -358,6 +358,32 @@ pub struct GapWave {
 }
 
 impl Pwl {
+    /// The system M, C, K (faer matrices, copied) with one contact row `a`, the gap `gap`
+    /// under the casing wave `wave`, the penalty `kc` and the load `fc cos(W t)` (no sine
+    /// part): the moving-gap tests' oracle.
+    pub fn with_gap_wave(
+        [m, c, k]: [faer::MatRef<'_, f64>; 3],
+        a: Vec<f64>,
+        (gap, kc): (f64, f64),
+        fc: Vec<f64>,
+        wave: GapWave,
+    ) -> Self {
+        let n = m.nrows();
+        let dense = |x: faer::MatRef<'_, f64>| Dense::from_fn(n, |i, j| x[(i, j)]);
+        Pwl {
+            n,
+            m: dense(m),
+            c: dense(c),
+            k: dense(k),
+            a,
+            gap,
+            kc,
+            fs: vec![0.0; fc.len()],
+            fc,
+            distortion: Some(wave),
+        }
+    }
+
     /// Size of the augmented state: (x, v, cos W t, sin W t, 1), then (cos h W t, sin h W t)
     /// under a distortion.
     pub fn state_size(&self) -> usize {
