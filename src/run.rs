@@ -1,7 +1,7 @@
 //! `nlmodes run CASE.toml`: the study as the list of its stages, each a file of its own that
 //! implements [`Stage`] (its inputs' hash, its outputs, its work) and reruns only when its inputs
 //! changed (`crate::stage`). In order: mesh, reduce (the full model's modes then run beside the
-//! stages up to forced), the prestress and reduced model at each speed and the Campbell diagram
+//! stages up to forced), the Campbell diagram and the prestress and reduced model at each speed
 //! (`[rotation]`), the backbone of each traced mode and at each speed, the forced response
 //! (`[forced]`, at rest and at the operating speed), the speed sweeps (`[speed_sweep]`), the
 //! interaction map, post and report.
@@ -112,15 +112,17 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
             force_reduce: sel.force(Only::Reduce),
         },
     )?;
-    let speeds = speed_stages(&case, &material, &layout, &fe_hash);
-    for stage in &speeds {
-        sel.run(stage, &[Only::Backbone, Only::Forced, Only::Post])?;
-    }
+    // The Campbell stage before the speed stages: they start their static solves from its
+    // march's states (`crate::rotation::static_states`).
     let mut campbell_hash = None;
     if let Some(r) = &case.rotation {
         let campbell = CampbellStage::new(&case, r, &material, &layout, &fe_hash);
         sel.run(&campbell, &[Only::SpeedSweep, Only::Post])?;
         campbell_hash = Some(campbell.hash().to_string());
+    }
+    let speeds = speed_stages(&case, &material, &layout, &fe_hash);
+    for stage in &speeds {
+        sel.run(stage, &[Only::Backbone, Only::Forced, Only::Post])?;
     }
     let mut stops = Stops::default();
     let mut traced = Vec::new();

@@ -174,7 +174,7 @@ fn rotating_study_from_the_command() {
     parametric_against_the_model_at_speed(&parametric, &res, 8000.0);
     operating_speed_change(&dir, p, &res);
     // 7000 rpm lies between the parametric model's samples (6000 and 8000 rpm): its model at
-    // speed, reduced from a static state solved from rest, is an independent direct solve.
+    // speed, reduced from its own static state at 7000 rpm, is an independent direct solve.
     parametric_against_the_model_at_speed(&parametric, &res, 7000.0);
     speed_sweep_through_the_case(&dir, p, &res, &parametric);
     the_answer_first(&dir, p, &res, &campbell);
@@ -292,9 +292,9 @@ fn running_gaps(res: &Path) {
 }
 
 /// The map speed 4000 rpm has its own prestress, model and backbone. The check that it is that
-/// speed's: its first frequency equals the Campbell curve's at 4000 rpm (a Campbell speed here,
-/// whose static state is marched in speed independently of this one, solved from rest) within
-/// the reduction's error. The root stress and the tip's radial growth are only bounded: both
+/// speed's: its first frequency equals the Campbell curve's at 4000 rpm (a Campbell speed here:
+/// the speed stage starts its static solve from the march's converged state at that speed,
+/// `started_from_rpm`, and reduces K(Omega) on its own) within the reduction's error. The root stress and the tip's radial growth are only bounded: both
 /// scale with the centrifugal load ~ Omega^2 (ratio 0.25) but the nodal von Mises maximum at the
 /// root corner carries bending and the tip's growth mixes the stretch with the untwisting of the
 /// twisted blade, which the stress stiffening of the nonlinear solve resists more at 8000 rpm
@@ -310,6 +310,9 @@ fn map_speed(res: &Path, c: &serde_json::Value, report: &str) {
         json(&dir.join("prestress.json")),
         json(&res.join("speed/prestress.json")),
     );
+    // Both speeds are Campbell speeds: each stage starts from the march's state at its speed.
+    assert_eq!(slow["started_from_rpm"].as_f64(), Some(4000.0));
+    assert_eq!(fast["started_from_rpm"].as_f64(), Some(8000.0));
     let stress =
         slow["root_von_mises_pa"].as_f64().unwrap() / fast["root_von_mises_pa"].as_f64().unwrap();
     let growth =
@@ -432,10 +435,13 @@ fn operating_speed_change(dir: &Path, p: &str, res: &Path) {
         let same = time(f) == before[i];
         assert_eq!(same, i < kept.len(), "{f}: rerun {}", !same);
     }
-    let speed = json(&res.join("speed/prestress.json"))["speed_rpm"]
-        .as_f64()
-        .unwrap();
+    let prestress = json(&res.join("speed/prestress.json"));
+    let speed = prestress["speed_rpm"].as_f64().unwrap();
     assert!((speed - 7000.0).abs() < 1e-6, "speed {speed}");
+    // Not a Campbell speed: started from the march's highest state at most 7000 rpm (a
+    // parametric check speed, 7000, or the sample below it, 6000), not from rest.
+    let from = prestress["started_from_rpm"].as_f64().expect("a start");
+    assert!((6000.0..=7000.0).contains(&from), "started from {from} rpm");
 }
 
 /// `[speed_sweep]` through `nlmodes run --only speed-sweep` on the parametric model (the

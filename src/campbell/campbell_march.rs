@@ -196,6 +196,15 @@ impl<'m> SpeedFamily<'m> {
         Ok(self.model.stiffness_at_speed(state)?)
     }
 
+    /// The total-Lagrangian static states of the family (marched and side speeds, ascending
+    /// within each); none with the linear prestress.
+    pub fn static_states(&self) -> &[StaticSolution] {
+        match &self.stiffness {
+            Stiffness::Nonlinear(states) => states,
+            Stiffness::Linear(_) => &[],
+        }
+    }
+
     /// The rotating model (mesh, material, axis, DOF map).
     pub fn model(&self) -> &RotatingModel<'m> {
         &self.model

@@ -21,6 +21,7 @@ use crate::case::Case;
 use crate::layout::Layout;
 use crate::mesh::fe_model::FeModel;
 use crate::rotation::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::rotation::static_states;
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
 use nlmodes_modal::{ParametricModel, RitzBasis, RitzModes};
@@ -108,6 +109,8 @@ pub struct CampbellStage<'a> {
     out: PathBuf,
     mesh: PathBuf,
     hash: String,
+    /// The key of its static states ([`static_states::states_key`]).
+    states_key: String,
 }
 
 impl<'a> CampbellStage<'a> {
@@ -136,6 +139,11 @@ impl<'a> CampbellStage<'a> {
             out: layout.shared.join("campbell"),
             mesh: layout.mesh(),
             hash: fnv1a(&[fe_hash.as_bytes(), &inputs]),
+            states_key: static_states::states_key(
+                fe_hash,
+                (m.rotor_axis_point, m.rotor_axis_direction),
+                &r.kinematics,
+            ),
         }
     }
 
@@ -198,6 +206,12 @@ impl<'a> CampbellStage<'a> {
                 basis_modes.visit(&mut p, &fe.m)?;
                 builder.visit(&p)
             },
+        )?;
+        // The speed stages (run after this one) start from these states.
+        static_states::write(
+            &static_states::states_dir(&self.layout.shared),
+            &self.states_key,
+            family.static_states(),
         )?;
         let ritz = basis_modes.ritz_basis(&family.m)?;
         builder.enrich(&basis_modes.modes().collect::<Vec<_>>(), &family.m)?;

@@ -4,3 +4,4 @@ pub(crate) mod prestress;
 pub(crate) mod rotation_mpi;
 pub(crate) mod rotation_settings;
 pub(crate) mod speed_stage;
+pub(crate) mod static_states;

@@ -1,13 +1,14 @@
 //! The centrifugal prestress of the clamped blade at a speed (issue 23, items 2-4; DESIGN §9,
 //! docs/ROTATION.md), from the case's settings: the physics is `nlmodes_fem::rotation`'s
-//! ([`prestress_at_speed`]: the static state, K(Omega), radial growth, running gaps, closure
+//! ([`nlmodes_fem::rotation::prestress_at_speed`]: the static state, K(Omega), radial growth, running gaps, closure
 //! speed, root stress); here the case's keys become its inputs, its errors become bad input
 //! naming the key and the speed in rpm, and its Newton history becomes text. SI units: m, Pa,
 //! rad/s, N/m.
 
 use anyhow::{Context, Result};
 use nlmodes_fem::rotation::{
-    prestress_at_speed, Kinematics, LinearSolver, LoadStep, RotationError, RotorAxis, SpeedProblem,
+    prestress_at_speed_from, Kinematics, LinearSolver, LoadStep, RotationError, RotorAxis,
+    SpeedProblem, StaticSolution,
 };
 use nlmodes_fem::Isotropic;
 
@@ -37,13 +38,15 @@ pub fn radial_growth(fe: &FeModel, axis: &RotorAxis, u: &[f64], nodes: &[usize])
 /// Bad input, naming the key and the speed: a speed at which a contact node's growth closes the
 /// gap (with the node and the estimated closure speed), and one at which the static solve does
 /// not converge (with the load step at which it stopped and why). `solver` solves the Newton
-/// steps (`crate::rotation::rotation_mpi::FullSolver`: here, or over the ranks under mpirun).
+/// steps (`crate::rotation::rotation_mpi::FullSolver`: here, or over the ranks under mpirun);
+/// `start`: a converged state at a speed at most `omega` to start the nonlinear solve from
+/// (`crate::rotation::static_states`; `None`: from rest; ignored by the linear prestress).
 pub fn at_speed(
     fe: &FeModel,
     material: &Isotropic,
     axis: &RotorAxis,
     (omega, key): (f64, &str),
-    nonlinear: bool,
+    (nonlinear, start): (bool, Option<&StaticSolution>),
     (contact, cold_gap): (&[usize], f64),
     solver: &mut dyn LinearSolver,
 ) -> Result<Prestress> {
@@ -61,7 +64,7 @@ pub fn at_speed(
             Kinematics::Linear
         },
     };
-    prestress_at_speed(&problem, omega, solver).map_err(|e| match e {
+    prestress_at_speed_from(&problem, omega, start, solver).map_err(|e| match e {
         RotationError::ClearanceClosed {
             omega,
             contact,

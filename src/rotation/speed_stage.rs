@@ -19,6 +19,7 @@ use crate::mesh::fe_model::FeModel;
 use crate::rotation::prestress::{self, Prestress};
 use crate::rotation::rotation_mpi::FullSolver;
 use crate::rotation::rotation_settings::{RotationSection, RPM_TO_RAD_S};
+use crate::rotation::static_states;
 use crate::stage::{Only, Stage};
 use crate::stage_hash::fnv1a;
 
@@ -42,6 +43,10 @@ pub struct PrestressSummary {
     /// The speed (rpm) at which the first contact node would close its gap statically
     /// (growth ~ Omega^2).
     pub static_closure_rpm: Option<f64>,
+    /// The speed (rpm) of the Campbell march's state the Newton solve started from
+    /// (`crate::rotation::static_states`); `None`: from rest.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub started_from_rpm: Option<f64>,
 }
 
 /// The stage: inputs' hash and outputs.
@@ -54,6 +59,8 @@ pub struct SpeedStage<'a> {
     layout: Layout,
     mesh: PathBuf,
     hash: String,
+    /// Where the Campbell stage keeps its static states, and their key.
+    states: (PathBuf, String),
 }
 
 impl<'a> SpeedStage<'a> {
@@ -82,6 +89,14 @@ impl<'a> SpeedStage<'a> {
             layout: own,
             mesh: layout.mesh(),
             hash: fnv1a(&[fe_hash.as_bytes(), &inputs]),
+            states: (
+                static_states::states_dir(&layout.shared),
+                static_states::states_key(
+                    fe_hash,
+                    (case.model.rotor_axis_point, case.model.rotor_axis_direction),
+                    &rotation.kinematics,
+                ),
+            ),
         }
     }
 
@@ -112,16 +127,24 @@ impl<'a> SpeedStage<'a> {
         let omega = self.speed_rpm * RPM_TO_RAD_S;
         // Over the ranks under mpirun: the Newton steps and the reduction of K(Omega).
         let mut solver = FullSolver::of(&fe, &self.mesh, material);
+        let nonlinear = self.rotation.nonlinear();
+        let start = nonlinear
+            .then(|| static_states::march_start(&self.states.0, &self.states.1, omega, &fe.dofs))
+            .flatten();
         let p = prestress::at_speed(
             &fe,
             material,
             &axis,
             (omega, self.key()),
-            self.rotation.nonlinear(),
+            (nonlinear, start.as_ref()),
             (&nodes, m.gap),
             &mut solver,
         )?;
-        let summary = summarize(&p, self.rotation, &nodes, m.gap);
+        let mut summary = summarize(&p, self.rotation, &nodes, m.gap);
+        summary.started_from_rpm = start.map(|s| s.omega / RPM_TO_RAD_S);
+        if let Some(rpm) = summary.started_from_rpm {
+            tracing::info!("prestress Newton from the Campbell march's state at {rpm:.1} rpm");
+        }
         for line in &summary.newton {
             tracing::info!("prestress Newton: {line}");
         }
@@ -204,6 +227,7 @@ fn summarize(p: &Prestress, r: &RotationSection, nodes: &[usize], cold: f64) -> 
         cold_gap_m: cold,
         running_gap_m: p.running_gaps.clone(),
         static_closure_rpm: worst.and_then(|j| prestress::closure_rpm(p.omega, p.growth[j], cold)),
+        started_from_rpm: None,
     }
 }
 
@@ -275,7 +299,13 @@ fn section(s: &PrestressSummary, operating: bool, dir: &str) -> String {
         s.cold_gap_m,
         s.static_closure_rpm.unwrap_or(f64::INFINITY)
     );
-    let _ = writeln!(out, "Newton history (||r|| / ||f_c|| per iteration):\n");
+    let from = s.started_from_rpm.map_or("rest".to_string(), |rpm| {
+        format!("the Campbell march's converged state at {rpm:.0} rpm")
+    });
+    let _ = writeln!(
+        out,
+        "Newton history (||r|| / ||f_c|| per iteration), from {from}:\n"
+    );
     for line in &s.newton {
         let _ = writeln!(out, "- {line}");
     }

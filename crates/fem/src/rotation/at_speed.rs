@@ -71,6 +71,21 @@ pub fn prestress_at_speed(
     omega: f64,
     solver: &mut dyn LinearSolver,
 ) -> Result<Prestress, RotationError> {
+    prestress_at_speed_from(problem, omega, None, solver)
+}
+
+/// [`prestress_at_speed`] with the total-Lagrangian Newton solve started from `start`, a
+/// converged state of the same model at a speed at most `omega` (a Campbell march's state at
+/// that speed or below it: `None` starts from rest). At the same speed the start is already
+/// converged and the solve costs one assembly of the residual and tangent (no factorization);
+/// the state differs from the one reached from rest by less than the Newton tolerance. Ignored
+/// by the linearized prestress (one linear solve either way).
+pub fn prestress_at_speed_from(
+    problem: &SpeedProblem<'_>,
+    omega: f64,
+    start: Option<&StaticSolution>,
+    solver: &mut dyn LinearSolver,
+) -> Result<Prestress, RotationError> {
     let model = RotatingModel::new(
         problem.mesh,
         problem.material,
@@ -86,7 +101,7 @@ pub fn prestress_at_speed(
                 load_steps: 1,
                 ..NewtonOptions::default()
             };
-            model.solve_nonlinear_with_stiffness(None, omega, &options, solver)?
+            model.solve_nonlinear_with_stiffness(start, omega, &options, solver)?
         }
         Kinematics::Linear => {
             let solution = model.solve_linearized(omega, false, solver)?;

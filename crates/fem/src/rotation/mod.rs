@@ -28,7 +28,10 @@ pub mod static_solve;
 pub mod stress_stiffness;
 pub mod total_lagrangian;
 
-pub use at_speed::{closure_speed, prestress_at_speed, radial_growth, Prestress, SpeedProblem};
+pub use at_speed::{
+    closure_speed, prestress_at_speed, prestress_at_speed_from, radial_growth, Prestress,
+    SpeedProblem,
+};
 pub use axis::{Mat3, RotorAxis};
 pub use centrifugal::{
     centrifugal_load_element, centrifugal_load_from_spin_matrix, coriolis_element,
