@@ -138,29 +138,37 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
             speed_posts.push(stage.results().clone());
         }
     }
-    // The modes child ran beside the single-threaded backbones; the forced stage uses both
-    // cores (its levels in parallel), so the child ends first.
+    // The modes child ran beside the single-threaded backbones; the forced stages use both
+    // cores (their levels in parallel), so the child ends first.
     pending_modes.finish()?;
     // forced (issue 22): after the backbone it is crowned by, before the report that shows it;
-    // at rest, then at the operating speed (issue 39, item 1)
-    if case.forced.enabled {
-        let stage = ForcedStage::new(&case, &layout, reduce.hash());
-        stops.absorb(sel.run(&stage, &[Only::Post]))?;
-        if let Some(operating) = speeds.first() {
-            let stage = ForcedStage::new(&case, operating.layout(), operating.hash());
-            stops.absorb(sel.run(&stage, &[Only::Post]))?;
+    // at rest and at the operating speed (issue 39, item 1); the speed sweeps (item 2) on the
+    // Campbell stage's parametric model; the three side by side
+    let forced = case.forced.enabled.then(|| {
+        let at_rest = ForcedStage::new(&case, &layout, reduce.hash(), "at rest");
+        let at_speed = speeds.first().map(|operating| {
+            let label = format!("at {} rpm", operating.speed_rpm());
+            ForcedStage::new(&case, operating.layout(), operating.hash(), &label)
+        });
+        (at_rest, at_speed)
+    });
+    let sweeps = match (&case.rotation, &case.speed_sweep, &campbell_hash) {
+        (Some(r), Some(sweep), Some(hash)) if sweep.enabled => {
+            Some(SpeedSweepStage::new(&case, r, sweep, &layout, hash))
         }
+        _ => None,
+    };
+    let mut last: Vec<&(dyn Stage + Sync)> = Vec::new();
+    if let Some((at_rest, at_speed)) = &forced {
+        last.push(at_rest);
+        last.extend(at_speed.iter().map(|s| s as &(dyn Stage + Sync)));
+    }
+    last.extend(sweeps.iter().map(|s| s as &(dyn Stage + Sync)));
+    for result in side_by_side(&sel, &last) {
+        stops.absorb(result)?;
     }
     for results in &speed_posts {
         post::post(&case, results)?;
-    }
-    // the speed sweeps (issue 39, item 2) on the Campbell stage's parametric model
-    if let (Some(r), Some(sweep), Some(hash)) = (&case.rotation, &case.speed_sweep, &campbell_hash)
-    {
-        if sweep.enabled {
-            let stage = SpeedSweepStage::new(&case, r, sweep, &layout, hash);
-            stops.absorb(sel.run(&stage, &[Only::Post]))?;
-        }
     }
     if let Some(r) = &case.rotation {
         if sel.wants_any(&[Only::Campbell, Only::Post]) {
@@ -184,6 +192,26 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
         layout.root.display()
     );
     Ok(())
+}
+
+/// Runs `stages` at the same time, each on a thread of its own (`Selection::run`), and returns
+/// their results in their order: the forced stages at rest and at the operating speed and the
+/// speed sweeps, which need nothing of each other. Each forced stage runs its levels on a pool
+/// of its own (`crate::forced::run`), and the levels end unevenly (on the default blade the
+/// deep-contact level takes 2 to 4 times the others), so one after the other a core idled for
+/// half of each stage (docs/BENCHMARKS.md, session 22). Their outputs are in different folders
+/// and the forced stages' log lines carry their span ("forced{at=..}").
+fn side_by_side(sel: &Selection, stages: &[&(dyn Stage + Sync)]) -> Vec<Result<()>> {
+    std::thread::scope(|s| {
+        let handles: Vec<_> = stages
+            .iter()
+            .map(|&stage| s.spawn(move || sel.run(stage, &[Only::Post])))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    })
 }
 
 /// The results folder, created, with the temporary files of an interrupted run removed.

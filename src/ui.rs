@@ -1,10 +1,15 @@
 //! Logging (tracing) and progress bars (indicatif), both silenced by `--quiet`.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::LazyLock;
 use std::time::Instant;
 
 static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Every bar and spinner of the run, so that those of stages running side by side (the forced
+/// stages at rest and at speed, `crate::run`) stack instead of drawing over each other.
+static BARS: LazyLock<MultiProgress> = LazyLock::new(MultiProgress::new);
 
 /// Set up the tracing subscriber. `RUST_LOG` overrides the default level (`info`, or `warn` when quiet).
 pub fn init(quiet: bool) {
@@ -41,7 +46,7 @@ pub fn bar(len: u64, what: &str) -> ProgressBar {
             .progress_chars("=> "),
     );
     pb.set_prefix(what.to_string());
-    pb
+    BARS.add(pb)
 }
 
 /// A spinner for a stage of unknown length.
@@ -55,6 +60,7 @@ pub fn spinner(what: &str) -> ProgressBar {
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
     pb.set_prefix(what.to_string());
+    let pb = BARS.add(pb);
     pb.enable_steady_tick(std::time::Duration::from_millis(120));
     pb
 }

@@ -26,12 +26,15 @@ pub struct ForcedStage<'a> {
     out: PathBuf,
     backbone: Option<PathBuf>,
     hash: String,
+    /// Where the model is ("at rest", "at 8000 rpm"): the log lines' span, since the stages
+    /// at rest and at speed run side by side (`crate::run`).
+    label: String,
 }
 
 impl<'a> ForcedStage<'a> {
     /// The stage of `case` on the model of `layout` (`layout.model()`, at rest or at a speed)
-    /// of hash `reduce_hash`, crowned by that layout's backbone.
-    pub fn new(case: &'a Case, layout: &'a Layout, reduce_hash: &str) -> Self {
+    /// of hash `reduce_hash`, crowned by that layout's backbone; `label` says which in the log.
+    pub fn new(case: &'a Case, layout: &'a Layout, reduce_hash: &str, label: &str) -> Self {
         let mode = case.forced.mode;
         let modes = case.continuation.modes_to_trace();
         let backbone = if modes.len() > 1 {
@@ -54,12 +57,15 @@ impl<'a> ForcedStage<'a> {
             out: layout.shared.join("forced"),
             backbone,
             hash,
+            label: label.to_string(),
         }
     }
 
     /// Runs the study and writes its files; a curve that stops before the end of its range makes
     /// it `StoppedEarly` (no stamp).
     fn study(&self) -> Result<()> {
+        let span = tracing::info_span!("forced", at = %self.label);
+        let _in_span = span.enter();
         let st = crate::ui::Stage::start("forced");
         let model = crate::backbone::load_model(&self.layout.model())?;
         let system = crate::backbone::system_of(&model, None)?;

@@ -100,6 +100,11 @@ impl<'a> SpeedStage<'a> {
         }
     }
 
+    /// The speed, rpm.
+    pub fn speed_rpm(&self) -> f64 {
+        self.speed_rpm
+    }
+
     /// The case key the speed comes from.
     fn key(&self) -> &'static str {
         if self.speed_rpm == self.rotation.operating_speed {

@@ -147,6 +147,7 @@ fn forced_stage<'a>(stages: &CaseStages<'a>, id: &str) -> Result<ForcedStage<'a>
         stages.case,
         stages.layout,
         stages.reduce.hash(),
+        "at rest",
     ))
 }
 
