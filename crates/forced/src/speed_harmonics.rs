@@ -8,8 +8,9 @@
 //! at one speed and that speed corrected only where that fails, or under exact contact). The
 //! row is normal to the speed line's curve, not to a frozen structure's response: frozen, the
 //! default blade's check failed at 5 of its 8 points (docs/ROTATION.md, session 22). A point
-//! whose 2N solve moves the master's first harmonic or the speed by more than `harmonic_tolerance` (relative), or fails, or lands on another orbit, has
-//! not converged; under `SpeedHarmonics::Retrace` the whole sweep is then traced again at 2N,
+//! whose 2N solve moves the master's first harmonic or the speed by more than
+//! `harmonic_tolerance` (relative), or fails, or lands on another orbit, has not converged;
+//! under `SpeedHarmonics::Retrace` the whole sweep is then traced again at 2N,
 //! while 4N is within `max_harmonics`. Every point of the kept sweep shares one N, so its folds
 //! are those of one truncation.
 

@@ -56,14 +56,6 @@ const GRAZING_STEP: f64 = 1e-4;
 /// How far (in steps) the corrector may land from the prediction.
 const CORRECTOR_REACH: f64 = 1.0;
 
-/// How far (in steps) the corrector may land from the prediction below [`CORNER_STEP`]: on
-/// the row normal to the tangent, a branch leaving the last point at an angle theta lands
-/// h tan(theta) from the prediction, so 2 steps take a corner of up to 63 degrees (the turn
-/// [`CORNER_STEP`] lets through). At N = 20 the default blade's EO 3 sweep meets one at
-/// 835.41 rad/s, a contact row starting to touch: the corrector landed 1.2 steps away at
-/// every step from 1e-3 down to 2e-6, and the retrace stopped there (session 22).
-const CORNER_REACH: f64 = 2.0;
-
 /// A fold of a speed sweep: where the speed turns.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedFold {
@@ -333,12 +325,7 @@ impl<'a> SpeedTrace<'a> {
                 .map(|(a, b)| a - b)
                 .collect::<Vec<_>>(),
         );
-        let reach = if self.step > CORNER_STEP {
-            CORRECTOR_REACH
-        } else {
-            CORNER_REACH
-        };
-        if distance > reach * self.step {
+        if distance > CORRECTOR_REACH * self.step {
             return Err(format!(
                 "the corrector lands {distance:.3e} from the prediction (step {:.3e}) at {:.6e} \
                  rad/s",
