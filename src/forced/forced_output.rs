@@ -615,14 +615,21 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
         })
         .count();
     let verdict = check_verdict(last, failed, r.raised.is_some(), tolerance);
+    let over = if failed > 0 {
+        format!(
+            " (over the {} solved)",
+            last.checked.len().saturating_sub(failed)
+        )
+    } else {
+        String::new()
+    };
     let mut out = format!(
-        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W (over the {} solved){at_peak}\n",
+        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{over}{at_peak}\n",
         last.harmonics,
         traced.join(", "),
         if converged || !last.checkable { "" } else { "NOT converged: " },
         last.largest_change[0],
         last.largest_change[1],
-        last.checked.len() - failed.min(last.checked.len())
     );
     if let Some(raised) = &r.raised {
         out += &raised_note(r, raised, tolerance);
