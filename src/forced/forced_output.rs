@@ -7,7 +7,8 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use nlmodes_forced::{
-    ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, RaisedSegments, Verdict,
+    CurveHarmonics, ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, RaisedSegments,
+    Verdict,
 };
 use nlmodes_hb::FullBasis;
 use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, Series, PALETTE};
@@ -603,34 +604,61 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
     };
     let traced: Vec<String> = r.retraces.iter().map(|t| t.harmonics.to_string()).collect();
     let converged = r.harmonics_converged() == Some(true);
-    let verdict = if !last.checkable {
-        "not checked (2N above max_harmonics)".to_string()
-    } else if last.converged() {
-        format!("converged at its {} checked points", last.checked.len())
-    } else {
+    // A checked point whose 2N solve failed keeps that verdict, or (N raised around the
+    // moving ones) is among the raised segments' failed points.
+    let failed = (last.checked.iter())
+        .filter(|&&i| {
+            matches!(
+                r.points[i].harmonic_check,
+                HarmonicCheck::NotConverged { change: None }
+            ) || r.raised.as_ref().is_some_and(|s| s.failed.contains(&i))
+        })
+        .count();
+    let verdict = check_verdict(last, failed, r.raised.is_some(), tolerance);
+    let over = if failed > 0 {
         format!(
-            "{} of its {} checked points move by more than {tolerance:e} at 2N{}",
-            last.not_converged,
-            last.checked.len(),
-            if r.raised.is_some() {
-                " (N raised around them: next line)"
-            } else {
-                ""
-            }
+            " (over the {} solved)",
+            last.checked.len().saturating_sub(failed)
         )
+    } else {
+        String::new()
     };
     let mut out = format!(
-        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{at_peak}\n",
+        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{over}{at_peak}\n",
         last.harmonics,
         traced.join(", "),
         if converged || !last.checkable { "" } else { "NOT converged: " },
         last.largest_change[0],
-        last.largest_change[1]
+        last.largest_change[1],
     );
     if let Some(raised) = &r.raised {
         out += &raised_note(r, raised, tolerance);
     }
     out
+}
+
+/// What the check at 2N of a curve's trace `last` found, `failed` of its checked points not
+/// solved again at 2N (the solve failed or landed on another orbit): `not_converged` counts
+/// those beside the points that moved by more than `tolerance`, and `largest_change` is over
+/// the solved ones only, so the two are told apart (as the speed sweep's note does).
+fn check_verdict(last: &CurveHarmonics, failed: usize, raised: bool, tolerance: f64) -> String {
+    if !last.checkable {
+        return "not checked (2N above max_harmonics)".to_string();
+    }
+    if last.converged() {
+        return format!("converged at its {} checked points", last.checked.len());
+    }
+    let moved = last.not_converged.saturating_sub(failed);
+    format!(
+        "of its {} checked points {moved} move by more than {tolerance:e} at 2N{} and {failed} \
+         could not be solved again at 2N (the solve failed or landed on another orbit)",
+        last.checked.len(),
+        if raised && moved > 0 {
+            " (N raised around them: next line)"
+        } else {
+            ""
+        }
+    )
 }
 
 /// Where N was raised around the points that moved, and what the check of the raised points
@@ -711,4 +739,38 @@ pub fn summary(st: &ForcedStudy) -> String {
         }
     }
     out + &crate::forced::forced_exact::summary(st)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A check of 8 points at 2N, 5 of them not solved again there, 2 moved by more than the
+    /// tolerance, 1 within it: the note said "7 of its 8 checked points move by more than
+    /// 1e-3" beside a largest change over the 3 solved. It must say which is which.
+    #[test]
+    fn the_check_verdict_tells_failed_solves_from_moved_points() {
+        let last = CurveHarmonics {
+            harmonics: 10,
+            checked: (0..8).collect(),
+            not_converged: 7,
+            largest_change: [1.7e-3, 2.3e-4],
+            checkable: true,
+        };
+        let note = check_verdict(&last, 5, false, 1e-3);
+        assert!(note.contains("2 move by more than 1e-3"), "{note}");
+        assert!(note.contains("5 could not be solved again at 2N"), "{note}");
+        let note = check_verdict(&last, 0, true, 1e-3);
+        assert!(
+            note.contains("7 move by more than 1e-3 at 2N (N raised"),
+            "{note}"
+        );
+        assert!(note.contains("0 could not be solved"), "{note}");
+        let converged = CurveHarmonics {
+            not_converged: 0,
+            ..last
+        };
+        let note = check_verdict(&converged, 0, false, 1e-3);
+        assert_eq!(note, "converged at its 8 checked points");
+    }
 }

@@ -3,10 +3,14 @@
 //! the largest contact force and four points spread over its contact
 //! (`curve_harmonics::points_worth_checking`) are solved again at 2N, each on the row through
 //! the point normal to the sweep (the central secant of its neighbours in the scaled space of
-//! `speed_sweep`), by the frozen-speed corrector of `speed_step` (the structure follows the
-//! speed the row moves to). A point whose 2N solve moves the master's first harmonic or the
-//! speed by more than `harmonic_tolerance` (relative), or fails, or lands on another orbit, has
-//! not converged; under `SpeedHarmonics::Retrace` the whole sweep is then traced again at 2N,
+//! `speed_sweep`), as the trace's own steps are (`SpeedStepper::on_speed_row`: under the
+//! penalty law the structure follows W = e Omega inside the Newton solve; the structure frozen
+//! at one speed and that speed corrected only where that fails, or under exact contact). The
+//! row is normal to the speed line's curve, not to a frozen structure's response: frozen, the
+//! default blade's check failed at 5 of its 8 points (docs/ROTATION.md, session 22). A point
+//! whose 2N solve moves the master's first harmonic or the speed by more than
+//! `harmonic_tolerance` (relative), or fails, or lands on another orbit, has not converged;
+//! under `SpeedHarmonics::Retrace` the whole sweep is then traced again at 2N,
 //! while 4N is within `max_harmonics`. Every point of the kept sweep shares one N, so its folds
 //! are those of one truncation.
 
@@ -177,7 +181,15 @@ fn check_point(
             let start = start_at(&p.point, &solver);
             let row = arc.row(finer.fundamental());
             let reach = CHECK_REACH * finer.settings.speed_scale;
-            finer.on_row(start, p.speed, &|_, _| row.clone(), &|_, _| true, reach)
+            // The check has no step to halve: where the structure-following solve fails (under
+            // the penalty law an impact a few samples long can stall its inner Newton), the
+            // frozen speed corrected on the same row is the second way to the same point.
+            finer
+                .on_speed_row(start.clone(), &row, p.speed, reach)
+                .or_else(|e| {
+                    tracing::debug!(speed = p.speed, "speed sweep: the check at 2N: {e}; frozen");
+                    finer.on_row(start, p.speed, &|_, _| row.clone(), &|_, _| true, reach)
+                })
         })
         .map_err(|e| tracing::debug!(speed = p.speed, "speed sweep: the check at 2N: {e}"));
     let Ok(fine) = solved else {
@@ -191,6 +203,15 @@ fn check_point(
         (q - qf).abs() / qf.abs().max(f64::MIN_POSITIVE),
         (p.speed - fine.speed).abs() / fine.speed,
     ];
+    tracing::debug!(
+        point = i,
+        speed = p.speed,
+        speed_2n = fine.speed,
+        q1 = q,
+        q1_2n = qf,
+        solves = fine.corrections,
+        "speed sweep: the check at 2N solved"
+    );
     if change.iter().any(|&c| c > SAME_ORBIT) || fine.point.touches() != p.point.touches() {
         tracing::debug!(
             speed = p.speed,

@@ -186,18 +186,36 @@ impl SpeedStepper<'_> {
             state: row.predicted.clone(),
             multipliers: from.point.multipliers.clone(),
         };
-        let problem = self.problem(arc.speed)?;
+        // A point on the row lies within about the step of the prediction (the judge takes
+        // one step): twice that bounds the speed's corrections.
+        let reach = 2.0 * arc.step * arc.speed_scale;
+        self.on_speed_row(start, &row, arc.speed, reach)
+    }
+
+    /// The orbit on `row` (its parameter W = k Omega) from `start` (an orbit near the speed
+    /// `speed`): under the penalty law one Newton solve in (orbit, W) with the structure
+    /// following W ([`Self::on_arc_following`]), under exact contact the frozen speed
+    /// corrected ([`Self::on_row`], moving at most `reach` rad/s from `speed`). The trace's
+    /// steps and the harmonic checks' solves at 2N (`speed_harmonics`) both go through here:
+    /// a row that crosses the speed line's curve need not cross the response of the structure
+    /// frozen at one speed nearby (the check's rows, normal to the sweep, at the blade's peak
+    /// and folds did not: session 22, docs/ROTATION.md).
+    pub(crate) fn on_speed_row(
+        &self,
+        start: ForcedStart,
+        row: &ArcRow,
+        speed: f64,
+        reach: f64,
+    ) -> Result<SpeedPoint, ForcedError> {
+        let problem = self.problem(speed)?;
         let solver = problem.solver(&self.solver)?;
         let following = StructureAtSpeed { stepper: self };
         // The structure is built again where W moves by more than the speed tolerance.
         let band = self.fundamental() * self.settings.speed_tolerance * self.settings.speed_scale;
-        if let Some(solved) = solver.solve_following(start.clone(), &row, (&following, band)) {
+        if let Some(solved) = solver.solve_following(start.clone(), row, (&following, band)) {
             return self.on_arc_following(solved?);
         }
-        // A point on the row lies within about the step of the prediction (the judge takes
-        // one step): twice that bounds the speed's corrections.
-        let reach = 2.0 * arc.step * arc.speed_scale;
-        self.on_row(start, arc.speed, &|_, _| row.clone(), &|_, _| true, reach)
+        self.on_row(start, speed, &|_, _| row.clone(), &|_, _| true, reach)
     }
 
     /// The point of an orbit converged with the structure following W (`solved`, its

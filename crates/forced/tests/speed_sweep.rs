@@ -398,3 +398,122 @@ fn a_retraced_sweep_is_converged_in_n_against_the_exact_curve() {
     assert!(off(q20) < 1e-3, "{}", off(q20));
     assert!(off(q20) < off(q10));
 }
+
+/// The 3-DOF system turning (`Turning`) with its running gap closing with the speed, as a
+/// blade's tip clearance does: g0 (1 - a (Omega / Omega_r)^2).
+struct Closing {
+    turning: Turning,
+    shrink: f64,
+    speed_ref: f64,
+}
+
+impl SpeedFamily for Closing {
+    fn at(&self, speed: f64) -> Result<SpeedProblem, ForcedError> {
+        let mut problem = self.turning.at(speed)?;
+        let gap = self.turning.gap * (1.0 - self.shrink * (speed / self.speed_ref).powi(2));
+        let s = &problem.system;
+        problem.system = System::new(
+            s.mass().to_owned(),
+            s.stiffness().to_owned(),
+            s.contact_rows().to_owned(),
+            vec![gap],
+            2,
+        )?;
+        Ok(problem)
+    }
+}
+
+/// The 3-DOF system turning (S = 3: its mode 1 climbs a third as fast as W = 3 Omega near the
+/// crossing) with its gap closing by a = 0.2 at the crossing's speed, in contact (the penalty
+/// law, kc = 10 x the static contact stiffness, 2 % damping), swept at e = 3 from N = `n`
+/// under `policy` (stability off).
+fn turning_contact_sweep(n: usize, policy: SpeedHarmonics) -> SpeedSweep {
+    let t = Turning {
+        s: 3.0,
+        gap: 0.5,
+        zeta: 0.02,
+        force: 0.08,
+    };
+    let e = 3.0;
+    let system = t.system(0.0);
+    let wc = system.linear_frequencies()[0] / (e * e - t.s).sqrt();
+    let settings = ForcedSettings {
+        algorithm: AlgorithmParams {
+            method: ContactMethod::Penalty {
+                stiffness: 10.0 * system.contact_stiffness()[0],
+            },
+            ..AlgorithmParams::default()
+        },
+        ..ForcedSettings::new(n).unwrap()
+    };
+    let mut s = SpeedSweepSettings::new(3, 0, (0.8 * wc, 1.6 * wc), wc, settings);
+    s.harmonic_policy = policy;
+    s.max_harmonics = 4 * n;
+    s.stability = false;
+    let closing = Closing {
+        turning: t,
+        shrink: 0.2,
+        speed_ref: wc,
+    };
+    speed_sweep(&closing, &s, |_| {}).unwrap()
+}
+
+/// The check at 2N of a sweep whose structure moves with the speed (S = 3, the gap closing)
+/// solves every checked point again at 2N (DESIGN §10.10), each on its row normal to the
+/// sweep with the structure following W = e Omega, as the trace's own steps are
+/// (`SpeedStepper::on_speed_row`). Independent confirmation of the 2N solutions: the sweep
+/// traced again at 2N (`Retrace`, a continuation of its own) peaks where the check says: the
+/// relative change of the peak's q1 from N to 2N equals the check's change at the N sweep's
+/// peak point within 20 % (measured 3.053e-3 against 3.057e-3; the two differ by the traces'
+/// sampling of the peak and the row's slant). On the blade the old frozen-speed check failed
+/// at 5 of 8 points (docs/ROTATION.md); this small system's frozen check happens to converge,
+/// so the test guards the check's solves and their agreement with a retrace, not that
+/// failure. About 2 s.
+#[test]
+fn the_check_at_2n_solves_every_point_of_a_moving_structure() {
+    let n = 4;
+    let checked = turning_contact_sweep(n, SpeedHarmonics::Check);
+    assert_eq!(checked.termination, FrfTermination::Complete);
+    let report = &checked.retraces[0];
+    assert!(report.checkable && !report.checked.is_empty());
+    let mut unsolved = Vec::new();
+    for &i in &report.checked {
+        let p = &checked.points[i];
+        println!(
+            "point {i} at {:.6} rad/s, q1 {:.6}: {:?}",
+            p.speed,
+            master(&p.point.coefficients),
+            p.point.harmonic_check
+        );
+        if matches!(
+            p.point.harmonic_check,
+            HarmonicCheck::NotConverged { change: None } | HarmonicCheck::Unchecked
+        ) {
+            unsolved.push(i);
+        }
+    }
+    assert!(unsolved.is_empty(), "not solved again at 2N: {unsolved:?}");
+
+    let retraced = turning_contact_sweep(n, SpeedHarmonics::Retrace);
+    assert_eq!(retraced.harmonics, 2 * n, "{:?}", retraced.retraces);
+    let peak = |s: &SpeedSweep| {
+        (s.points.iter())
+            .map(|p| master(&p.point.coefficients))
+            .fold(0.0, f64::max)
+    };
+    let (q_n, q_2n) = (peak(&checked), peak(&retraced));
+    let top = (checked.points.iter())
+        .position(|p| master(&p.point.coefficients) == q_n)
+        .unwrap();
+    let change = match checked.points[top].point.harmonic_check {
+        HarmonicCheck::Converged { change } => change[0],
+        HarmonicCheck::NotConverged { change: Some(c) } => c[0],
+        other => panic!("the peak point {top} not solved at 2N: {other:?}"),
+    };
+    let moved = (q_n - q_2n).abs() / q_2n;
+    println!("peak q1 at N {q_n:.6}, at 2N (retraced) {q_2n:.6}: moved {moved:.3e}, the check {change:.3e}");
+    assert!(
+        (moved - change).abs() <= 0.2 * moved.max(change) + 1e-5,
+        "retrace {moved:.3e} against the check {change:.3e}"
+    );
+}
