@@ -35,13 +35,14 @@ use faer::Mat;
 use nlmodes_hb::{FullBasis, System};
 use rayon::prelude::*;
 
+use crate::casing_stability::{casing_point_stability, CasingModel};
 use crate::curve_harmonics::points_worth_checking;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
 use crate::load::Load;
 use crate::orbit_origin::{advanced_orbit, most_open_sample};
-use crate::point_stability::{assess_point_with, Assessment, PointStability};
+use crate::point_stability::{Assessment, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
 use crate::trace::norm;
@@ -509,12 +510,19 @@ impl Problem<'_> {
         } else {
             (p.point.clone(), 0.0)
         };
+        let distortion = self.settings.distortion(p.amplitude).advanced(theta);
         let settings = ForcedSettings {
-            distortion: Some(self.settings.distortion(p.amplitude).advanced(theta)),
+            distortion: Some(distortion),
             ..solver.clone()
         };
         let sv = ForcedSolver::new(self.system, self.damping, &self.load, settings)?;
-        assess_point_with(&sv, &point, how)
+        let model = CasingModel {
+            system: self.system,
+            damping: self.damping,
+            distortion,
+        };
+        let hb_change = p.harmonic_change.map(|c| c[0]);
+        casing_point_stability(&model, &sv, &point, hb_change, how)
     }
 
     /// The orbit of `p` solved again on `finer`'s N from its own (same delta and W).
