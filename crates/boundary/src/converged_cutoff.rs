@@ -100,6 +100,7 @@ pub fn boundary_with_converged_cutoff(
             (cutoff, change, converged) = (limit, [0.0; 2], true);
             continue;
         }
+        let clock = std::time::Instant::now();
         let Some(finer) = shoot(inputs, next, coefficients, omega, harmonic, false)? else {
             converged = false;
             break;
@@ -114,6 +115,7 @@ pub fn boundary_with_converged_cutoff(
             modes,
             amplitude_change = change[0],
             multiplier_change = change[1],
+            seconds = clock.elapsed().as_secs_f64(),
             "boundary cutoff doubled"
         );
         rung = finer;
@@ -124,7 +126,12 @@ pub fn boundary_with_converged_cutoff(
     }
     // The orbit at the point's own W on the last model (`BoundaryMonodromy::
     // fixed_frequency_largest`), from the last model's shot orbit.
+    let clock = std::time::Instant::now();
     rung.boundary.fixed_frequency_largest = rung.boundary.largest_at_own_frequency(omega);
+    tracing::debug!(
+        seconds = clock.elapsed().as_secs_f64(),
+        "the boundary orbit at the point's own W"
+    );
     Ok(Some(CutoffConvergence {
         boundary: rung.boundary,
         master_amplitude: rung.amplitude,

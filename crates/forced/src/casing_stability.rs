@@ -72,6 +72,7 @@ pub(crate) fn casing_point_stability(
         gap_motion: vec![model.distortion.gap_harmonic(model.system.n_contacts())],
     };
     let h = model.distortion.harmonic;
+    let clock = std::time::Instant::now();
     let settled = boundary_with_converged_cutoff(
         &inputs,
         &point.coefficients,
@@ -97,6 +98,7 @@ pub(crate) fn casing_point_stability(
         limit,
         largest = settled.boundary.monodromy.largest(),
         cutoff_change = ?settled.change,
+        seconds = clock.elapsed().as_secs_f64(),
         "casing point on the converged boundary"
     );
     let st = PointStability::on_boundary_at(
@@ -105,9 +107,15 @@ pub(crate) fn casing_point_stability(
         distance,
         limit,
     );
-    Ok(if how.verify {
-        st.verified(&settled.boundary)
-    } else {
-        st
-    })
+    if !how.verify {
+        return Ok(st);
+    }
+    let clock = std::time::Instant::now();
+    let st = st.verified(&settled.boundary);
+    tracing::debug!(
+        seconds = clock.elapsed().as_secs_f64(),
+        modes = settled.boundary.modes,
+        "casing point's RK4 check"
+    );
+    Ok(st)
 }
