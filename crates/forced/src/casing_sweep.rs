@@ -492,13 +492,12 @@ impl Problem<'_> {
         }
     }
 
-    /// The stability of `p` on `solver`'s N as `how` says. A point in contact is assessed from
-    /// the time origin where it is farthest from contact (`orbit_origin::most_open_sample`): the
-    /// massless boundary is shot from the harmonic-balance state there and its verdict kept
-    /// only when its orbit lies within the shift limit of that state; at a strike (t = 0 at
-    /// phase 0, where the gap is smallest) the truncated series' velocity is off by the Gibbs
-    /// error of the kink the strike puts in it, whatever N (docs/ROTATION.md "The casing
-    /// study's N"). The multipliers do not depend on the origin.
+    /// The stability of `p` on `solver`'s N as `how` says (`casing_stability`). A point in
+    /// contact is shot on the massless boundary from the time origin where it is farthest from
+    /// contact (`orbit_origin::most_open_sample`): at a strike (t = 0 at phase 0, where the gap
+    /// is smallest) the truncated series' velocity is off by the Gibbs error of the kink the
+    /// strike puts in it, whatever N, a poor start for the shooting. The multipliers and the
+    /// master's amplitude it is judged by do not depend on the origin.
     fn stability(
         &self,
         solver: &ForcedSettings,
