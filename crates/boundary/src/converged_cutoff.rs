@@ -6,10 +6,10 @@
 //! a strike puts a force pulse on the contact rows whose spectrum reaches far above N W, and a
 //! mode just above the cutoff responds to it dynamically, not statically. On the default blade
 //! under the casing distortion (W = 266.7 Hz, N = 10) the cutoff 11 W keeps 3 modes and
-//! discards the fourth at 11.8 W: that boundary's exact orbit lies 3-9 % in the master's first
+//! discards the fourth at 11.8 W: that boundary's exact orbit lies 1-9 % in the master's first
 //! harmonic from the same model with 14 modes (cutoff 41 W), and next to the jump at 0.84 g0
 //! its largest |mu| is 1.20 where the 14-mode model's is 0.97 (a wrong "unstable"); from 14 to
-//! 48 modes the orbit moves by at most 2e-3 and |mu| by 3e-3 (measured, docs/STABILITY.md
+//! 48 modes the orbit moves by at most 2e-3 and |mu| by 4e-3 (measured, docs/STABILITY.md
 //! Sec. 9.6).
 //!
 //! Here the cutoff is doubled, (N + 1) W, 2 (N + 1) W, ..., until the shot orbit's master

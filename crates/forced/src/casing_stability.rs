@@ -6,8 +6,8 @@
 //!
 //! Why not the state distance of `PointStability::on_boundary`: it compares (q, q') at one
 //! instant scaled by |q| and W |q|, so a kept mode k carries its velocity error times w_k / W.
-//! On the default blade it grows with the modes kept (0.08 at 14 modes, 0.18 at 48, at 0.84 g0)
-//! while the master's first harmonic of the same two orbits agrees to 3e-3 (N = 40), and the
+//! On the default blade it grows with the modes kept (0.08 at 14 modes, 0.19 at 48, at 0.84 g0)
+//! while the master's first harmonic of the same two orbits agrees to 1.6e-3..3.4e-3 (N = 40), and the
 //! harmonic-balance orbit's truncated series carries the Gibbs error of the strike's kink in
 //! exactly those velocities. The amplitude is a property of the whole orbit, the same from any
 //! time origin.
