@@ -7,7 +7,7 @@
 use faer::Mat;
 
 use crate::driven_model::{driven_model, modal_start, DrivenBoundary, DrivenInputs};
-use crate::driven_shooting::{shoot_driven, shoot_driven_at_fixed_frequency, DrivenOrbit};
+use crate::driven_shooting::{shoot_driven, shoot_driven_at_fixed_frequency};
 use nlmodes_hb::floquet::{multipliers_of, SampledMonodromy};
 use nlmodes_hb::HbError;
 
@@ -43,6 +43,17 @@ pub fn boundary_monodromy(
     coefficients: &Mat<f64>,
     omega: f64,
 ) -> Result<Option<BoundaryMonodromy>, HbError> {
+    monodromy_on_boundary(inputs, coefficients, omega, true)
+}
+
+/// [`boundary_monodromy`], the orbit at the point's own W shot too only when
+/// `at_own_frequency` (`converged_cutoff` asks for it on its last model only).
+pub(crate) fn monodromy_on_boundary(
+    inputs: &DrivenInputs<'_>,
+    coefficients: &Mat<f64>,
+    omega: f64,
+    at_own_frequency: bool,
+) -> Result<Option<BoundaryMonodromy>, HbError> {
     let Some(model) = driven_model(inputs, omega)? else {
         return Ok(None);
     };
@@ -68,31 +79,39 @@ pub fn boundary_monodromy(
         "massless-boundary orbit"
     );
     let trace: f64 = (0..r).map(|i| model.damping[(i, i)]).sum();
-    let fixed_frequency_largest = fixed_frequency_largest(&model, &orbit, trace);
     let period = 2.0 * std::f64::consts::PI / orbit.omega;
     let mut model = model;
     model.omega = orbit.omega;
-    Ok(Some(BoundaryMonodromy {
+    let mut b = BoundaryMonodromy {
         monodromy: multipliers_of(orbit.monodromy, trace, period)?,
         shift: orbit.shift,
         modes: r,
         model,
         start: orbit.start,
-        fixed_frequency_largest,
-    }))
+        fixed_frequency_largest: None,
+    };
+    if at_own_frequency {
+        b.fixed_frequency_largest = b.largest_at_own_frequency(omega);
+    }
+    Ok(Some(b))
 }
 
-/// The largest |mu| of the boundary's periodic orbit at `model`'s own W, shot from `orbit`
-/// (found with W free): the same orbit when W did not move.
-fn fixed_frequency_largest(model: &DrivenBoundary, orbit: &DrivenOrbit, trace: f64) -> Option<f64> {
-    let period = 2.0 * std::f64::consts::PI / model.omega;
-    if orbit.omega == model.omega {
-        return None;
+impl BoundaryMonodromy {
+    /// The largest |mu| of the boundary's periodic orbit at W = `omega` (the point's own),
+    /// shot from this orbit (found with W free): `None` where W did not move or that shooting
+    /// does not converge.
+    pub(crate) fn largest_at_own_frequency(&self, omega: f64) -> Option<f64> {
+        if self.model.omega == omega {
+            return None;
+        }
+        let model = self.model.at(omega);
+        let trace: f64 = (0..self.modes).map(|i| model.damping[(i, i)]).sum();
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let fixed = shoot_driven_at_fixed_frequency(&model, &self.start).ok()??;
+        Some(
+            multipliers_of(fixed.monodromy, trace, period)
+                .ok()?
+                .largest(),
+        )
     }
-    let fixed = shoot_driven_at_fixed_frequency(model, &orbit.start).ok()??;
-    Some(
-        multipliers_of(fixed.monodromy, trace, period)
-            .ok()?
-            .largest(),
-    )
 }

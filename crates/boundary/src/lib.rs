@@ -33,6 +33,7 @@
 mod arc_length;
 mod backbone_curve;
 mod converged;
+mod converged_cutoff;
 mod driven_curve;
 mod driven_flow;
 mod driven_model;
@@ -56,6 +57,7 @@ mod test_models;
 pub use arc_length::{CurveEnd, CurveSettings};
 pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece, Judge};
 pub use converged::{converged_orbit, ConvergedOrbit, ConvergenceSettings, ConvergenceStop};
+pub use converged_cutoff::{boundary_with_converged_cutoff, CutoffConvergence, CUTOFF_DOUBLINGS};
 pub use driven_curve::driven_end_text;
 pub use driven_model::{
     BoundaryDrive, DrivenBoundary, DrivenInputs, GapHarmonic, LoadHarmonic, BOUNDARY_CUTOFF,

@@ -135,3 +135,25 @@ fn master_measures(
     let scale = 2.0 / MASTER_SAMPLES as f64;
     Ok(((a * scale).hypot(b * scale), largest, force))
 }
+
+/// The master's amplitude (m) at harmonic `harmonic` of W over the shot orbit `b` of the model
+/// `inputs` builds (its `b.modes` kept), from `MASTER_SAMPLES` instants of the exact flow (the
+/// kept modes plus the discarded modes' static response, as [`BoundaryCurvePoint`]'s): what
+/// `converged_cutoff` compares with the harmonic-balance orbit's.
+pub(crate) fn master_amplitude_at(
+    inputs: &DrivenInputs<'_>,
+    b: &crate::driven_stability::BoundaryMonodromy,
+    harmonic: usize,
+) -> Result<f64, HbError> {
+    let row = MasterRow::driven(inputs, b.modes);
+    let samples = sample_orbit(&b.model, &b.start, MASTER_SAMPLES)?;
+    let (mut a, mut s) = (0.0, 0.0);
+    for x in &samples {
+        let u = row.at_time(&x.q, &x.lambda, b.model.omega, x.time);
+        let (sn, cs) = (harmonic as f64 * b.model.omega * x.time).sin_cos();
+        a += u * cs;
+        s += u * sn;
+    }
+    let scale = 2.0 / MASTER_SAMPLES as f64;
+    Ok((a * scale).hypot(s * scale))
+}

@@ -35,13 +35,14 @@ use faer::Mat;
 use nlmodes_hb::{FullBasis, System};
 use rayon::prelude::*;
 
+use crate::casing_stability::{casing_point_stability, CasingModel};
 use crate::curve_harmonics::points_worth_checking;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::ladder::start_at;
 use crate::load::Load;
 use crate::orbit_origin::{advanced_orbit, most_open_sample};
-use crate::point_stability::{assess_point_with, Assessment, PointStability};
+use crate::point_stability::{Assessment, PointStability};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
 use crate::trace::norm;
@@ -491,13 +492,12 @@ impl Problem<'_> {
         }
     }
 
-    /// The stability of `p` on `solver`'s N as `how` says. A point in contact is assessed from
-    /// the time origin where it is farthest from contact (`orbit_origin::most_open_sample`): the
-    /// massless boundary is shot from the harmonic-balance state there and its verdict kept
-    /// only when its orbit lies within the shift limit of that state; at a strike (t = 0 at
-    /// phase 0, where the gap is smallest) the truncated series' velocity is off by the Gibbs
-    /// error of the kink the strike puts in it, whatever N (docs/ROTATION.md "The casing
-    /// study's N"). The multipliers do not depend on the origin.
+    /// The stability of `p` on `solver`'s N as `how` says (`casing_stability`). A point in
+    /// contact is shot on the massless boundary from the time origin where it is farthest from
+    /// contact (`orbit_origin::most_open_sample`): at a strike (t = 0 at phase 0, where the gap
+    /// is smallest) the truncated series' velocity is off by the Gibbs error of the kink the
+    /// strike puts in it, whatever N, a poor start for the shooting. The multipliers and the
+    /// master's amplitude it is judged by do not depend on the origin.
     fn stability(
         &self,
         solver: &ForcedSettings,
@@ -509,12 +509,19 @@ impl Problem<'_> {
         } else {
             (p.point.clone(), 0.0)
         };
+        let distortion = self.settings.distortion(p.amplitude).advanced(theta);
         let settings = ForcedSettings {
-            distortion: Some(self.settings.distortion(p.amplitude).advanced(theta)),
+            distortion: Some(distortion),
             ..solver.clone()
         };
         let sv = ForcedSolver::new(self.system, self.damping, &self.load, settings)?;
-        assess_point_with(&sv, &point, how)
+        let model = CasingModel {
+            system: self.system,
+            damping: self.damping,
+            distortion,
+        };
+        let hb_change = p.harmonic_change.map(|c| c[0]);
+        casing_point_stability(&model, &sv, &point, hb_change, how)
     }
 
     /// The orbit of `p` solved again on `finer`'s N from its own (same delta and W).

@@ -18,6 +18,7 @@
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
 mod boundary;
+mod casing_stability;
 mod casing_sweep;
 mod corner;
 mod curve;

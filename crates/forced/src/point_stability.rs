@@ -56,9 +56,21 @@ pub struct PointStability {
 
 impl PointStability {
     pub(crate) fn on_boundary(b: &crate::boundary::BoundaryMonodromy, margin: f64) -> Self {
+        Self::on_boundary_at(b, margin, b.shift, crate::boundary::BOUNDARY_SHIFT_LIMIT)
+    }
+
+    /// [`Self::on_boundary`] with the distance between the harmonic-balance orbit and the shot
+    /// one measured as the caller says (`distance`, recorded as `boundary_shift`) and judged
+    /// against `limit`: undetermined beyond it.
+    pub(crate) fn on_boundary_at(
+        b: &crate::boundary::BoundaryMonodromy,
+        margin: f64,
+        distance: f64,
+        limit: f64,
+    ) -> Self {
         let mut st = Self::of(&b.monodromy, margin);
-        st.boundary_shift = Some(b.shift);
-        if b.shift > crate::boundary::BOUNDARY_SHIFT_LIMIT {
+        st.boundary_shift = Some(distance);
+        if distance.is_nan() || distance > limit {
             st.verdict = Verdict::Undetermined;
         }
         // The orbit at the point's own W says otherwise: a bifurcation lies within the shift.
@@ -72,7 +84,7 @@ impl PointStability {
 
     /// This boundary verdict checked by one period of RK4 of `b`'s model (module docs of
     /// `nlmodes_boundary::rk4_check`): undetermined where the check disagrees or fails.
-    fn verified(mut self, b: &BoundaryMonodromy) -> Self {
+    pub(crate) fn verified(mut self, b: &BoundaryMonodromy) -> Self {
         match check_driven_by_rk4(b) {
             Ok(check) => {
                 self.rk4_change = Some(check.max_multiplier_change.max(check.periodicity));
