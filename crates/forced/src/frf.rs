@@ -84,6 +84,7 @@ fn retraced_curve(
                 let raising = Raising {
                     base: current,
                     finer: ladder.solver(1),
+                    top,
                     check: match 4 * n <= MAX_CHECK_HARMONICS {
                         true => Some(current.with_harmonics(4 * n)?),
                         false => None,
@@ -98,8 +99,10 @@ fn retraced_curve(
                     not_converged = raised.check.not_converged,
                     change_q1 = raised.check.largest_change[0],
                     change_omega = raised.check.largest_change[1],
-                    "forced response: N raised to {} around the points that moved",
-                    2 * n
+                    "forced response: N raised up to {} around the points that moved, in {} \
+                     round(s); the deciding checks",
+                    raised.check.harmonics,
+                    raised.rounds.len()
                 );
                 curve.raised = Some(raised);
             }
