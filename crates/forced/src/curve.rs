@@ -83,7 +83,7 @@ pub struct RaisedSegments {
     /// Points of the segments whose raised solve failed (kept one level down, `check_failed`),
     /// and not converged checked points that could not be raised.
     pub failed: Vec<usize>,
-    /// The checks that decide: in each segment of each round its point of largest change,
+    /// The checks that decide: in each segment of each round its seed and point of largest change,
     /// checked one level above it, unless a later round raised that segment again.
     /// `harmonics` is the largest N raised to (the last round's); `checkable` whether round 1
     /// could be checked at all.
@@ -103,7 +103,7 @@ pub struct RaisedRound {
     pub raised: Vec<usize>,
     /// The points whose solve at `harmonics` failed.
     pub failed: Vec<usize>,
-    /// Its check at 2 `harmonics`: each segment's point of largest change.
+    /// Its check at 2 `harmonics`: each segment's seed and point of largest change.
     pub check: CurveHarmonics,
 }
 

@@ -66,9 +66,10 @@ fn retraced_curve(
         let ladder = HarmonicLadder::new(current, (2 * n).min(top), settings.harmonic_tolerance)?
             .with_policy(HarmonicPolicy::Retrace);
         let mut curve = trace_range(&ladder, settings, progress)?;
-        let (check, moving) = check_curve(&ladder, settings, &mut curve);
         let touches = curve.points.iter().any(|p| p.touches());
-        let again = !check.converged() && 4 * n <= top && touches;
+        let may_retrace = 4 * n <= top && touches && ladder.levels() > 1;
+        let (check, moving) = check_curve(&ladder, settings, &mut curve, may_retrace);
+        let again = !check.converged() && may_retrace;
         tracing::info!(
             harmonics = n,
             checked = check.checked.len(),
@@ -106,7 +107,14 @@ fn retraced_curve(
                 );
                 curve.raised = Some(raised);
             }
-            assess_stability(&ladder, settings, &mut curve)?;
+            // Every point is assessed by the solver of its N: up to the last round's when
+            // points were raised beyond 2N.
+            let raised_to = curve.raised.as_ref().map_or(0, |r| r.check.harmonics);
+            let stability = match raised_to > 2 * n {
+                true => HarmonicLadder::new(current, raised_to, settings.harmonic_tolerance)?,
+                false => ladder,
+            };
+            assess_stability(&stability, settings, &mut curve)?;
             curve.retraces = retraces;
             return Ok(curve);
         }

@@ -3,14 +3,14 @@
 //! neighbours along the curve, are solved again at 2N, each on the row through it normal to the
 //! curve, and the segment ends on each side at `EDGE` points in a row converged at N (their 2N
 //! solve within the tolerance). The points that moved carry their 2N solve; those converged at
-//! N keep N with their verdict. Each segment's point of largest change from N to 2N is then
-//! checked at 4N, where an error is likeliest. A segment whose check still moves is raised
-//! again in round 2, the same way one level up (its points at 2N solved at 4N, grown from the
-//! checked point among the points round 1 raised, the largest change checked at 8N), and so on
-//! while the raised N stays within `RAISE_BEYOND` x `max_harmonics` and its check within
+//! N keep N with their verdict. Each segment's seed and point of largest change from N to 2N
+//! are then checked at 4N, where an error is likeliest. A segment whose check still moves is
+//! raised again in round 2, the same way one level up (its points at 2N solved at 4N, grown
+//! from the checked point among the points round 1 raised, checked at 8N), and so on while the
+//! raised N stays within `RAISE_BEYOND` x `max_harmonics` and its check within
 //! `MAX_CHECK_HARMONICS`. On the default blade's level 5 (N = 20, 387 points) round 1 solves
-//! about 50 points at 40 and 2 at 80 where a retrace of the whole curve at 40 would trace it
-//! again and check it at 80.
+//! about 50 points at 40 and 4 at 80 where a retrace of the whole curve at 40 would trace it
+//! again and check it at 80; its level 2 needs round 2 (3 points at 80, 2 checks at 160).
 //!
 //! Every solve of a point, at any N, is on the same row: the one normal to the trace at N
 //! through the point (`normal_row`), so the changes between rounds compare one orbit. Each
@@ -141,7 +141,7 @@ impl Raising<'_, '_> {
 
     /// One round (module docs): segments grown in parallel around `seeds` (each with its solve
     /// at `round.to`), a seed already inside an earlier segment growing none; the raised points
-    /// and verdicts written into `curve`; each segment's point of largest change checked at
+    /// and verdicts written into `curve`; each segment's seed and point of largest change checked at
     /// `round.check`. Returns the round and its checks (with their solves, the next round's
     /// seeds).
     fn round(
@@ -226,9 +226,10 @@ impl Raising<'_, '_> {
     }
 
     /// The segment around the moving point `seed` (its solve one level up `finer`), grown
-    /// both ways within its piece over the points at `round.from` until `EDGE` points in a row
-    /// are converged there or fail, or the contact ends (a point out of contact is exact at
-    /// any N), or a point is at another N (converged one level down in an earlier round).
+    /// both ways (at once) within its piece over the points at `round.from` until `EDGE`
+    /// points in a row are converged there or fail, or the contact ends (a point out of contact
+    /// is exact at any N), or a point is at another N (converged one level down in an earlier
+    /// round).
     fn grow(
         &self,
         trace: &FrequencyResponse,
@@ -239,6 +240,8 @@ impl Raising<'_, '_> {
     ) -> Segment {
         let master = self.base.system().master();
         let change = crate::ladder::relative_change(&curve.points[seed], &finer, master);
+        let side = |step| self.grow_side(trace, curve, round, (seed, &finer), step);
+        let (down, up) = rayon::join(|| side(-1), || side(1));
         let mut segment = Segment {
             first: seed,
             last: seed,
@@ -246,39 +249,63 @@ impl Raising<'_, '_> {
             failed: Vec::new(),
             seed,
         };
-        let (start, end) = curve.piece_of(seed);
-        for step in [-1_isize, 1] {
-            let (mut prev, mut prev_fine) = (seed, finer.clone());
-            let (mut quiet, mut fixed) = (0, false);
-            let mut j = seed as isize + step;
-            while quiet < EDGE && (start as isize..end as isize).contains(&j) {
-                let i = j as usize;
-                let point = &curve.points[i];
-                if !point.touches() || point.harmonics != round.from {
-                    break;
-                }
-                let neighbour = (&curve.points[prev], &prev_fine);
-                match self.solve_finer(trace, curve, round.to, i, neighbour, fixed) {
-                    Some((fine, change, at_w)) => {
-                        fixed = at_w;
-                        let converged = change
-                            .iter()
-                            .all(|&c| c <= self.settings.harmonic_tolerance);
-                        quiet = if converged { quiet + 1 } else { 0 };
-                        segment.solved.push((i, fine.clone(), change));
-                        (prev, prev_fine) = (i, fine);
-                    }
-                    None => {
-                        quiet += 1;
-                        segment.failed.push(i);
-                    }
-                }
-                segment.first = segment.first.min(i);
-                segment.last = segment.last.max(i);
-                j += step;
+        for side in [down, up] {
+            for i in side.failed.iter().chain(side.solved.iter().map(|s| &s.0)) {
+                segment.first = segment.first.min(*i);
+                segment.last = segment.last.max(*i);
             }
+            segment.solved.extend(side.solved);
+            segment.failed.extend(side.failed);
         }
         segment
+    }
+
+    /// One side of `grow`: the points from `seed` (with its solve one level up) in the
+    /// direction `step` (-1 or 1), as a segment without its seed.
+    fn grow_side(
+        &self,
+        trace: &FrequencyResponse,
+        curve: &FrequencyResponse,
+        round: &Round<'_, '_>,
+        (seed, finer): (usize, &ForcedPoint),
+        step: isize,
+    ) -> Segment {
+        let mut side = Segment {
+            first: seed,
+            last: seed,
+            solved: Vec::new(),
+            failed: Vec::new(),
+            seed,
+        };
+        let (start, end) = curve.piece_of(seed);
+        let (mut prev, mut prev_fine) = (seed, finer.clone());
+        let (mut quiet, mut fixed) = (0, false);
+        let mut j = seed as isize + step;
+        while quiet < EDGE && (start as isize..end as isize).contains(&j) {
+            let i = j as usize;
+            let point = &curve.points[i];
+            if !point.touches() || point.harmonics != round.from {
+                break;
+            }
+            let neighbour = (&curve.points[prev], &prev_fine);
+            match self.solve_finer(trace, curve, round.to, i, neighbour, fixed) {
+                Some((fine, change, at_w)) => {
+                    fixed = at_w;
+                    let converged = change
+                        .iter()
+                        .all(|&c| c <= self.settings.harmonic_tolerance);
+                    quiet = if converged { quiet + 1 } else { 0 };
+                    side.solved.push((i, fine.clone(), change));
+                    (prev, prev_fine) = (i, fine);
+                }
+                None => {
+                    quiet += 1;
+                    side.failed.push(i);
+                }
+            }
+            j += step;
+        }
+        side
     }
 
     /// Point `i` of `curve` solved by `finer` (one level up) from its neighbour's solve there
@@ -380,9 +407,9 @@ fn summary(
 
 /// The points of segment `s` checked one level up: its seed and its point of largest change
 /// from the level below, each when it moved by more than `tolerance` (with their solves one
-/// level up). Both are needed: on the blade's level 2 the seed (W/w = 1.0610) moves 1.9e-3
-/// from 20 to 40 and 1.6e-3 from 40 to 80, while the segment's largest change from 20 to 40
-/// moves 7.5e-4 from 40 to 80: the truncation error is not monotone along a segment.
+/// level up). Both are needed: on the blade's level 2 the seed (W/w = 1.061) moves 1.6e-3 from
+/// 40 to 80, while the segment's largest change from 20 to 40 moves 7.5e-4 from 40 to 80: the
+/// truncation error is not monotone along a segment (DESIGN §10.8).
 fn representatives(s: &Segment, tolerance: f64) -> Vec<(usize, ForcedPoint)> {
     let moved = |c: &[f64; 2]| c.iter().any(|&v| v > tolerance);
     let size = |c: &[f64; 2]| c[0].max(c[1]);
