@@ -32,6 +32,11 @@ use common::{csv_columns, nlmodes, padded_contact_model};
 use pwl::trace::{first_harmonic, ExactCurve};
 use pwl::{Dense, Orbit, Pwl};
 
+/// `harmonic_tolerance`: the default.
+const TOLERANCE: f64 = 1e-3;
+/// A tolerance the check at 40 of the points raised to 20 does not meet (it moves them by up
+/// to 3.4e-4): their segments must be raised again, to 40, and checked at 80.
+const TIGHT_TOLERANCE: f64 = 1e-4;
 /// The gap (m): `padded_contact_model`'s.
 const GAP: f64 = 1.0;
 /// The oracle's shooting tolerance on |z(T) - z(0)| (m, m/s), far below every difference.
@@ -72,16 +77,19 @@ fn chain() -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     (mass, stiffness)
 }
 
-fn run(root: &Path, max_harmonics: usize) -> Run {
-    let (model, out) = (root.join("model"), root.join(format!("out{max_harmonics}")));
-    let settings = root.join(format!("forced{max_harmonics}.toml"));
+/// `nlmodes forced` on the chain from N = 10 up to `max_harmonics` at `tolerance`
+/// (`harmonic_tolerance`), into `root/{name}`.
+fn run(root: &Path, name: &str, max_harmonics: usize, tolerance: f64) -> Run {
+    let (model, out) = (root.join("model"), root.join(name));
+    let settings = root.join(format!("{name}.toml"));
     std::fs::write(
         &settings,
         format!(
             "[forced]\nrange = [{:?}, {:?}]\nload = \"master\"\nlevels = [{FORCE:?}]\n\
              level_unit = \"N\"\ncontact = \"penalty\"\npenalty_factor = {PENALTY_FACTOR:?}\n\
              damping_ratio = {ZETA:?}\nadapt_harmonics = \"retrace\"\nharmonics = 10\n\
-             max_harmonics = {max_harmonics}\nstability = false\nexact_curve = false\n",
+             max_harmonics = {max_harmonics}\nharmonic_tolerance = {tolerance:?}\n\
+             stability = false\nexact_curve = false\n",
             RANGE.0, RANGE.1
         ),
     )
@@ -202,8 +210,8 @@ fn raising_n_around_the_points_that_moved_brings_them_onto_the_exact_curve() {
         (1, 0),
         &[1.0, 3.0_f64.sqrt()],
     );
-    let coarse = run(&root, 10);
-    let raised_run = run(&root, 20);
+    let coarse = run(&root, "out10", 10, TOLERANCE);
+    let raised_run = run(&root, "out20", 20, TOLERANCE);
     assert!(
         coarse.raised.is_null(),
         "nothing to raise at max_harmonics = N"
@@ -281,4 +289,86 @@ fn raising_n_around_the_points_that_moved_brings_them_onto_the_exact_curve() {
         largest <= RAISED_ERROR,
         "largest error of a raised point {largest:.2e}"
     );
+}
+
+/// A segment whose check at 4N still moves is raised again (`raised_segments`, round 2): at
+/// `harmonic_tolerance = TIGHT_TOLERANCE` the points raised to 20 move by more than it at 40, so
+/// their segments are raised to 40 (within twice max_harmonics) among the points at 20 and
+/// checked at 80. Checked: the deciding check is at 80 (`raised.check.harmonics` = 40) and
+/// converged, nothing failed; the points at 40 are raised points and lie within
+/// `2 TIGHT_TOLERANCE` of the exact orbits at their W away from the folds, nearer than the same
+/// points of the default-tolerance run at 20; every point at N = 10 is the N = 10 run's. A
+/// raising that left a segment moving at 4N unraised (session 21's) fails the first assertion.
+#[test]
+fn a_segment_still_moving_at_4n_is_raised_again() {
+    let root: PathBuf = Path::new(env!("CARGO_TARGET_TMPDIR")).join("forced_raised_again");
+    let _ = std::fs::remove_dir_all(&root);
+    let (mass, stiffness) = chain();
+    padded_contact_model(
+        &root.join("model"),
+        &mass,
+        &stiffness,
+        (1, 0),
+        &[1.0, 3.0_f64.sqrt()],
+    );
+    let once = run(&root, "out20", 20, TOLERANCE);
+    let again = run(&root, "tight20", 20, TIGHT_TOLERANCE);
+    let raised = &again.raised;
+    let check = &raised["check"];
+    let at_40: Vec<usize> = (0..again.omega.len())
+        .filter(|&i| again.harmonics[i] == 40)
+        .collect();
+    println!(
+        "tolerance {TIGHT_TOLERANCE:e}: {} points at 40, segments {}, deciding check {check}",
+        at_40.len(),
+        raised["segments"]
+    );
+    assert_eq!(check["harmonics"].as_u64(), Some(40), "{raised}");
+    assert_eq!(check["not_converged"].as_u64(), Some(0), "{check}");
+    assert!(raised["failed"].as_array().unwrap().is_empty(), "{raised}");
+    assert!(!at_40.is_empty());
+    let listed: Vec<u64> = raised["raised"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert_eq!(once.omega.len(), again.omega.len(), "the same trace");
+    for i in 0..again.omega.len() {
+        match again.harmonics[i] {
+            10 => assert_eq!(again.q1[i], once.q1[i], "point {i} at N = 10"),
+            _ => assert!(listed.contains(&(i as u64)), "point {i} not listed raised"),
+        }
+    }
+
+    let exact = exact_curve();
+    let folds: Vec<f64> = exact
+        .folds
+        .iter()
+        .map(|f| exact.samples[f.sample].orbit.omega)
+        .collect();
+    let (mut at_20, mut raised_40, mut largest) = (Vec::new(), Vec::new(), 0.0_f64);
+    for &i in &at_40 {
+        let (w, q) = (again.omega[i], again.q1[i]);
+        let e = error_at(&exact, w, q);
+        let e20 = error_at(&exact, once.omega[i], once.q1[i]);
+        if e.is_finite() && e20.is_finite() && once.harmonics[i] == 20 {
+            at_20.push(e20);
+            raised_40.push(e);
+        }
+        if e.is_finite() && folds.iter().all(|f| (w / f - 1.0).abs() > NEAR_FOLD_OMEGA) {
+            largest = largest.max(e);
+        }
+    }
+    println!(
+        "points at 40: median error {:.2e} (the same points at 20: {:.2e}), largest away from \
+         the folds {largest:.2e}",
+        median(raised_40.clone()),
+        median(at_20.clone())
+    );
+    assert!(
+        largest <= 2.0 * TIGHT_TOLERANCE,
+        "largest error at 40 {largest:.2e}"
+    );
+    assert!(median(raised_40) < median(at_20));
 }

@@ -68,27 +68,48 @@ impl CurveHarmonics {
     }
 }
 
-/// The points of a retraced curve raised to 2N where the check of its N found them moving
-/// (DESIGN §10.8, `raised_segments`): each not converged checked point and its neighbours
-/// along the curve until two in a row are converged at N.
+/// The points of a retraced curve raised above its N where the check of its N found them
+/// moving (DESIGN §10.8, `raised_segments`), over all rounds: each not converged checked point
+/// and its neighbours along the curve until two in a row are converged at N, raised to 2N
+/// (round 1); each segment of round k whose check still moves raised again one level up
+/// (round k + 1).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RaisedSegments {
-    /// Each segment's first and last point (indices into the curve, inclusive): the points
-    /// solved again at 2N around one not converged checked point.
+    /// Each segment's first and last point (indices into the curve, inclusive), every round's
+    /// (a later round's segments lie inside round 1's).
     pub segments: Vec<[usize; 2]>,
-    /// The points raised: solved at 2N (`check.harmonics`) in place of N.
+    /// The points raised: solved above the trace's N (each point's N is its `harmonics`).
     pub raised: Vec<usize>,
-    /// Points of the segments whose 2N solve failed (kept at N, `check_failed`), and not
-    /// converged checked points that could not be raised.
+    /// Points of the segments whose raised solve failed (kept one level down, `check_failed`),
+    /// and not converged checked points that could not be raised.
     pub failed: Vec<usize>,
-    /// The check of the raised points at twice their N: in each segment its not converged
-    /// checked points and its point of largest change from N to 2N. `harmonics` is the raised
-    /// N; `checkable` whether that check was solved at all.
+    /// The checks that decide: in each segment of each round its seed and point of largest change,
+    /// checked one level above it, unless a later round raised that segment again.
+    /// `harmonics` is the largest N raised to (the last round's); `checkable` whether round 1
+    /// could be checked at all.
+    pub check: CurveHarmonics,
+    /// Each round: its N, segments, raised and failed points, and its own check.
+    pub rounds: Vec<RaisedRound>,
+}
+
+/// One round of `RaisedSegments`: points raised to `harmonics` and checked at twice it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RaisedRound {
+    /// N of the points this round raised.
+    pub harmonics: usize,
+    /// Its segments (first and last point, inclusive).
+    pub segments: Vec<[usize; 2]>,
+    /// The points it raised to `harmonics`.
+    pub raised: Vec<usize>,
+    /// The points whose solve at `harmonics` failed.
+    pub failed: Vec<usize>,
+    /// Its check at 2 `harmonics`: each segment's seed and point of largest change.
     pub check: CurveHarmonics,
 }
 
 impl RaisedSegments {
-    /// Whether the raised points are enough: every one checked converged and nothing failed.
+    /// Whether the raised points are enough: every deciding check converged and nothing
+    /// failed.
     pub fn converged(&self) -> bool {
         self.check.converged() && self.failed.is_empty()
     }

@@ -25,11 +25,14 @@ pub(crate) struct MovingPoint {
 
 /// Checks `curve` (traced at the base N of `ladder`, whose level 1, when there is one, is 2N)
 /// at the points of the module docs, marks them, and says what it found, with the checked
-/// points that moved (for `raised_segments`).
+/// points that moved (for `raised_segments`). With `until_one_moves` (the curve is traced
+/// again at 2N as soon as one point moves) the check stops at the first point that moves: the
+/// rest would be thrown away with the trace (`checked` lists the points checked).
 pub(crate) fn check_curve(
     ladder: &HarmonicLadder<'_, '_>,
     settings: &FrfSettings,
     curve: &mut FrequencyResponse,
+    until_one_moves: bool,
 ) -> (CurveHarmonics, Vec<MovingPoint>) {
     let base = ladder.solver(0);
     let checked = points_to_check(curve, base.system().master());
@@ -44,15 +47,20 @@ pub(crate) fn check_curve(
     if !out.checkable {
         return (out, moving);
     }
-    for i in checked {
+    for (k, &i) in checked.iter().enumerate() {
         let row = normal_row(base, settings, curve, i);
         let point = curve.points[i].clone();
         let (point, finer) = ladder.checked_with_solve(point, 0, Some(&row));
         record_check(&mut out, point.harmonic_check);
-        if matches!(point.harmonic_check, HarmonicCheck::NotConverged { .. }) {
+        let moved = matches!(point.harmonic_check, HarmonicCheck::NotConverged { .. });
+        if moved {
             moving.push(MovingPoint { index: i, finer });
         }
         curve.points[i] = point;
+        if moved && until_one_moves {
+            out.checked.truncate(k + 1);
+            break;
+        }
     }
     (out, moving)
 }

@@ -66,9 +66,10 @@ fn retraced_curve(
         let ladder = HarmonicLadder::new(current, (2 * n).min(top), settings.harmonic_tolerance)?
             .with_policy(HarmonicPolicy::Retrace);
         let mut curve = trace_range(&ladder, settings, progress)?;
-        let (check, moving) = check_curve(&ladder, settings, &mut curve);
         let touches = curve.points.iter().any(|p| p.touches());
-        let again = !check.converged() && 4 * n <= top && touches;
+        let may_retrace = 4 * n <= top && touches && ladder.levels() > 1;
+        let (check, moving) = check_curve(&ladder, settings, &mut curve, may_retrace);
+        let again = !check.converged() && may_retrace;
         tracing::info!(
             harmonics = n,
             checked = check.checked.len(),
@@ -84,6 +85,7 @@ fn retraced_curve(
                 let raising = Raising {
                     base: current,
                     finer: ladder.solver(1),
+                    top,
                     check: match 4 * n <= MAX_CHECK_HARMONICS {
                         true => Some(current.with_harmonics(4 * n)?),
                         false => None,
@@ -98,12 +100,21 @@ fn retraced_curve(
                     not_converged = raised.check.not_converged,
                     change_q1 = raised.check.largest_change[0],
                     change_omega = raised.check.largest_change[1],
-                    "forced response: N raised to {} around the points that moved",
-                    2 * n
+                    "forced response: N raised up to {} around the points that moved, in {} \
+                     round(s); the deciding checks",
+                    raised.check.harmonics,
+                    raised.rounds.len()
                 );
                 curve.raised = Some(raised);
             }
-            assess_stability(&ladder, settings, &mut curve)?;
+            // Every point is assessed by the solver of its N: up to the last round's when
+            // points were raised beyond 2N.
+            let raised_to = curve.raised.as_ref().map_or(0, |r| r.check.harmonics);
+            let stability = match raised_to > 2 * n {
+                true => HarmonicLadder::new(current, raised_to, settings.harmonic_tolerance)?,
+                false => ladder,
+            };
+            assess_stability(&stability, settings, &mut curve)?;
             curve.retraces = retraces;
             return Ok(curve);
         }

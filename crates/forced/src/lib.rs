@@ -60,7 +60,7 @@ pub use casing_sweep::{
 };
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
-    RaisedSegments, Sweep,
+    RaisedRound, RaisedSegments, Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use distortion::CasingDistortion;
