@@ -7,8 +7,8 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use nlmodes_forced::{
-    CurveHarmonics, ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, RaisedSegments,
-    Verdict,
+    CurveHarmonics, ForcedPoint, FrequencyResponse, HarmonicCheck, PointStability, RaisedRound,
+    RaisedSegments, Verdict,
 };
 use nlmodes_hb::FullBasis;
 use nlmodes_output::plot::{Color, LegendPosition, LinePlot, LineStyle, Series, PALETTE};
@@ -265,7 +265,20 @@ struct RaisedRecord {
     raised: Vec<usize>,
     /// Points whose solve at the raised N failed.
     failed: Vec<usize>,
-    /// The check of the raised points at twice their N.
+    /// The checks that decide (each round's, minus the points a later round raised again).
+    check: RetraceRecord,
+    /// Each round: the N it raised to, its segments, raised and failed points, its own check
+    /// at twice that N.
+    rounds: Vec<RaisedRoundRecord>,
+}
+
+/// One round of [`RaisedRecord`].
+#[derive(Serialize)]
+struct RaisedRoundRecord {
+    harmonics: usize,
+    segments: Vec<[usize; 2]>,
+    raised: Vec<usize>,
+    failed: Vec<usize>,
     check: RetraceRecord,
 }
 
@@ -347,6 +360,15 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
         raised: d.raised.clone(),
         failed: d.failed.clone(),
         check: retrace_record(&d.check),
+        rounds: (d.rounds.iter())
+            .map(|k| RaisedRoundRecord {
+                harmonics: k.harmonics,
+                segments: k.segments.clone(),
+                raised: k.raised.clone(),
+                failed: k.failed.clone(),
+                check: retrace_record(&k.check),
+            })
+            .collect(),
     });
     CurveRecord {
         retraces,
@@ -664,8 +686,35 @@ fn check_verdict(last: &CurveHarmonics, failed: usize, raised: bool, tolerance: 
 /// Where N was raised around the points that moved, and what the check of the raised points
 /// found (one line).
 fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -> String {
-    let n = raised.check.harmonics;
-    let ranges: Vec<String> = raised
+    let rounds: Vec<String> = raised
+        .rounds
+        .iter()
+        .map(|round| round_note(r, round, tolerance))
+        .collect();
+    let check = &raised.check;
+    let verdict = if !check.checkable {
+        "not checked (2N above the largest check)".to_string()
+    } else if raised.converged() {
+        "converged".to_string()
+    } else {
+        format!(
+            "NOT converged: {} of the {} deciding checks move by more than {tolerance:e}, {} \
+             points not solved at their raised N",
+            check.not_converged,
+            check.checked.len(),
+            raised.failed.len()
+        )
+    };
+    format!(
+        "           N raised around the points that moved: {}; {verdict}\n",
+        rounds.join("; then ")
+    )
+}
+
+/// One round of raised segments: its N, points, segments' W ranges and its own check at 2N.
+fn round_note(r: &FrequencyResponse, round: &RaisedRound, tolerance: f64) -> String {
+    let n = round.harmonics;
+    let ranges: Vec<String> = round
         .segments
         .iter()
         .map(|[a, b]| {
@@ -674,24 +723,22 @@ fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -
             format!("W = {lo:.6e}..{hi:.6e} rad/s")
         })
         .collect();
-    let check = &raised.check;
-    let verdict = if !check.checkable {
-        format!("not checked ({} harmonics above the largest check)", 2 * n)
-    } else if raised.converged() {
-        "converged".to_string()
+    let check = &round.check;
+    let moved = if !check.checkable {
+        "not checked".to_string()
+    } else if check.not_converged == 0 {
+        "none moves".to_string()
+    } else if check.not_converged == 1 {
+        format!("1 moves by more than {tolerance:e}")
     } else {
-        format!(
-            "NOT converged: {} of {} checked move by more than {tolerance:e} at {}, {} not solved at {n}",
-            check.not_converged,
-            check.checked.len(),
-            2 * n,
-            raised.failed.len()
-        )
+        format!("{} move by more than {tolerance:e}", check.not_converged)
     };
     format!(
-        "           N raised to {n} at {} points in {} segments ({}), {} checked at {}: {verdict}; largest change {:.1e} in q1, {:.1e} in W\n",
-        raised.raised.len(),
-        raised.segments.len(),
+        "to {n} at {} points in {} segment{} ({}), {} checked at {}: {moved} (largest change \
+         {:.1e} in q1, {:.1e} in W)",
+        round.raised.len(),
+        round.segments.len(),
+        if round.segments.len() == 1 { "" } else { "s" },
         ranges.join(", "),
         check.checked.len(),
         2 * n,
