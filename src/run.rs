@@ -141,30 +141,14 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
     // The modes child ran beside the single-threaded backbones; the forced stages use both
     // cores (their levels in parallel), so the child ends first.
     pending_modes.finish()?;
-    // forced (issue 22): after the backbone it is crowned by, before the report that shows it;
-    // at rest and at the operating speed (issue 39, item 1); the speed sweeps (item 2) on the
-    // Campbell stage's parametric model; the three side by side
-    let forced = case.forced.enabled.then(|| {
-        let at_rest = ForcedStage::new(&case, &layout, reduce.hash(), "at rest");
-        let at_speed = speeds.first().map(|operating| {
-            let label = format!("at {} rpm", operating.speed_rpm());
-            ForcedStage::new(&case, operating.layout(), operating.hash(), &label)
-        });
-        (at_rest, at_speed)
-    });
-    let sweeps = match (&case.rotation, &case.speed_sweep, &campbell_hash) {
-        (Some(r), Some(sweep), Some(hash)) if sweep.enabled => {
-            Some(SpeedSweepStage::new(&case, r, sweep, &layout, hash))
-        }
-        _ => None,
-    };
-    let mut last: Vec<&(dyn Stage + Sync)> = Vec::new();
-    if let Some((at_rest, at_speed)) = &forced {
-        last.push(at_rest);
-        last.extend(at_speed.iter().map(|s| s as &(dyn Stage + Sync)));
-    }
-    last.extend(sweeps.iter().map(|s| s as &(dyn Stage + Sync)));
-    for result in side_by_side(&sel, &last) {
+    let last = LastStages::of(
+        &case,
+        &layout,
+        reduce.hash(),
+        &speeds,
+        campbell_hash.as_deref(),
+    );
+    for result in side_by_side(&sel, &last.list()) {
         stops.absorb(result)?;
     }
     for results in &speed_posts {
@@ -192,6 +176,51 @@ pub fn run(case_path: &std::path::Path, only: Option<Only>, force: bool) -> Resu
         layout.root.display()
     );
     Ok(())
+}
+
+/// The stages after the backbones: the forced response (issue 22) after the backbone it is
+/// crowned by, at rest and at the operating speed (issue 39, item 1), and the speed sweeps (item
+/// 2) on the Campbell stage's parametric model; they run side by side ([`side_by_side`]).
+struct LastStages<'a> {
+    forced: Option<(ForcedStage<'a>, Option<ForcedStage<'a>>)>,
+    sweeps: Option<SpeedSweepStage<'a>>,
+}
+
+impl<'a> LastStages<'a> {
+    fn of(
+        case: &'a Case,
+        layout: &'a Layout,
+        reduce_hash: &str,
+        speeds: &'a [SpeedStage<'a>],
+        campbell_hash: Option<&str>,
+    ) -> Self {
+        let forced = case.forced.enabled.then(|| {
+            let at_rest = ForcedStage::new(case, layout, reduce_hash, "at rest");
+            let at_speed = speeds.first().map(|operating| {
+                let label = format!("at {} rpm", operating.speed_rpm());
+                ForcedStage::new(case, operating.layout(), operating.hash(), &label)
+            });
+            (at_rest, at_speed)
+        });
+        let sweeps = match (&case.rotation, &case.speed_sweep, campbell_hash) {
+            (Some(r), Some(sweep), Some(hash)) if sweep.enabled => {
+                Some(SpeedSweepStage::new(case, r, sweep, layout, hash))
+            }
+            _ => None,
+        };
+        Self { forced, sweeps }
+    }
+
+    /// In the order their results are absorbed: at rest, at speed, the sweeps.
+    fn list(&self) -> Vec<&(dyn Stage + Sync)> {
+        let mut out: Vec<&(dyn Stage + Sync)> = Vec::new();
+        if let Some((at_rest, at_speed)) = &self.forced {
+            out.push(at_rest);
+            out.extend(at_speed.iter().map(|s| s as &(dyn Stage + Sync)));
+        }
+        out.extend(self.sweeps.iter().map(|s| s as &(dyn Stage + Sync)));
+        out
+    }
 }
 
 /// Runs `stages` at the same time, each on a thread of its own (`Selection::run`), and returns

@@ -330,8 +330,14 @@ fn a_segment_still_moving_at_4n_is_raised_again() {
     // frf.json's rounds: to 20 (its check at 40 moving), then to 40 (its check converged).
     let rounds = raised["rounds"].as_array().expect("rounds");
     let n_of = |k: &serde_json::Value| k["harmonics"].as_u64();
-    assert_eq!(rounds.iter().map(n_of).collect::<Vec<_>>(), [Some(20), Some(40)]);
-    assert!(rounds[0]["check"]["not_converged"].as_u64() > Some(0), "{raised}");
+    assert_eq!(
+        rounds.iter().map(n_of).collect::<Vec<_>>(),
+        [Some(20), Some(40)]
+    );
+    assert!(
+        rounds[0]["check"]["not_converged"].as_u64() > Some(0),
+        "{raised}"
+    );
     assert_eq!(rounds[1]["check"]["not_converged"].as_u64(), Some(0));
     let listed: Vec<u64> = raised["raised"]
         .as_array()
