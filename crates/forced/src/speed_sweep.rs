@@ -70,6 +70,11 @@ const CORNER_REACH: f64 = 4.0;
 /// a distance D away doubles it (D / h), a smooth bend of curvature k halves it (k h / 2).
 const CORNER_RATIO_CHANGE: f64 = 0.2;
 
+/// A landing at a constant distance over the step after a step this many times longer than
+/// the current one takes that step back ([`SpeedTrace::at_corner`]): the curve may have bent
+/// sharply within it, so that the tangent through its point is off.
+const BACKTRACK_CHORD: f64 = 4.0;
+
 /// A fold of a speed sweep: where the speed turns.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedFold {
@@ -158,6 +163,9 @@ pub(crate) struct SpeedTrace<'a> {
     /// [`Self::advance`]): the tangent at the point after it is the secant, not the parabola
     /// through the corner.
     corner: Option<usize>,
+    /// The number of points left by the last step taken back ([`Self::at_corner`]): not taken
+    /// back again from there.
+    backtracked: Option<usize>,
 }
 
 /// Why a step's point was refused; the point with its distance from the prediction over the
@@ -194,6 +202,7 @@ impl<'a> SpeedTrace<'a> {
             step: settings.step,
             failed_passage: None,
             corner: None,
+            backtracked: None,
             sweep: SpeedSweep {
                 points: vec![first, second],
                 folds: Vec::new(),
@@ -367,7 +376,22 @@ impl<'a> SpeedTrace<'a> {
     /// a quarter), then `p` if d goes on. Whether one was taken.
     fn at_corner(&mut self, p: SpeedPoint, ratio: f64) -> bool {
         let n = self.sweep.points.len();
-        let (last, _) = self.secant(&self.sweep.points[n - 2], &self.sweep.points[n - 1]);
+        let (last, chord) = self.secant(&self.sweep.points[n - 2], &self.sweep.points[n - 1]);
+        if chord > BACKTRACK_CHORD * self.step
+            && n > 3
+            && self.backtracked.is_none_or(|k| k < n - 1)
+        {
+            tracing::debug!(
+                step = self.step,
+                ratio,
+                chord,
+                speed = self.sweep.points[n - 1].speed,
+                "speed sweep: the last step taken back (the tangent is off by a finite angle)"
+            );
+            self.pop();
+            self.backtracked = Some(n - 1);
+            return true;
+        }
         let (d, _) = self.secant(&self.sweep.points[n - 1], &p);
         let on: f64 = d.iter().zip(&last).map(|(a, b)| a * b).sum();
         let l = d.len() - 1;
@@ -381,20 +405,8 @@ impl<'a> SpeedTrace<'a> {
             vertex = self.sweep.points[n - 1].speed,
             "speed sweep: the corrector lands at a constant distance over the step"
         );
-        if !(on > 0.0 && onward) {
-            let back: Vec<f64> = d.iter().map(|v| -v).collect();
-            for _ in 0..3 {
-                if let Some(q) = self.step_along(&back) {
-                    tracing::debug!(speed = q.speed, "speed sweep: corner passed along -d");
-                    self.corner = Some(n - 1);
-                    self.push(q);
-                    return true;
-                }
-                self.step *= 0.5;
-            }
-        }
-        if on > 0.0 {
-            tracing::debug!(speed = p.speed, "speed sweep: corner passed along d");
+        if on > 0.0 && onward {
+            tracing::debug!(speed = p.speed, "speed sweep: corner passed");
             self.corner = Some(n - 1);
             self.push(p);
             return true;
@@ -402,12 +414,15 @@ impl<'a> SpeedTrace<'a> {
         false
     }
 
-    /// The point one step along `tangent` from the last point when the judge takes it.
-    fn step_along(&self, tangent: &[f64]) -> Option<SpeedPoint> {
-        let arc = self.arc(tangent, self.step);
-        let last = self.sweep.points.last().expect("two points");
-        let p = self.stepper.on_arc(last, &arc).ok()?;
-        self.judge(&arc, tangent, p).ok().map(|(p, _)| p)
+    /// Drops the last point, with the fold and hop recorded with it.
+    fn pop(&mut self) {
+        self.sweep.points.pop();
+        let n = self.sweep.points.len();
+        self.sweep.folds.retain(|f| f.point + 1 < n);
+        self.sweep.hops.retain(|&h| h < n);
+        if self.corner.is_some_and(|c| c + 1 >= n) {
+            self.corner = None;
+        }
     }
 
     /// Whether `p` is the next point of the curve (module docs): with the secant's turn.
