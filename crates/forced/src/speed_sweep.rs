@@ -14,7 +14,13 @@
 //! within one step of the prediction, the secant turns by less than [`MAX_TURN`] and, out of
 //! contact, the first harmonic's phase by less than [`PHASE_REACH`] (the phase turns by pi
 //! across a resonance: a larger turn has jumped one); otherwise it is halved (below
-//! [`CORNER_STEP`] a larger turn is accepted). A fold is where
+//! [`CORNER_STEP`] a larger turn is accepted). Below [`CORNER_STEP`], a corrector that lands
+//! beyond one step but within [`CORNER_REACH`] steps at about the same multiple of the step at
+//! two steps in a row ([`CORNER_RATIO_CHANGE`]) says the predicted tangent is off by a finite
+//! angle (`SpeedTrace::at_corner`): after a step [`BACKTRACK_CHORD`] times longer than the
+//! current one, that step is taken back (the curve bent within it) and the trace goes on from
+//! the point before at the small step; otherwise the point is taken as past a corner when it
+//! goes on from the last secant with the speed moving on the same way. A fold is where
 //! Omega turns (the speed components of consecutive secants change sign), located at the
 //! extremum of the parabola in arc length through the three points around it. Under the
 //! penalty law a step that fails below [`GRAZING_STEP`] passes grazing by prescribed
@@ -173,7 +179,7 @@ pub(crate) struct SpeedTrace<'a> {
 /// ([`CORNER_REACH`], below [`CORNER_STEP`]).
 struct Refusal {
     why: String,
-    far: Option<(f64, SpeedPoint)>,
+    far: Option<(f64, Box<SpeedPoint>)>,
 }
 
 impl From<String> for Refusal {
@@ -347,11 +353,10 @@ impl<'a> SpeedTrace<'a> {
                 }
                 Err(Refusal { why, far }) => {
                     if let Some((ratio, p)) = far {
-                        if overshoot.is_some_and(|r| (ratio / r - 1.0).abs() <= CORNER_RATIO_CHANGE)
-                        {
-                            if self.at_corner(p, ratio) {
-                                return Ok(());
-                            }
+                        let steady = overshoot
+                            .is_some_and(|r| (ratio / r - 1.0).abs() <= CORNER_RATIO_CHANGE);
+                        if steady && self.at_corner(*p, ratio) {
+                            return Ok(());
                         }
                         overshoot = Some(ratio);
                     } else {
@@ -452,7 +457,7 @@ impl<'a> SpeedTrace<'a> {
             let corner = self.step < CORNER_STEP && ratio <= CORNER_REACH && shaped.is_ok();
             return Err(Refusal {
                 why,
-                far: corner.then_some((ratio, p)),
+                far: corner.then(|| (ratio, Box::new(p))),
             });
         }
         Ok((p, shaped?))

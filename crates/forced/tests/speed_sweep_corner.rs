@@ -16,8 +16,8 @@ mod pwl;
 
 use faer::Mat;
 use nlmodes_forced::{
-    speed_sweep, Damping, FoldKind, ForcedError, ForcedSettings, FrfTermination, Load,
-    SpeedFamily, SpeedHarmonics, SpeedProblem, SpeedSweepSettings,
+    speed_sweep, Damping, FoldKind, ForcedError, ForcedSettings, FrfTermination, Load, SpeedFamily,
+    SpeedHarmonics, SpeedProblem, SpeedSweepSettings,
 };
 use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, System};
 
@@ -56,9 +56,15 @@ fn master(c: &Mat<f64>) -> f64 {
 fn a_sweep_passes_a_sharp_bend_and_keeps_the_exact_curve() {
     let (peak8, folds8) = check(8);
     let (peak16, folds16) = check(16);
-    assert!(peak8 < 1e-2 && peak16 < 1e-3, "peak {peak8:.2e}, {peak16:.2e}");
+    assert!(
+        peak8 < 1e-2 && peak16 < 1e-3,
+        "peak {peak8:.2e}, {peak16:.2e}"
+    );
     assert!(peak16 < peak8, "the peak converges to the exact one with N");
-    assert!(folds8.max(folds16) < 2e-3, "folds {folds8:.2e}, {folds16:.2e}");
+    assert!(
+        folds8.max(folds16) < 2e-3,
+        "folds {folds8:.2e}, {folds16:.2e}"
+    );
 }
 
 /// The sweep at N = `n`: the relative errors of its peak and of its worst fold against the
@@ -79,9 +85,17 @@ fn check(n: usize) -> (f64, f64) {
     s.harmonic_policy = SpeedHarmonics::Fixed;
     s.stability = false;
     let sweep = speed_sweep(&Still, &s, |_| {}).unwrap();
-    assert_eq!(sweep.termination, FrfTermination::Complete, "{}", sweep.end_text());
+    assert_eq!(
+        sweep.termination,
+        FrfTermination::Complete,
+        "{}",
+        sweep.end_text()
+    );
     let speeds: Vec<f64> = sweep.points.iter().map(|p| p.speed).collect();
-    assert!(speeds.iter().all(|&v| v >= range.0), "no point below the range");
+    assert!(
+        speeds.iter().all(|&v| v >= range.0),
+        "no point below the range"
+    );
 
     let damping = Damping::ModalRatios(vec![ZETA]).matrix(&system).unwrap();
     let dense = |m: &Mat<f64>| pwl::Dense::from_fn(3, |i, j| m[(i, j)]);
@@ -125,7 +139,11 @@ fn check(n: usize) -> (f64, f64) {
     for (f, &(back, w)) in sweep.folds.iter().zip(&exact_folds) {
         assert_eq!(f.kind == FoldKind::TurnsBack, back);
         let rel = (ORDER * f.speed - w).abs() / w;
-        println!("fold {:?} at W = {:.6}, exact {w:.6} ({rel:.2e})", f.kind, ORDER * f.speed);
+        println!(
+            "fold {:?} at W = {:.6}, exact {w:.6} ({rel:.2e})",
+            f.kind,
+            ORDER * f.speed
+        );
         worst = worst.max(rel);
     }
     (off, worst)
