@@ -14,7 +14,13 @@
 //! within one step of the prediction, the secant turns by less than [`MAX_TURN`] and, out of
 //! contact, the first harmonic's phase by less than [`PHASE_REACH`] (the phase turns by pi
 //! across a resonance: a larger turn has jumped one); otherwise it is halved (below
-//! [`CORNER_STEP`] a larger turn is accepted). A fold is where
+//! [`CORNER_STEP`] a larger turn is accepted). Below [`CORNER_STEP`], a corrector that lands
+//! beyond one step but within [`CORNER_REACH`] steps at about the same multiple of the step at
+//! two steps in a row ([`CORNER_RATIO_CHANGE`]) says the predicted tangent is off by a finite
+//! angle (`SpeedTrace::at_corner`): after a step [`BACKTRACK_CHORD`] times longer than the
+//! current one, that step is taken back (the curve bent within it) and the trace goes on from
+//! the point before at the small step; otherwise the point is taken as past a corner when it
+//! goes on from the last secant with the speed moving on the same way. A fold is where
 //! Omega turns (the speed components of consecutive secants change sign), located at the
 //! extremum of the parabola in arc length through the three points around it. Under the
 //! penalty law a step that fails below [`GRAZING_STEP`] passes grazing by prescribed
@@ -55,6 +61,25 @@ const GRAZING_STEP: f64 = 1e-4;
 
 /// How far (in steps) the corrector may land from the prediction.
 const CORRECTOR_REACH: f64 = 1.0;
+
+/// How far (in steps) the corrector may land from the prediction at a corner (below
+/// [`CORNER_STEP`], the distance over the step the same at two steps in a row): on the row
+/// normal to the tangent, a branch leaving the last point at an angle theta lands h tan(theta)
+/// from the prediction at every h, so 4 steps take corners up to 76 degrees (the frequency
+/// sweep's `trace::CORNER_REACH`). At N = 20 the default blade's EO 3 sweep meets one at
+/// 835.41 rad/s, where a contact row starts to touch: the corrector lands 1.2 steps away at
+/// every step from 1e-3 down to 2e-6.
+const CORNER_REACH: f64 = 4.0;
+
+/// How much the distance over the step may change when the step halves for the corrector's
+/// point to be on a corner's branch: constant there (h tan(theta)); a landing on another branch
+/// a distance D away doubles it (D / h), a smooth bend of curvature k halves it (k h / 2).
+const CORNER_RATIO_CHANGE: f64 = 0.2;
+
+/// A landing at a constant distance over the step after a step this many times longer than
+/// the current one takes that step back ([`SpeedTrace::at_corner`]): the curve may have bent
+/// sharply within it, so that the tangent through its point is off.
+const BACKTRACK_CHORD: f64 = 4.0;
 
 /// A fold of a speed sweep: where the speed turns.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,6 +165,27 @@ pub(crate) struct SpeedTrace<'a> {
     /// The row of the last grazing passage that did not get across and the number of points
     /// then: the passage is not tried again on that row for `PASSAGE_RETRY` points.
     pub(crate) failed_passage: Option<(usize, usize)>,
+    /// The index of the last corner's vertex (the last point before a corner was passed,
+    /// [`Self::advance`]): the tangent at the point after it is the secant, not the parabola
+    /// through the corner.
+    corner: Option<usize>,
+    /// The number of points left by the last step taken back ([`Self::at_corner`]): not taken
+    /// back again from there.
+    backtracked: Option<usize>,
+}
+
+/// Why a step's point was refused; the point with its distance from the prediction over the
+/// step when that distance alone refused it and it is within a corner's reach
+/// ([`CORNER_REACH`], below [`CORNER_STEP`]).
+struct Refusal {
+    why: String,
+    far: Option<(f64, Box<SpeedPoint>)>,
+}
+
+impl From<String> for Refusal {
+    fn from(why: String) -> Self {
+        Refusal { why, far: None }
+    }
 }
 
 impl<'a> SpeedTrace<'a> {
@@ -161,6 +207,8 @@ impl<'a> SpeedTrace<'a> {
             y_scale: first.gap_reference * (rows.max(1) as f64).sqrt(),
             step: settings.step,
             failed_passage: None,
+            corner: None,
+            backtracked: None,
             sweep: SpeedSweep {
                 points: vec![first, second],
                 folds: Vec::new(),
@@ -199,7 +247,7 @@ impl<'a> SpeedTrace<'a> {
         let n = self.sweep.points.len();
         let p = &self.sweep.points;
         let (b, sb) = self.secant(&p[n - 2], &p[n - 1]);
-        if n < 3 {
+        if n < 3 || self.corner == Some(n - 2) {
             return b;
         }
         let (a, sa) = self.secant(&p[n - 3], &p[n - 2]);
@@ -265,6 +313,9 @@ impl<'a> SpeedTrace<'a> {
         );
         let mut reason = String::from("no step tried");
         let mut grazing_tried = false;
+        // The corrector's distance from the prediction over the step at the last refused step,
+        // when within a corner's reach.
+        let mut overshoot: Option<f64> = None;
         loop {
             if exact && self.step < GRAZING_STEP && !grazing_tried {
                 grazing_tried = true;
@@ -289,7 +340,7 @@ impl<'a> SpeedTrace<'a> {
                 self.stepper.on_arc(last, &arc)
             };
             let judged = solved
-                .map_err(|e| e.to_string())
+                .map_err(|e| Refusal::from(e.to_string()))
                 .and_then(|p| self.judge(&arc, &tangent, p));
             match judged {
                 Ok((p, turn)) => {
@@ -300,12 +351,82 @@ impl<'a> SpeedTrace<'a> {
                     }
                     return Ok(());
                 }
-                Err(why) => {
+                Err(Refusal { why, far }) => {
+                    if let Some((ratio, p)) = far {
+                        let steady = overshoot
+                            .is_some_and(|r| (ratio / r - 1.0).abs() <= CORNER_RATIO_CHANGE);
+                        if steady && self.at_corner(*p, ratio) {
+                            return Ok(());
+                        }
+                        overshoot = Some(ratio);
+                    } else {
+                        overshoot = None;
+                    }
                     tracing::debug!(step = self.step, "speed sweep: step halved ({why})");
                     reason = why;
                     self.step *= 0.5;
                 }
             }
+        }
+    }
+
+    /// A corrector's point `p` that lands `ratio` steps from the prediction at this step and
+    /// about as far at twice it (module docs): the curve runs through the last point along the
+    /// secant d to `p`, at a finite angle from the predicted tangent, one way or the other.
+    /// `p` is taken (the last point a corner's vertex) when d goes on from the last secant
+    /// (positive dot product) with the speed moving on the same way. Otherwise d may lead back
+    /// along the curve traced (on the default blade at N = 20, 835.41 rad/s: d at 42 degrees
+    /// from the last secant but the speed falling, and the points along d went back through
+    /// the last points to below the range): steps along -d are tried first (this step, half,
+    /// a quarter), then `p` if d goes on. Whether one was taken.
+    fn at_corner(&mut self, p: SpeedPoint, ratio: f64) -> bool {
+        let n = self.sweep.points.len();
+        let (last, chord) = self.secant(&self.sweep.points[n - 2], &self.sweep.points[n - 1]);
+        if chord > BACKTRACK_CHORD * self.step
+            && n > 3
+            && self.backtracked.is_none_or(|k| k < n - 1)
+        {
+            tracing::debug!(
+                step = self.step,
+                ratio,
+                chord,
+                speed = self.sweep.points[n - 1].speed,
+                "speed sweep: the last step taken back (the tangent is off by a finite angle)"
+            );
+            self.pop();
+            self.backtracked = Some(n - 1);
+            return true;
+        }
+        let (d, _) = self.secant(&self.sweep.points[n - 1], &p);
+        let on: f64 = d.iter().zip(&last).map(|(a, b)| a * b).sum();
+        let l = d.len() - 1;
+        let onward = d[l] * last[l] > 0.0;
+        tracing::debug!(
+            step = self.step,
+            ratio,
+            on,
+            onward,
+            speed = p.speed,
+            vertex = self.sweep.points[n - 1].speed,
+            "speed sweep: the corrector lands at a constant distance over the step"
+        );
+        if on > 0.0 && onward {
+            tracing::debug!(speed = p.speed, "speed sweep: corner passed");
+            self.corner = Some(n - 1);
+            self.push(p);
+            return true;
+        }
+        false
+    }
+
+    /// Drops the last point, with the fold and hop recorded with it.
+    fn pop(&mut self) {
+        self.sweep.points.pop();
+        let n = self.sweep.points.len();
+        self.sweep.folds.retain(|f| f.point + 1 < n);
+        self.sweep.hops.retain(|&h| h < n);
+        if self.corner.is_some_and(|c| c + 1 >= n) {
+            self.corner = None;
         }
     }
 
@@ -315,7 +436,7 @@ impl<'a> SpeedTrace<'a> {
         arc: &SpeedArc,
         tangent: &[f64],
         p: SpeedPoint,
-    ) -> Result<(SpeedPoint, f64), String> {
+    ) -> Result<(SpeedPoint, f64), Refusal> {
         let mut predicted = arc.y.iter().map(|y| y / self.y_scale).collect::<Vec<_>>();
         predicted.push(arc.speed / arc.speed_scale);
         let x = self.scaled(&p);
@@ -325,15 +446,28 @@ impl<'a> SpeedTrace<'a> {
                 .map(|(a, b)| a - b)
                 .collect::<Vec<_>>(),
         );
+        let shaped = self.shape(tangent, &p);
         if distance > CORRECTOR_REACH * self.step {
-            return Err(format!(
+            let why = format!(
                 "the corrector lands {distance:.3e} from the prediction (step {:.3e}) at {:.6e} \
                  rad/s",
                 self.step, p.speed
-            ));
+            );
+            let ratio = distance / self.step;
+            let corner = self.step < CORNER_STEP && ratio <= CORNER_REACH && shaped.is_ok();
+            return Err(Refusal {
+                why,
+                far: corner.then(|| (ratio, Box::new(p))),
+            });
         }
+        Ok((p, shaped?))
+    }
+
+    /// The turn of the secant from the last point to `p` away from `tangent` when it is
+    /// acceptable (module docs), why not otherwise.
+    fn shape(&self, tangent: &[f64], p: &SpeedPoint) -> Result<f64, String> {
         let last = self.sweep.points.last().expect("two points");
-        let (next, _) = self.secant(last, &p);
+        let (next, _) = self.secant(last, p);
         let cos: f64 = next.iter().zip(tangent).map(|(a, b)| a * b).sum();
         let turn = cos.clamp(-1.0, 1.0).acos();
         if turn > MAX_TURN && (self.step > CORNER_STEP || turn > std::f64::consts::FRAC_PI_2) {
@@ -347,7 +481,7 @@ impl<'a> SpeedTrace<'a> {
                 return Err("the first harmonic's phase turned by more than PHASE_REACH".into());
             }
         }
-        Ok((p, turn))
+        Ok(turn)
     }
 
     /// Contact rows.
