@@ -663,7 +663,12 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
 /// solved again at 2N (the solve failed or landed on another orbit): `not_converged` counts
 /// those beside the points that moved by more than `tolerance`, and `largest_change` is over
 /// the solved ones only, so the two are told apart (as the speed sweep's note does).
-fn check_verdict(last: &CurveHarmonics, failed: usize, raised: bool, tolerance: f64) -> String {
+pub(crate) fn check_verdict(
+    last: &CurveHarmonics,
+    failed: usize,
+    raised: bool,
+    tolerance: f64,
+) -> String {
     if !last.checkable {
         return "not checked (2N above max_harmonics)".to_string();
     }

@@ -495,23 +495,15 @@ fn check_note(
     let failed = (checks.iter())
         .filter(|c| matches!(c, HarmonicCheck::NotConverged { change: None }))
         .count();
-    let moved = (checks.iter())
-        .filter(|c| matches!(c, HarmonicCheck::NotConverged { change: Some(_) }))
-        .count();
     let traced: Vec<String> = traced.iter().map(ToString::to_string).collect();
+    // The frequency sweep's wording of the same check (one implementation).
+    let verdict = crate::forced::forced_output::check_verdict(last, failed, false, tolerance);
     let verdict = if last.checked.is_empty() {
         "no point in contact (linear: exact at any N)".to_string()
-    } else if !last.checkable {
-        "not checked (2N above max_harmonics)".to_string()
-    } else if last.converged() {
-        format!("converged at its {} checked points", last.checked.len())
+    } else if last.converged() || !last.checkable {
+        verdict
     } else {
-        format!(
-            "NOT converged: of its {} checked points {moved} move by more than {tolerance:e} at \
-             2N and {failed} could not be solved again at 2N (the solve failed or landed on \
-             another orbit)",
-            last.checked.len()
-        )
+        format!("NOT converged: {verdict}")
     };
     let solved = last.checked.len() - failed;
     format!(
