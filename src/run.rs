@@ -226,10 +226,11 @@ impl<'a> LastStages<'a> {
 /// Runs `stages` at the same time, each on a thread of its own (`Selection::run`), and returns
 /// their results in their order: the forced stages at rest and at the operating speed and the
 /// speed sweeps, which need nothing of each other. Each forced stage runs its levels on a pool
-/// of its own (`crate::forced::run`), and the levels end unevenly (on the default blade the
-/// deep-contact level takes 2 to 4 times the others), so one after the other a core idled for
-/// half of each stage (docs/BENCHMARKS.md, session 22). Their outputs are in different folders
-/// and the forced stages' log lines carry their span ("forced{at=..}").
+/// of its own (`crate::forced::run`). Measured on the default blade (docs/BENCHMARKS.md,
+/// session 22): the forced stages alone already keep both cores busy, so this saves little
+/// there (the block is CPU-bound); it fills the cores where one stage's tail is serial. Their
+/// outputs are in different folders and the forced stages' log lines carry their span
+/// ("forced{at=..}").
 fn side_by_side(sel: &Selection, stages: &[&(dyn Stage + Sync)]) -> Vec<Result<()>> {
     std::thread::scope(|s| {
         let handles: Vec<_> = stages
