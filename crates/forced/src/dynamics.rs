@@ -16,6 +16,8 @@
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatRef, Par};
+
+use crate::compliance::ContactCompliance;
 use nlmodes_dense::DenseLu;
 use nlmodes_hb::{FullBasis, HbError, System};
 
@@ -47,80 +49,6 @@ pub struct ModalDynamics {
     damping: ModalDamping,
     /// Modal load Phi^T f per coefficient index of the full basis (n x (2N + 1)).
     load: Mat<f64>,
-}
-
-/// The condensed linear response at one excitation frequency W (see module docs), in the
-/// signal-major layout y[j (2N + 1) + p] of the contact coordinates.
-#[derive(Clone, Debug)]
-pub struct ContactCompliance {
-    /// W (rad/s).
-    pub omega: f64,
-    /// G (L x L, L = c (2N + 1)): y = y_F - G Lambda.
-    pub g: Mat<f64>,
-    /// y_F, the contact response to the load alone (L).
-    pub y_load: Vec<f64>,
-    /// Contact rows c (L = c (2N + 1)).
-    pub contacts: usize,
-}
-
-impl ContactCompliance {
-    /// G Lambda for the signal-major `lambda` (L), block by block: G couples only the same
-    /// harmonic of two rows, so harmonic n takes (2 c)^2 products instead of the dense L^2
-    /// (40 times fewer at N = 40).
-    pub fn apply(&self, lambda: &[f64]) -> Vec<f64> {
-        let l = self.y_load.len();
-        let terms = l / self.contacts.max(1);
-        let mut out = vec![0.0; l];
-        let mut indices = Vec::with_capacity(2 * self.contacts);
-        for n in 0..=terms / 2 {
-            indices.clear();
-            for j in 0..self.contacts {
-                if n == 0 {
-                    indices.push(j * terms);
-                } else {
-                    indices.push(j * terms + FullBasis::cos_index(n));
-                    indices.push(j * terms + FullBasis::sin_index(n));
-                }
-            }
-            for &col in &indices {
-                let (x, column) = (lambda[col], self.g.col(col));
-                if x == 0.0 {
-                    continue;
-                }
-                for &row in &indices {
-                    out[row] += column[row] * x;
-                }
-            }
-        }
-        out
-    }
-
-    /// G[:, row j] J (L x (2N + 1)) for a (2N + 1)^2 block J acting on contact row j's
-    /// coefficients: row i of G[:, row j] is nonzero only on the coefficients of row i's own
-    /// harmonic, so each entry takes one or two products instead of 2N + 1.
-    pub fn times_row_block(&self, j: usize, block: MatRef<'_, f64>) -> Mat<f64> {
-        let l = self.y_load.len();
-        let terms = l / self.contacts.max(1);
-        let mut out = Mat::zeros(l, terms);
-        for i in 0..l {
-            let n = FullBasis::harmonic_of(i % terms);
-            let own: &[usize] = if n == 0 {
-                &[0]
-            } else {
-                &[FullBasis::cos_index(n), FullBasis::sin_index(n)]
-            };
-            for &p in own {
-                let g = self.g[(i, j * terms + p)];
-                if g == 0.0 {
-                    continue;
-                }
-                for q in 0..terms {
-                    out[(i, q)] += g * block[(p, q)];
-                }
-            }
-        }
-        out
-    }
 }
 
 impl ModalDynamics {
@@ -281,33 +209,22 @@ impl ModalDynamics {
 
     /// The contact compliance and the load's contact response at W (see [`ContactCompliance`]).
     pub fn compliance(&self, omega: f64) -> Result<ContactCompliance, ForcedError> {
-        let l = self.contacts() * self.terms();
-        let mut out = ContactCompliance {
-            omega,
-            g: Mat::zeros(l, l),
-            y_load: vec![0.0; l],
-            contacts: self.contacts(),
-        };
+        let mut out = ContactCompliance::zeros(omega, self.contacts(), self.terms());
         self.compliance_into(omega, &mut out)?;
         Ok(out)
     }
 
     /// [`Self::compliance`] written into `out`, which holds the compliance of this model at
-    /// another W (or zeros): G couples only the same harmonic of two rows, and every entry it can
-    /// hold is overwritten, so the others stay zero and nothing is allocated. A Newton iteration
-    /// of the continuation moves W and needs G anew: allocating and zeroing the L x L matrix
-    /// every time (2 MB on the default blade, fresh pages from the system) took 12 % of a
-    /// curve's time.
+    /// another W (or zeros): every entry of its harmonic blocks is overwritten, nothing is
+    /// allocated. A Newton iteration of the continuation moves W and needs G anew.
     pub fn compliance_into(
         &self,
         omega: f64,
         out: &mut ContactCompliance,
     ) -> Result<(), ForcedError> {
         let (c, terms) = (self.contacts(), self.terms());
-        let l = c * terms;
-        if out.g.nrows() != l || out.g.ncols() != l || out.y_load.len() != l {
-            out.g = Mat::zeros(l, l);
-            out.y_load = vec![0.0; l];
+        if !out.has_shape(c, terms) {
+            *out = ContactCompliance::zeros(omega, c, terms);
         }
         out.omega = omega;
         for n in 0..=terms / 2 {
@@ -347,12 +264,13 @@ impl ModalDynamics {
         }
         let cm = product(pc.as_ref(), self.psi.transpose());
         let sm = product(ps.as_ref(), self.psi.transpose());
+        let mut g = out.block_mut(n);
         for jr in 0..c {
             for j in 0..c {
-                out.g[(j * terms + ic, jr * terms + ic)] = cm[(j, jr)];
-                out.g[(j * terms + is, jr * terms + ic)] = sm[(j, jr)];
-                out.g[(j * terms + ic, jr * terms + is)] = -sm[(j, jr)];
-                out.g[(j * terms + is, jr * terms + is)] = cm[(j, jr)];
+                g[(2 * j, 2 * jr)] = cm[(j, jr)];
+                g[(2 * j + 1, 2 * jr)] = sm[(j, jr)];
+                g[(2 * j, 2 * jr + 1)] = -sm[(j, jr)];
+                g[(2 * j + 1, 2 * jr + 1)] = cm[(j, jr)];
             }
         }
         let mut r = Mat::from_fn(nd, 2, |k, part| self.load[(k, [ic, is][part])]);
@@ -374,7 +292,6 @@ impl ModalDynamics {
         out: &mut ContactCompliance,
     ) -> Result<(), ForcedError> {
         let (c, terms) = (self.contacts(), self.terms());
-        let (g, y_load) = (&mut out.g, &mut out.y_load);
         let parts: Vec<usize> = if n == 0 {
             vec![0]
         } else {
@@ -386,15 +303,15 @@ impl ModalDynamics {
         let yz = product(self.psi.as_ref(), z.as_ref());
         // Column block q = w jr + part: the response to a unit Lambda of row jr in that part;
         // block q = w c: the response to the load.
+        // In harmonic n's block, row j's part a is the local index w j + a.
         for q in 0..=w * c {
             for (out_part, &p) in parts.iter().enumerate() {
                 for j in 0..c {
                     let y = yz[(j, w * q + out_part)];
                     if q < w * c {
-                        let (jr, part) = (q / w, q % w);
-                        g[(j * terms + p, jr * terms + parts[part])] = y;
+                        out.block_mut(n)[(w * j + out_part, q)] = y;
                     } else {
-                        y_load[j * terms + p] = y;
+                        out.y_load[j * terms + p] = y;
                     }
                 }
             }

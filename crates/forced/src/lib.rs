@@ -17,9 +17,11 @@
 //! an engine order, the structure following the speed), [`synthesize`]
 //! (the backbone's prediction: nonlinear modal damping and single-mode synthesis).
 
+mod active_jacobian;
 mod boundary;
 mod casing_stability;
 mod casing_sweep;
+mod compliance;
 mod corner;
 mod curve;
 mod curve_harmonics;
@@ -58,13 +60,14 @@ pub use boundary::{
 pub use casing_sweep::{
     casing_sweep, largest_force, CasingPoint, CasingSweep, CasingSweepSettings,
 };
+pub use compliance::ContactCompliance;
 pub use curve::{
     CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
     RaisedRound, RaisedSegments, Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use distortion::CasingDistortion;
-pub use dynamics::{ContactCompliance, ModalDynamics};
+pub use dynamics::ModalDynamics;
 pub use error::ForcedError;
 pub use following::MovingStructure;
 pub use frf::response_curve;

@@ -24,7 +24,9 @@ use nlmodes_hb::contact::{apply_contact_law, Multipliers};
 use nlmodes_hb::penalty_integral::{penalty_force, ContactPhases};
 use nlmodes_hb::FullBasis;
 
-use crate::dynamics::{ContactCompliance, ModalDynamics};
+use crate::active_jacobian::ActiveJacobian;
+use crate::compliance::ContactCompliance;
+use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
 use crate::following::{Following, StructurePair, STRUCTURE_STEP};
 
@@ -572,14 +574,11 @@ impl InnerNewton<'_> {
         arc_row: Option<(&ArcRow, f64)>,
     ) -> Result<(Vec<f64>, f64), ForcedError> {
         let arc = arc_row.map(|(a, _)| a);
-        let (t, m, l) = (self.basis.terms(), self.basis.samples(), s.y.len());
+        let l = s.y.len();
         self.move_to(s.omega)?;
-        let active: Vec<usize> = (0..self.g0.len())
-            .filter(|&j| cs.row_active(j, m))
-            .collect();
-        let gj = self.compliance_times_slopes(s.omega, &active, cs)?;
+        let jac = self.active_jacobian(cs);
         let rate = match arc.map(|a| a.parameter) {
-            Some(Parameter::Frequency) => self.frequency_column(s, cs, &active, &gj)?,
+            Some(Parameter::Frequency) => self.frequency_column(s, cs, &jac)?,
             Some(Parameter::Level) => self
                 .compliance(s.omega)?
                 .y_load
@@ -588,46 +587,42 @@ impl InnerNewton<'_> {
                 .collect(),
             None => vec![0.0; l],
         };
-        // Which coefficients belong to an active row, and the others in ascending order (looked
-        // up, not searched, in the O(L La) loops below).
-        let mut row_active = vec![false; self.g0.len()];
-        active.iter().for_each(|&j| row_active[j] = true);
-        let is_active = |i: usize| row_active[i / t];
-        let inactive: Vec<usize> = (0..l).filter(|&i| !is_active(i)).collect();
-        let global = |col: usize| active[col / t] * t + col % t;
-        let la = active.len() * t;
+        let (t, contacts) = (self.basis.terms(), self.g0.len());
+        let comp = self.compliance(s.omega)?;
+        let mut row_active = vec![false; contacts];
+        jac.active().iter().for_each(|&j| row_active[j] = true);
+        let inactive: Vec<usize> = (0..l).filter(|&i| !row_active[i / t]).collect();
+        let la = jac.len();
         let dim = la + usize::from(arc.is_some());
         let mut lu = DenseLu::default();
         let mut rhs = vec![0.0; dim];
         {
+            let square = jac.square(comp);
             let mut a = lu.matrix(dim);
+            a.as_mut().submatrix_mut(0, 0, la, la).copy_from(&square);
             for row in 0..la {
-                let gi = global(row);
-                for col in 0..la {
-                    a[(row, col)] = gj[(gi, col)] + if row == col { 1.0 } else { 0.0 };
-                }
+                let gi = jac.global(row);
+                a[(row, row)] += 1.0;
                 if arc.is_some() {
                     a[(row, la)] = rate[gi];
                 }
                 rhs[row] = -r[gi];
             }
             if let Some(arc) = arc {
+                // The inactive rows eliminated: their tangent components times their rows
+                // dy_i = -r_i - (G J dy)_i - rate_i dW, folded into the arc row.
                 let tv = |i: usize| arc.tangent_y[i] / arc.y_scale;
-                let tv_inactive: Vec<f64> = inactive.iter().map(|&i| tv(i)).collect();
-                let against = |v: &dyn Fn(usize) -> f64| -> f64 {
-                    inactive
-                        .iter()
-                        .zip(&tv_inactive)
-                        .map(|(&i, w)| w * v(i))
-                        .sum::<f64>()
-                };
+                let mut tv_inactive = vec![0.0; l];
+                inactive.iter().for_each(|&i| tv_inactive[i] = tv(i));
+                let against =
+                    |v: &[f64]| -> f64 { inactive.iter().map(|&i| tv_inactive[i] * v[i]).sum() };
+                let through = jac.transpose_times(comp, &tv_inactive);
                 for col in 0..la {
-                    let column = gj.col(col);
-                    a[(la, col)] = tv(global(col)) - against(&|i| column[i]);
+                    a[(la, col)] = tv(jac.global(col)) - through[col];
                 }
-                a[(la, la)] = arc.tangent_parameter / arc.parameter_scale - against(&|i| rate[i]);
+                a[(la, la)] = arc.tangent_parameter / arc.parameter_scale - against(&rate);
                 let residual = arc_row.map_or(0.0, |(_, v)| v);
-                rhs[la] = -residual + against(&|i| r[i]);
+                rhs[la] = -residual + against(r);
             }
         }
         if dim > 0 {
@@ -636,7 +631,7 @@ impl InnerNewton<'_> {
                     omega: s.omega,
                     reason: format!(
                         "singular Newton matrix ({} active contact rows)",
-                        active.len()
+                        jac.active().len()
                     ),
                 });
             }
@@ -644,31 +639,32 @@ impl InnerNewton<'_> {
         }
         let dw = if arc.is_some() { rhs[la] } else { 0.0 };
         let mut dy = vec![0.0; l];
-        for (ai, &j) in active.iter().enumerate() {
+        for (ai, &j) in jac.active().iter().enumerate() {
             dy[j * t..(j + 1) * t].copy_from_slice(&rhs[ai * t..(ai + 1) * t]);
         }
+        // The inactive rows follow: dy_i = -r_i - (G J dy_active)_i - rate_i dW.
+        let follow = jac.times(comp, &rhs[..la]);
         for &i in &inactive {
-            dy[i] = -r[i] - (0..la).map(|col| gj[(i, col)] * rhs[col]).sum::<f64>() - rate[i] * dw;
+            dy[i] = -r[i] - follow[i] - rate[i] * dw;
         }
         Ok((dy, dw))
     }
 
     /// dR/dW at `s` (L values): -dy_lin/dW of the structure as it stands, plus, for a following
-    /// structure, the structure's own motion (`structure_rate`). `gj`: G J over the `active`
-    /// rows (`compliance_times_slopes`).
+    /// structure, the structure's own motion (`structure_rate`). `jac`: G J over the active
+    /// rows (`active_jacobian`).
     fn frequency_column(
         &mut self,
         s: &OrbitState,
         cs: &ContactSamples,
-        active: &[usize],
-        gj: &Mat<f64>,
+        jac: &ActiveJacobian,
     ) -> Result<Vec<f64>, ForcedError> {
         let dynamics = self.structure();
         let z = dynamics.response(s.omega, s.level, &cs.coefficients)?;
         let rate = dynamics.response_rate(s.omega, &z)?;
         let mut rate: Vec<f64> = rate.into_iter().map(|v| -v).collect();
         if self.following.is_some() {
-            let own = self.structure_rate(s, cs, active, gj)?;
+            let own = self.structure_rate(s, cs, jac)?;
             rate.iter_mut().zip(own).for_each(|(r, o)| *r += o);
         }
         Ok(rate)
@@ -678,14 +674,13 @@ impl InnerNewton<'_> {
     /// dR/dS dS/dW = -d y_lin/dS|_Lambda + G dLambda/dg0 dg0/dW, where y_lin = Psi z is the
     /// linear response to the load and the forces Lambda(y) (`structure_motion`) and, the law
     /// acting on y_j(t) - g0_j, dLambda_j/dg0_j = -J_j e_0 (e_0 the mean's coefficient), so the
-    /// gap term is -sum_j (dg0_j/dW) (G J)[:, mean of row j] (`gj`: G J over the `active`
+    /// gap term is -sum_j (dg0_j/dW) (G J)[:, mean of row j] (`jac`: G J over the active
     /// rows); dS/dW by the difference of `Following`'s two structures.
     fn structure_rate(
         &mut self,
         s: &OrbitState,
         cs: &ContactSamples,
-        active: &[usize],
-        gj: &Mat<f64>,
+        jac: &ActiveJacobian,
     ) -> Result<Vec<f64>, ForcedError> {
         self.move_to(s.omega)?;
         let t = self.basis.terms();
@@ -694,12 +689,13 @@ impl InnerNewton<'_> {
         let mut rate: Vec<f64> = (structure_motion(pair, s, cs)?.into_iter())
             .map(|d| -d / pair.h)
             .collect();
-        for (ai, &j) in active.iter().enumerate() {
-            let dg = (pair.b.1[j] - pair.a.1[j]) / pair.h;
-            let column = gj.col(ai * t);
-            rate.iter_mut()
-                .zip(column.iter())
-                .for_each(|(r, g)| *r -= dg * g);
+        let gap_rates: Vec<f64> = (jac.active().iter())
+            .map(|&j| (pair.b.1[j] - pair.a.1[j]) / pair.h)
+            .collect();
+        let comp = self.compliance(s.omega)?;
+        for (ai, dg) in gap_rates.into_iter().enumerate() {
+            let column = jac.column(comp, ai * t);
+            rate.iter_mut().zip(column).for_each(|(r, g)| *r -= dg * g);
         }
         Ok(rate)
     }
@@ -713,40 +709,29 @@ impl InnerNewton<'_> {
         mu: &Multipliers,
     ) -> Result<(Vec<f64>, Vec<f64>), ForcedError> {
         let (r, cs) = self.residual(s, mu)?;
-        let m = self.basis.samples();
-        let active: Vec<usize> = (0..self.g0.len())
-            .filter(|&j| cs.row_active(j, m))
-            .collect();
-        let gj = self.compliance_times_slopes(s.omega, &active, &cs)?;
-        let column = self.frequency_column(s, &cs, &active, &gj)?;
+        let jac = self.active_jacobian(&cs);
+        let column = self.frequency_column(s, &cs, &jac)?;
         Ok((r, column))
     }
 
-    /// G[:, active rows] times the block-diagonal J_Lambda of the active rows (L x La): the
-    /// exact blocks of the integrated penalty law, or the projected slopes of the sampled law.
-    fn compliance_times_slopes(
-        &mut self,
-        omega: f64,
-        active: &[usize],
-        cs: &ContactSamples,
-    ) -> Result<Mat<f64>, ForcedError> {
+    /// The active rows of `cs` with their blocks of the block-diagonal J_Lambda: the exact
+    /// blocks of the integrated penalty law, or the projected slopes of the sampled law.
+    fn active_jacobian(&self, cs: &ContactSamples) -> ActiveJacobian {
         let (t, m) = (self.basis.terms(), self.basis.samples());
-        let mut projected = Mat::zeros(t, t);
-        let basis = self.basis;
-        let comp = self.compliance(omega)?;
-        let mut gj = Mat::zeros(comp.g.nrows(), active.len() * t);
-        for (ai, &j) in active.iter().enumerate() {
-            let block = match cs.blocks.get(j) {
-                Some(Some(exact)) => exact.as_ref(),
+        let active: Vec<usize> = (0..self.g0.len())
+            .filter(|&j| cs.row_active(j, m))
+            .collect();
+        let blocks = (active.iter())
+            .map(|&j| match cs.blocks.get(j) {
+                Some(Some(exact)) => exact.clone(),
                 _ => {
-                    basis.project_slopes(&cs.slope[j * m..(j + 1) * m], projected.as_mut());
-                    projected.as_ref()
+                    let mut projected = Mat::zeros(t, t);
+                    (self.basis).project_slopes(&cs.slope[j * m..(j + 1) * m], projected.as_mut());
+                    projected
                 }
-            };
-            let prod = comp.times_row_block(j, block);
-            gj.subcols_mut(ai * t, t).copy_from(&prod);
-        }
-        Ok(gj)
+            })
+            .collect();
+        ActiveJacobian::new(active, blocks, t)
     }
 }
 

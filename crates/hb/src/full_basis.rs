@@ -196,6 +196,23 @@ impl FullBasis {
         (v, d)
     }
 
+    /// First and second phase derivatives (d/d(w t), d^2/d(w t)^2) of a series at the phase
+    /// w t, by the angle-addition recurrence of [`FullBasis::value_at`].
+    pub fn slope_and_curvature_at(coeffs: &[f64], phase: f64) -> (f64, f64) {
+        let nh = coeffs.len() / 2;
+        let (mut d, mut dd) = (0.0, 0.0);
+        let (s1, c1) = phase.sin_cos();
+        let (mut s, mut c) = (s1, c1);
+        for n in 1..=nh {
+            let (a, b) = (coeffs[Self::cos_index(n)], coeffs[Self::sin_index(n)]);
+            let nf = n as f64;
+            d += nf * (b * c - a * s);
+            dd -= nf * nf * (a * c + b * s);
+            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+        }
+        (d, dd)
+    }
+
     /// Time derivative of a series at the phase w t, for the fundamental w (rad/s).
     pub fn rate_at(coeffs: &[f64], omega: f64, phase: f64) -> f64 {
         let nh = coeffs.len() / 2;

@@ -30,11 +30,7 @@ use faer::{Mat, MatMut};
 
 use crate::full_basis::FullBasis;
 
-/// Bisection steps for an extremum between two grid points: 2 pi / 2^60 is below round-off of a
-/// phase.
-const BISECTIONS: usize = 60;
-
-/// Iterations of the safeguarded Newton search of a switch instant (each one either a Newton
+/// Iterations of the safeguarded Newton search of a switch instant or an extremum (each one either a Newton
 /// step inside the bracket or a bisection: 60 bisections reach round-off).
 const SWITCH_ITERATIONS: usize = 80;
 
@@ -85,9 +81,11 @@ impl ContactPhases {
         let m = values.len();
         debug_assert!(m >= self.grid && slopes.len() == m);
         let f = |th: f64| FullBasis::value_at(series, th) - level;
-        let df = |th: f64| FullBasis::value_and_slope_at(series, th).1;
         let h = std::f64::consts::TAU / m as f64;
-        let at = |k: usize| (values[k % m] - level, slopes[k % m]);
+        let at = |k: usize| {
+            let k = if k == m { 0 } else { k };
+            (values[k] - level, slopes[k])
+        };
         // |y''| <= sum n^2 |c_n|: within h of a grid point the series lies within
         // |f'| h + curvature h^2 / 2 of its value there.
         let curvature: f64 = (1..=series.len() / 2)
@@ -108,7 +106,11 @@ impl ContactPhases {
             } else if da.signum() != db.signum() && da != 0.0 && db != 0.0 && may_cross(fa, da) {
                 // An extremum between the grid points on the same side of the level: a short
                 // excursion across it when the extremum's value has the other sign.
-                let t = bisect(&df, a, b);
+                let t = safeguarded_root(
+                    |th| FullBasis::slope_and_curvature_at(series, th),
+                    (a, da > 0.0),
+                    b,
+                );
                 let ft = f(t);
                 if (ft > 0.0) != (fa > 0.0) {
                     switches.push((switch_between(series, level, (a, fa), (t, ft)), fa <= 0.0));
@@ -122,19 +124,31 @@ impl ContactPhases {
 }
 
 /// The phase in [a, b] where the series crosses `level`, given y - level at both ends (of
-/// different signs): Newton steps on the series, each kept inside the shrinking bracket (a
-/// bisection where it would leave it), to round-off.
-fn switch_between(
-    series: &[f64],
-    level: f64,
-    (mut a, fa): (f64, f64),
-    (mut b, _): (f64, f64),
+/// different signs), to round-off ([`safeguarded_root`]).
+fn switch_between(series: &[f64], level: f64, (a, fa): (f64, f64), (b, _): (f64, f64)) -> f64 {
+    safeguarded_root(
+        |t| {
+            let (v, d) = FullBasis::value_and_slope_at(series, t);
+            (v - level, d)
+        },
+        (a, fa > 0.0),
+        b,
+    )
+}
+
+/// A root in [a, b] of a function g given with its derivative (`g_and_slope`), of sign
+/// `positive_at_a` at a and the other at b: Newton steps, each kept inside the shrinking
+/// bracket (a bisection where a step would leave it), to round-off. Used for the switches (g
+/// the series minus the level) and for an extremum between two grid points (g its slope): a
+/// few evaluations where a bisection to round-off takes 60.
+fn safeguarded_root(
+    g_and_slope: impl Fn(f64) -> (f64, f64),
+    (mut a, positive_at_a): (f64, bool),
+    mut b: f64,
 ) -> f64 {
-    let positive_at_a = fa > 0.0;
     let mut t = 0.5 * (a + b);
     for _ in 0..SWITCH_ITERATIONS {
-        let (v, d) = FullBasis::value_and_slope_at(series, t);
-        let v = v - level;
+        let (v, d) = g_and_slope(t);
         if v == 0.0 {
             return t;
         }
@@ -155,21 +169,6 @@ fn switch_between(
         t = next;
     }
     t
-}
-
-/// A root of `f` in [a, b] where f(a) and f(b) differ in sign (here: an extremum of the function
-/// whose derivative `f` is), to round-off.
-fn bisect(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let positive_at_a = f(a) > 0.0;
-    for _ in 0..BISECTIONS {
-        let mid = 0.5 * (a + b);
-        if (f(mid) > 0.0) == positive_at_a {
-            a = mid;
-        } else {
-            b = mid;
-        }
-    }
-    0.5 * (a + b)
 }
 
 /// The intervals above the level from the ordered switches (`true`: entering), the level being
@@ -220,11 +219,17 @@ impl TrigMoments {
         let mut cos = vec![0.0; orders];
         let mut sin = vec![0.0; orders];
         cos[0] = b - a;
+        // sin(r a), cos(r a) (and at b) by angle addition from one sin_cos each, as
+        // `FullBasis::value_at` does: a rounding error of order r eps against 4N calls of
+        // sin_cos per interval (the exact law evaluates these at every residual).
+        let ((s1a, c1a), (s1b, c1b)) = (a.sin_cos(), b.sin_cos());
+        let ((mut sa, mut ca), (mut sb, mut cb)) = ((s1a, c1a), (s1b, c1b));
         for r in 1..orders {
             let rf = r as f64;
-            let ((sa, ca), (sb, cb)) = ((rf * a).sin_cos(), (rf * b).sin_cos());
             cos[r] = (sb - sa) / rf;
             sin[r] = (ca - cb) / rf;
+            (sa, ca) = (sa * c1a + ca * s1a, ca * c1a - sa * s1a);
+            (sb, cb) = (sb * c1b + cb * s1b, cb * c1b - sb * s1b);
         }
         Self { cos, sin }
     }
