@@ -37,7 +37,50 @@ struct Piece {
     vectors: Mat<c64>,
     inverse: Mat<c64>,
     events: Mat<c64>,
+    /// The event functionals split for the scan ([`RowTerms`]).
+    row_terms: RowTerms,
     fastest: f64,
+}
+
+/// The event functionals E (c x size, through V) of a piece, and E diag(l) for the rates, as
+/// real and imaginary parts stored by column: every row's event function Re(E e) at once is
+/// then four real products of contiguous columns per eigenvalue (the scan's inner loop).
+struct RowTerms {
+    events_re: Mat<f64>,
+    events_im: Mat<f64>,
+    rates_re: Mat<f64>,
+    rates_im: Mat<f64>,
+}
+
+impl RowTerms {
+    fn new(events: &Mat<c64>, values: &[c64]) -> Self {
+        let (c, m) = (events.nrows(), events.ncols());
+        let rate = |i: usize, k: usize| events[(i, k)] * values[k];
+        Self {
+            events_re: Mat::from_fn(c, m, |i, k| events[(i, k)].re),
+            events_im: Mat::from_fn(c, m, |i, k| events[(i, k)].im),
+            rates_re: Mat::from_fn(c, m, |i, k| rate(i, k).re),
+            rates_im: Mat::from_fn(c, m, |i, k| rate(i, k).im),
+        }
+    }
+
+    /// Re(E e) and Re(E diag(l) e) for the mode terms e (size).
+    fn rows(&self, e: &[c64]) -> (Vec<f64>, Vec<f64>) {
+        let c = self.events_re.nrows();
+        let (mut events, mut rates) = (vec![0.0; c], vec![0.0; c]);
+        for (k, ek) in e.iter().enumerate() {
+            let (er, ei) = (
+                self.events_re.col_as_slice(k),
+                self.events_im.col_as_slice(k),
+            );
+            let (rr, ri) = (self.rates_re.col_as_slice(k), self.rates_im.col_as_slice(k));
+            for j in 0..c {
+                events[j] += er[j] * ek.re - ei[j] * ek.im;
+                rates[j] += rr[j] * ek.re - ri[j] * ek.im;
+            }
+        }
+        (events, rates)
+    }
 }
 
 impl Piece {
@@ -65,22 +108,21 @@ impl Piece {
         let e: Vec<c64> = (0..w0.len())
             .map(|k| (self.values[k] * tau).exp() * w0[k])
             .collect();
-        let c = self.events.nrows();
-        let mut rows = RowsAt {
-            events: vec![0.0; c],
-            rates: vec![0.0; c],
-            curvatures: vec![0.0; e.len()],
-        };
-        for (k, ek) in e.iter().enumerate() {
-            let l = self.values[k];
-            rows.curvatures[k] = l.norm_sqr() * ek.norm_sqr().sqrt();
-            for j in 0..c {
-                let v = self.events[(j, k)] * ek;
-                rows.events[j] += v.re;
-                rows.rates[j] += (v * l).re;
-            }
+        self.rows_of_terms(e)
+    }
+
+    /// [`Self::rows_at`] from the mode terms e_k = exp(l_k tau) w0_k.
+    fn rows_of_terms(&self, e: Vec<c64>) -> RowsAt {
+        let curvatures = (self.values.iter().zip(&e))
+            .map(|(l, ek)| l.norm_sqr() * ek.norm())
+            .collect();
+        let (events, rates) = self.row_terms.rows(&e);
+        RowsAt {
+            events,
+            rates,
+            curvatures,
+            terms: e,
         }
-        rows
     }
 
     /// A bound on |f_j''| over [t0, t1] from the mode terms at both ends (|exp(l t)| is monotone
@@ -130,6 +172,20 @@ impl EventPath for DrivenPath<'_> {
 
     fn rows_at(&self, tau: f64) -> RowsAt {
         self.piece.rows_at(self.w0, tau)
+    }
+
+    fn step_factors(&self, step: f64) -> Vec<c64> {
+        self.piece.values.iter().map(|l| (l * step).exp()).collect()
+    }
+
+    fn rows_advanced(&self, before: &RowsAt, factors: &[c64]) -> RowsAt {
+        let e = before
+            .terms
+            .iter()
+            .zip(factors)
+            .map(|(e, f)| e * f)
+            .collect();
+        self.piece.rows_of_terms(e)
     }
 
     fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64 {
@@ -310,9 +366,11 @@ fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError
     }
     let fastest = values.iter().map(|l| l.norm()).fold(model.omega, f64::max);
     let events_c = Mat::from_fn(c, m, |i, k| c64::new(events[(i, k)], 0.0));
+    let events = &events_c * &vectors;
     Ok(Piece {
+        row_terms: RowTerms::new(&events, &values),
         values,
-        events: &events_c * &vectors,
+        events,
         vectors,
         inverse,
         fastest,

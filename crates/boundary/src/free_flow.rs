@@ -318,6 +318,7 @@ impl EventPath for FreePath<'_> {
             events: (0..c).map(|j| self.piece.event(j, &z)).collect(),
             rates: (0..c).map(|j| self.rate(j, &zd)).collect(),
             curvatures: self.curvatures.clone(),
+            terms: Vec::new(),
         }
     }
 

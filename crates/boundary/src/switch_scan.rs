@@ -9,6 +9,7 @@
 //! sign from + to - within a step and f_j(t0) + f_j'(t0) h + |f_j''|max h^2 / 2 passes the
 //! threshold, the maximum is bisected on f_j' and, past the threshold, the switch on f_j before it.
 
+use faer::c64;
 use nlmodes_hb::HbError;
 
 /// Scan points per shortest period of a piece when looking for a switch.
@@ -22,7 +23,15 @@ pub(crate) struct RowsAt {
     pub events: Vec<f64>,
     pub rates: Vec<f64>,
     pub curvatures: Vec<f64>,
+    /// The path's own terms at this instant, from which [`EventPath::rows_advanced`] steps on
+    /// (empty where the path has none).
+    pub terms: Vec<c64>,
 }
+
+/// Scan steps taken by [`EventPath::rows_advanced`] between two evaluations from the start
+/// ([`EventPath::rows_at`]), which bound the round-off a product of step factors accumulates
+/// (about 16 eps relative).
+const EXACT_EVERY: usize = 16;
 
 /// The event functions of one piece of a flow along the solution from its start (tau = 0).
 pub(crate) trait EventPath {
@@ -32,6 +41,23 @@ pub(crate) trait EventPath {
     fn event_rate(&self, j: usize, tau: f64) -> f64;
     /// Every row's event function and rate at tau, with the terms of the curvature bound.
     fn rows_at(&self, tau: f64) -> RowsAt;
+    /// Factors that advance this path's terms by `step` (s), for [`Self::rows_advanced`];
+    /// none by default.
+    fn step_factors(&self, _step: f64) -> Vec<c64> {
+        Vec::new()
+    }
+    /// The rows one scan step after `before`, from the `factors` of [`Self::step_factors`]
+    /// (exp(l_k step) for a path of exponential terms: no exponential evaluated). A path
+    /// without factors is never asked.
+    fn rows_advanced(&self, before: &RowsAt, _factors: &[c64]) -> RowsAt {
+        debug_assert!(false, "rows_advanced on a path without step factors");
+        RowsAt {
+            events: before.events.clone(),
+            rates: before.rates.clone(),
+            curvatures: before.curvatures.clone(),
+            terms: before.terms.clone(),
+        }
+    }
     /// A bound on |f_j''| over [t0, t1] from the rows at both ends (m/s^2).
     fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64;
     /// The piece's fastest circular frequency (rad/s).
@@ -55,11 +81,22 @@ pub(crate) fn next_switch(
         return Some((0.0, j));
     }
     let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * path.fastest());
+    let factors = path.step_factors(step);
     let mut t0 = 0.0;
     let mut before = path.rows_at(0.0);
-    while t0 < horizon {
+    for taken in 1.. {
+        if t0 >= horizon {
+            break;
+        }
         let t1 = (t0 + step).min(horizon);
-        let after = path.rows_at(t1);
+        // A whole step from terms not too far from an exact evaluation advances by the
+        // factors; otherwise (a path without them, the last partial step, every
+        // `EXACT_EVERY` steps) the rows are evaluated at t1 from the start.
+        let after = if factors.is_empty() || t1 < t0 + step || taken % EXACT_EVERY == 0 {
+            path.rows_at(t1)
+        } else {
+            path.rows_advanced(&before, &factors)
+        };
         let crossing = (0..c)
             .filter_map(|j| {
                 if after.events[j] > tol {
