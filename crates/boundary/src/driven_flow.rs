@@ -114,7 +114,7 @@ impl Piece {
     /// [`Self::rows_at`] from the mode terms e_k = exp(l_k tau) w0_k.
     fn rows_of_terms(&self, e: Vec<c64>) -> RowsAt {
         let curvatures = (self.values.iter().zip(&e))
-            .map(|(l, ek)| l.norm_sqr() * ek.norm())
+            .map(|(l, ek)| l.norm_sqr() * ek.norm_sqr().sqrt())
             .collect();
         let (events, rates) = self.row_terms.rows(&e);
         RowsAt {

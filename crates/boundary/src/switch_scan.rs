@@ -77,13 +77,14 @@ pub(crate) fn next_switch(
     toggled: Option<usize>,
 ) -> Option<(f64, usize)> {
     let c = path.rows();
-    if let Some(j) = (0..c).find(|&j| Some(j) != toggled && path.event(j, 0.0) > tol) {
+    // Every row at the start from one evaluation (one exponential per term, not per row).
+    let mut before = path.rows_at(0.0);
+    if let Some(j) = (0..c).find(|&j| Some(j) != toggled && before.events[j] > tol) {
         return Some((0.0, j));
     }
     let step = 2.0 * std::f64::consts::PI / (SCAN_PER_PERIOD * path.fastest());
     let factors = path.step_factors(step);
     let mut t0 = 0.0;
-    let mut before = path.rows_at(0.0);
     for taken in 1.. {
         if t0 >= horizon {
             break;
