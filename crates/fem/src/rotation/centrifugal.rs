@@ -76,6 +76,12 @@ fn scalar_mass(element: &ElementRef<'_>, density: f64) -> [f64; 100] {
     m
 }
 
+/// The scalar consistent mass m_ab = int rho N_a N_b dV of element `element` (kg, npe x npe
+/// row-major), for the nodal mass of [`crate::rotation::RotatingModel`].
+pub(crate) fn element_scalar_mass(element: &ElementRef<'_>, density: f64) -> [f64; 100] {
+    scalar_mass(element, density)
+}
+
 /// Writes the blocks m_ab B (B a 3x3 matrix) into the row-major (3 npe)^2 matrix `out`.
 fn mass_times_block(
     element: &ElementRef<'_>,

@@ -2,17 +2,19 @@
 //! rotation terms (3n DOFs, [`crate::assemble`]'s numbering and pattern) and the free-DOF
 //! residual and tangent of the static centrifugal equilibrium.
 
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
-use sprs::CsMat;
+use sprs::{CsMat, TriMat};
 
 use crate::dofs::DofMap;
 use crate::element::{element_matrices, TabulatedRule};
 use crate::error::FemError;
 use crate::material::Isotropic;
 use crate::mesh::Mesh;
-use crate::rotation::axis::{Mat3, RotorAxis};
+use crate::rotation::axis::{mat_vec, Mat3, RotorAxis};
 use crate::rotation::centrifugal::{
-    centrifugal_load_element, coriolis_element, spin_softening_element,
+    centrifugal_load_element, coriolis_element, element_scalar_mass, spin_softening_element,
 };
 use crate::rotation::element_ref::ElementRef;
 use crate::rotation::error::RotationError;
@@ -49,6 +51,9 @@ pub struct RotatingModel<'m> {
     /// ([`nonlinear_rule`]: a curved TET10's is chosen by a convergence test, done once here
     /// rather than at every assembly).
     rules: Vec<&'static TabulatedRule>,
+    /// The nodal consistent mass m_ab = int rho N_a N_b dV (kg, nodes x nodes), built on the
+    /// first centrifugal load ([`RotatingModel::centrifugal_load`]).
+    nodal_mass: OnceLock<CsMat<f64>>,
 }
 
 impl<'m> RotatingModel<'m> {
@@ -95,6 +100,7 @@ impl<'m> RotatingModel<'m> {
             dofs,
             pattern: BlockPattern::new(mesh),
             rules,
+            nodal_mass: OnceLock::new(),
         })
     }
 
@@ -156,8 +162,40 @@ impl<'m> RotatingModel<'m> {
     }
 
     /// Global centrifugal load f_c (N, length 3n) at speed `omega` (rad/s) and global
-    /// displacement `u` (m, length 3n; zeros for the reference load).
+    /// displacement `u` (m, length 3n; zeros for the reference load): for isoparametric
+    /// elements f_a = Omega^2 P sum_b m_ab (X_b - p + u_b) exactly (`centrifugal` module
+    /// docs), one product with the nodal mass instead of a quadrature over every element at
+    /// each residual of the static solve (the quadrature, [`Self::centrifugal_load_by_quadrature`],
+    /// is the check: equal to round-off).
     pub fn centrifugal_load(&self, omega: f64, u: &[f64]) -> Result<Vec<f64>, RotationError> {
+        self.check_global(u)?;
+        let mass = self.nodal_mass();
+        let (p, proj) = (self.axis.point(), self.axis.projector());
+        // Positions relative to p, so that a node far from the axis point keeps its digits.
+        let arms: Vec<[f64; 3]> = (self.mesh.nodes.iter().enumerate())
+            .map(|(b, x)| std::array::from_fn(|d| x[d] - p[d] + u[3 * b + d]))
+            .collect();
+        let mut load = vec![0.0; u.len()];
+        load.par_chunks_mut(3)
+            .zip(mass.outer_iterator().collect::<Vec<_>>())
+            .for_each(|(f, row)| {
+                let mut w = [0.0; 3];
+                for (b, &m) in row.iter() {
+                    (0..3).for_each(|d| w[d] += m * arms[b][d]);
+                }
+                let arm = mat_vec(&proj, &w);
+                (0..3).for_each(|d| f[d] = omega * omega * arm[d]);
+            });
+        Ok(load)
+    }
+
+    /// [`Self::centrifugal_load`] by quadrature over every element (`centrifugal_load_element`):
+    /// the check of the nodal-mass form.
+    pub fn centrifugal_load_by_quadrature(
+        &self,
+        omega: f64,
+        u: &[f64],
+    ) -> Result<Vec<f64>, RotationError> {
         self.check_global(u)?;
         let (rho, axis, mesh) = (self.material.density, self.axis, self.mesh);
         let (v, _) = assemble_global(mesh, &self.pattern, true, false, &|e, el, f, _| {
@@ -166,6 +204,30 @@ impl<'m> RotatingModel<'m> {
             centrifugal_load_element(el, &u_e[..el.ndof()], rho, &axis, omega, f)
         })?;
         Ok(v.unwrap_or_default())
+    }
+
+    /// The nodal consistent mass (kg, nodes x nodes, CSR), assembled on first use.
+    fn nodal_mass(&self) -> &CsMat<f64> {
+        self.nodal_mass.get_or_init(|| {
+            let (n, npe) = (self.mesh.n_nodes(), self.mesh.kind.nodes_per_element());
+            let blocks: Vec<[f64; 100]> = (0..self.mesh.n_elements())
+                .into_par_iter()
+                .map(|e| {
+                    let mut buf = [[0.0; 3]; 10];
+                    element_scalar_mass(&self.element(e, &mut buf), self.material.density)
+                })
+                .collect();
+            let mut tri = TriMat::with_capacity((n, n), blocks.len() * npe * npe);
+            for (e, m) in blocks.iter().enumerate() {
+                let nodes = self.mesh.element(e);
+                for (a, &na) in nodes.iter().enumerate() {
+                    for (b, &nb) in nodes.iter().enumerate() {
+                        tri.add_triplet(na, nb, m[a * npe + b]);
+                    }
+                }
+            }
+            tri.to_csr()
+        })
     }
 
     /// Global total-Lagrangian internal force (N) and tangent minus Omega^2 M_spin (N/m) at the
