@@ -11,9 +11,11 @@
 //! - Coriolis: G^ab = 2 Omega int rho N_a N_b dV [a]x (kg/s), skew-symmetric, from the
 //!   rotating-frame inertia rho (u'' + 2 Omega a x u' + ...).
 //!
-//! The load is integrated by quadrature ([`crate::rotation::points::load_rule`], exact), the
-//! matrices from the exact consistent mass, so that the identity f(u) = Omega^2 M_spin
-//! (X + u - p) checks one against the other.
+//! The element load is integrated by quadrature ([`crate::rotation::points::load_rule`], exact),
+//! the matrices from the exact consistent mass, so that the identity f(u) = Omega^2 M_spin
+//! (X + u - p) checks one against the other. The static solves use the identity
+//! (`RotatingModel::centrifugal_load`: one product with the nodal mass per residual) and keep
+//! the quadrature as its check (`RotatingModel::centrifugal_load_by_quadrature`).
 
 use crate::element::ElementRules;
 use crate::error::FemError;
