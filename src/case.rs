@@ -437,8 +437,6 @@ mod tests {
                 crate::speed_sweep::speed_sweep_settings::SpeedSweepSection {
                     engine_orders: vec![3],
                     levels: vec![2.0],
-                    adapt_harmonics:
-                        crate::speed_sweep::speed_sweep_settings::SweepHarmonics::Check,
                     casing: Some(crate::speed_sweep::speed_sweep_settings::CasingSection {
                         amplitudes: [0.0, 1.5],
                         points: 16,
