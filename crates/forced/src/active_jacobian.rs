@@ -129,7 +129,9 @@ impl ActiveJacobian {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Damping, Load, ModalDynamics};
+    use crate::damping::Damping;
+    use crate::dynamics::ModalDynamics;
+    use crate::load::Load;
     use faer::linalg::matmul::matmul;
     use faer::{Accum, Par};
     use nlmodes_hb::System;
