@@ -9,7 +9,7 @@
 //! the default blade at N = 20, 30 MB at N = 40, rewritten at every W of a continuation and read
 //! with a stride in every Newton matrix; the blocks are (N + 1) times smaller.
 
-use faer::{Mat, MatMut, MatRef};
+use faer::{Mat, MatMut};
 use nlmodes_hb::FullBasis;
 
 /// The condensed linear response at one excitation frequency W (see module docs), in the
@@ -154,48 +154,6 @@ impl ContactCompliance {
                 }
             }
         }
-        out
-    }
-
-    /// G[:, row j] J written into columns `first..first + 2N + 1` of `out` (L rows), for a
-    /// (2N + 1)^2 block J acting on contact row j's coefficients: entry (i, q) is
-    /// sum_p G[i, j p] J[p, q] over the one or two coefficients p of row i's own harmonic, so
-    /// each takes one or two products.
-    pub fn times_row_block_into(
-        &self,
-        j: usize,
-        block: MatRef<'_, f64>,
-        out: &mut Mat<f64>,
-        first_col: usize,
-    ) {
-        let t = self.terms();
-        debug_assert!(out.nrows() == self.len() && out.ncols() >= first_col + t);
-        for q in 0..t {
-            let column = out.col_as_slice_mut(first_col + q);
-            for (n, g) in self.blocks.iter().enumerate() {
-                let (w, p0) = (width(n), first(n));
-                for part in 0..w {
-                    let b = block[(p0 + part, q)];
-                    if b == 0.0 {
-                        continue;
-                    }
-                    let gcol = g.col_as_slice(w * j + part);
-                    for (i, rows) in gcol.chunks_exact(w).enumerate() {
-                        let at = i * t + p0;
-                        column[at..at + w]
-                            .iter_mut()
-                            .zip(rows)
-                            .for_each(|(o, g)| *o += g * b);
-                    }
-                }
-            }
-        }
-    }
-
-    /// G[:, row j] J (L x (2N + 1)): [`Self::times_row_block_into`] into a new matrix.
-    pub fn times_row_block(&self, j: usize, block: MatRef<'_, f64>) -> Mat<f64> {
-        let mut out = Mat::zeros(self.len(), self.terms());
-        self.times_row_block_into(j, block, &mut out, 0);
         out
     }
 }

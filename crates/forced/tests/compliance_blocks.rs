@@ -1,6 +1,7 @@
 //! The harmonic-block products of the contact compliance (`ContactCompliance::apply`,
-//! `times_row_block`) against the dense products with the same G, for both damping paths and
-//! two contact rows that share modes (every block of G is full).
+//! `apply_transpose`) against the dense products with the same G, for both damping paths and
+//! two contact rows that share modes (every block of G is full). The G J products of the
+//! Newton solve: `active_jacobian.rs`'s unit test.
 
 mod common;
 
@@ -47,15 +48,17 @@ fn check(damping: Damping) {
         for i in 0..l {
             assert!((got[i] - want[(i, 0)]).abs() <= 1e-14 * scale, "W {w}, {i}");
         }
-        let block = Mat::from_fn(t, t, |p, q| ((p * t + q) as f64 * 0.37).cos());
-        for j in 0..2 {
-            let want = dense(g.subcols(j * t, t), block.as_ref());
-            let got = comp.times_row_block(j, block.as_ref());
-            let worst = (0..l)
-                .flat_map(|i| (0..t).map(move |q| (i, q)))
-                .map(|(i, q)| (got[(i, q)] - want[(i, q)]).abs())
-                .fold(0.0, f64::max);
-            assert!(worst <= 1e-14 * scale * t as f64, "W {w}, row {j}: {worst}");
+        // G^T v on the coefficients of each row (both rows, then the second alone).
+        let v: Vec<f64> = (0..l).map(|i| (0.3 * i as f64 - 0.4).cos()).collect();
+        let want = dense(g.transpose(), Mat::from_fn(l, 1, |i, _| v[i]).as_ref());
+        for rows in [vec![0, 1], vec![1]] {
+            let got = comp.apply_transpose(&v, &rows);
+            for (ar, &j) in rows.iter().enumerate() {
+                for p in 0..t {
+                    let (a, b) = (got[ar * t + p], want[(j * t + p, 0)]);
+                    assert!((a - b).abs() <= 1e-14 * scale, "W {w}, row {j}, {p}");
+                }
+            }
         }
     }
 }
