@@ -62,7 +62,7 @@ pub fn centrifugal_load_element(
 }
 
 /// The scalar consistent-mass entries m_ab = int rho N_a N_b dV (kg), row-major npe x npe.
-fn scalar_mass(element: &ElementRef<'_>, density: f64) -> [f64; 100] {
+pub(crate) fn scalar_mass(element: &ElementRef<'_>, density: f64) -> [f64; 100] {
     let npe = element.npe();
     let n = 3 * npe;
     let mut full = [0.0; 900];
@@ -76,12 +76,6 @@ fn scalar_mass(element: &ElementRef<'_>, density: f64) -> [f64; 100] {
         }
     }
     m
-}
-
-/// The scalar consistent mass m_ab = int rho N_a N_b dV of element `element` (kg, npe x npe
-/// row-major), for the nodal mass of [`crate::rotation::RotatingModel`].
-pub(crate) fn element_scalar_mass(element: &ElementRef<'_>, density: f64) -> [f64; 100] {
-    scalar_mass(element, density)
 }
 
 /// Writes the blocks m_ab B (B a 3x3 matrix) into the row-major (3 npe)^2 matrix `out`.

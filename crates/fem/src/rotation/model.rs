@@ -14,7 +14,7 @@ use crate::material::Isotropic;
 use crate::mesh::Mesh;
 use crate::rotation::axis::{mat_vec, Mat3, RotorAxis};
 use crate::rotation::centrifugal::{
-    centrifugal_load_element, coriolis_element, element_scalar_mass, spin_softening_element,
+    centrifugal_load_element, coriolis_element, scalar_mass, spin_softening_element,
 };
 use crate::rotation::element_ref::ElementRef;
 use crate::rotation::error::RotationError;
@@ -176,16 +176,15 @@ impl<'m> RotatingModel<'m> {
             .map(|(b, x)| std::array::from_fn(|d| x[d] - p[d] + u[3 * b + d]))
             .collect();
         let mut load = vec![0.0; u.len()];
-        load.par_chunks_mut(3)
-            .zip(mass.outer_iterator().collect::<Vec<_>>())
-            .for_each(|(f, row)| {
-                let mut w = [0.0; 3];
-                for (b, &m) in row.iter() {
-                    (0..3).for_each(|d| w[d] += m * arms[b][d]);
-                }
-                let arm = mat_vec(&proj, &w);
-                (0..3).for_each(|d| f[d] = omega * omega * arm[d]);
-            });
+        let (indptr, indices, values) = (mass.indptr(), mass.indices(), mass.data());
+        load.par_chunks_mut(3).enumerate().for_each(|(a, f)| {
+            let mut w = [0.0; 3];
+            for k in indptr.outer_inds_sz(a) {
+                (0..3).for_each(|d| w[d] += values[k] * arms[indices[k]][d]);
+            }
+            let arm = mat_vec(&proj, &w);
+            (0..3).for_each(|d| f[d] = omega * omega * arm[d]);
+        });
         Ok(load)
     }
 
@@ -214,7 +213,7 @@ impl<'m> RotatingModel<'m> {
                 .into_par_iter()
                 .map(|e| {
                     let mut buf = [[0.0; 3]; 10];
-                    element_scalar_mass(&self.element(e, &mut buf), self.material.density)
+                    scalar_mass(&self.element(e, &mut buf), self.material.density)
                 })
                 .collect();
             let mut tri = TriMat::with_capacity((n, n), blocks.len() * npe * npe);
