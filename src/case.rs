@@ -415,11 +415,10 @@ mod tests {
     /// `[speed_sweep]` table (absent by default too) states the table's defaults but for the
     /// keys that make it the default study's (issue 39, item 6): the one sweep through the
     /// EO 3 crossing next to the operating speed at 2 x grazing (the defaults, every crossing
-    /// in the range at every `[forced]` level, would be 18 sweeps of about 90 s each), its N
-    /// checked rather than retraced (the retraced sweep costs about 4 x), and the casing
-    /// distortion at the operating speed (`[speed_sweep.casing]`, absent by default) up to 1.5
-    /// running gaps on 16 amplitudes, its N checked rather than refined point by point (the
-    /// refinement costs about 26 s there for 6 of 24 points converged: docs/BENCHMARKS.md).
+    /// in the range at every `[forced]` level, would be 18 sweeps of about 90 s each), and the
+    /// casing distortion at the operating speed (`[speed_sweep.casing]`, absent by default) up
+    /// to 1.5 running gaps on 16 amplitudes. Both converge N by their defaults ("retrace",
+    /// "refine"; since session 24, the casing study run beside the sweep).
     #[test]
     fn shipped_case_file_equals_the_defaults() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/blade.toml");
@@ -440,8 +439,6 @@ mod tests {
                     casing: Some(crate::speed_sweep::speed_sweep_settings::CasingSection {
                         amplitudes: [0.0, 1.5],
                         points: 16,
-                        adapt_harmonics:
-                            crate::speed_sweep::speed_sweep_settings::CasingHarmonics::Check,
                         ..Default::default()
                     }),
                     ..Default::default()

@@ -258,7 +258,7 @@ struct CurveRecord<'a> {
 
 /// The points of a retraced curve raised to 2N and their check at 4N (DESIGN §10.8).
 #[derive(Serialize)]
-struct RaisedRecord {
+pub(crate) struct RaisedRecord {
     /// Each segment's first and last point (indices into `orbits`, inclusive).
     segments: Vec<[usize; 2]>,
     /// Points solved at the raised N in place of the trace's.
@@ -323,6 +323,25 @@ fn retrace_record(t: &nlmodes_forced::CurveHarmonics) -> RetraceRecord {
     }
 }
 
+/// The record of raised segments (JSON). Shared with the speed sweeps' summary.
+pub(crate) fn raised_record(d: &RaisedSegments) -> RaisedRecord {
+    RaisedRecord {
+        segments: d.segments.clone(),
+        raised: d.raised.clone(),
+        failed: d.failed.clone(),
+        check: retrace_record(&d.check),
+        rounds: (d.rounds.iter())
+            .map(|k| RaisedRoundRecord {
+                harmonics: k.harmonics,
+                segments: k.segments.clone(),
+                raised: k.raised.clone(),
+                failed: k.failed.clone(),
+                check: retrace_record(&k.check),
+            })
+            .collect(),
+    }
+}
+
 fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
     let r = &c.response;
     let orbits = r
@@ -355,21 +374,7 @@ fn curve_record(c: &ForcedCurve) -> CurveRecord<'_> {
         })
         .collect();
     let retraces = r.retraces.iter().map(retrace_record).collect();
-    let raised = r.raised.as_ref().map(|d| RaisedRecord {
-        segments: d.segments.clone(),
-        raised: d.raised.clone(),
-        failed: d.failed.clone(),
-        check: retrace_record(&d.check),
-        rounds: (d.rounds.iter())
-            .map(|k| RaisedRoundRecord {
-                harmonics: k.harmonics,
-                segments: k.segments.clone(),
-                raised: k.raised.clone(),
-                failed: k.failed.clone(),
-                check: retrace_record(&k.check),
-            })
-            .collect(),
-    });
+    let raised = r.raised.as_ref().map(raised_record);
     CurveRecord {
         retraces,
         raised,
@@ -681,7 +686,7 @@ pub(crate) fn check_verdict(
          could not be solved again at 2N (the solve failed or landed on another orbit)",
         last.checked.len(),
         if raised && moved > 0 {
-            " (N raised around them: next line)"
+            " (N raised around them)"
         } else {
             ""
         }
@@ -689,12 +694,33 @@ pub(crate) fn check_verdict(
 }
 
 /// Where N was raised around the points that moved, and what the check of the raised points
-/// found (one line).
+/// found (one line), for a frequency response (its segments as W ranges).
 fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -> String {
+    let range = |a: usize, b: usize| {
+        let w = r.points[a..=b].iter().map(|p| p.omega);
+        let (lo, hi) = w.fold((f64::INFINITY, 0.0_f64), |(l, h), v| (l.min(v), h.max(v)));
+        match a == b {
+            true => format!("W = {lo:.6e} rad/s"),
+            false => format!("W = {lo:.6e}..{hi:.6e} rad/s"),
+        }
+    };
+    raised_segments_note(raised, tolerance, &range, "W")
+}
+
+/// Where N was raised around the points that moved, and what the check of the raised points
+/// found (one line): each round's segments and the points not solved at their raised N as
+/// `range(first, last)` gives them, the changes of the curve's `parameter` ("W", "speed").
+/// Shared with the speed sweeps' note.
+pub(crate) fn raised_segments_note(
+    raised: &RaisedSegments,
+    tolerance: f64,
+    range: &dyn Fn(usize, usize) -> String,
+    parameter: &str,
+) -> String {
     let rounds: Vec<String> = raised
         .rounds
         .iter()
-        .map(|round| round_note(r, round, tolerance))
+        .map(|round| round_note(round, tolerance, range, parameter))
         .collect();
     let check = &raised.check;
     let verdict = if !check.checkable {
@@ -702,12 +728,17 @@ fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -
     } else if raised.converged() {
         "converged".to_string()
     } else {
+        let failed: Vec<String> = raised.failed.iter().map(|&i| range(i, i)).collect();
         format!(
             "NOT converged: {} of the {} deciding checks move by more than {tolerance:e}, {} \
-             points not solved at their raised N",
+             points not solved at their raised N{}",
             check.not_converged,
             check.checked.len(),
-            raised.failed.len()
+            raised.failed.len(),
+            match failed.is_empty() {
+                true => String::new(),
+                false => format!(" ({})", failed.join(", ")),
+            }
         )
     };
     format!(
@@ -716,18 +747,15 @@ fn raised_note(r: &FrequencyResponse, raised: &RaisedSegments, tolerance: f64) -
     )
 }
 
-/// One round of raised segments: its N, points, segments' W ranges and its own check at 2N.
-fn round_note(r: &FrequencyResponse, round: &RaisedRound, tolerance: f64) -> String {
+/// One round of raised segments: its N, points, segments' ranges and its own check at 2N.
+fn round_note(
+    round: &RaisedRound,
+    tolerance: f64,
+    range: &dyn Fn(usize, usize) -> String,
+    parameter: &str,
+) -> String {
     let n = round.harmonics;
-    let ranges: Vec<String> = round
-        .segments
-        .iter()
-        .map(|[a, b]| {
-            let w = r.points[*a..=*b].iter().map(|p| p.omega);
-            let (lo, hi) = w.fold((f64::INFINITY, 0.0_f64), |(l, h), v| (l.min(v), h.max(v)));
-            format!("W = {lo:.6e}..{hi:.6e} rad/s")
-        })
-        .collect();
+    let ranges: Vec<String> = round.segments.iter().map(|[a, b]| range(*a, *b)).collect();
     let check = &round.check;
     let moved = if !check.checkable {
         "not checked".to_string()
@@ -740,7 +768,7 @@ fn round_note(r: &FrequencyResponse, round: &RaisedRound, tolerance: f64) -> Str
     };
     format!(
         "to {n} at {} points in {} segment{} ({}), {} checked at {}: {moved} (largest change \
-         {:.1e} in q1, {:.1e} in W)",
+         {:.1e} in q1, {:.1e} in {parameter})",
         round.raised.len(),
         round.segments.len(),
         if round.segments.len() == 1 { "" } else { "s" },

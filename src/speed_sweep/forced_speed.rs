@@ -468,27 +468,63 @@ fn one_sweep(
 }
 
 /// The sweep's N and what its check at 2N found, in words ("N = 10, not checked" under
-/// `adapt_harmonics = "fixed"`).
+/// `adapt_harmonics = "fixed"`), and where N was raised around the points that moved (one
+/// line: it also fills a table cell).
 pub fn harmonics_note(sweep: &nlmodes_forced::SpeedSweep, tolerance: f64) -> String {
     let Some(last) = sweep.retraces.last() else {
         return format!("N = {}, not checked", sweep.harmonics);
     };
     let traced: Vec<usize> = sweep.retraces.iter().map(|t| t.harmonics).collect();
+    // A checked point whose 2N solve failed keeps that verdict, or (N raised around the
+    // moving ones) is among the raised segments' failed points.
+    let raised = sweep.raised.as_ref();
     let checks: Vec<nlmodes_forced::HarmonicCheck> = (last.checked.iter())
-        .filter_map(|&i| sweep.points.get(i).map(|p| p.point.harmonic_check))
+        .filter_map(|&i| {
+            let failed = raised.is_some_and(|r| r.failed.contains(&i));
+            let check = sweep.points.get(i).map(|p| p.point.harmonic_check);
+            match failed {
+                true => Some(nlmodes_forced::HarmonicCheck::NotConverged { change: None }),
+                false => check,
+            }
+        })
         .collect();
-    check_note(last, &traced, &checks, tolerance)
+    let converged = sweep.harmonics_converged() == Some(true);
+    let mut out = check_note(
+        last,
+        &traced,
+        &checks,
+        converged,
+        raised.is_some(),
+        tolerance,
+    );
+    if let Some(raised) = raised {
+        let range = |a: usize, b: usize| {
+            let rpm = sweep.points[a..=b].iter().map(|p| p.speed / RPM_TO_RAD_S);
+            let (lo, hi) = rpm.fold((f64::INFINITY, 0.0_f64), |(l, h), v| (l.min(v), h.max(v)));
+            match a == b {
+                true => format!("{lo:.1} rpm"),
+                false => format!("{lo:.1}..{hi:.1} rpm"),
+            }
+        };
+        out += "; ";
+        out +=
+            crate::forced::forced_output::raised_segments_note(raised, tolerance, &range, "speed")
+                .trim();
+    }
+    out
 }
 
 /// [`harmonics_note`] of the last trace `last` (its checked points' verdicts `checks`), the N
-/// of every trace `traced`. `CurveHarmonics::not_converged` counts both the checked points
-/// that moved by more than the tolerance at 2N and those whose 2N solve failed or landed on
-/// another orbit, while `largest_change` is over the solved ones only: the two are told
-/// apart here.
+/// of every trace `traced`, whether the sweep's N is `converged` (with its raised segments,
+/// when `raised`). `CurveHarmonics::not_converged` counts both the checked points that moved
+/// by more than the tolerance at 2N and those whose 2N solve failed or landed on another
+/// orbit, while `largest_change` is over the solved ones only: the two are told apart here.
 fn check_note(
     last: &nlmodes_forced::CurveHarmonics,
     traced: &[usize],
     checks: &[nlmodes_forced::HarmonicCheck],
+    converged: bool,
+    raised: bool,
     tolerance: f64,
 ) -> String {
     use nlmodes_forced::HarmonicCheck;
@@ -497,10 +533,10 @@ fn check_note(
         .count();
     let traced: Vec<String> = traced.iter().map(ToString::to_string).collect();
     // The frequency sweep's wording of the same check (one implementation).
-    let verdict = crate::forced::forced_output::check_verdict(last, failed, false, tolerance);
+    let verdict = crate::forced::forced_output::check_verdict(last, failed, raised, tolerance);
     let verdict = if last.checked.is_empty() {
         "no point in contact (linear: exact at any N)".to_string()
-    } else if last.converged() || !last.checkable {
+    } else if converged || !last.checkable {
         verdict
     } else {
         format!("NOT converged: {verdict}")
@@ -540,14 +576,14 @@ mod tests {
                 change: [2.2e-4, 2.1e-4],
             }; 2],
         );
-        let note = check_note(&last, &[10], &checks, 1e-3);
+        let note = check_note(&last, &[10], &checks, last.converged(), false, 1e-3);
         assert!(note.contains("0 move by more than 1e-3"), "{note}");
         assert!(note.contains("6 could not be solved again at 2N"), "{note}");
         assert!(note.contains("over the 2 solved"), "{note}");
         checks[0] = HarmonicCheck::NotConverged {
             change: Some([4e-3, 1e-4]),
         };
-        let note = check_note(&last, &[10], &checks, 1e-3);
+        let note = check_note(&last, &[10], &checks, last.converged(), false, 1e-3);
         assert!(note.contains("1 move by more than 1e-3"), "{note}");
         assert!(note.contains("5 could not be solved"), "{note}");
     }

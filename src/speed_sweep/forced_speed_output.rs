@@ -109,11 +109,18 @@ pub struct SweepSummary {
     pub peak_stability: String,
     pub complete: bool,
     pub end: String,
-    /// N of every point of the sweep (its last trace's).
+    /// N of the sweep's last trace (every point's but the raised ones', which carry theirs in
+    /// the CSV).
     pub harmonics: usize,
     /// `[speed_sweep] adapt_harmonics` "retrace" or "check": every trace of the sweep at its N
     /// and what its check at 2N found, the last the sweep's (empty under "fixed").
     pub retraces: Vec<RetraceRecord>,
+    /// `[speed_sweep] adapt_harmonics` "retrace": the points raised above the last trace's N
+    /// where its check found them moving (docs/DESIGN.md §10.10; absent when none was).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub raised: Option<crate::forced::forced_output::RaisedRecord>,
+    /// Whether the sweep's N is converged at every point checked (`null` under "fixed").
+    pub harmonics_converged: Option<bool>,
     /// The check of N in words (`harmonics_note`).
     pub harmonics_note: String,
     /// The casing distortion (`[forced.distortion]`, docs/DESIGN.md §10.11), absent without.
@@ -200,6 +207,8 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
                 converged: t.converged(),
             })
             .collect(),
+        raised: (run.sweep.raised.as_ref()).map(crate::forced::forced_output::raised_record),
+        harmonics_converged: run.sweep.harmonics_converged(),
         harmonics_note: harmonics_note(&run.sweep, st.harmonic_tolerance),
         casing: run.casing.clone(),
     }
@@ -292,7 +301,7 @@ pub fn csv(st: &SpeedSweepStudy) -> Result<CsvTable> {
                 bifurcation.into(),
                 fold.into(),
                 p.corrections.into(),
-                run.sweep.harmonics.into(),
+                p.point.harmonics.into(),
                 run.casing.as_ref().map_or(0.0, |c| c.amplitude_m).into(),
             ])?;
         }

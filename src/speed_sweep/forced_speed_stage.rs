@@ -83,22 +83,6 @@ impl<'a> SpeedSweepStage<'a> {
             (&self.rotation.engine_orders, alone),
             &case_file,
         )?;
-        let study = crate::speed_sweep::forced_speed::run(
-            &SweepInputs {
-                model: &model,
-                forced: &forced,
-                sweep: self.sweep,
-                damping_matrix: inputs.damping_matrix.as_ref(),
-                file_load: inputs.file_load.as_ref(),
-                source,
-            },
-            &plans,
-            closure,
-        )?;
-        let out = self.out();
-        crate::speed_sweep::forced_speed_output::write(&study, &out)?;
-        let mut section = crate::speed_sweep::forced_speed_report::section(&study);
-        crate::ui::say(&crate::speed_sweep::forced_speed_report::summary(&study));
         let (solver, _) = crate::forced::solver_settings(&reference, &forced)?;
         let casing_inputs = crate::speed_sweep::forced_speed_casing::CasingInputs {
             model: &model,
@@ -107,13 +91,34 @@ impl<'a> SpeedSweepStage<'a> {
             solver: &solver,
             damping_matrix: inputs.damping_matrix.as_ref(),
         };
+        let out = self.out();
+        let sweep_inputs = SweepInputs {
+            model: &model,
+            forced: &forced,
+            sweep: self.sweep,
+            damping_matrix: inputs.damping_matrix.as_ref(),
+            file_load: inputs.file_load.as_ref(),
+            source,
+        };
+        // The sweeps and the casing study are independent: run side by side, the casing
+        // study's parallel work fills the core a sweep's continuation (one point after the
+        // other) leaves idle.
         let rpm = self.rotation.operating_speed;
-        let casing = crate::speed_sweep::forced_speed_casing::run_enabled(
-            self.sweep,
-            &casing_inputs,
-            rpm,
-            &out,
-        )?;
+        let (study, casing) = rayon::join(
+            || crate::speed_sweep::forced_speed::run(&sweep_inputs, &plans, closure),
+            || {
+                crate::speed_sweep::forced_speed_casing::run_enabled(
+                    self.sweep,
+                    &casing_inputs,
+                    rpm,
+                    &out,
+                )
+            },
+        );
+        let (study, casing) = (study?, casing?);
+        crate::speed_sweep::forced_speed_output::write(&study, &out)?;
+        let mut section = crate::speed_sweep::forced_speed_report::section(&study);
+        crate::ui::say(&crate::speed_sweep::forced_speed_report::summary(&study));
         if let Some(c) = &casing {
             section += &crate::speed_sweep::forced_speed_casing::section(c);
         }

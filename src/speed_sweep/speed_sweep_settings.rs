@@ -13,7 +13,9 @@ use crate::problems::Problems;
 pub enum SweepHarmonics {
     /// Traced at `[forced] harmonics`; its peak, folds, deepest contact and four points spread
     /// over its contact solved again at 2N, and the whole sweep traced again at 2N while one
-    /// moves by more than `[forced] harmonic_tolerance` (up to `[forced] max_harmonics`).
+    /// moves by more than `[forced] harmonic_tolerance` (up to `[forced] max_harmonics`);
+    /// where the last trace's check still moves, N raised around those points alone (in
+    /// segments along the sweep, checked at twice the raised N).
     Retrace,
     /// Traced at `[forced] harmonics`, the same points checked at 2N and flagged, no retrace.
     Check,

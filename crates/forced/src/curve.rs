@@ -331,20 +331,14 @@ pub struct FrequencyResponse {
 impl FrequencyResponse {
     /// The first point of the piece holding point `i` and the end of that piece (exclusive).
     pub(crate) fn piece_of(&self, i: usize) -> (usize, usize) {
-        let start = self.pieces.iter().copied().filter(|&k| k <= i).max();
-        let end = self.pieces.iter().copied().filter(|&k| k > i).min();
-        (start.unwrap_or(0), end.unwrap_or(self.points.len()))
+        piece_bounds(&self.pieces, self.points.len(), i)
     }
 
     /// Under `HarmonicPolicy::Retrace`: whether the curve's N is converged at every point
     /// checked (the last trace's checked points, and those of its raised segments); `None`
     /// under the other policies.
     pub fn harmonics_converged(&self) -> Option<bool> {
-        let last = self.retraces.last()?;
-        Some(match &self.raised {
-            Some(raised) => last.checkable && raised.converged(),
-            None => last.converged(),
-        })
+        harmonics_converged(&self.retraces, self.raised.as_ref())
     }
 
     /// The swept parameter of a point (W in rad/s, or the load scale).
@@ -435,4 +429,25 @@ impl FrequencyResponse {
             _ => None,
         }
     }
+}
+
+/// The first point and one past the last of the piece holding point `i` of a curve of `len`
+/// points whose pieces start at `pieces` (none listed: one piece).
+pub(crate) fn piece_bounds(pieces: &[usize], len: usize, i: usize) -> (usize, usize) {
+    let start = pieces.iter().copied().filter(|&k| k <= i).max();
+    let end = pieces.iter().copied().filter(|&k| k > i).min();
+    (start.unwrap_or(0), end.unwrap_or(len))
+}
+
+/// Whether a curve's N is converged at every point checked: its last trace's checked points
+/// (`retraces`), and those of its `raised` segments; `None` without a check.
+pub(crate) fn harmonics_converged(
+    retraces: &[CurveHarmonics],
+    raised: Option<&RaisedSegments>,
+) -> Option<bool> {
+    let last = retraces.last()?;
+    Some(match raised {
+        Some(raised) => last.checkable && raised.converged(),
+        None => last.converged(),
+    })
 }

@@ -15,12 +15,13 @@ use crate::trace::{norm, scales};
 /// contact.
 const SPREAD: usize = 4;
 
-/// A checked point that moved by more than the tolerance at 2N, or whose 2N solve failed.
-pub(crate) struct MovingPoint {
+/// A checked point that moved by more than the tolerance at 2N, or whose 2N solve failed
+/// (`P`: a frequency response's `ForcedPoint`, a speed sweep's `SpeedPoint`).
+pub(crate) struct MovingPoint<P = ForcedPoint> {
     /// Its index in the curve.
     pub index: usize,
     /// Its solve at 2N on its normal row, when that converged on the same orbit.
-    pub finer: Option<ForcedPoint>,
+    pub finer: Option<P>,
 }
 
 /// Checks `curve` (traced at the base N of `ladder`, whose level 1, when there is one, is 2N)

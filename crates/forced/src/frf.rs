@@ -18,6 +18,7 @@ use crate::curve_harmonics::check_curve;
 use crate::curve_stability::assess_stability;
 use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
+use crate::raise_frequency::FrequencyTarget;
 use crate::raised_segments::{Raising, MAX_CHECK_HARMONICS};
 use crate::solver::{ForcedPoint, ForcedSolver};
 use crate::trace::FrfTrace;
@@ -82,17 +83,24 @@ fn retraced_curve(
         retraces.push(check);
         if !again {
             if !moving.is_empty() && ladder.levels() > 1 {
-                let raising = Raising {
+                let target = FrequencyTarget {
                     base: current,
+                    settings,
+                    trace: curve.clone(),
+                };
+                let raising = Raising {
+                    target: &target,
+                    base: n,
                     finer: ladder.solver(1),
                     top,
                     check: match 4 * n <= MAX_CHECK_HARMONICS {
                         true => Some(current.with_harmonics(4 * n)?),
                         false => None,
                     },
-                    settings,
+                    tolerance: settings.harmonic_tolerance,
                 };
-                let raised = raising.raise(&mut curve, moving)?;
+                let pieces = curve.pieces.clone();
+                let raised = raising.raise(&mut curve.points, &pieces, moving)?;
                 tracing::info!(
                     segments = raised.segments.len(),
                     raised = raised.raised.len(),

@@ -41,6 +41,8 @@ mod newton;
 mod orbit_origin;
 mod period_check;
 mod point_stability;
+mod raise_frequency;
+mod raise_speed;
 mod raised_segments;
 mod solver;
 #[cfg(test)]

@@ -13,19 +13,23 @@
 //! again and check it at 80; its level 2 needs round 2 (3 points at 80, 2 checks at 160).
 //!
 //! Every solve of a point, at any N, is on the same row: the one normal to the trace at N
-//! through the point (`normal_row`), so the changes between rounds compare one orbit. Each
-//! solve starts from its neighbour's at the same N, shifted by the two points' difference one
-//! level down (a predictor along the curve: the truncation error changes slowly between
-//! neighbours), and falls back on a solve at the point's own W where the row fails.
+//! through the point, so the changes between rounds compare one orbit. Each solve starts from
+//! its neighbour's at the same N, shifted by the two points' difference one level down (a
+//! predictor along the curve: the truncation error changes slowly between neighbours), and
+//! falls back on a solve at the point's own parameter where the row fails.
+//!
+//! The algorithm is the curve's, not its solver's: it runs on any [`RaiseTarget`], the
+//! frequency response (`raise_frequency`, parameter W) and the speed sweep (`raise_speed`,
+//! parameter the speed, DESIGN §10.10).
 
 use rayon::prelude::*;
 
-use crate::curve::{CurveHarmonics, FrequencyResponse, FrfSettings, RaisedRound, RaisedSegments};
-use crate::curve_harmonics::{normal_row, record_check, MovingPoint};
+use crate::curve::{piece_bounds, CurveHarmonics, RaisedRound, RaisedSegments};
+use crate::curve_harmonics::{record_check, MovingPoint};
 use crate::error::ForcedError;
 use crate::harmonic_check::HarmonicCheck;
-use crate::ladder::{resize_signals, solve_same_orbit, start_at, verdict};
-use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
+use crate::ladder::verdict;
+use crate::solver::ForcedPoint;
 
 /// The largest N at which the raised points are checked: the solve's condensed Newton matrix is
 /// dense in (2N + 1) x contact rows (0.74 GB at N = 200 on the blade's 24 rows, the CLI's
@@ -41,63 +45,118 @@ pub(crate) const RAISE_BEYOND: usize = 2;
 /// could be a change of sign of the truncation error between two moving points.
 const EDGE: usize = 2;
 
-/// The solvers at the curve's N, 2N and 4N and the tolerance of the check.
-pub(crate) struct Raising<'a, 's> {
-    /// The curve's N (its points are solved there).
-    pub base: &'a ForcedSolver<'s>,
-    /// 2N: the N of the points raised in round 1.
-    pub finer: &'a ForcedSolver<'s>,
-    /// 4N: the check of round 1 (`None` above `MAX_CHECK_HARMONICS`).
-    pub check: Option<ForcedSolver<'s>>,
-    /// `max_harmonics` (later rounds raise up to `RAISE_BEYOND` times it).
-    pub top: usize,
-    pub settings: &'a FrfSettings,
+/// A curve whose points `Raising` solves again at other N, with the trace they were traced on
+/// (its rows normal to the curve): the frequency response (`raise_frequency`) and the speed
+/// sweep (`raise_speed`).
+pub(crate) trait RaiseTarget: Sync {
+    /// A point of the curve.
+    type Point: Clone + Send + Sync;
+    /// What solves points at one N.
+    type Level: Send + Sync;
+    /// What the curve is, for the log ("forced response", "speed sweep").
+    const WHAT: &'static str;
+    /// The orbit of a point (its N, contact, harmonic check).
+    fn orbit(p: &Self::Point) -> &ForcedPoint;
+    /// The orbit of a point, to mark its harmonic check.
+    fn orbit_mut(p: &mut Self::Point) -> &mut ForcedPoint;
+    /// N of a level.
+    fn harmonics(level: &Self::Level) -> usize;
+    /// The level at N = `harmonics`.
+    fn level(&self, harmonics: usize) -> Result<Self::Level, ForcedError>;
+    /// The relative change [q1, parameter] between two solves of one orbit (relative to the
+    /// one at the larger N).
+    fn change(&self, a: &Self::Point, b: &Self::Point) -> [f64; 2];
+    /// `point` (point `i` of the curve, one level down) solved at `level` from its neighbour's
+    /// solve there (`neighbour`: the neighbour one level down and at `level`) shifted by the
+    /// two points' difference one level down, on the row normal to the trace at `i`, or at the
+    /// point's own parameter (first when `fixed_first`); with its change from `point` and
+    /// whether it took its own parameter. `None` when both fail or land on another orbit.
+    fn solve_finer(
+        &self,
+        level: &Self::Level,
+        i: usize,
+        point: &Self::Point,
+        neighbour: (&Self::Point, &Self::Point),
+        fixed_first: bool,
+    ) -> Option<(Self::Point, [f64; 2], bool)>;
+    /// `point` (point `i` of the curve or its solve at some N) solved at `level` from itself
+    /// on the row normal to the trace at `i`, with its change from `point`, when it converged
+    /// on the same orbit.
+    fn solve_again(
+        &self,
+        level: &Self::Level,
+        i: usize,
+        point: &Self::Point,
+    ) -> Option<(Self::Point, [f64; 2])>;
 }
 
-/// One round's solvers: the points at `from` harmonics are raised to `to` and checked at
+/// The levels at the curve's N, 2N and 4N and the tolerance of the check.
+pub(crate) struct Raising<'a, T: RaiseTarget> {
+    /// The curve and its solves.
+    pub target: &'a T,
+    /// The curve's N (its points are solved there).
+    pub base: usize,
+    /// 2N: the level of the points raised in round 1.
+    pub finer: &'a T::Level,
+    /// 4N: the check of round 1 (`None` above `MAX_CHECK_HARMONICS`).
+    pub check: Option<T::Level>,
+    /// `max_harmonics` (later rounds raise up to `RAISE_BEYOND` times it).
+    pub top: usize,
+    /// `harmonic_tolerance`: the largest relative change of q1 or the parameter of a
+    /// converged point.
+    pub tolerance: f64,
+}
+
+/// One round's levels: the points at `from` harmonics are raised to `to` and checked at
 /// `check`.
-struct Round<'r, 's> {
+struct Round<'r, L> {
     from: usize,
-    to: &'r ForcedSolver<'s>,
-    check: Option<&'r ForcedSolver<'s>>,
+    to: &'r L,
+    check: Option<&'r L>,
 }
 
 /// One segment grown around a moving point: its points solved one level up with their change,
 /// and those whose solve failed.
-struct Segment {
+struct Segment<P> {
     first: usize,
     last: usize,
-    /// (index, solve one level up, relative change [q1, W] from the level below).
-    solved: Vec<(usize, ForcedPoint, [f64; 2])>,
+    /// (index, solve one level up, relative change [q1, parameter] from the level below).
+    solved: Vec<(usize, P, [f64; 2])>,
     failed: Vec<usize>,
     /// The moving point the segment grew from.
     seed: usize,
 }
 
-/// What a check one level above a round found at a point: its verdict and its solve there.
-type Checked = (usize, HarmonicCheck, Option<ForcedPoint>);
+impl<P> Segment<P> {
+    fn at(seed: usize) -> Self {
+        Segment {
+            first: seed,
+            last: seed,
+            solved: Vec::new(),
+            failed: Vec::new(),
+            seed,
+        }
+    }
+}
 
-impl Raising<'_, '_> {
-    /// Raises N around every point of `moving` in rounds (module docs), writes the raised
-    /// points and the verdicts into `curve`, and says what was done.
+/// What a check one level above a round found at a point: its verdict and its solve there.
+type Checked<P> = (usize, HarmonicCheck, Option<P>);
+
+impl<T: RaiseTarget> Raising<'_, T> {
+    /// Raises N around every point of `moving` in rounds (module docs) over `points` (the
+    /// curve's, in pieces starting at `pieces`), writes the raised points and the verdicts
+    /// into them, and says what was done.
     pub(crate) fn raise(
         &self,
-        curve: &mut FrequencyResponse,
-        moving: Vec<MovingPoint>,
+        points: &mut [T::Point],
+        pieces: &[usize],
+        moving: Vec<MovingPoint<T::Point>>,
     ) -> Result<RaisedSegments, ForcedError> {
-        let trace = curve.clone();
-        let mut failed: Vec<usize> = Vec::new();
-        let mut seeds: Vec<(usize, ForcedPoint)> = Vec::new();
-        for m in moving {
-            match m.finer {
-                Some(finer) => seeds.push((m.index, finer)),
-                None => failed.push(m.index),
-            }
-        }
+        let (mut seeds, failed) = Self::seeds(moving);
         // Above 4N (`self.check`): 8N, 16N, ... made when a round needs them.
-        let mut higher: Vec<ForcedSolver<'_>> = Vec::new();
+        let mut higher: Vec<T::Level> = Vec::new();
         let mut rounds: Vec<RaisedRound> = Vec::new();
-        let mut from = self.base.basis().harmonics();
+        let mut from = self.base;
         loop {
             let k = rounds.len();
             let level = |j: usize| match j {
@@ -111,16 +170,17 @@ impl Raising<'_, '_> {
                 to,
                 check: level(k + 1),
             };
-            let (done, checked) = self.round(&trace, curve, seeds, &round);
-            let n = to.basis().harmonics();
+            let (done, checked) = self.round(points, pieces, seeds, &round);
+            let n = T::harmonics(to);
             tracing::info!(
                 segments = done.segments.len(),
                 raised = done.raised.len(),
                 failed = done.failed.len(),
                 not_converged = done.check.not_converged,
                 change_q1 = done.check.largest_change[0],
-                change_omega = done.check.largest_change[1],
-                "forced response: N raised to {n} around the points that moved at {from}",
+                change_parameter = done.check.largest_change[1],
+                "{}: N raised to {n} around the points that moved at {from}",
+                T::WHAT
             );
             rounds.push(done);
             seeds = checked
@@ -133,29 +193,44 @@ impl Raising<'_, '_> {
             if seeds.is_empty() || !within || self.check.is_none() {
                 break;
             }
-            higher.push(self.base.with_harmonics(2 * next)?);
+            higher.push(self.target.level(2 * next)?);
             from = n;
         }
-        Ok(summary(curve, rounds, failed))
+        Ok(summary::<T>(points, rounds, failed))
+    }
+
+    /// The seeds of round 1: the moving points with their solve at 2N; those whose solve
+    /// failed are listed.
+    fn seeds(moving: Vec<MovingPoint<T::Point>>) -> (Vec<(usize, T::Point)>, Vec<usize>) {
+        let mut seeds = Vec::new();
+        let mut failed = Vec::new();
+        for m in moving {
+            match m.finer {
+                Some(p) => seeds.push((m.index, p)),
+                None => failed.push(m.index),
+            }
+        }
+        (seeds, failed)
     }
 
     /// One round (module docs): segments grown in parallel around `seeds` (each with its solve
     /// at `round.to`), a seed already inside an earlier segment growing none; the raised points
-    /// and verdicts written into `curve`; each segment's seed and point of largest change checked at
-    /// `round.check`. Returns the round and its checks (with their solves, the next round's
-    /// seeds).
+    /// and verdicts written into `points`; each segment's seed and point of largest change
+    /// checked at `round.check`. Returns the round and its checks (with their solves, the next
+    /// round's seeds).
     fn round(
         &self,
-        trace: &FrequencyResponse,
-        curve: &mut FrequencyResponse,
-        seeds: Vec<(usize, ForcedPoint)>,
-        round: &Round<'_, '_>,
-    ) -> (RaisedRound, Vec<Checked>) {
-        let grown: Vec<Segment> = seeds
+        points: &mut [T::Point],
+        pieces: &[usize],
+        seeds: Vec<(usize, T::Point)>,
+        round: &Round<'_, T::Level>,
+    ) -> (RaisedRound, Vec<Checked<T::Point>>) {
+        let view: &[T::Point] = points;
+        let grown: Vec<Segment<T::Point>> = seeds
             .into_par_iter()
-            .map(|(i, finer)| self.grow(trace, curve, round, i, finer))
+            .map(|(i, finer)| self.grow(view, pieces, round, i, finer))
             .collect();
-        let mut segments: Vec<Segment> = Vec::new();
+        let mut segments: Vec<Segment<T::Point>> = Vec::new();
         for s in grown {
             if !segments
                 .iter()
@@ -164,26 +239,27 @@ impl Raising<'_, '_> {
                 segments.push(s);
             }
         }
-        let checked: Vec<Checked> = match round.check {
+        let checked: Vec<Checked<T::Point>> = match round.check {
             Some(check) => segments
                 .iter()
-                .flat_map(|s| representatives(s, self.settings.harmonic_tolerance))
+                .flat_map(|s| representatives(s, self.tolerance))
                 .collect::<Vec<_>>()
                 .into_par_iter()
                 .map(|(i, p)| {
-                    let (c, solve) = self.check_above(trace, check, i, p);
+                    let (c, solve) = self.check_above(check, i, p);
                     (i, c, solve)
                 })
                 .collect(),
             None => Vec::new(),
         };
+        let harmonics = T::harmonics(round.to);
         let mut out = RaisedRound {
-            harmonics: round.to.basis().harmonics(),
+            harmonics,
             segments: segments.iter().map(|s| [s.first, s.last]).collect(),
             raised: Vec::new(),
             failed: Vec::new(),
             check: CurveHarmonics {
-                harmonics: round.to.basis().harmonics(),
+                harmonics,
                 checked: Vec::new(),
                 not_converged: 0,
                 largest_change: [0.0; 2],
@@ -191,10 +267,10 @@ impl Raising<'_, '_> {
             },
         };
         for s in segments {
-            self.write_segment(curve, s, &mut out);
+            self.write_segment(points, s, &mut out);
         }
         for (i, check, _) in &checked {
-            curve.points[*i].harmonic_check = *check;
+            T::orbit_mut(&mut points[*i]).harmonic_check = *check;
             out.check.checked.push(*i);
             record_check(&mut out.check, *check);
         }
@@ -204,22 +280,20 @@ impl Raising<'_, '_> {
         (out, checked)
     }
 
-    /// Writes segment `s` into `curve`: a point that moved by more than the tolerance takes
+    /// Writes segment `s` into `points`: a point that moved by more than the tolerance takes
     /// its solve one level up (listed raised), one within it keeps its N, converged; a point
     /// whose solve failed is not converged (listed failed).
-    fn write_segment(&self, curve: &mut FrequencyResponse, s: Segment, out: &mut RaisedRound) {
+    fn write_segment(&self, points: &mut [T::Point], s: Segment<T::Point>, out: &mut RaisedRound) {
         out.failed.extend(&s.failed);
         for i in &s.failed {
-            curve.points[*i].harmonic_check = HarmonicCheck::NotConverged { change: None };
+            T::orbit_mut(&mut points[*i]).harmonic_check =
+                HarmonicCheck::NotConverged { change: None };
         }
         for (i, fine, change) in s.solved {
-            if change
-                .iter()
-                .all(|&c| c <= self.settings.harmonic_tolerance)
-            {
-                curve.points[i].harmonic_check = HarmonicCheck::Converged { change };
+            if change.iter().all(|&c| c <= self.tolerance) {
+                T::orbit_mut(&mut points[i]).harmonic_check = HarmonicCheck::Converged { change };
             } else {
-                curve.points[i] = fine;
+                points[i] = fine;
                 out.raised.push(i);
             }
         }
@@ -232,23 +306,17 @@ impl Raising<'_, '_> {
     /// round).
     fn grow(
         &self,
-        trace: &FrequencyResponse,
-        curve: &FrequencyResponse,
-        round: &Round<'_, '_>,
+        points: &[T::Point],
+        pieces: &[usize],
+        round: &Round<'_, T::Level>,
         seed: usize,
-        finer: ForcedPoint,
-    ) -> Segment {
-        let master = self.base.system().master();
-        let change = crate::ladder::relative_change(&curve.points[seed], &finer, master);
-        let side = |step| self.grow_side(trace, curve, round, (seed, &finer), step);
+        finer: T::Point,
+    ) -> Segment<T::Point> {
+        let change = self.target.change(&points[seed], &finer);
+        let side = |step| self.grow_side(points, pieces, round, (seed, &finer), step);
         let (down, up) = rayon::join(|| side(-1), || side(1));
-        let mut segment = Segment {
-            first: seed,
-            last: seed,
-            solved: vec![(seed, finer.clone(), change)],
-            failed: Vec::new(),
-            seed,
-        };
+        let mut segment = Segment::at(seed);
+        segment.solved.push((seed, finer.clone(), change));
         for side in [down, up] {
             for i in side.failed.iter().chain(side.solved.iter().map(|s| &s.0)) {
                 segment.first = segment.first.min(*i);
@@ -264,36 +332,28 @@ impl Raising<'_, '_> {
     /// direction `step` (-1 or 1), as a segment without its seed.
     fn grow_side(
         &self,
-        trace: &FrequencyResponse,
-        curve: &FrequencyResponse,
-        round: &Round<'_, '_>,
-        (seed, finer): (usize, &ForcedPoint),
+        points: &[T::Point],
+        pieces: &[usize],
+        round: &Round<'_, T::Level>,
+        (seed, finer): (usize, &T::Point),
         step: isize,
-    ) -> Segment {
-        let mut side = Segment {
-            first: seed,
-            last: seed,
-            solved: Vec::new(),
-            failed: Vec::new(),
-            seed,
-        };
-        let (start, end) = curve.piece_of(seed);
+    ) -> Segment<T::Point> {
+        let mut side = Segment::at(seed);
+        let (start, end) = piece_bounds(pieces, points.len(), seed);
         let (mut prev, mut prev_fine) = (seed, finer.clone());
         let (mut quiet, mut fixed) = (0, false);
         let mut j = seed as isize + step;
         while quiet < EDGE && (start as isize..end as isize).contains(&j) {
             let i = j as usize;
-            let point = &curve.points[i];
-            if !point.touches() || point.harmonics != round.from {
+            let point = &points[i];
+            if !T::orbit(point).touches() || T::orbit(point).harmonics != round.from {
                 break;
             }
-            let neighbour = (&curve.points[prev], &prev_fine);
-            match self.solve_finer(trace, curve, round.to, i, neighbour, fixed) {
-                Some((fine, change, at_w)) => {
-                    fixed = at_w;
-                    let converged = change
-                        .iter()
-                        .all(|&c| c <= self.settings.harmonic_tolerance);
+            let neighbour = (&points[prev], &prev_fine);
+            match (self.target).solve_finer(round.to, i, point, neighbour, fixed) {
+                Some((fine, change, at_parameter)) => {
+                    fixed = at_parameter;
+                    let converged = change.iter().all(|&c| c <= self.tolerance);
                     quiet = if converged { quiet + 1 } else { 0 };
                     side.solved.push((i, fine.clone(), change));
                     (prev, prev_fine) = (i, fine);
@@ -308,56 +368,17 @@ impl Raising<'_, '_> {
         side
     }
 
-    /// Point `i` of `curve` solved by `finer` (one level up) from its neighbour's solve there
-    /// shifted by the two points' difference one level down, on the row normal to the trace
-    /// at `i` or at its W (`fixed_first`: the row failed at the neighbour, where the curve at N
-    /// may turn in a way 2N does not: the stalled end of the blade's first piece at level 5);
-    /// with its change from the level below and whether it took its W.
-    fn solve_finer(
-        &self,
-        trace: &FrequencyResponse,
-        curve: &FrequencyResponse,
-        finer: &ForcedSolver<'_>,
-        i: usize,
-        (neighbour, neighbour_fine): (&ForcedPoint, &ForcedPoint),
-        fixed_first: bool,
-    ) -> Option<(ForcedPoint, [f64; 2], bool)> {
-        let point = &curve.points[i];
-        let shifted = shifted_start(point, neighbour, neighbour_fine, finer);
-        let on_row = || {
-            let row = normal_row(self.base, self.settings, trace, i);
-            solve_same_orbit(finer, point, Some(&row), Some(shifted.clone()))
-                .map(|(p, c)| (p, c, false))
-        };
-        let at_w = || {
-            let mut start = shifted.clone();
-            start.state.omega = point.omega;
-            start.state.level = point.level;
-            solve_same_orbit(finer, point, None, Some(start)).map(|(p, c)| (p, c, true))
-        };
-        if fixed_first {
-            at_w().or_else(on_row)
-        } else {
-            on_row().or_else(at_w)
-        }
-    }
-
-    /// The verdict of a raised point `fine` (point `i`) solved again by `check` (one level
+    /// The verdict of a raised point `fine` (point `i`) solved again at `check` (one level
     /// up) on the row normal to the trace at `i`, with that solve when it converged on the
     /// same orbit.
     fn check_above(
         &self,
-        trace: &FrequencyResponse,
-        check: &ForcedSolver<'_>,
+        check: &T::Level,
         i: usize,
-        fine: ForcedPoint,
-    ) -> (HarmonicCheck, Option<ForcedPoint>) {
-        let row = normal_row(self.base, self.settings, trace, i);
-        let solved = solve_same_orbit(check, &fine, Some(&row), None);
-        let verdict = verdict(
-            solved.as_ref().map(|s| s.1),
-            self.settings.harmonic_tolerance,
-        );
+        fine: T::Point,
+    ) -> (HarmonicCheck, Option<T::Point>) {
+        let solved = self.target.solve_again(check, i, &fine);
+        let verdict = verdict(solved.as_ref().map(|s| s.1), self.tolerance);
         (verdict, solved.map(|s| s.0))
     }
 }
@@ -365,8 +386,8 @@ impl Raising<'_, '_> {
 /// The rounds in one account (`RaisedSegments`): the deciding checks are each round's, less
 /// the points a later round's segments raised again; `failed` adds the checked points of the
 /// trace that could not be raised.
-fn summary(
-    curve: &FrequencyResponse,
+fn summary<T: RaiseTarget>(
+    points: &[T::Point],
     rounds: Vec<RaisedRound>,
     mut failed: Vec<usize>,
 ) -> RaisedSegments {
@@ -386,7 +407,7 @@ fn summary(
         };
         for &i in r.check.checked.iter().filter(|&&i| !again(i)) {
             check.checked.push(i);
-            record_check(&mut check, curve.points[i].harmonic_check);
+            record_check(&mut check, T::orbit(&points[i]).harmonic_check);
         }
         segments.extend(&r.segments);
         raised.extend(&r.raised);
@@ -410,7 +431,7 @@ fn summary(
 /// level up). Both are needed: on the blade's level 2 the seed (W/w = 1.061) moves 1.6e-3 from
 /// 40 to 80, while the segment's largest change from 20 to 40 moves 7.5e-4 from 40 to 80: the
 /// truncation error is not monotone along a segment (DESIGN §10.8).
-fn representatives(s: &Segment, tolerance: f64) -> Vec<(usize, ForcedPoint)> {
+fn representatives<P: Clone>(s: &Segment<P>, tolerance: f64) -> Vec<(usize, P)> {
     let moved = |c: &[f64; 2]| c.iter().any(|&v| v > tolerance);
     let size = |c: &[f64; 2]| c[0].max(c[1]);
     let largest = s
@@ -419,40 +440,11 @@ fn representatives(s: &Segment, tolerance: f64) -> Vec<(usize, ForcedPoint)> {
         .filter(|(_, _, c)| moved(c))
         .max_by(|a, b| size(&a.2).total_cmp(&size(&b.2)));
     let seed = s.solved.iter().find(|(i, _, c)| *i == s.seed && moved(c));
-    let mut out: Vec<(usize, ForcedPoint)> = Vec::new();
+    let mut out: Vec<(usize, P)> = Vec::new();
     for (i, p, _) in seed.into_iter().chain(largest) {
         if !out.iter().any(|(k, _)| k == i) {
             out.push((*i, p.clone()));
         }
     }
     out
-}
-
-/// The start at `finer`'s N of `point` from a neighbour solved at the point's N and at
-/// `finer`'s: the neighbour's finer orbit plus the difference of the two points.
-fn shifted_start(
-    point: &ForcedPoint,
-    neighbour: &ForcedPoint,
-    neighbour_fine: &ForcedPoint,
-    finer: &ForcedSolver<'_>,
-) -> ForcedStart {
-    let rows = finer.system().n_contacts().max(1);
-    let (from, to) = (point.contact.len() / rows, finer.basis().terms());
-    let difference: Vec<f64> = point
-        .contact
-        .iter()
-        .zip(&neighbour.contact)
-        .map(|(a, b)| a - b)
-        .collect();
-    let difference = resize_signals(&difference, rows, from, to);
-    let mut start = start_at(point, finer);
-    start.state.y = neighbour_fine
-        .contact
-        .iter()
-        .zip(&difference)
-        .map(|(y, d)| y + d)
-        .collect();
-    start.state.omega = neighbour_fine.omega + (point.omega - neighbour.omega);
-    start.state.level = neighbour_fine.level + (point.level - neighbour.level);
-    start
 }

@@ -304,7 +304,7 @@ impl SpeedStepper<'_> {
     }
 
     /// The sweep's point of a converged orbit at `speed` (its stability: `assess`).
-    fn finish(
+    pub(crate) fn finish(
         &self,
         speed: f64,
         point: ForcedPoint,

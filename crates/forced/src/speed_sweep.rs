@@ -28,7 +28,7 @@
 //! speed (`speed_grazing`). Every point of a trace shares one N; `speed_harmonics` checks it at
 //! 2N and traces the sweep again at 2N where it has not converged (`SpeedHarmonics`).
 
-use crate::curve::{CurveHarmonics, FoldKind, FrfTermination};
+use crate::curve::{harmonics_converged, CurveHarmonics, FoldKind, FrfTermination, RaisedSegments};
 use crate::error::ForcedError;
 use crate::point_stability::PointStability;
 
@@ -109,9 +109,19 @@ pub struct SpeedSweep {
     /// Every trace's N and what its check at 2N found, in order (`speed_harmonics`; empty
     /// under `SpeedHarmonics::Fixed`): the last is this sweep's.
     pub retraces: Vec<CurveHarmonics>,
+    /// Under `SpeedHarmonics::Retrace`: the points raised above the last trace's N where its
+    /// check found them moving (`raised_segments`; `None` when none was).
+    pub raised: Option<RaisedSegments>,
 }
 
 impl SpeedSweep {
+    /// Under `SpeedHarmonics::Retrace` or `Check`: whether the sweep's N is converged at every
+    /// point checked (the last trace's checked points, and those of its raised segments);
+    /// `None` under `Fixed`.
+    pub fn harmonics_converged(&self) -> Option<bool> {
+        harmonics_converged(&self.retraces, self.raised.as_ref())
+    }
+
     /// Why the sweep ended, as a sentence (speeds in rpm).
     pub fn end_text(&self) -> String {
         let rpm = |w: f64| format!("{:.2} rpm", w * 30.0 / std::f64::consts::PI);
@@ -216,6 +226,7 @@ impl<'a> SpeedTrace<'a> {
                 termination: FrfTermination::Complete,
                 harmonics: settings.solver.harmonics.harmonics,
                 retraces: Vec::new(),
+                raised: None,
             },
         })
     }
