@@ -19,7 +19,7 @@ use crate::curve_stability::assess_stability;
 use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
 use crate::raise_frequency::FrequencyTarget;
-use crate::raised_segments::{Raising, MAX_CHECK_HARMONICS};
+use crate::raised_segments::Raising;
 use crate::solver::{ForcedPoint, ForcedSolver};
 use crate::trace::FrfTrace;
 
@@ -88,31 +88,11 @@ fn retraced_curve(
                     settings,
                     trace: curve.clone(),
                 };
-                let raising = Raising {
-                    target: &target,
-                    base: n,
-                    finer: ladder.solver(1),
-                    top,
-                    check: match 4 * n <= MAX_CHECK_HARMONICS {
-                        true => Some(current.with_harmonics(4 * n)?),
-                        false => None,
-                    },
-                    tolerance: settings.harmonic_tolerance,
-                };
+                let finer = ladder.solver(1);
+                let tolerance = settings.harmonic_tolerance;
+                let raising = Raising::new(&target, n, finer, top, tolerance)?;
                 let pieces = curve.pieces.clone();
                 let raised = raising.raise(&mut curve.points, &pieces, moving)?;
-                tracing::info!(
-                    segments = raised.segments.len(),
-                    raised = raised.raised.len(),
-                    failed = raised.failed.len(),
-                    not_converged = raised.check.not_converged,
-                    change_q1 = raised.check.largest_change[0],
-                    change_omega = raised.check.largest_change[1],
-                    "forced response: N raised up to {} around the points that moved, in {} \
-                     round(s); the deciding checks",
-                    raised.check.harmonics,
-                    raised.rounds.len()
-                );
                 curve.raised = Some(raised);
             }
             // Every point is assessed by the solver of its N: up to the last round's when

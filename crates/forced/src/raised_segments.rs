@@ -34,12 +34,12 @@ use crate::solver::ForcedPoint;
 /// The largest N at which the raised points are checked: the solve's condensed Newton matrix is
 /// dense in (2N + 1) x contact rows (0.74 GB at N = 200 on the blade's 24 rows, the CLI's
 /// largest `max_harmonics`); above it the raised points are left unchecked.
-pub(crate) const MAX_CHECK_HARMONICS: usize = 200;
+const MAX_CHECK_HARMONICS: usize = 200;
 
 /// A raised point may carry up to this many times `max_harmonics` (the N the check of round 1
 /// already reaches): `max_harmonics` bounds the N of a whole trace, which costs every point;
 /// a later round raises only the few points whose check still moves.
-pub(crate) const RAISE_BEYOND: usize = 2;
+const RAISE_BEYOND: usize = 2;
 
 /// Points in a row converged one level down (or failing) that end a segment on one side: one
 /// could be a change of sign of the truncation error between two moving points.
@@ -93,18 +93,18 @@ pub(crate) trait RaiseTarget: Sync {
 /// The levels at the curve's N, 2N and 4N and the tolerance of the check.
 pub(crate) struct Raising<'a, T: RaiseTarget> {
     /// The curve and its solves.
-    pub target: &'a T,
+    target: &'a T,
     /// The curve's N (its points are solved there).
-    pub base: usize,
+    base: usize,
     /// 2N: the level of the points raised in round 1.
-    pub finer: &'a T::Level,
+    finer: &'a T::Level,
     /// 4N: the check of round 1 (`None` above `MAX_CHECK_HARMONICS`).
-    pub check: Option<T::Level>,
+    check: Option<T::Level>,
     /// `max_harmonics` (later rounds raise up to `RAISE_BEYOND` times it).
-    pub top: usize,
+    top: usize,
     /// `harmonic_tolerance`: the largest relative change of q1 or the parameter of a
     /// converged point.
-    pub tolerance: f64,
+    tolerance: f64,
 }
 
 /// One round's levels: the points at `from` harmonics are raised to `to` and checked at
@@ -142,7 +142,30 @@ impl<P> Segment<P> {
 /// What a check one level above a round found at a point: its verdict and its solve there.
 type Checked<P> = (usize, HarmonicCheck, Option<P>);
 
-impl<T: RaiseTarget> Raising<'_, T> {
+impl<'a, T: RaiseTarget> Raising<'a, T> {
+    /// The raising of `target`'s curve traced at N = `base`, its round 1 at `finer` (2N),
+    /// checked at 4N when that is within `MAX_CHECK_HARMONICS`.
+    pub(crate) fn new(
+        target: &'a T,
+        base: usize,
+        finer: &'a T::Level,
+        top: usize,
+        tolerance: f64,
+    ) -> Result<Self, ForcedError> {
+        let check = match 4 * base <= MAX_CHECK_HARMONICS {
+            true => Some(target.level(4 * base)?),
+            false => None,
+        };
+        Ok(Raising {
+            target,
+            base,
+            finer,
+            check,
+            top,
+            tolerance,
+        })
+    }
+
     /// Raises N around every point of `moving` in rounds (module docs) over `points` (the
     /// curve's, in pieces starting at `pieces`), writes the raised points and the verdicts
     /// into them, and says what was done.
@@ -196,7 +219,21 @@ impl<T: RaiseTarget> Raising<'_, T> {
             higher.push(self.target.level(2 * next)?);
             from = n;
         }
-        Ok(summary::<T>(points, rounds, failed))
+        let raised = summary::<T>(points, rounds, failed);
+        tracing::info!(
+            segments = raised.segments.len(),
+            raised = raised.raised.len(),
+            failed = raised.failed.len(),
+            not_converged = raised.check.not_converged,
+            change_q1 = raised.check.largest_change[0],
+            change_parameter = raised.check.largest_change[1],
+            "{}: N raised up to {} around the points that moved, in {} round(s); the deciding \
+             checks",
+            T::WHAT,
+            raised.check.harmonics,
+            raised.rounds.len()
+        );
+        Ok(raised)
     }
 
     /// The seeds of round 1: the moving points with their solve at 2N; those whose solve

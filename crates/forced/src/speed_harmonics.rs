@@ -25,11 +25,11 @@ use crate::error::ForcedError;
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::verdict;
 use crate::raise_speed::{at_harmonics, SpeedTarget};
-use crate::raised_segments::{RaiseTarget, Raising, MAX_CHECK_HARMONICS};
+use crate::raised_segments::{RaiseTarget, Raising};
 use crate::solver::ForcedPoint;
 use crate::speed_curve::{SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
 use crate::speed_step::{assess, problem_at, SpeedFamily};
-use crate::speed_sweep::{classify_changes, trace_sweep, SpeedSweep};
+use crate::speed_sweep::{classify_changes, refold_raised, trace_sweep, SpeedSweep};
 
 /// Traces the forced response of `family` at W = e Omega over the settings' speed range
 /// (module docs), N converged under the settings' `SpeedHarmonics` (`speed_harmonics`), then
@@ -122,6 +122,7 @@ pub(crate) fn converged_sweep(
             let raise = settings.harmonic_policy == SpeedHarmonics::Retrace;
             if let (true, Some(finer), false) = (raise, &finer, moving.is_empty()) {
                 sweep.raised = Some(raise_segments(&target, finer, top, &mut sweep, moving)?);
+                refold_raised(&mut sweep, current.speed_scale);
             }
             sweep.retraces = retraces;
             return Ok((sweep, current));
@@ -140,30 +141,9 @@ fn raise_segments(
     moving: Vec<MovingPoint<SpeedPoint>>,
 ) -> Result<crate::curve::RaisedSegments, ForcedError> {
     let n = target.base.solver.harmonics.harmonics;
-    let raising = Raising {
-        target,
-        base: n,
-        finer,
-        check: match 4 * n <= MAX_CHECK_HARMONICS {
-            true => Some(target.level(4 * n)?),
-            false => None,
-        },
-        top,
-        tolerance: target.base.harmonic_tolerance,
-    };
+    let tolerance = target.base.harmonic_tolerance;
+    let raising = Raising::new(target, n, finer, top, tolerance)?;
     let raised = raising.raise(&mut sweep.points, &[], moving)?;
-    tracing::info!(
-        segments = raised.segments.len(),
-        raised = raised.raised.len(),
-        failed = raised.failed.len(),
-        not_converged = raised.check.not_converged,
-        change_q1 = raised.check.largest_change[0],
-        change_speed = raised.check.largest_change[1],
-        "speed sweep: N raised up to {} around the points that moved, in {} round(s); the \
-         deciding checks",
-        raised.check.harmonics,
-        raised.rounds.len()
-    );
     Ok(raised)
 }
 

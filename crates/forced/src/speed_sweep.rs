@@ -531,6 +531,44 @@ impl<'a> SpeedTrace<'a> {
     }
 }
 
+/// The folds of `sweep` after N was raised around moving points (`raised_segments`): a fold
+/// whose neighbourhood (within two points of its point) holds three consecutive points raised
+/// to one N where the speed turns the same way is located again on them, as the trace locates
+/// a fold (the parabola in the scaled arc length through the three, `SpeedTrace::push`), so
+/// that the jump speed reported is that of the N the points around it carry. Other folds keep
+/// the trace's.
+pub(crate) fn refold_raised(sweep: &mut SpeedSweep, speed_scale: f64) {
+    let pts = &sweep.points;
+    let Some(first) = pts.first() else { return };
+    let y_scale = first.gap_reference * (first.running_gaps.len().max(1) as f64).sqrt();
+    let length = |a: &SpeedPoint, b: &SpeedPoint| {
+        let dy = (a.point.contact.iter().zip(&b.point.contact))
+            .map(|(x, y)| ((x - y) / y_scale).powi(2))
+            .sum::<f64>();
+        (dy + ((a.speed - b.speed) / speed_scale).powi(2)).sqrt()
+    };
+    for fold in &mut sweep.folds {
+        let (lo, hi) = (fold.point.saturating_sub(2).max(1), fold.point + 2);
+        for k in lo..=hi.min(pts.len().saturating_sub(2)) {
+            let [a, b, c] = [k - 1, k, k + 1].map(|i| &pts[i]);
+            let n = b.point.harmonics;
+            if n == sweep.harmonics || a.point.harmonics != n || c.point.harmonics != n {
+                continue;
+            }
+            let (before, after) = (b.speed - a.speed, c.speed - b.speed);
+            let back = fold.kind == FoldKind::TurnsBack;
+            if before * after >= 0.0 || (before > 0.0) != back {
+                continue;
+            }
+            let (s1, s2) = (length(a, b), length(b, c));
+            let speeds = [a.speed, b.speed, c.speed].map(|v| v / speed_scale);
+            fold.speed = parabola_extremum([0.0, s1, s1 + s2], speeds) * speed_scale;
+            fold.point = k;
+            break;
+        }
+    }
+}
+
 /// The extreme value of the parabola through (s_i, p_i), s increasing; the middle value when
 /// the three are aligned or the extremum falls outside [s_0, s_2].
 fn parabola_extremum(s: [f64; 3], p: [f64; 3]) -> f64 {

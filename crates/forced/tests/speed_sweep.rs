@@ -405,6 +405,16 @@ fn a_sweep_raised_around_its_moving_points_matches_the_trace_at_2n() {
     );
     assert_eq!(raised.harmonics_converged(), Some(true));
     assert!((q_raised - q_traced).abs() <= 1e-3 * q_traced);
+    // The folds located again on the raised points (`refold_raised`) are the N = 20 trace's.
+    assert_eq!(raised.folds.len(), traced.folds.len(), "{:?}", raised.folds);
+    for (a, b) in raised.folds.iter().zip(&traced.folds) {
+        println!(
+            "fold {:?}: raised {:.6}, traced at N = 20 {:.6}",
+            a.kind, a.speed, b.speed
+        );
+        assert_eq!(a.kind, b.kind);
+        assert!((a.speed - b.speed).abs() <= 1e-3 * b.speed);
+    }
     assert!(off(q_raised) <= 1e-3, "{}", off(q_raised));
 }
 
