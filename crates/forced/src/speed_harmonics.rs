@@ -119,8 +119,8 @@ pub(crate) fn converged_sweep(
         );
         retraces.push(check);
         if !again {
-            let raise = settings.harmonic_policy == SpeedHarmonics::Retrace;
-            if let (true, Some(finer), false) = (raise, &finer, moving.is_empty()) {
+            let raise = settings.harmonic_policy == SpeedHarmonics::Retrace && !moving.is_empty();
+            if let (true, Some(finer)) = (raise, finer.as_ref()) {
                 sweep.raised = Some(raise_segments(&target, finer, top, &mut sweep, moving)?);
                 refold_raised(&mut sweep, current.speed_scale);
             }
