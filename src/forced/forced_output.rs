@@ -654,7 +654,13 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
         "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{over}{at_peak}\n",
         last.harmonics,
         traced.join(", "),
-        if converged || !last.checkable { "" } else { "NOT converged: " },
+        // With N raised around the moving points the next line says whether the curve is
+        // converged.
+        if converged || r.raised.is_some() || !last.checkable {
+            ""
+        } else {
+            "NOT converged: "
+        },
         last.largest_change[0],
         last.largest_change[1],
     );

@@ -536,7 +536,9 @@ fn check_note(
     let verdict = crate::forced::forced_output::check_verdict(last, failed, raised, tolerance);
     let verdict = if last.checked.is_empty() {
         "no point in contact (linear: exact at any N)".to_string()
-    } else if converged || !last.checkable {
+    } else if converged || raised || !last.checkable {
+        // With N raised around the moving points the raised segments' note says whether the
+        // sweep is converged (the last word).
         verdict
     } else {
         format!("NOT converged: {verdict}")
