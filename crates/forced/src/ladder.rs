@@ -18,10 +18,17 @@ pub use crate::harmonic_check::HarmonicCheck;
 use crate::newton::{ArcRow, OrbitState};
 use crate::solver::{ForcedPoint, ForcedSolver, ForcedStart};
 
-/// The largest relative change of the master's first harmonic or of W between a point and its
-/// solve at 2N for the two to be the same orbit (a truncation error; on the test systems the
-/// change from N = 10 to 20 is at most 4e-3).
-const REFINE_REACH: f64 = 0.05;
+/// The largest relative change of the master's first harmonic or of the parameter (W, the
+/// speed) between a point and its solve at 2N for the two to be the same orbit (a truncation
+/// error; on the test systems the change from N = 10 to 20 is at most 4e-3).
+pub(crate) const REFINE_REACH: f64 = 0.05;
+
+/// Whether `a` and its solve `b` at another N, `change` apart (relative [q1, parameter]), are
+/// one orbit: within `REFINE_REACH`, and both in contact or both not (next to grazing a row
+/// crosses orbits in and out of contact close together).
+pub(crate) fn same_orbit(change: [f64; 2], a: &ForcedPoint, b: &ForcedPoint) -> bool {
+    !change.iter().any(|&c| c > REFINE_REACH) && a.touches() == b.touches()
+}
 
 /// The forced problem at N0 2^k, k = 0, 1, ..., N0 2^k <= `max_harmonics`.
 pub struct HarmonicLadder<'a, 's> {
@@ -215,7 +222,7 @@ pub(crate) fn solve_same_orbit(
         }
     };
     let change = relative_change(point, &other, solver.system().master());
-    if change.iter().any(|&c| c > REFINE_REACH) || other.touches() != point.touches() {
+    if !same_orbit(change, point, &other) {
         tracing::debug!(
             omega = point.omega,
             ?change,

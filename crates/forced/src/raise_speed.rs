@@ -9,21 +9,16 @@
 //! failed at 5 of its 8 points (docs/ROTATION.md, session 22).
 
 use crate::error::ForcedError;
-use crate::ladder::{resize_signals, start_at};
+use crate::ladder::{resize_signals, same_orbit, start_at, REFINE_REACH};
 use crate::raised_segments::RaiseTarget;
 use crate::solver::{ForcedPoint, ForcedStart};
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
 use crate::speed_step::{problem_at, SpeedArc, SpeedFamily, SpeedStepper};
 use crate::trace::norm;
 
-/// The largest relative change of the master's first harmonic or of the speed between a point
-/// and its solve at another N for the two to be the same orbit (the frequency sweep's
-/// `ladder::REFINE_REACH`): beyond it the solve walked to another orbit.
-const SAME_ORBIT: f64 = 0.05;
-
 /// How far (relative to Omega_ref) the frozen speed of a solve at another N may move from the
-/// point's: as far as a change of `SAME_ORBIT`.
-const CHECK_REACH: f64 = SAME_ORBIT;
+/// point's: as far as a change that still counts as the same orbit (`ladder::REFINE_REACH`).
+const CHECK_REACH: f64 = REFINE_REACH;
 
 /// A traced speed sweep (a copy of the trace: its rows stay those of the trace at N while
 /// `Raising` writes the raised points into the sweep) and the settings of its N.
@@ -197,8 +192,7 @@ impl SpeedTarget<'_> {
             .ok()
     }
 
-    /// `fine` with its change from `point` when the two are one orbit: within `SAME_ORBIT`
-    /// and both in contact or both not.
+    /// `fine` with its change from `point` when the two are one orbit (`ladder::same_orbit`).
     fn same_orbit(&self, point: &SpeedPoint, fine: SpeedPoint) -> Option<(SpeedPoint, [f64; 2])> {
         let change = self.change(point, &fine);
         tracing::debug!(
@@ -209,7 +203,7 @@ impl SpeedTarget<'_> {
             solves = fine.corrections,
             "speed sweep: solved at another N"
         );
-        if change.iter().any(|&c| c > SAME_ORBIT) || fine.point.touches() != point.point.touches() {
+        if !same_orbit(change, &point.point, &fine.point) {
             tracing::debug!(
                 speed = point.speed,
                 ?change,
