@@ -77,6 +77,23 @@ impl ContactCompliance {
         self.contacts == contacts && self.terms() == terms
     }
 
+    /// This compliance moved by `shift` times its difference to `other` (of the same shape, at
+    /// the same W): G + shift (G_other - G), y_F likewise. The compliance of a structure
+    /// linearized between two (`following::Following`).
+    pub(crate) fn blend(&self, other: &ContactCompliance, shift: f64) -> ContactCompliance {
+        let mix = |a: f64, b: f64| a + shift * (b - a);
+        ContactCompliance {
+            omega: self.omega,
+            blocks: (self.blocks.iter().zip(&other.blocks))
+                .map(|(a, b)| Mat::from_fn(a.nrows(), a.ncols(), |i, j| mix(a[(i, j)], b[(i, j)])))
+                .collect(),
+            y_load: (self.y_load.iter().zip(&other.y_load))
+                .map(|(&a, &b)| mix(a, b))
+                .collect(),
+            contacts: self.contacts,
+        }
+    }
+
     /// G's harmonic blocks in increasing n (see module docs for their indexing).
     pub(crate) fn blocks(&self) -> &[Mat<f64>] {
         &self.blocks

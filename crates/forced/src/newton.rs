@@ -267,6 +267,9 @@ pub struct InnerNewton<'p> {
     pub settings: InnerTolerance,
     /// The compliance at the last W used (recomputed when W changes).
     pub cache: Option<ContactCompliance>,
+    /// A following structure's blended compliance at the last W off W_s
+    /// (`jacobian_compliance`).
+    pub blended: Option<ContactCompliance>,
     /// Smoothing of the law in the current solve (length units; 0 = exact).
     pub smoothing: f64,
     /// How the law's coefficients are computed.
@@ -303,7 +306,7 @@ impl InnerNewton<'_> {
             b: f.structure.at(omega + h)?,
             h,
         });
-        self.cache = None;
+        (self.cache, self.blended) = (None, None);
         Ok(())
     }
 
@@ -324,6 +327,27 @@ impl InnerNewton<'_> {
             None => self.cache = Some(dynamics.compliance(omega)?),
         }
         Ok(self.cache.as_ref().expect("just set"))
+    }
+
+    /// The compliance of the structure the residual at W holds: G(W) of the fixed structure,
+    /// or of a following one linearized between S_s and S(W_s + h) (`following::Following`),
+    /// G_s(W) + (W - W_s) / h (G_h(W) - G_s(W)) (R's term -(W - W_s) D carries the second
+    /// structure's G, and the Newton matrix I + G J_Lambda must carry it too: with G_s alone the
+    /// matrix is off by (W - W_s) dG/dW|_structure J_Lambda, which under the stiff penalty law
+    /// stalled the line search (the blade's EO 3 sweep, session 25; DESIGN §10.10)).
+    /// Computed once per W (the Newton matrix and the W column share it).
+    fn jacobian_compliance(&mut self, omega: f64) -> Result<&ContactCompliance, ForcedError> {
+        let pair =
+            (self.following.as_ref().and_then(|f| f.built.as_ref())).filter(|p| p.omega != omega);
+        let Some(pair) = pair else {
+            return self.compliance(omega);
+        };
+        if self.blended.as_ref().is_none_or(|b| b.omega != omega) {
+            let (shift, other) = ((omega - pair.omega) / pair.h, pair.b.0.compliance(omega)?);
+            let blended = self.compliance(omega)?.blend(&other, shift);
+            self.blended = Some(blended);
+        }
+        Ok(self.blended.as_ref().expect("just set"))
     }
 
     /// R(y, W) and the contact samples it used.
@@ -588,7 +612,7 @@ impl InnerNewton<'_> {
             None => vec![0.0; l],
         };
         let (t, contacts) = (self.basis.terms(), self.g0.len());
-        let comp = self.compliance(s.omega)?;
+        let comp = self.jacobian_compliance(s.omega)?;
         let mut row_active = vec![false; contacts];
         jac.active().iter().for_each(|&j| row_active[j] = true);
         let inactive: Vec<usize> = (0..l).filter(|&i| !row_active[i / t]).collect();
@@ -661,7 +685,19 @@ impl InnerNewton<'_> {
     ) -> Result<Vec<f64>, ForcedError> {
         let dynamics = self.structure();
         let z = dynamics.response(s.omega, s.level, &cs.coefficients)?;
-        let rate = dynamics.response_rate(s.omega, &z)?;
+        let mut rate = dynamics.response_rate(s.omega, &z)?;
+        let pair = self.following.as_ref().and_then(|f| f.built.as_ref());
+        if let Some(p) = pair.filter(|p| p.omega != s.omega) {
+            // -(W - W_s) D(W, Lambda) of R moves with W at fixed y too: (W - W_s) / h times
+            // the difference of the two structures' rates.
+            let shift = (s.omega - p.omega) / p.h;
+            let other = &p.b.0;
+            let zb = other.response(s.omega, s.level, &cs.coefficients)?;
+            let rate_b = other.response_rate(s.omega, &zb)?;
+            rate.iter_mut()
+                .zip(rate_b)
+                .for_each(|(a, b)| *a += shift * (b - *a));
+        }
         let mut rate: Vec<f64> = rate.into_iter().map(|v| -v).collect();
         if self.following.is_some() {
             let own = self.structure_rate(s, cs, jac)?;
@@ -692,12 +728,36 @@ impl InnerNewton<'_> {
         let gap_rates: Vec<f64> = (jac.active().iter())
             .map(|&j| (pair.b.1[j] - pair.a.1[j]) / pair.h)
             .collect();
-        let comp = self.compliance(s.omega)?;
+        let comp = self.jacobian_compliance(s.omega)?;
         for (ai, dg) in gap_rates.into_iter().enumerate() {
             let column = jac.column(comp, ai * t);
             rate.iter_mut().zip(column).for_each(|(r, g)| *r -= dg * g);
         }
         Ok(rate)
+    }
+
+    /// R at `s` and the Newton direction (dy, dp) there on `arc` (W fixed without one), for
+    /// the check that R(y + t dy, p + t dp) = (1 - t) R(y, p) + o(t) (`speed_column_check`).
+    #[cfg(test)]
+    pub(crate) fn residual_and_direction(
+        &mut self,
+        s: &OrbitState,
+        mu: &Multipliers,
+        arc: Option<&ArcRow>,
+    ) -> Result<(Vec<f64>, Vec<f64>, f64), ForcedError> {
+        let (r, cs) = self.residual(s, mu)?;
+        let (dy, dp) = self.direction(s, &r, &cs, arc)?;
+        Ok((r, dy, dp))
+    }
+
+    /// R at `s` only (`residual`), for the tests.
+    #[cfg(test)]
+    pub(crate) fn residual_only(
+        &mut self,
+        s: &OrbitState,
+        mu: &Multipliers,
+    ) -> Result<Vec<f64>, ForcedError> {
+        Ok(self.residual(s, mu)?.0)
     }
 
     /// R at `s` and the column dR/dW of its bordered Newton matrix (`frequency_column`), for

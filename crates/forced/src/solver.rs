@@ -277,6 +277,11 @@ impl<'s> ForcedSolver<'s> {
         &self.basis
     }
 
+    /// C (n x n, N s/m).
+    pub fn damping(&self) -> &Mat<f64> {
+        &self.damping
+    }
+
     /// The excitation.
     pub fn load(&self) -> &Load {
         &self.load
@@ -462,6 +467,7 @@ impl<'s> ForcedSolver<'s> {
                 max_iterations: self.settings.newton_iterations,
             },
             cache: None,
+            blended: None,
             smoothing: 0.0,
             integration: self.integration,
             casing: &self.casing,

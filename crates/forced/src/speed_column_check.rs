@@ -15,7 +15,7 @@ use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
 use crate::following::{Following, MovingStructure};
 use crate::load::Load;
-use crate::newton::{ForceIntegration, InnerNewton, InnerTolerance, OrbitState};
+use crate::newton::{ArcRow, ForceIntegration, InnerNewton, InnerTolerance, OrbitState, Parameter};
 
 /// Engine order, N, speed scale Omega_r (rad/s), S, gap shrink a, penalty k (N/m).
 const E: f64 = 3.0;
@@ -75,6 +75,7 @@ fn inner_newton<'p>(
             max_iterations: 30,
         },
         cache: None,
+        blended: None,
         smoothing: 0.0,
         integration: ForceIntegration::ExactPenalty {
             stiffness: PENALTY,
@@ -160,5 +161,73 @@ fn speed_column_is_the_derivative_along_the_speed_line() {
     assert!(
         miss > 1e-2 * scale,
         "the structure's motion is {miss:e} of {scale:e}"
+    );
+}
+
+/// The Newton direction of a following structure away from the W it was linearized at: one
+/// `InnerNewton` whose structure is built at W_s, evaluated at W = 1.02 W_s (inside a run the
+/// iterates move W), on an arc row with W free. With the exact Newton matrix of R,
+/// R(y + t dy, W + t dW) = (1 - t) R(y, W) + O(t^2): the first-order error over t falls with t.
+/// Before session 25 the matrix carried S_s's compliance alone where R carries the blend of the
+/// two structures: the error over t stayed at 3e-2 of |R| (measured here) however small t, and
+/// on the blade the line search stalled ("no step along the Newton direction decreases the
+/// residual").
+#[test]
+fn following_newton_direction_is_that_of_its_residual_away_from_the_linearization() {
+    let basis = FullBasis::new(HarmonicSettings::with_default_samples(N).unwrap()).unwrap();
+    let speed = 0.35;
+    let omega_s = E * speed;
+    let t = basis.terms();
+    let mut y = vec![0.0; t];
+    y[0] = 0.7 * GAP;
+    y[FullBasis::cos_index(1)] = 0.5 * GAP;
+    y[FullBasis::sin_index(1)] = 0.3 * GAP;
+    y[FullBasis::cos_index(2)] = 0.1 * GAP;
+    let moving = Turning { frozen: None };
+    let (dynamics, g0) = moving.at(omega_s).unwrap();
+    let mut newton = inner_newton(&dynamics, &basis, &g0, Some(Following::new(&moving)));
+    let mu = Multipliers::uniform(&[PENALTY], basis.samples());
+    let at = |y: Vec<f64>, omega: f64| OrbitState {
+        y,
+        omega,
+        level: 1.0,
+    };
+    // Builds the structure at W_s.
+    newton.residual_only(&at(y.clone(), omega_s), &mu).unwrap();
+    let omega = 1.02 * omega_s;
+    let mut tangent_y = vec![0.0; t];
+    tangent_y[FullBasis::cos_index(1)] = 0.6;
+    let arc = ArcRow {
+        parameter: Parameter::Frequency,
+        tangent_y,
+        tangent_parameter: 0.8,
+        predicted: at(y.clone(), omega),
+        y_scale: GAP,
+        parameter_scale: omega_s,
+    };
+    let state = at(y.clone(), omega);
+    let (r, dy, dw) = newton
+        .residual_and_direction(&state, &mu, Some(&arc))
+        .unwrap();
+    let size = r.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    let mut error_over_t = |step: f64| {
+        let moved: Vec<f64> = y.iter().zip(&dy).map(|(a, d)| a + step * d).collect();
+        let rt = newton
+            .residual_only(&at(moved, omega + step * dw), &mu)
+            .unwrap();
+        let e =
+            (rt.iter().zip(&r)).fold(0.0_f64, |a, (x, r0)| a.max((x - (1.0 - step) * r0).abs()));
+        e / step / size
+    };
+    let (coarse, fine) = (error_over_t(1e-3), error_over_t(1e-6));
+    eprintln!("first-order error over t: {coarse:e} at 1e-3, {fine:e} at 1e-6 (|R| {size:e})");
+    assert!(
+        size > 1e-3 * GAP,
+        "the orbit is not off its curve: |R| {size:e}"
+    );
+    // O(t): three decades of t take three off (5e-6 here); a wrong matrix leaves a floor (5e-3).
+    assert!(
+        fine <= 1e-4,
+        "error over t {fine:e} at t = 1e-6 ({coarse:e} at 1e-3)"
     );
 }
