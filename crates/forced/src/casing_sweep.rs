@@ -35,7 +35,6 @@ use faer::Mat;
 use nlmodes_hb::{FullBasis, System};
 use rayon::prelude::*;
 
-use crate::casing_stability::{casing_point_stability, CasingModel};
 use crate::curve_harmonics::points_worth_checking;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
@@ -43,6 +42,7 @@ use crate::ladder::start_at;
 use crate::load::Load;
 use crate::orbit_origin::{advanced_orbit, most_open_sample};
 use crate::point_stability::{Assessment, PointStability};
+use crate::settled_stability::{casing_point_stability, SettledModel};
 use crate::solver::{ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::SpeedHarmonics;
 use crate::trace::norm;
@@ -492,7 +492,7 @@ impl Problem<'_> {
         }
     }
 
-    /// The stability of `p` on `solver`'s N as `how` says (`casing_stability`). A point in
+    /// The stability of `p` on `solver`'s N as `how` says (`settled_stability`). A point in
     /// contact is shot on the massless boundary from the time origin where it is farthest from
     /// contact (`orbit_origin::most_open_sample`): at a strike (t = 0 at phase 0, where the gap
     /// is smallest) the truncated series' velocity is off by the Gibbs error of the kink the
@@ -515,10 +515,13 @@ impl Problem<'_> {
             ..solver.clone()
         };
         let sv = ForcedSolver::new(self.system, self.damping, &self.load, settings)?;
-        let model = CasingModel {
+        let model = SettledModel {
             system: self.system,
             damping: self.damping,
-            distortion,
+            load: Load {
+                harmonics: Vec::new(),
+            },
+            distortion: Some(distortion),
         };
         let hb_change = p.harmonic_change.map(|c| c[0]);
         casing_point_stability(&model, &sv, &point, hb_change, how)

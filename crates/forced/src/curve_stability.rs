@@ -7,7 +7,8 @@ use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
 use nlmodes_hb::floquet::Verdict;
 
-use crate::point_stability::{assess_point, PointStability};
+use crate::point_stability::{Assessment, PointStability};
+use crate::settled_stability::assess_point_settled;
 
 /// Floquet stability of the points not assessed yet (when asked for): each point's period
 /// check and monodromy in parallel (they depend on the point alone, so the result is the
@@ -25,12 +26,12 @@ pub(crate) fn assess_stability(
     let assessed: Vec<Result<PointStability, ForcedError>> = curve.points[from..]
         .par_iter()
         .map(|point| {
-            assess_point(
-                ladder.solver_of(point),
-                point,
-                settings.stability_margin,
-                settings.period_tolerance,
-            )
+            let how = Assessment {
+                margin: settings.stability_margin,
+                period_tolerance: settings.period_tolerance,
+                verify: false,
+            };
+            assess_point_settled(ladder.solver_of(point), point, &how)
         })
         .collect();
     for st in assessed {

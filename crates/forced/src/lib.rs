@@ -19,7 +19,6 @@
 
 mod active_jacobian;
 mod boundary;
-mod casing_stability;
 mod casing_sweep;
 mod compliance;
 mod corner;
@@ -44,6 +43,7 @@ mod point_stability;
 mod raise_frequency;
 mod raise_speed;
 mod raised_segments;
+mod settled_stability;
 mod solver;
 #[cfg(test)]
 mod speed_column_check;

@@ -53,6 +53,34 @@ impl Load {
         }
     }
 
+    /// The same load seen from a time origin advanced by theta = W tau (rad): harmonic h's
+    /// cos h(theta' + theta) and sin h(theta' + theta) expanded in theta', as
+    /// `orbit_origin::advanced_orbit` turns the orbit.
+    pub fn advanced(&self, theta: f64) -> Self {
+        Self {
+            harmonics: (self.harmonics.iter())
+                .map(|h| {
+                    let (s, c) = (h.harmonic as f64 * theta).sin_cos();
+                    HarmonicLoad {
+                        harmonic: h.harmonic,
+                        cos: h
+                            .cos
+                            .iter()
+                            .zip(&h.sin)
+                            .map(|(a, b)| a * c + b * s)
+                            .collect(),
+                        sin: h
+                            .cos
+                            .iter()
+                            .zip(&h.sin)
+                            .map(|(a, b)| b * c - a * s)
+                            .collect(),
+                    }
+                })
+                .collect(),
+        }
+    }
+
     /// Checks sizes (n values per part), 1 <= h <= N, each h once, finite values and a nonzero
     /// load.
     pub fn validate(&self, n: usize, highest: usize) -> Result<(), ForcedError> {

@@ -157,24 +157,6 @@ impl PointStability {
     }
 }
 
-/// The Floquet stability of one converged `point` of `solver` (module docs): the massless
-/// contact boundary's exact monodromy in contact, else the harmonic-balance orbit's backed by
-/// one period of time integration. `margin`: around |mu| = 1, undetermined inside;
-/// `period_tolerance`: the largest period residual given a verdict (`FrfSettings`).
-pub(crate) fn assess_point(
-    solver: &ForcedSolver<'_>,
-    point: &ForcedPoint,
-    margin: f64,
-    period_tolerance: f64,
-) -> Result<PointStability, ForcedError> {
-    let how = Assessment {
-        margin,
-        period_tolerance,
-        verify: false,
-    };
-    assess_point_with(solver, point, &how)
-}
-
 /// How a point is assessed: `margin` around |mu| = 1 (undetermined inside), the largest period
 /// residual given a verdict (`FrfSettings`), and whether a verdict of the massless boundary is
 /// checked by RK4 (`PointStability::rk4_change`).
@@ -185,7 +167,9 @@ pub(crate) struct Assessment {
     pub verify: bool,
 }
 
-/// [`assess_point`] as `how` says (under a casing distortion the massless boundary's gaps
+/// The Floquet stability of one converged `point` of `solver` (module docs): the massless
+/// contact boundary's exact monodromy in contact, else the harmonic-balance orbit's backed by
+/// one period of time integration, as `how` says (under a casing distortion the massless boundary's gaps
 /// move with it: `ForcedSolver::boundary_monodromy`).
 pub(crate) fn assess_point_with(
     solver: &ForcedSolver<'_>,

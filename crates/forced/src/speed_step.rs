@@ -36,7 +36,8 @@ use crate::error::ForcedError;
 use crate::following::MovingStructure;
 use crate::load::Load;
 use crate::newton::{ArcRow, OrbitState, Parameter};
-use crate::point_stability::{assess_point, PointStability};
+use crate::point_stability::{Assessment, PointStability};
+use crate::settled_stability::assess_point_settled;
 use crate::solver::{FollowingSolve, ForcedPoint, ForcedSettings, ForcedSolver, ForcedStart};
 use crate::speed_curve::{SpeedPoint, SpeedSweepSettings};
 
@@ -352,7 +353,12 @@ pub(crate) fn assess(
 ) -> PointStability {
     let analysis = problem_at(family, s, p.speed).and_then(|problem| {
         let solver = problem.solver(&s.solver_settings())?;
-        assess_point(&solver, &p.point, s.stability_margin, s.period_tolerance)
+        let how = Assessment {
+            margin: s.stability_margin,
+            period_tolerance: s.period_tolerance,
+            verify: false,
+        };
+        assess_point_settled(&solver, &p.point, &how)
     });
     analysis.unwrap_or_else(|e| {
         tracing::warn!("speed sweep: no stability at {:.6e} rad/s: {e}", p.speed);
