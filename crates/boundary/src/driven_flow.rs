@@ -42,43 +42,43 @@ struct Piece {
     fastest: f64,
 }
 
-/// The event functionals E (c x size, through V) of a piece, and E diag(l) for the rates, as
-/// real and imaginary parts stored by column: every row's event function Re(E e) at once is
-/// then four real products of contiguous columns per eigenvalue (the scan's inner loop).
+/// The event functionals E (c x size, through V) of a piece and E diag(l) for the rates as one
+/// real matrix [[Re E, -Im E], [Re E l, -Im E l]] (2c x 2 size): every row's event function
+/// Re(E e) and rate Re(E diag(l) e) at once are its product with [Re e; Im e], one
+/// matrix-vector product (the scan's inner loop; faer's kernels, session 25: the loop over
+/// columns it replaces was the boundary's largest cost on the blade).
 struct RowTerms {
-    events_re: Mat<f64>,
-    events_im: Mat<f64>,
-    rates_re: Mat<f64>,
-    rates_im: Mat<f64>,
+    stacked: Mat<f64>,
 }
 
 impl RowTerms {
     fn new(events: &Mat<c64>, values: &[c64]) -> Self {
         let (c, m) = (events.nrows(), events.ncols());
-        let rate = |i: usize, k: usize| events[(i, k)] * values[k];
+        let entry = |i: usize, k: usize| match i < c {
+            true => events[(i, k)],
+            false => events[(i - c, k)] * values[k],
+        };
         Self {
-            events_re: Mat::from_fn(c, m, |i, k| events[(i, k)].re),
-            events_im: Mat::from_fn(c, m, |i, k| events[(i, k)].im),
-            rates_re: Mat::from_fn(c, m, |i, k| rate(i, k).re),
-            rates_im: Mat::from_fn(c, m, |i, k| rate(i, k).im),
+            stacked: Mat::from_fn(2 * c, 2 * m, |i, k| match k < m {
+                true => entry(i, k).re,
+                false => -entry(i, k - m).im,
+            }),
         }
     }
 
     /// Re(E e) and Re(E diag(l) e) for the mode terms e (size).
     fn rows(&self, e: &[c64]) -> (Vec<f64>, Vec<f64>) {
-        let c = self.events_re.nrows();
-        let (mut events, mut rates) = (vec![0.0; c], vec![0.0; c]);
-        for (k, ek) in e.iter().enumerate() {
-            let (er, ei) = (
-                self.events_re.col_as_slice(k),
-                self.events_im.col_as_slice(k),
-            );
-            let (rr, ri) = (self.rates_re.col_as_slice(k), self.rates_im.col_as_slice(k));
-            for j in 0..c {
-                events[j] += er[j] * ek.re - ei[j] * ek.im;
-                rates[j] += rr[j] * ek.re - ri[j] * ek.im;
-            }
-        }
+        let m = e.len();
+        let x = faer::Col::from_fn(2 * m, |k| match k < m {
+            true => e[k].re,
+            false => e[k - m].im,
+        });
+        let y = &self.stacked * &x;
+        let c = self.stacked.nrows() / 2;
+        let (events, rates) = (
+            (0..c).map(|j| y[j]).collect(),
+            (c..2 * c).map(|j| y[j]).collect(),
+        );
         (events, rates)
     }
 }
@@ -143,15 +143,24 @@ impl Piece {
             .collect()
     }
 
-    /// The (q, q') block (2r x 2r) of the transition over tau.
+    /// The (q, q') block (2r x 2r) of the transition over tau: Re(V_q diag(exp(l tau)) W_q),
+    /// V_q the first 2r rows of V, W_q the first 2r columns of V^-1, as two real products
+    /// Re(V_q) Re(B) - Im(V_q) Im(B), B = diag(exp(l tau)) W_q (the monodromy's product at
+    /// every switch; summed term by term in complex arithmetic it was the boundary's largest
+    /// cost on the blade, session 25).
     fn transition(&self, r: usize, tau: f64) -> Mat<f64> {
-        let m = self.values.len();
+        let (m, n) = (self.values.len(), 2 * r);
         let e: Vec<c64> = (0..m).map(|k| (self.values[k] * tau).exp()).collect();
-        Mat::from_fn(2 * r, 2 * r, |i, j| {
-            (0..m)
-                .map(|k| (self.vectors[(i, k)] * e[k] * self.inverse[(k, j)]).re)
-                .sum()
-        })
+        let b = |k: usize, j: usize| e[k] * self.inverse[(k, j)];
+        let (b_re, b_im) = (
+            Mat::from_fn(m, n, |k, j| b(k, j).re),
+            Mat::from_fn(m, n, |k, j| b(k, j).im),
+        );
+        let (v_re, v_im) = (
+            Mat::from_fn(n, m, |i, k| self.vectors[(i, k)].re),
+            Mat::from_fn(n, m, |i, k| self.vectors[(i, k)].im),
+        );
+        &v_re * &b_re - &v_im * &b_im
     }
 }
 
