@@ -103,6 +103,16 @@ fn residual_and_column(
     newton.residual_and_column(&state, &mu).unwrap()
 }
 
+/// An orbit well in contact: mean near the gap, a first harmonic of 0.6 gap and a second.
+fn orbit_in_contact(basis: &FullBasis) -> Vec<f64> {
+    let mut y = vec![0.0; basis.terms()];
+    y[0] = 0.7 * GAP;
+    y[FullBasis::cos_index(1)] = 0.5 * GAP;
+    y[FullBasis::sin_index(1)] = 0.3 * GAP;
+    y[FullBasis::cos_index(2)] = 0.1 * GAP;
+    y
+}
+
 /// The column against the central difference of R over W +- 1e-5 W (the law is integrated
 /// exactly: R is C^1 in W, and the difference's error, O(1e-10) of the column from its
 /// O(h^2) truncation and round-off, is far below the tolerance); the column of the frozen
@@ -112,13 +122,7 @@ fn speed_column_is_the_derivative_along_the_speed_line() {
     let basis = FullBasis::new(HarmonicSettings::with_default_samples(N).unwrap()).unwrap();
     let speed = 0.35;
     let omega = E * speed;
-    let t = basis.terms();
-    // An orbit well in contact: mean near the gap, a first harmonic of 0.6 gap and a second.
-    let mut y = vec![0.0; t];
-    y[0] = 0.7 * GAP;
-    y[FullBasis::cos_index(1)] = 0.5 * GAP;
-    y[FullBasis::sin_index(1)] = 0.3 * GAP;
-    y[FullBasis::cos_index(2)] = 0.1 * GAP;
+    let y = orbit_in_contact(&basis);
     let moving = Turning { frozen: None };
     let (_, column) = residual_and_column(&moving, &basis, &y, omega);
     let h = 1e-5 * omega;
@@ -178,11 +182,7 @@ fn following_newton_direction_is_that_of_its_residual_away_from_the_linearizatio
     let speed = 0.35;
     let omega_s = E * speed;
     let t = basis.terms();
-    let mut y = vec![0.0; t];
-    y[0] = 0.7 * GAP;
-    y[FullBasis::cos_index(1)] = 0.5 * GAP;
-    y[FullBasis::sin_index(1)] = 0.3 * GAP;
-    y[FullBasis::cos_index(2)] = 0.1 * GAP;
+    let y = orbit_in_contact(&basis);
     let moving = Turning { frozen: None };
     let (dynamics, g0) = moving.at(omega_s).unwrap();
     let mut newton = inner_newton(&dynamics, &basis, &g0, Some(Following::new(&moving)));

@@ -11,46 +11,23 @@
 //! The reference is the exact piecewise-linear flow of the 2-DOF penalty equation (`pwl`,
 //! independent of the crates), shot to its periodic orbit, its largest |mu| from its monodromy.
 
+mod common;
 mod pwl;
 
-use faer::Mat;
-use nlmodes_boundary::{boundary_with_converged_cutoff, DrivenInputs, GapHarmonic};
-use nlmodes_forced::{
-    casing_sweep, CasingPoint, CasingSweepSettings, Damping, ForcedSettings, SpeedHarmonics,
-    Verdict,
+use common::{
+    penalty_settings, tip_chain as system, tip_chain_damping as damping, tip_chain_kc as kc,
+    TIP_CHAIN_GAP,
 };
-use nlmodes_hb::{AlgorithmParams, ContactMethod, HarmonicSettings, System};
+
+use nlmodes_boundary::{boundary_with_converged_cutoff, DrivenInputs, GapHarmonic};
+use nlmodes_forced::{casing_sweep, CasingPoint, CasingSweepSettings, SpeedHarmonics, Verdict};
 use pwl::{GapWave, Pwl};
 
-const GAP: f64 = 1.0;
-const ZETA: f64 = 0.02;
+const GAP: f64 = TIP_CHAIN_GAP;
 const N: usize = 12;
-
-/// The chain (module docs), with the stiff free coordinate when `padded`.
-fn system(padded: bool) -> System {
-    let n = if padded { 3 } else { 2 };
-    let m = [1.0, 0.05, 1.0];
-    let k = [[11.0, -10.0, 0.0], [-10.0, 10.0, 0.0], [0.0, 0.0, 1e6]];
-    System::new(
-        Mat::from_fn(n, n, |i, j| if i == j { m[i] } else { 0.0 }),
-        Mat::from_fn(n, n, |i, j| k[i][j]),
-        Mat::from_fn(1, n, |_, j| if j == 1 { 1.0 } else { 0.0 }),
-        vec![GAP],
-        1,
-    )
-    .unwrap()
-}
-
-fn kc() -> f64 {
-    10.0 * system(false).contact_stiffness()[0]
-}
 
 fn omega() -> f64 {
     0.69 * system(false).linear_frequencies()[0]
-}
-
-fn damping(s: &System) -> Mat<f64> {
-    Damping::ModalRatios(vec![ZETA]).matrix(s).unwrap()
 }
 
 /// The 2-DOF oracle under the gap 1 - delta cos(W t).
@@ -82,14 +59,7 @@ fn reference(delta: f64, w: f64, z: &[f64]) -> f64 {
 /// The sweep of the padded chain, delta from 0 to 2 gaps in steps of 0.1, N = 12 kept.
 fn sweep(stability: bool) -> Vec<CasingPoint> {
     let s = system(true);
-    let settings = ForcedSettings {
-        harmonics: HarmonicSettings::new(N, 128).unwrap(),
-        algorithm: AlgorithmParams {
-            method: ContactMethod::Penalty { stiffness: kc() },
-            ..AlgorithmParams::default()
-        },
-        ..ForcedSettings::new(N).unwrap()
-    };
+    let settings = penalty_settings(N, 128, kc());
     let amplitudes: Vec<f64> = (0..=20).map(|i| 0.1 * GAP * i as f64).collect();
     let mut cs = CasingSweepSettings::new(omega(), amplitudes, settings);
     cs.harmonic_policy = SpeedHarmonics::Fixed;

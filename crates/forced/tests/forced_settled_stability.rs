@@ -13,42 +13,20 @@
 //! The reference is the exact piecewise-linear flow of the 2-DOF penalty equation (`pwl`,
 //! independent of the crates), shot at the point's W from its harmonic-balance state.
 
+mod common;
 mod pwl;
 
-use faer::Mat;
-use nlmodes_forced::{
-    response_curve, Damping, ForcedSettings, ForcedSolver, FrfSettings, HarmonicPolicy, Load,
-    Verdict,
+use common::{
+    penalty_settings, tip_chain as system, tip_chain_damping as damping, tip_chain_kc as kc,
+    TIP_CHAIN_GAP,
 };
-use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
+
+use nlmodes_forced::{response_curve, ForcedSolver, FrfSettings, HarmonicPolicy, Load, Verdict};
+use nlmodes_hb::FullBasis;
 use pwl::{Dense, Pwl};
 
-const GAP: f64 = 1.0;
-const ZETA: f64 = 0.02;
+const GAP: f64 = TIP_CHAIN_GAP;
 const N: usize = 8;
-
-/// The chain (module docs), with the stiff free coordinate when `padded`.
-fn system(padded: bool) -> System {
-    let n = if padded { 3 } else { 2 };
-    let m = [1.0, 0.05, 1.0];
-    let k = [[11.0, -10.0, 0.0], [-10.0, 10.0, 0.0], [0.0, 0.0, 1e6]];
-    System::new(
-        Mat::from_fn(n, n, |i, j| if i == j { m[i] } else { 0.0 }),
-        Mat::from_fn(n, n, |i, j| k[i][j]),
-        Mat::from_fn(1, n, |_, j| if j == 1 { 1.0 } else { 0.0 }),
-        vec![GAP],
-        1,
-    )
-    .unwrap()
-}
-
-fn kc() -> f64 {
-    10.0 * system(false).contact_stiffness()[0]
-}
-
-fn damping(s: &System) -> Mat<f64> {
-    Damping::ModalRatios(vec![ZETA]).matrix(s).unwrap()
-}
 
 /// The tip's linear amplitude per unit force on the body at W (a 2 x 2 complex solve).
 fn tip_receptance(w: f64) -> f64 {
@@ -109,14 +87,7 @@ fn forced_verdicts_in_contact_are_the_exact_ones() {
     let c = damping(&s);
     let w1 = system(false).linear_frequencies()[0];
     let load = Load::fundamental(vec![force(), 0.0, 0.0]);
-    let settings = ForcedSettings {
-        harmonics: HarmonicSettings::new(N, 128).unwrap(),
-        algorithm: AlgorithmParams {
-            method: ContactMethod::Penalty { stiffness: kc() },
-            ..AlgorithmParams::default()
-        },
-        ..ForcedSettings::new(N).unwrap()
-    };
+    let settings = penalty_settings(N, 128, kc());
     let solver = ForcedSolver::new(&s, &c, &load, settings).unwrap();
     let frf = FrfSettings {
         harmonic_policy: HarmonicPolicy::Check,

@@ -73,3 +73,53 @@ fn gauss(mut a: Vec<Vec<f64>>) -> Vec<f64> {
     }
     x
 }
+
+/// The gap of [`tip_chain`].
+pub const TIP_CHAIN_GAP: f64 = 1.0;
+
+/// A 2-DOF blade-like chain: a body (m = 1) on a root spring (k = 1) and a light tip (m = 0.05)
+/// on a stiff spring (k = 10) whose own mode lies near 15 w1, the contact on the tip (gap
+/// `TIP_CHAIN_GAP`, master the tip); with `padded` a stiff coordinate coupled to nothing
+/// (k = 1e6), as FE models have (tests/casing_cutoff.rs, tests/forced_settled_stability.rs).
+pub fn tip_chain(padded: bool) -> System {
+    let n = if padded { 3 } else { 2 };
+    let m = [1.0, 0.05, 1.0];
+    let k = [[11.0, -10.0, 0.0], [-10.0, 10.0, 0.0], [0.0, 0.0, 1e6]];
+    System::new(
+        Mat::from_fn(n, n, |i, j| if i == j { m[i] } else { 0.0 }),
+        Mat::from_fn(n, n, |i, j| k[i][j]),
+        Mat::from_fn(1, n, |_, j| if j == 1 { 1.0 } else { 0.0 }),
+        vec![TIP_CHAIN_GAP],
+        1,
+    )
+    .expect("tip chain")
+}
+
+/// The penalty of [`tip_chain`]'s tests: 10 x the chain's static contact stiffness.
+pub fn tip_chain_kc() -> f64 {
+    10.0 * tip_chain(false).contact_stiffness()[0]
+}
+
+/// 2 % modal damping of `s`.
+pub fn tip_chain_damping(s: &System) -> Mat<f64> {
+    nlmodes_forced::Damping::ModalRatios(vec![0.02])
+        .matrix(s)
+        .expect("modal damping")
+}
+
+/// Forced settings at N = `harmonics` with `samples` time samples under the penalty law of
+/// stiffness `kc` (N/m), the other keys at their defaults.
+pub fn penalty_settings(
+    harmonics: usize,
+    samples: usize,
+    kc: f64,
+) -> nlmodes_forced::ForcedSettings {
+    nlmodes_forced::ForcedSettings {
+        harmonics: nlmodes_hb::HarmonicSettings::new(harmonics, samples).expect("N and m"),
+        algorithm: nlmodes_hb::AlgorithmParams {
+            method: nlmodes_hb::ContactMethod::Penalty { stiffness: kc },
+            ..nlmodes_hb::AlgorithmParams::default()
+        },
+        ..nlmodes_forced::ForcedSettings::new(harmonics).expect("N")
+    }
+}
