@@ -455,8 +455,41 @@ fn exact_curve_crowns_the_harmonic_balance(json: &serde_json::Value) {
     assert_eq!(verdict_at(fold_index[1] + 3), "stable");
 }
 
-/// The command's verdict of a point in contact against RK4 on the massless boundary of the
-/// point's N (its dynamic modes are those below (N + 1) W).
+/// The boundary of a point with its dynamic modes raised until its orbit settles (the
+/// command's second opinion, `settled_stability`: 5e-3 on the master's amplitude at the load's
+/// harmonic and on the largest |mu|), shot from the point's orbit at t = 0 (the multipliers do
+/// not depend on the origin).
+fn settled_boundary(
+    system: &System,
+    c: &Mat<f64>,
+    load: &nlmodes_forced::Load,
+    kc: f64,
+    (omega, harmonics, coefficients): (f64, usize, &Mat<f64>),
+) -> nlmodes_forced::BoundaryMonodromy {
+    let driven = nlmodes_boundary::DrivenInputs {
+        system,
+        damping: c.as_ref(),
+        load: (load.harmonics.iter())
+            .map(|h| nlmodes_boundary::LoadHarmonic {
+                harmonic: h.harmonic,
+                cos: &h.cos,
+                sin: &h.sin,
+            })
+            .collect(),
+        penalty: Some(kc),
+        harmonics,
+        keep_all: true,
+        gap_motion: Vec::new(),
+    };
+    nlmodes_boundary::boundary_with_converged_cutoff(&driven, coefficients, omega, 1, 5e-3)
+        .expect("settled boundary")
+        .expect("the command shot this orbit")
+        .boundary
+}
+
+/// The command's verdict of a point in contact against RK4 on the massless boundary it used:
+/// the one of the point's N (its dynamic modes are those below (N + 1) W), or where that left
+/// the point undetermined the settled one.
 #[allow(clippy::too_many_arguments)]
 fn boundary_point(
     system: &System,
@@ -478,9 +511,16 @@ fn boundary_point(
         keep_all: false,
     };
     let coefficients = Mat::from_fn(coeff.len(), coeff[0].len(), |i, k| coeff[i][k]);
-    let b = nlmodes_forced::boundary_monodromy(&inputs, &coefficients, omega)
+    let at_cutoff = nlmodes_forced::boundary_monodromy(&inputs, &coefficients, omega)
         .expect("boundary")
         .expect("the command shot this orbit");
+    // Where the state distance left the point undetermined the command took the boundary with
+    // its modes raised until its orbit settles (docs/STABILITY.md Sec. 9.6): the model whose
+    // |mu| it reports is that one.
+    let b = match (at_cutoff.monodromy.largest() - mu).abs() <= 1e-4 {
+        true => at_cutoff,
+        false => settled_boundary(system, c, load, kc, (omega, harmonics, &coefficients)),
+    };
     let r = b.modes;
     let period = 2.0 * std::f64::consts::PI / b.model.omega;
     let start = nlmodes_boundary::rk4::Rk4State {
