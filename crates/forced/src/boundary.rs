@@ -32,7 +32,7 @@ pub struct BoundaryInputs<'a> {
 
 impl BoundaryInputs<'_> {
     /// The same inputs in `nlmodes_boundary`'s terms.
-    fn driven(&self) -> DrivenInputs<'_> {
+    pub(crate) fn driven(&self) -> DrivenInputs<'_> {
         DrivenInputs {
             system: self.system,
             damping: self.damping,

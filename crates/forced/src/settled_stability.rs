@@ -27,11 +27,11 @@
 //! (exact contact, every mode resolved) or does not shoot keep `assess_point_with`.
 
 use faer::Mat;
-use nlmodes_boundary::{boundary_with_converged_cutoff, DrivenInputs, LoadHarmonic};
+use nlmodes_boundary::{boundary_with_converged_cutoff, DrivenInputs};
 use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::{ContactMethod, FullBasis, System};
 
-use crate::boundary::BOUNDARY_SHIFT_LIMIT;
+use crate::boundary::{BoundaryInputs, BOUNDARY_SHIFT_LIMIT};
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
 use crate::harmonic_check::HarmonicCheck;
@@ -81,22 +81,19 @@ fn settled_verdict(
         ContactMethod::Penalty { stiffness } => Some(stiffness),
         _ => None,
     };
-    let inputs = DrivenInputs {
+    let boundary = BoundaryInputs {
         system: model.system,
         damping: model.damping.as_ref(),
-        load: (model.load.harmonics.iter())
-            .map(|h| LoadHarmonic {
-                harmonic: h.harmonic,
-                cos: &h.cos,
-                sin: &h.sin,
-            })
-            .collect(),
+        load: &model.load,
         penalty,
         harmonics: point.harmonics,
         keep_all: true,
+    };
+    let inputs = DrivenInputs {
         gap_motion: (model.distortion.iter())
             .map(|d| d.gap_harmonic(model.system.n_contacts()))
             .collect(),
+        ..boundary.driven()
     };
     let h = model.harmonic();
     let clock = std::time::Instant::now();
