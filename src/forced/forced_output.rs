@@ -294,6 +294,10 @@ struct RetraceRecord {
     largest_change: [f64; 2],
     /// Whether 2N was within max_harmonics (else the trace could not be checked).
     checkable: bool,
+    /// The trace's largest contact force (force units) at its N and at 2N (`null`: no
+    /// contact, not checked, or the 2N solve failed).
+    largest_contact_force: Option<f64>,
+    largest_contact_force_finer: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -320,6 +324,8 @@ fn retrace_record(t: &nlmodes_forced::CurveHarmonics) -> RetraceRecord {
         not_converged: t.not_converged,
         largest_change: t.largest_change,
         checkable: t.checkable,
+        largest_contact_force: t.force.map(|f| f.force),
+        largest_contact_force_finer: t.force.and_then(|f| f.finer),
     }
 }
 
@@ -651,7 +657,7 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
         String::new()
     };
     let mut out = format!(
-        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{over}{at_peak}\n",
+        "           N = {} (traced at N = {}): {}{verdict}; largest change at 2N {:.1e} in q1, {:.1e} in W{over}{}{at_peak}\n",
         last.harmonics,
         traced.join(", "),
         // With N raised around the moving points the next line says whether the curve is
@@ -663,11 +669,36 @@ pub(crate) fn retrace_note(r: &FrequencyResponse, peak: usize, tolerance: f64) -
         },
         last.largest_change[0],
         last.largest_change[1],
+        force_note(last, "N"),
     );
     if let Some(raised) = &r.raised {
         out += &raised_note(r, raised, tolerance);
     }
     out
+}
+
+/// How far the largest contact force of a curve's trace `last` moved at 2N (its point is
+/// always checked, `nlmodes_forced::ForceCheck`), as a clause; empty when the trace never
+/// touches or was not checked. Reported beside the check of N, not within its tolerance: a
+/// stiff penalty law's peak force converges more slowly in N than the first harmonic.
+pub(crate) fn force_note(last: &CurveHarmonics, unit: &str) -> String {
+    let Some(f) = last.force else {
+        return String::new();
+    };
+    let finer = 2 * last.harmonics;
+    match (f.finer, f.change()) {
+        (Some(fine), Some(change)) => format!(
+            "; the largest contact force {:.4} {unit} moves by {:.1} % at N = {finer} ({:.4} {unit})",
+            f.force,
+            100.0 * change,
+            fine
+        ),
+        _ => format!(
+            "; the largest contact force {:.4} {unit} could not be checked at N = {finer} (the \
+             solve failed or landed on another orbit)",
+            f.force
+        ),
+    }
 }
 
 /// What the check at 2N of a curve's trace `last` found, `failed` of its checked points not
@@ -842,6 +873,7 @@ mod tests {
             not_converged: 7,
             largest_change: [1.7e-3, 2.3e-4],
             checkable: true,
+            force: None,
         };
         let note = check_verdict(&last, 5, false, 1e-3);
         assert!(note.contains("2 move by more than 1e-3"), "{note}");

@@ -248,6 +248,17 @@ impl BackboneFile {
     }
 }
 
+/// One trace's N and its largest contact force at N and at 2N (frf.json `retraces`, the speed
+/// sweeps' speed_sweep.json `retraces`).
+#[derive(Clone, Debug, Deserialize)]
+pub struct RetraceHead {
+    pub harmonics: usize,
+    #[serde(default, alias = "largest_contact_force_n")]
+    pub largest_contact_force: Option<f64>,
+    #[serde(default, alias = "largest_contact_force_finer_n")]
+    pub largest_contact_force_finer: Option<f64>,
+}
+
 /// Reads a JSON file written by an earlier stage.
 pub fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;

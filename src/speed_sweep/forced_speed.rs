@@ -80,7 +80,7 @@ struct ParametricFamily<'a> {
 
 impl ParametricFamily<'_> {
     fn problem(&self, speed: f64) -> Result<SpeedProblem> {
-        let reduced = self.model.at(speed)?;
+        let reduced = self.model.structure_at(speed)?;
         let system = crate::backbone::system_of(&reduced, None)?;
         let damping = self
             .section
@@ -546,11 +546,12 @@ fn check_note(
     let solved = last.checked.len() - failed;
     format!(
         "N = {} (traced at N = {}): {verdict}; largest change at 2N {:.1e} in q1, {:.1e} in \
-         speed (over the {solved} solved)",
+         speed (over the {solved} solved){}",
         last.harmonics,
         traced.join(", "),
         last.largest_change[0],
-        last.largest_change[1]
+        last.largest_change[1],
+        crate::forced::forced_output::force_note(last, "N")
     )
 }
 
@@ -571,6 +572,7 @@ mod tests {
             not_converged: 6,
             largest_change: [2.2e-4, 2.1e-4],
             checkable: true,
+            force: None,
         };
         let mut checks = vec![HarmonicCheck::NotConverged { change: None }; 6];
         checks.extend(

@@ -144,6 +144,10 @@ pub struct RetraceRecord {
     /// Whether 2N was within `[forced] max_harmonics` (else the trace could not be checked).
     pub checkable: bool,
     pub converged: bool,
+    /// The trace's largest contact force (N) at its N and at 2N on the same row (`null`: no
+    /// contact, not checked, or the 2N solve failed).
+    pub largest_contact_force_n: Option<f64>,
+    pub largest_contact_force_finer_n: Option<f64>,
 }
 
 /// The summary of one sweep.
@@ -205,6 +209,8 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
                 largest_change_speed: t.largest_change[1],
                 checkable: t.checkable,
                 converged: t.converged(),
+                largest_contact_force_n: t.force.map(|f| f.force),
+                largest_contact_force_finer_n: t.force.and_then(|f| f.finer),
             })
             .collect(),
         raised: (run.sweep.raised.as_ref()).map(crate::forced::forced_output::raised_record),

@@ -606,5 +606,5 @@ fn change(coarse: &ForcedPoint, fine: &ForcedPoint, master: usize, h: usize) -> 
 
 /// The largest contact force of an orbit over its samples and rows (force units).
 pub fn largest_force(p: &ForcedPoint) -> f64 {
-    p.contact_force.iter().fold(0.0_f64, |m, f| m.max(f.abs()))
+    p.largest_contact_force()
 }

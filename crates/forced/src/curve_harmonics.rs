@@ -4,7 +4,7 @@
 //! normal to the curve there, so that a fold is checked where it is and a point far up a
 //! steep branch is not compared with another W's orbit.
 
-use crate::curve::{CurveHarmonics, FrequencyResponse, FrfSettings};
+use crate::curve::{CurveHarmonics, ForceCheck, FrequencyResponse, FrfSettings};
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::HarmonicLadder;
 use crate::newton::{ArcRow, OrbitState};
@@ -22,6 +22,31 @@ pub(crate) struct MovingPoint<P = ForcedPoint> {
     pub index: usize,
     /// Its solve at 2N on its normal row, when that converged on the same orbit.
     pub finer: Option<P>,
+}
+
+/// The touching point of `points` with the largest contact force (`None` when none touches):
+/// always among `points_worth_checking`.
+pub(crate) fn strongest_point(points: &[&ForcedPoint]) -> Option<usize> {
+    (0..points.len())
+        .filter(|&i| points[i].touches())
+        .max_by(|&a, &b| {
+            let force = |i: usize| points[i].largest_contact_force();
+            force(a).total_cmp(&force(b))
+        })
+}
+
+/// The force check of a trace whose strongest point `point` (`strongest_point`) was solved
+/// again at 2N as `finer` (`None`: that solve failed or landed elsewhere).
+pub(crate) fn force_check(
+    point: usize,
+    orbit: &ForcedPoint,
+    finer: Option<&ForcedPoint>,
+) -> ForceCheck {
+    ForceCheck {
+        point,
+        force: orbit.largest_contact_force(),
+        finer: finer.map(ForcedPoint::largest_contact_force),
+    }
 }
 
 /// Checks `curve` (traced at the base N of `ladder`, whose level 1, when there is one, is 2N)
@@ -43,16 +68,21 @@ pub(crate) fn check_curve(
         not_converged: 0,
         largest_change: [0.0; 2],
         checkable: ladder.levels() > 1,
+        force: None,
     };
     let mut moving = Vec::new();
     if !out.checkable {
         return (out, moving);
     }
+    let strongest = strongest_point(&curve.points.iter().collect::<Vec<_>>());
     for (k, &i) in checked.iter().enumerate() {
         let row = normal_row(base, settings, curve, i);
         let point = curve.points[i].clone();
         let (point, finer) = ladder.checked_with_solve(point, 0, Some(&row));
         record_check(&mut out, point.harmonic_check);
+        if strongest == Some(i) {
+            out.force = Some(force_check(i, &point, finer.as_ref()));
+        }
         let moved = matches!(point.harmonic_check, HarmonicCheck::NotConverged { .. });
         if moved {
             moving.push(MovingPoint { index: i, finer });
@@ -110,7 +140,7 @@ pub(crate) fn points_worth_checking(
             .max_by(|&a, &b| key(points[a]).total_cmp(&key(points[b])))
     };
     let peak = largest(&|p| p.first_harmonic(master));
-    let force = largest(&|p| p.contact_force.iter().fold(0.0_f64, |m, f| m.max(f.abs())));
+    let force = strongest_point(points);
     let mut out: Vec<usize> = peak.into_iter().chain(force).collect();
     out.extend(folds.iter().copied());
     let n = touching.len();

@@ -82,7 +82,9 @@ fn retraced_curve(
         );
         retraces.push(check);
         if !again {
-            if !moving.is_empty() && ladder.levels() > 1 {
+            // Points whose 2N solve failed seed no segment: with no other, nothing is raised
+            // and the check says which failed.
+            if moving.iter().any(|m| m.finer.is_some()) && ladder.levels() > 1 {
                 let target = FrequencyTarget {
                     base: current,
                     settings,

@@ -64,8 +64,8 @@ pub use casing_sweep::{
 };
 pub use compliance::ContactCompliance;
 pub use curve::{
-    CurveHarmonics, Fold, FoldKind, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy,
-    RaisedRound, RaisedSegments, Sweep,
+    CurveHarmonics, Fold, FoldKind, ForceCheck, FrequencyResponse, FrfSettings, FrfTermination,
+    HarmonicPolicy, RaisedRound, RaisedSegments, Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use distortion::CasingDistortion;

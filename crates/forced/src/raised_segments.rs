@@ -39,7 +39,7 @@ const MAX_CHECK_HARMONICS: usize = 200;
 /// A raised point may carry up to this many times `max_harmonics` (the N the check of round 1
 /// already reaches): `max_harmonics` bounds the N of a whole trace, which costs every point;
 /// a later round raises only the few points whose check still moves.
-const RAISE_BEYOND: usize = 2;
+pub(crate) const RAISE_BEYOND: usize = 2;
 
 /// Points in a row converged one level down (or failing) that end a segment on one side: one
 /// could be a change of sign of the truncation error between two moving points.
@@ -301,6 +301,7 @@ impl<'a, T: RaiseTarget> Raising<'a, T> {
                 not_converged: 0,
                 largest_change: [0.0; 2],
                 checkable: round.check.is_some(),
+                force: None,
             },
         };
         for s in segments {
@@ -434,6 +435,7 @@ fn summary<T: RaiseTarget>(
         not_converged: 0,
         largest_change: [0.0; 2],
         checkable: rounds.first().is_some_and(|r| r.check.checkable),
+        force: None,
     };
     let (mut segments, mut raised) = (Vec::new(), Vec::new());
     for (k, r) in rounds.iter().enumerate() {

@@ -105,6 +105,11 @@ impl ForcedPoint {
     pub fn first_harmonic(&self, i: usize) -> f64 {
         self.coefficients[(i, 1)].hypot(self.coefficients[(i, 2)])
     }
+
+    /// The largest contact force over the samples and rows (force units; 0 out of contact).
+    pub fn largest_contact_force(&self) -> f64 {
+        (self.contact_force.iter()).fold(0.0_f64, |m, f| m.max(f.abs()))
+    }
 }
 
 /// What `ForcedSolver::solve_following` converged to.

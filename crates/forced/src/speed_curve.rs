@@ -44,8 +44,9 @@ pub enum SpeedHarmonics {
     /// The sweep at the solver's N; its peak, folds, deepest contact and a few points spread
     /// over its contact are solved again at 2N and flagged (`speed_harmonics`).
     Check,
-    /// As `Check`, and while a checked point moves by more than the tolerance (and 4N is within
-    /// `max_harmonics`) the whole sweep is traced again at 2N: every point shares one N.
+    /// As `Check`, and while a checked point moves by more than the tolerance (and 2N is within
+    /// `max_harmonics`) the whole sweep is traced again at 2N, or at 4N when the moving points
+    /// move again there (`speed_harmonics`): every point shares one N.
     Retrace,
 }
 
@@ -88,7 +89,8 @@ pub struct SpeedSweepSettings {
     pub speed_tolerance: f64,
     /// How N is converged (default `SpeedHarmonics::Fixed`).
     pub harmonic_policy: SpeedHarmonics,
-    /// The largest N a retrace may reach (0, default: four times the solver's N).
+    /// The largest N a retrace may reach (0, default: four times the solver's N); the last
+    /// trace's check and the points raised around its moving ones reach twice it.
     pub max_harmonics: usize,
     /// A checked point's N is enough when doubling it moves the master's first harmonic and
     /// the speed by at most this (relative; default 1e-3, as `FrfSettings::harmonic_tolerance`).

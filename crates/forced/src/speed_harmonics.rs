@@ -10,9 +10,12 @@
 //! default blade's check failed at 5 of its 8 points (docs/ROTATION.md, session 22). A point
 //! whose 2N solve moves the master's first harmonic or the speed by more than
 //! `harmonic_tolerance` (relative), or fails, or lands on another orbit, has not converged;
-//! under `SpeedHarmonics::Retrace` the whole sweep is then traced again at 2N,
-//! while 4N is within `max_harmonics`, so that the sweep's folds are those of one truncation.
-//! When the last trace's check still finds points moving (4N beyond `max_harmonics`), N is
+//! under `SpeedHarmonics::Retrace` the whole sweep is then traced again at 2N, while 2N is
+//! within `max_harmonics` (the largest N of a whole trace), so that the sweep's folds are those
+//! of one truncation; at 4N instead when the moving points' 2N solves move again at 4N
+//! (`next_trace_harmonics`: the trace at 2N would be thrown away by its own check). The
+//! largest contact force of each trace is reported with its solve at 2N (`ForceCheck`).
+//! When the last trace's check still finds points moving (2N beyond `max_harmonics`), N is
 //! raised around them alone (`raised_segments`, as the frequency response does: to 2N in
 //! segments grown along the sweep until two points in a row are converged, checked at 4N, and
 //! again one level up while a check moves); each point carries its N.
@@ -20,12 +23,14 @@
 use rayon::prelude::*;
 
 use crate::curve::CurveHarmonics;
-use crate::curve_harmonics::{points_worth_checking, record_check, MovingPoint};
+use crate::curve_harmonics::{
+    force_check, points_worth_checking, record_check, strongest_point, MovingPoint,
+};
 use crate::error::ForcedError;
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::verdict;
 use crate::raise_speed::{at_harmonics, SpeedTarget};
-use crate::raised_segments::{RaiseTarget, Raising};
+use crate::raised_segments::{RaiseTarget, Raising, RAISE_BEYOND};
 use crate::solver::ForcedPoint;
 use crate::speed_curve::{SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
 use crate::speed_step::{assess, problem_at, SpeedFamily};
@@ -98,7 +103,7 @@ pub(crate) fn converged_sweep(
             trace: sweep.points.clone(),
             master: problem_at(family, &current, current.start)?.system.master(),
         };
-        let finer = match 2 * n <= top {
+        let finer = match 2 * n <= RAISE_BEYOND * top {
             true => Some(target.level(2 * n)?),
             false => None,
         };
@@ -106,7 +111,7 @@ pub(crate) fn converged_sweep(
         let touches = sweep.points.iter().any(|p| p.point.touches());
         let again = settings.harmonic_policy == SpeedHarmonics::Retrace
             && !check.converged()
-            && 4 * n <= top
+            && 2 * n <= top
             && touches;
         tracing::info!(
             harmonics = n,
@@ -119,7 +124,10 @@ pub(crate) fn converged_sweep(
         );
         retraces.push(check);
         if !again {
-            let raise = settings.harmonic_policy == SpeedHarmonics::Retrace && !moving.is_empty();
+            // Points whose 2N solve failed seed no segment: with no other, nothing is raised
+            // and the check says which failed.
+            let raise = settings.harmonic_policy == SpeedHarmonics::Retrace
+                && moving.iter().any(|m| m.finer.is_some());
             if let (true, Some(finer)) = (raise, finer.as_ref()) {
                 sweep.raised = Some(raise_segments(&target, finer, top, &mut sweep, moving)?);
                 refold_raised(&mut sweep, current.speed_scale);
@@ -127,8 +135,49 @@ pub(crate) fn converged_sweep(
             sweep.retraces = retraces;
             return Ok((sweep, current));
         }
-        current = finer.unwrap_or(current);
+        let next = next_trace_harmonics(&target, &moving, top)?;
+        current = match (next == 2 * n, finer) {
+            (true, Some(finer)) => finer,
+            _ => target.level(next)?,
+        };
     }
+}
+
+/// N of the next trace of a sweep traced at `target`'s N whose check moved at 2N (the
+/// `moving` points, with their solves at 2N): 4N when one of those solves moves again at 4N by
+/// more than the tolerance (or fails there) and 4N is within `top`, else 2N. A trace at 2N
+/// would then be traced again: on the default blade's EO 3 sweep the trace at N = 20 winds
+/// through loops near 7973 rpm (a grazing of a second impact) that N = 40 does not have, with
+/// contact forces 50 % high there, and its check moves at 40 as the one at N = 10 did
+/// (docs/ROTATION.md, session 26).
+fn next_trace_harmonics(
+    target: &SpeedTarget<'_>,
+    moving: &[MovingPoint<SpeedPoint>],
+    top: usize,
+) -> Result<usize, ForcedError> {
+    let n = target.base.solver.harmonics.harmonics;
+    if 4 * n > top {
+        return Ok(2 * n);
+    }
+    let finest = target.level(4 * n)?;
+    let tolerance = target.base.harmonic_tolerance;
+    let still_moving = moving
+        .par_iter()
+        .filter_map(|m| m.finer.as_ref().map(|f| (m.index, f)))
+        .any(|(i, finer)| match target.solve_again(&finest, i, finer) {
+            Some((_, change)) => change.iter().any(|&c| c > tolerance),
+            None => true,
+        });
+    tracing::info!(
+        harmonics = n,
+        "speed sweep: the points that moved at 2N {} at 4N",
+        if still_moving {
+            "move again (or fail)"
+        } else {
+            "are converged"
+        }
+    );
+    Ok(if still_moving { 4 * n } else { 2 * n })
 }
 
 /// N raised around the `moving` points of the last trace's check (`raised_segments`): to
@@ -164,6 +213,7 @@ fn check_sweep(
         not_converged: 0,
         largest_change: [0.0; 2],
         checkable: finer.is_some(),
+        force: None,
     };
     let Some(finer) = finer else {
         return (out, Vec::new());
@@ -173,8 +223,13 @@ fn check_sweep(
         .par_iter()
         .map(|&i| target.solve_again(finer, i, &sweep.points[i]))
         .collect();
+    let strongest = strongest_point(&points);
     let mut moving = Vec::new();
     for (&i, solve) in checked.iter().zip(solves) {
+        if strongest == Some(i) {
+            let fine = solve.as_ref().map(|s| &s.0.point);
+            out.force = Some(force_check(i, &sweep.points[i].point, fine));
+        }
         let check = verdict(solve.as_ref().map(|s| s.1), target.base.harmonic_tolerance);
         record_check(&mut out, check);
         sweep.points[i].point.harmonic_check = check;

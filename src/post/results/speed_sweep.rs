@@ -65,6 +65,9 @@ pub struct SweepRecord {
     /// The sweep's N and its check at 2N in words (absent from files of earlier versions).
     #[serde(default)]
     pub harmonics_note: Option<String>,
+    /// Every trace's N and its check at 2N (absent from files of earlier versions).
+    #[serde(default)]
+    pub retraces: Vec<super::RetraceHead>,
 }
 
 /// How stable a sweep's response is: the headline word of the verdict.
@@ -262,6 +265,7 @@ mod tests {
             complete: true,
             end: "complete".into(),
             harmonics_note: None,
+            retraces: Vec::new(),
         }
     }
 
