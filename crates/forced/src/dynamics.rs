@@ -49,6 +49,9 @@ pub struct ModalDynamics {
     damping: ModalDamping,
     /// Modal load Phi^T f per coefficient index of the full basis (n x (2N + 1)).
     load: Mat<f64>,
+    /// The rows' modal products, (c c) x n: row j c + jr holds psi_jk psi_jr,k
+    /// (`diagonal_blocks`; empty under a general damping).
+    outer: Mat<f64>,
 }
 
 impl ModalDynamics {
@@ -98,12 +101,20 @@ impl ModalDynamics {
                 }
             }
         }
+        let c = psi.nrows();
+        let outer = match damping {
+            ModalDamping::Diagonal(_) => {
+                Mat::from_fn(c * c, n, |row, k| psi[(row / c, k)] * psi[(row % c, k)])
+            }
+            ModalDamping::Full(_) => Mat::zeros(0, n),
+        };
         Ok(Self {
             eigenvalues: system.eigenvalues().to_vec(),
             phi,
             psi,
             damping,
             load: modal_load,
+            outer,
         })
     }
 
@@ -153,18 +164,28 @@ impl ModalDynamics {
         match &self.damping {
             ModalDamping::Diagonal(cd) => {
                 for pair in 0..r.ncols() / 2 {
-                    for k in 0..nd {
-                        let (d, e) = (self.eigenvalues[k] - nw * nw, nw * cd[k]);
-                        let det = d * d + e * e;
-                        let (rc, rs) = (r[(k, 2 * pair)], r[(k, 2 * pair + 1)]);
-                        r[(k, 2 * pair)] = (d * rc - e * rs) / det;
-                        r[(k, 2 * pair + 1)] = (e * rc + d * rs) / det;
-                    }
+                    self.diagonal_pair(nw, cd, r, [2 * pair, 2 * pair + 1]);
                 }
                 Ok(())
             }
             ModalDamping::Full(cm) => self.solve_full(nw, cm, r),
         }
+    }
+
+    /// Z_n^-1 under diagonal modal damping on the cosine and sine `columns` of `r`, in place
+    /// (`nw` = n W): mode k's 2 x 2 block [[d, e], [-e, d]], d = w_k^2 - (n W)^2, e = n W c_k.
+    fn diagonal_pair(&self, nw: f64, cd: &[f64], r: &mut Mat<f64>, [ic, is]: [usize; 2]) {
+        let sine = r.col_as_slice(is).to_vec();
+        let mut new_sine = vec![0.0; sine.len()];
+        let cosine = r.col_as_slice_mut(ic);
+        for k in 0..sine.len() {
+            let (d, e) = (self.eigenvalues[k] - nw * nw, nw * cd[k]);
+            let inverse = 1.0 / (d * d + e * e);
+            let (rc, rs) = (cosine[k], sine[k]);
+            cosine[k] = (d * rc - e * rs) * inverse;
+            new_sine[k] = (e * rc + d * rs) * inverse;
+        }
+        r.col_as_slice_mut(is).copy_from_slice(&new_sine);
     }
 
     /// The general-damping path of [`Self::solve_harmonic`]: a dense LU of the 2n x 2n Z_n.
@@ -227,58 +248,69 @@ impl ModalDynamics {
             *out = ContactCompliance::zeros(omega, c, terms);
         }
         out.omega = omega;
-        for n in 0..=terms / 2 {
-            match &self.damping {
-                ModalDamping::Diagonal(cd) if n > 0 => self.diagonal_block(n, omega, cd, out)?,
-                _ => self.general_block(n, omega, out)?,
+        self.general_block(0, omega, out)?;
+        match &self.damping {
+            ModalDamping::Diagonal(cd) => self.diagonal_blocks(omega, cd, out)?,
+            ModalDamping::Full(_) => {
+                for n in 1..=terms / 2 {
+                    self.general_block(n, omega, out)?;
+                }
             }
         }
         Ok(())
     }
 
-    /// Harmonic n >= 1 of G and y_F under diagonal modal damping, from two modal sums,
-    /// C = Psi diag(d / det) Psi^T and S = Psi diag(e / det) Psi^T (d = lambda_k - (n W)^2,
-    /// e = n W c_k, det = d^2 + e^2): a unit cosine force on row jr gives C e_jr in the cosine
-    /// part and S e_jr in the sine part, a unit sine force -S e_jr and C e_jr (the pairs of
-    /// [`Self::solve_harmonic`]). Half the flops of the 2 c unit responses of
-    /// [`Self::general_block`] and c times fewer divisions; equal to them to round-off.
-    fn diagonal_block(
+    /// Harmonics n >= 1 of G and y_F under diagonal modal damping, from two modal sums per
+    /// harmonic, C_n = Psi diag(d / det) Psi^T and S_n = Psi diag(e / det) Psi^T
+    /// (d = lambda_k - (n W)^2, e = n W c_k, det = d^2 + e^2): a unit cosine force on row jr
+    /// gives C_n e_jr in the cosine part and S_n e_jr in the sine part, a unit sine force
+    /// -S_n e_jr and C_n e_jr (the pairs of [`Self::solve_harmonic`]). Every harmonic's sums
+    /// at once, as one product of the rows' modal products `outer` with the modal factors,
+    /// and the load's response as one product with Psi: a Newton iteration of the speed sweep
+    /// evaluates G at a new W on every residual, and 2N small products cost twice the two
+    /// large ones. Equal to [`Self::general_block`] to round-off.
+    fn diagonal_blocks(
         &self,
-        n: usize,
         omega: f64,
         cd: &[f64],
         out: &mut ContactCompliance,
     ) -> Result<(), ForcedError> {
         let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
-        let nw = n as f64 * omega;
-        let (ic, is) = (FullBasis::cos_index(n), FullBasis::sin_index(n));
-        let (mut pc, mut ps) = (Mat::zeros(c, nd), Mat::zeros(c, nd));
-        for k in 0..nd {
-            let (d, e) = (self.eigenvalues[k] - nw * nw, nw * cd[k]);
-            let det = d * d + e * e;
-            let (fc, fs) = (d / det, e / det);
-            for j in 0..c {
-                pc[(j, k)] = self.psi[(j, k)] * fc;
-                ps[(j, k)] = self.psi[(j, k)] * fs;
+        let nh = terms / 2;
+        // Column 2 (n - 1) + part of the factors and of the load's modal response is
+        // harmonic n's cosine (part 0) or sine (part 1).
+        let mut factors = Mat::zeros(nd, 2 * nh);
+        let mut z = self.load.clone();
+        for n in 1..=nh {
+            let nw = n as f64 * omega;
+            for k in 0..nd {
+                let (d, e) = (self.eigenvalues[k] - nw * nw, nw * cd[k]);
+                let inverse = 1.0 / (d * d + e * e);
+                factors[(k, 2 * (n - 1))] = d * inverse;
+                factors[(k, 2 * (n - 1) + 1)] = e * inverse;
+            }
+            let columns = [FullBasis::cos_index(n), FullBasis::sin_index(n)];
+            self.diagonal_pair(nw, cd, &mut z, columns);
+        }
+        let sums = product(self.outer.as_ref(), factors.as_ref());
+        for n in 1..=nh {
+            let (pc, ps) = (2 * (n - 1), 2 * (n - 1) + 1);
+            let mut g = out.block_mut(n);
+            for jr in 0..c {
+                for j in 0..c {
+                    let (cm, sm) = (sums[(j * c + jr, pc)], sums[(j * c + jr, ps)]);
+                    g[(2 * j, 2 * jr)] = cm;
+                    g[(2 * j + 1, 2 * jr)] = sm;
+                    g[(2 * j, 2 * jr + 1)] = -sm;
+                    g[(2 * j + 1, 2 * jr + 1)] = cm;
+                }
             }
         }
-        let cm = product(pc.as_ref(), self.psi.transpose());
-        let sm = product(ps.as_ref(), self.psi.transpose());
-        let mut g = out.block_mut(n);
-        for jr in 0..c {
-            for j in 0..c {
-                g[(2 * j, 2 * jr)] = cm[(j, jr)];
-                g[(2 * j + 1, 2 * jr)] = sm[(j, jr)];
-                g[(2 * j, 2 * jr + 1)] = -sm[(j, jr)];
-                g[(2 * j + 1, 2 * jr + 1)] = cm[(j, jr)];
-            }
-        }
-        let mut r = Mat::from_fn(nd, 2, |k, part| self.load[(k, [ic, is][part])]);
-        self.solve_harmonic(n, omega, &mut r)?;
-        let yl = product(self.psi.as_ref(), r.as_ref());
+        let yl = product(self.psi.as_ref(), z.as_ref());
         for j in 0..c {
-            out.y_load[j * terms + ic] = yl[(j, 0)];
-            out.y_load[j * terms + is] = yl[(j, 1)];
+            for p in 1..terms {
+                out.y_load[j * terms + p] = yl[(j, p)];
+            }
         }
         Ok(())
     }
@@ -355,48 +387,70 @@ impl ModalDynamics {
         lambda: &[f64],
     ) -> Result<Mat<f64>, ForcedError> {
         let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
-        let mut z = Mat::zeros(nd, terms);
-        for n in 0..=terms / 2 {
+        let lam = Mat::from_fn(c, terms, |j, p| lambda[j * terms + p]);
+        let contact = product(self.psi.transpose(), lam.as_ref());
+        let mut z = Mat::from_fn(nd, terms, |k, p| {
+            level * self.load[(k, p)] - contact[(k, p)]
+        });
+        self.solve_every_harmonic(omega, &mut z)?;
+        Ok(z)
+    }
+
+    /// Z^-1 applied in place to `r` (n x (2N + 1), the full basis' columns), harmonic by
+    /// harmonic ([`Self::solve_harmonic`] on each harmonic's columns).
+    fn solve_every_harmonic(&self, omega: f64, r: &mut Mat<f64>) -> Result<(), ForcedError> {
+        let nd = self.dofs();
+        if let ModalDamping::Diagonal(cd) = &self.damping {
+            // In place on the columns: a Newton iteration of the speed sweep evaluates two
+            // responses per residual.
+            let mean = r.col_as_slice_mut(0);
+            for (v, l) in mean.iter_mut().zip(&self.eigenvalues) {
+                *v /= l;
+            }
+            for n in 1..=r.ncols() / 2 {
+                let columns = [FullBasis::cos_index(n), FullBasis::sin_index(n)];
+                self.diagonal_pair(n as f64 * omega, cd, r, columns);
+            }
+            return Ok(());
+        }
+        for n in 0..=r.ncols() / 2 {
             let parts: Vec<usize> = if n == 0 {
                 vec![0]
             } else {
                 vec![FullBasis::cos_index(n), FullBasis::sin_index(n)]
             };
-            let lam = Mat::from_fn(c, parts.len(), |j, col| lambda[j * terms + parts[col]]);
-            let contact = product(self.psi.transpose(), lam.as_ref());
-            let mut r = Mat::from_fn(nd, parts.len(), |k, col| {
-                level * self.load[(k, parts[col])] - contact[(k, col)]
-            });
-            self.solve_harmonic(n, omega, &mut r)?;
+            let mut block = Mat::from_fn(nd, parts.len(), |k, col| r[(k, parts[col])]);
+            self.solve_harmonic(n, omega, &mut block)?;
             for (col, &p) in parts.iter().enumerate() {
                 for k in 0..nd {
-                    z[(k, p)] = r[(k, col)];
+                    r[(k, p)] = block[(k, col)];
                 }
             }
         }
-        Ok(z)
+        Ok(())
     }
 
     /// d y / d W at fixed Lambda for the modal response `z` at W: -Psi Z^-1 (dZ/dW) z (L values),
     /// with dZ_n/dW = [[-2 n^2 W I, n C_m], [-n C_m, -2 n^2 W I]].
     pub fn response_rate(&self, omega: f64, z: &Mat<f64>) -> Result<Vec<f64>, ForcedError> {
         let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
-        let mut rate = vec![0.0; c * terms];
+        let mut r = Mat::zeros(nd, terms);
         for n in 1..=terms / 2 {
             let (pc, ps) = (FullBasis::cos_index(n), FullBasis::sin_index(n));
             let nf = n as f64;
-            let mut r = Mat::zeros(nd, 2);
             for k in 0..nd {
                 let (cz_c, cz_s) = self.damping_times(k, z, pc, ps);
-                r[(k, 0)] = -2.0 * nf * nf * omega * z[(k, pc)] + nf * cz_s;
-                r[(k, 1)] = -nf * cz_c - 2.0 * nf * nf * omega * z[(k, ps)];
+                r[(k, pc)] = -2.0 * nf * nf * omega * z[(k, pc)] + nf * cz_s;
+                r[(k, ps)] = -nf * cz_c - 2.0 * nf * nf * omega * z[(k, ps)];
             }
-            self.solve_harmonic(n, omega, &mut r)?;
-            let yr = product(self.psi.as_ref(), r.as_ref());
-            for j in 0..c {
-                for (col, p) in [(0, pc), (1, ps)] {
-                    rate[j * terms + p] = -yr[(j, col)];
-                }
+        }
+        // The mean does not move with W (its column of r is zero).
+        self.solve_every_harmonic(omega, &mut r)?;
+        let yr = product(self.psi.as_ref(), r.as_ref());
+        let mut rate = vec![0.0; c * terms];
+        for j in 0..c {
+            for p in 1..terms {
+                rate[j * terms + p] = -yr[(j, p)];
             }
         }
         Ok(rate)
