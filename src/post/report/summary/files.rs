@@ -52,6 +52,35 @@ struct LevelPeak {
     force: f64,
 }
 
+/// The largest contact force of each level's exact curve on the massless boundary
+/// (`dir/frf_boundary.csv`, no harmonic truncated: the reference the harmonic-balance force
+/// converges to in N), by level as written; empty without the file.
+fn exact_forces(dir: &Path) -> BTreeMap<String, f64> {
+    let mut out = BTreeMap::new();
+    let Ok(text) = std::fs::read_to_string(dir.join("frf_boundary.csv")) else {
+        return out;
+    };
+    let mut lines = text.lines();
+    let Some(header) = lines.next() else {
+        return out;
+    };
+    let header: Vec<&str> = header.split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name);
+    let (Some(l), Some(f)) = (col("level"), col("max_contact_force_N")) else {
+        return out;
+    };
+    for line in lines {
+        let c: Vec<&str> = line.split(',').collect();
+        let (Some(level), Some(force)) = (c.get(l), c.get(f).and_then(|v| v.parse::<f64>().ok()))
+        else {
+            continue;
+        };
+        let entry = out.entry(level.to_string()).or_insert(0.0_f64);
+        *entry = entry.max(force);
+    }
+    out
+}
+
 /// The peaks of `dir/frf.csv` by level (in file order), `None` when absent or unreadable.
 fn level_peaks(dir: &Path) -> Option<Vec<(String, LevelPeak)>> {
     let text = std::fs::read_to_string(dir.join("frf.csv")).ok()?;
@@ -97,6 +126,7 @@ pub(super) fn forced_headline(case: &Case, dir: &Path, at: &str) -> String {
         return String::new();
     };
     let traces = last_traces(dir).unwrap_or_default();
+    let exact = exact_forces(dir);
     let trace_of = |level: &str| {
         let l: f64 = level.parse().ok()?;
         (traces.iter())
@@ -110,10 +140,17 @@ pub(super) fn forced_headline(case: &Case, dir: &Path, at: &str) -> String {
     let parts: Vec<String> = (peaks.iter())
         .map(|(level, p)| {
             let contact = if p.force > 0.0 {
+                let reference = (exact.get(level).filter(|&&f| f > 0.0)).map(|&f| {
+                    format!(
+                        "the exact curve on the massless boundary: {} N",
+                        significant(f, 3)
+                    )
+                });
+                let tolerance = case.forced.harmonic_tolerance;
                 format!(
                     "largest contact force {} N{}",
                     significant(p.force, 3),
-                    force_convergence(trace_of(level), case.forced.harmonic_tolerance)
+                    parenthesis(&[force_convergence(trace_of(level), tolerance), reference])
                 )
             } else {
                 "no contact".into()
@@ -152,35 +189,41 @@ struct CurveHead {
     retraces: Vec<RetraceHead>,
 }
 
-/// Whether a curve's largest contact force is converged in N, as a parenthesis after the
-/// force (empty without a check): the last trace's strongest point at its N and at 2N
-/// (`nlmodes_forced::ForceCheck`), against `tolerance` (`[forced] harmonic_tolerance`). Under a
-/// stiff penalty law the peak force converges more slowly in N than the first harmonic: the
+/// Whether a curve's largest contact force is converged in N, as a clause for the parenthesis
+/// after the force (`None` without a check): the last trace's strongest point at its N and at
+/// 2N (`nlmodes_forced::ForceCheck`), against `tolerance` (`[forced] harmonic_tolerance`). Under
+/// a stiff penalty law the peak force converges more slowly in N than the first harmonic: the
 /// default blade's level 5 at rest moves 89 % from N = 20 to 40.
-pub(crate) fn force_convergence(last: Option<&RetraceHead>, tolerance: f64) -> String {
-    let Some(t) = last else {
-        return String::new();
-    };
+pub(crate) fn force_convergence(last: Option<&RetraceHead>, tolerance: f64) -> Option<String> {
+    let t = last?;
     let (n, finer) = (t.harmonics, 2 * t.harmonics);
-    match (t.largest_contact_force, t.largest_contact_force_finer) {
-        (Some(f), Some(g)) if g > 0.0 => {
+    match (t.largest_contact_force?, t.largest_contact_force_finer) {
+        (f, Some(g)) if g > 0.0 => {
             let change = (f - g).abs() / g;
             let word = if change <= tolerance {
                 "converged in N"
             } else {
                 "NOT converged in N"
             };
-            format!(
-                " ({word}: the N = {n} trace's strongest point {} N, {} N at N = {finer}, {:.1} %)",
+            Some(format!(
+                "{word}: the N = {n} trace's strongest point {} N, {} N at N = {finer}, {:.1} %",
                 significant(f, 3),
                 significant(g, 3),
                 100.0 * change
-            )
+            ))
         }
-        (Some(_), _) => {
-            format!(" (NOT checked in N: the strongest point's solve at N = {finer} failed)")
-        }
-        _ => String::new(),
+        _ => Some(format!(
+            "NOT checked in N: the strongest point's solve at N = {finer} failed"
+        )),
+    }
+}
+
+/// The clauses of the parenthesis after a largest contact force, joined (empty without any).
+pub(crate) fn parenthesis(clauses: &[Option<String>]) -> String {
+    let kept: Vec<&str> = clauses.iter().flatten().map(String::as_str).collect();
+    match kept.is_empty() {
+        true => String::new(),
+        false => format!(" ({})", kept.join("; ")),
     }
 }
 
@@ -273,4 +316,39 @@ pub(super) fn partial_results(r: &ReportInputs<'_>) -> Vec<String> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trace(force: Option<f64>, finer: Option<f64>) -> RetraceHead {
+        RetraceHead {
+            harmonics: 20,
+            largest_contact_force: force,
+            largest_contact_force_finer: finer,
+        }
+    }
+
+    /// The summary's word on a curve's largest contact force: NOT converged when its strongest
+    /// point moves by more than the tolerance at 2N (with both forces and the change), converged
+    /// within it, NOT checked when the 2N solve failed, nothing without a check or contact.
+    #[test]
+    fn the_largest_contact_force_says_whether_it_is_converged_in_n() {
+        let moving = force_convergence(Some(&trace(Some(267.9), Some(202.0))), 1e-3).unwrap();
+        assert!(moving.starts_with("NOT converged in N"), "{moving}");
+        assert!(
+            moving.contains("268 N, 202 N at N = 40, 32.6 %"),
+            "{moving}"
+        );
+        let settled = force_convergence(Some(&trace(Some(100.0), Some(100.05))), 1e-3).unwrap();
+        assert!(settled.starts_with("converged in N"), "{settled}");
+        let failed = force_convergence(Some(&trace(Some(100.0), None)), 1e-3).unwrap();
+        assert!(failed.starts_with("NOT checked in N"), "{failed}");
+        assert_eq!(force_convergence(Some(&trace(None, None)), 1e-3), None);
+        assert_eq!(force_convergence(None, 1e-3), None);
+        assert_eq!(parenthesis(&[None, None]), "");
+        let both = parenthesis(&[Some("a".into()), None, Some("b".into())]);
+        assert_eq!(both, " (a; b)");
+    }
 }
