@@ -298,6 +298,11 @@ struct RetraceRecord {
     /// contact, not checked, or the 2N solve failed).
     largest_contact_force: Option<f64>,
     largest_contact_force_finer: Option<f64>,
+    /// The largest contact force (force units) on the exact orbits of the trace's strongest
+    /// point and its peak (the massless boundary, no truncation in N; `nlmodes_forced::
+    /// ExactForce`), and that orbit's W (rad/s): `null` where neither shoots.
+    largest_contact_force_exact: Option<f64>,
+    largest_contact_force_exact_omega_rad_s: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -326,6 +331,8 @@ fn retrace_record(t: &nlmodes_forced::CurveHarmonics) -> RetraceRecord {
         checkable: t.checkable,
         largest_contact_force: t.force.map(|f| f.force),
         largest_contact_force_finer: t.force.and_then(|f| f.finer),
+        largest_contact_force_exact: t.force.and_then(|f| f.exact).map(|e| e.force),
+        largest_contact_force_exact_omega_rad_s: t.force.and_then(|f| f.exact).map(|e| e.omega),
     }
 }
 
@@ -686,7 +693,7 @@ pub(crate) fn force_note(last: &CurveHarmonics, unit: &str) -> String {
         return String::new();
     };
     let finer = 2 * last.harmonics;
-    match (f.finer, f.change()) {
+    let check = match (f.finer, f.change()) {
         (Some(fine), Some(change)) => format!(
             "; the largest contact force {:.4} {unit} moves by {:.1} % at N = {finer} ({:.4} {unit})",
             f.force,
@@ -698,6 +705,14 @@ pub(crate) fn force_note(last: &CurveHarmonics, unit: &str) -> String {
              solve failed or landed on another orbit)",
             f.force
         ),
+    };
+    match f.exact {
+        Some(e) => format!(
+            "{check}, {:.4} {unit} on the exact orbit (massless boundary, no truncation in N) \
+             at W = {:.6e} rad/s",
+            e.force, e.omega
+        ),
+        None => check,
     }
 }
 

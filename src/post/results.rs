@@ -257,6 +257,9 @@ pub struct RetraceHead {
     pub largest_contact_force: Option<f64>,
     #[serde(default, alias = "largest_contact_force_finer_n")]
     pub largest_contact_force_finer: Option<f64>,
+    /// On the exact orbit (massless boundary, no truncation in N).
+    #[serde(default, alias = "largest_contact_force_exact_n")]
+    pub largest_contact_force_exact: Option<f64>,
 }
 
 /// Reads a JSON file written by an earlier stage.

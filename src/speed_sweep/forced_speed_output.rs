@@ -148,6 +148,11 @@ pub struct RetraceRecord {
     /// contact, not checked, or the 2N solve failed).
     pub largest_contact_force_n: Option<f64>,
     pub largest_contact_force_finer_n: Option<f64>,
+    /// The largest contact force (N) on the exact orbits of the trace's strongest point and its
+    /// peak (the massless boundary at their speeds, no truncation in N), and that orbit's
+    /// speed (rpm): `null` where neither shoots.
+    pub largest_contact_force_exact_n: Option<f64>,
+    pub largest_contact_force_exact_rpm: Option<f64>,
 }
 
 /// The summary of one sweep.
@@ -211,6 +216,9 @@ pub fn summarize(st: &SpeedSweepStudy, run: &SweepRun) -> SweepSummary {
                 converged: t.converged(),
                 largest_contact_force_n: t.force.map(|f| f.force),
                 largest_contact_force_finer_n: t.force.and_then(|f| f.finer),
+                largest_contact_force_exact_n: t.force.and_then(|f| f.exact).map(|e| e.force),
+                largest_contact_force_exact_rpm: (t.force.and_then(|f| f.exact))
+                    .map(|e| e.omega / run.plan.engine_order as f64 / RPM_TO_RAD_S),
             })
             .collect(),
         raised: (run.sweep.raised.as_ref()).map(crate::forced::forced_output::raised_record),

@@ -32,6 +32,7 @@
 
 mod arc_length;
 mod backbone_curve;
+mod contact_peak;
 mod converged;
 mod converged_cutoff;
 mod driven_curve;
@@ -56,6 +57,7 @@ mod test_models;
 
 pub use arc_length::{CurveEnd, CurveSettings};
 pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece, Judge};
+pub use contact_peak::{largest_contact_force, ContactPeak, FORCE_SAMPLES};
 pub use converged::{converged_orbit, ConvergedOrbit, ConvergenceSettings, ConvergenceStop};
 pub use converged_cutoff::{boundary_with_converged_cutoff, CutoffConvergence, CUTOFF_DOUBLINGS};
 pub use driven_curve::driven_end_text;

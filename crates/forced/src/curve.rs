@@ -86,6 +86,23 @@ pub struct ForceCheck {
     /// The same orbit's largest contact force at 2N (`None`: that solve failed or landed on
     /// another orbit).
     pub finer: Option<f64>,
+    /// The largest contact force on the exact orbits of the trace's strongest point and of its
+    /// peak (the larger; `exact_force`): the number the truncated series converges to. `None`
+    /// where neither touches on its exact orbit or the boundary does not shoot.
+    pub exact: Option<ExactForce>,
+}
+
+/// The largest contact force of one point's exact orbit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExactForce {
+    /// The force (force units of the model, N).
+    pub force: f64,
+    /// The exact orbit's W (rad/s): shot with W free from the harmonic-balance orbit, within
+    /// the boundary's shift of the point's.
+    pub omega: f64,
+    /// The relative change of the master's amplitude at the cutoff's last doubling (0 when no
+    /// doubling added a mode): the exact model's own error estimate.
+    pub cutoff_change: f64,
 }
 
 impl ForceCheck {

@@ -5,6 +5,7 @@
 //! steep branch is not compared with another W's orbit.
 
 use crate::curve::{CurveHarmonics, ForceCheck, FrequencyResponse, FrfSettings};
+use crate::exact_force::{exact_largest_force, larger_exact};
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::HarmonicLadder;
 use crate::newton::{ArcRow, OrbitState};
@@ -35,6 +36,21 @@ pub(crate) fn strongest_point(points: &[&ForcedPoint]) -> Option<usize> {
         })
 }
 
+/// Of a curve's `points`: the peak in contact (largest first harmonic of the master) and the
+/// point of the largest contact force (`strongest_point`), each once: where the largest force
+/// of the exact orbits is looked for (`exact_force`).
+pub(crate) fn force_candidates(points: &[&ForcedPoint], master: usize) -> Vec<usize> {
+    let peak = (0..points.len())
+        .filter(|&i| points[i].touches())
+        .max_by(|&a, &b| {
+            let q1 = |i: usize| points[i].first_harmonic(master);
+            q1(a).total_cmp(&q1(b))
+        });
+    let mut out: Vec<usize> = peak.into_iter().chain(strongest_point(points)).collect();
+    out.dedup();
+    out
+}
+
 /// The force check of a trace whose strongest point `point` (`strongest_point`) was solved
 /// again at 2N as `finer` (`None`: that solve failed or landed elsewhere).
 pub(crate) fn force_check(
@@ -46,6 +62,7 @@ pub(crate) fn force_check(
         point,
         force: orbit.largest_contact_force(),
         finer: finer.map(ForcedPoint::largest_contact_force),
+        exact: None,
     }
 }
 
@@ -93,6 +110,14 @@ pub(crate) fn check_curve(
             break;
         }
     }
+    if let Some(f) = out.force.as_mut() {
+        let points: Vec<&ForcedPoint> = curve.points.iter().collect();
+        let candidates = force_candidates(&points, base.system().master());
+        f.exact = larger_exact(candidates.iter().map(|&i| {
+            let p = &curve.points[i];
+            exact_largest_force(ladder.solver_of(p), p)
+        }));
+    }
     (out, moving)
 }
 
@@ -133,15 +158,7 @@ pub(crate) fn points_worth_checking(
     if touching.is_empty() {
         return Vec::new();
     }
-    let largest = |key: &dyn Fn(&ForcedPoint) -> f64| {
-        touching
-            .iter()
-            .copied()
-            .max_by(|&a, &b| key(points[a]).total_cmp(&key(points[b])))
-    };
-    let peak = largest(&|p| p.first_harmonic(master));
-    let force = strongest_point(points);
-    let mut out: Vec<usize> = peak.into_iter().chain(force).collect();
+    let mut out = force_candidates(points, master);
     out.extend(folds.iter().copied());
     let n = touching.len();
     out.extend((0..SPREAD).map(|k| touching[(2 * k + 1) * n / (2 * SPREAD)]));

@@ -29,6 +29,7 @@ mod damping;
 mod distortion;
 mod dynamics;
 mod error;
+mod exact_force;
 mod fold;
 mod following;
 mod frf;
@@ -64,8 +65,8 @@ pub use casing_sweep::{
 };
 pub use compliance::ContactCompliance;
 pub use curve::{
-    CurveHarmonics, Fold, FoldKind, ForceCheck, FrequencyResponse, FrfSettings, FrfTermination,
-    HarmonicPolicy, RaisedRound, RaisedSegments, Sweep,
+    CurveHarmonics, ExactForce, Fold, FoldKind, ForceCheck, FrequencyResponse, FrfSettings,
+    FrfTermination, HarmonicPolicy, RaisedRound, RaisedSegments, Sweep,
 };
 pub use damping::{check_semidefinite, modal_ratios, Damping, SEMIDEFINITE_TOLERANCE};
 pub use distortion::CasingDistortion;

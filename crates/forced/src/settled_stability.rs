@@ -27,7 +27,7 @@
 //! (exact contact, every mode resolved) or does not shoot keep `assess_point_with`.
 
 use faer::Mat;
-use nlmodes_boundary::{boundary_with_converged_cutoff, DrivenInputs};
+use nlmodes_boundary::{boundary_with_converged_cutoff, CutoffConvergence, DrivenInputs};
 use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::{ContactMethod, FullBasis, System};
 
@@ -66,17 +66,14 @@ impl SettledModel<'_> {
     }
 }
 
-/// The verdict of `point` (in contact, under `solver`'s law, seen from the origin `model` is
-/// advanced to) on the settled boundary (module docs), `hb_change` the harmonic balance's
-/// relative change of the master's amplitude at the point's last doubling of N (`None`: not
-/// checked); `None` where the boundary does not apply or does not shoot.
-fn settled_verdict(
+/// The orbit of `point` (under `solver`'s law, seen from the origin `model` is advanced to) on
+/// the massless boundary with its cutoff settled (module docs); `None` where the boundary does
+/// not apply or does not shoot. Shared with `exact_force`.
+pub(crate) fn settled_boundary(
     model: &SettledModel<'_>,
     solver: &ForcedSolver<'_>,
     point: &ForcedPoint,
-    hb_change: Option<f64>,
-    how: &Assessment,
-) -> Result<Option<PointStability>, ForcedError> {
+) -> Result<Option<CutoffConvergence>, ForcedError> {
     let penalty = match solver.settings().algorithm.method {
         ContactMethod::Penalty { stiffness } => Some(stiffness),
         _ => None,
@@ -95,16 +92,29 @@ fn settled_verdict(
             .collect(),
         ..boundary.driven()
     };
-    let h = model.harmonic();
-    let clock = std::time::Instant::now();
-    let settled = boundary_with_converged_cutoff(
+    Ok(boundary_with_converged_cutoff(
         &inputs,
         &point.coefficients,
         point.omega,
-        h,
+        model.harmonic(),
         CUTOFF_TOLERANCE,
-    )?;
-    let Some(settled) = settled else {
+    )?)
+}
+
+/// The verdict of `point` (in contact, under `solver`'s law, seen from the origin `model` is
+/// advanced to) on the settled boundary (module docs), `hb_change` the harmonic balance's
+/// relative change of the master's amplitude at the point's last doubling of N (`None`: not
+/// checked); `None` where the boundary does not apply or does not shoot.
+fn settled_verdict(
+    model: &SettledModel<'_>,
+    solver: &ForcedSolver<'_>,
+    point: &ForcedPoint,
+    hb_change: Option<f64>,
+    how: &Assessment,
+) -> Result<Option<PointStability>, ForcedError> {
+    let h = model.harmonic();
+    let clock = std::time::Instant::now();
+    let Some(settled) = settled_boundary(model, solver, point)? else {
         return Ok(None);
     };
     let c = &point.coefficients;
@@ -149,6 +159,21 @@ pub(crate) fn assess_point_settled(
     if st.verdict != Verdict::Undetermined || !shifted || !point.touches() {
         return Ok(st);
     }
+    let (model, seen) = seen_from_most_open(solver, point);
+    let hb_change = match point.harmonic_check {
+        HarmonicCheck::Converged { change } => Some(change[0]),
+        HarmonicCheck::NotConverged { change } => change.map(|c| c[0]),
+        HarmonicCheck::Unchecked | HarmonicCheck::Linear => None,
+    };
+    Ok(settled_verdict(&model, solver, &seen, hb_change, how)?.unwrap_or(st))
+}
+
+/// `point` seen from its sample farthest from contact (`orbit_origin::most_open_sample`), and
+/// the model of `solver` at its level advanced alike: the settled boundary's start.
+pub(crate) fn seen_from_most_open<'a>(
+    solver: &'a ForcedSolver<'_>,
+    point: &ForcedPoint,
+) -> (SettledModel<'a>, ForcedPoint) {
     let (seen, theta) = advanced_orbit(point, most_open_sample(point));
     let model = SettledModel {
         system: solver.system(),
@@ -156,12 +181,7 @@ pub(crate) fn assess_point_settled(
         load: solver.load().scaled(point.level).advanced(theta),
         distortion: solver.settings().distortion.map(|d| d.advanced(theta)),
     };
-    let hb_change = match point.harmonic_check {
-        HarmonicCheck::Converged { change } => Some(change[0]),
-        HarmonicCheck::NotConverged { change } => change.map(|c| c[0]),
-        HarmonicCheck::Unchecked | HarmonicCheck::Linear => None,
-    };
-    Ok(settled_verdict(&model, solver, &seen, hb_change, how)?.unwrap_or(st))
+    (model, seen)
 }
 
 /// The verdict of `point` of the casing study (seen from the origin `model.distortion` is

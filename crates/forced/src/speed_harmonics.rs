@@ -24,16 +24,18 @@ use rayon::prelude::*;
 
 use crate::curve::CurveHarmonics;
 use crate::curve_harmonics::{
-    force_check, points_worth_checking, record_check, strongest_point, MovingPoint,
+    force_candidates, force_check, points_worth_checking, record_check, strongest_point,
+    MovingPoint,
 };
 use crate::error::ForcedError;
+use crate::exact_force::larger_exact;
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::verdict;
 use crate::raise_speed::{at_harmonics, SpeedTarget};
 use crate::raised_segments::{RaiseTarget, Raising, RAISE_BEYOND};
 use crate::solver::ForcedPoint;
 use crate::speed_curve::{SpeedHarmonics, SpeedPoint, SpeedSweepSettings};
-use crate::speed_step::{assess, problem_at, SpeedFamily};
+use crate::speed_step::{assess, exact_force_at, problem_at, SpeedFamily};
 use crate::speed_sweep::{classify_changes, refold_raised, trace_sweep, SpeedSweep};
 
 /// Traces the forced response of `family` at W = e Omega over the settings' speed range
@@ -224,6 +226,7 @@ fn check_sweep(
         .map(|&i| target.solve_again(finer, i, &sweep.points[i]))
         .collect();
     let strongest = strongest_point(&points);
+    let candidates = force_candidates(&points, target.master);
     let mut moving = Vec::new();
     for (&i, solve) in checked.iter().zip(solves) {
         if strongest == Some(i) {
@@ -239,6 +242,13 @@ fn check_sweep(
                 finer: solve.map(|s| s.0),
             });
         }
+    }
+    if let Some(f) = out.force.as_mut() {
+        f.exact = larger_exact(
+            (candidates.par_iter())
+                .map(|&i| exact_force_at(target.family, target.base, &sweep.points[i]))
+                .collect::<Vec<_>>(),
+        );
     }
     (out, moving)
 }

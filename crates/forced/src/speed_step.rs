@@ -31,8 +31,10 @@
 use faer::Mat;
 use nlmodes_hb::{Multipliers, System};
 
+use crate::curve::ExactForce;
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
+use crate::exact_force::exact_largest_force;
 use crate::following::MovingStructure;
 use crate::load::Load;
 use crate::newton::{ArcRow, OrbitState, Parameter};
@@ -364,6 +366,18 @@ pub(crate) fn assess(
         tracing::warn!("speed sweep: no stability at {:.6e} rad/s: {e}", p.speed);
         PointStability::unchecked()
     })
+}
+
+/// The largest contact force of an accepted point of `family`'s sweep on its exact orbit
+/// (`exact_force`), on the problem at its speed.
+pub(crate) fn exact_force_at(
+    family: &dyn SpeedFamily,
+    s: &SpeedSweepSettings,
+    p: &SpeedPoint,
+) -> Result<Option<ExactForce>, ForcedError> {
+    let problem = problem_at(family, s, p.speed)?;
+    let solver = problem.solver(&s.solver_settings())?;
+    exact_largest_force(&solver, &p.point)
 }
 
 /// The start at W of a point of another speed: its physical orbit seen through this speed's

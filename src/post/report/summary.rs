@@ -155,10 +155,10 @@ fn sweep_phrase(
             crate::speed_sweep::forced_speed_report::significant(w.max_contact_force_n, 3),
             w.max_contact_force_rpm
                 .map_or(String::new(), |x| format!(" at {x:.0} rpm")),
-            files::parenthesis(&[files::force_convergence(
-                w.retraces.last(),
-                r.case.forced.harmonic_tolerance
-            )]),
+            files::parenthesis(&[
+                files::force_convergence(w.retraces.last(), r.case.forced.harmonic_tolerance),
+                files::exact_orbit_force(w.retraces.last()),
+            ]),
             w.stability_text()
         ),
         None => format!(

@@ -421,11 +421,20 @@ impl ExactCurve {
             at.tangent.iter_mut().for_each(|v| *v *= sign);
             let (mut s, mut falls) = (0.0, 0);
             while falls < 3 {
-                let (next, _) = self.step(&at, PEAK_STEP).ok_or(format!(
-                    "re-trace lost near the peak, W = {}",
-                    at.orbit.omega
-                ))?;
-                s += sign * PEAK_STEP;
+                // A step across a grazing corner next to the peak may not converge (the
+                // chain driven through its second mode: the peak 1e-4 w1 from the fold at the
+                // corner): a quarter, then a sixteenth of it.
+                let (h, next) = [1.0, 0.25, 0.0625]
+                    .iter()
+                    .find_map(|f| {
+                        let h = f * PEAK_STEP;
+                        self.step(&at, h).map(|(next, _)| (h, next))
+                    })
+                    .ok_or(format!(
+                        "re-trace lost near the peak, W = {}",
+                        at.orbit.omega
+                    ))?;
+                s += sign * h;
                 falls = if next.q1 < at.q1 { falls + 1 } else { 0 };
                 local.push((s, next.orbit.omega, next.q1));
                 at = next;

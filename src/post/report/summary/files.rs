@@ -150,7 +150,11 @@ pub(super) fn forced_headline(case: &Case, dir: &Path, at: &str) -> String {
                 format!(
                     "largest contact force {} N{}",
                     significant(p.force, 3),
-                    parenthesis(&[force_convergence(trace_of(level), tolerance), reference])
+                    parenthesis(&[
+                        force_convergence(trace_of(level), tolerance),
+                        exact_orbit_force(trace_of(level)),
+                        reference
+                    ])
                 )
             } else {
                 "no contact".into()
@@ -216,6 +220,19 @@ pub(crate) fn force_convergence(last: Option<&RetraceHead>, tolerance: f64) -> O
             "NOT checked in N: the strongest point's solve at N = {finer} failed"
         )),
     }
+}
+
+/// The largest contact force on the exact orbits of the last trace's strongest point and peak
+/// (`nlmodes_forced::ExactForce`: the massless boundary, no truncation in N), as a clause for
+/// the parenthesis after the force (`None` where they were not shot): the number the harmonic
+/// balance's converges to.
+pub(crate) fn exact_orbit_force(last: Option<&RetraceHead>) -> Option<String> {
+    let f = last?.largest_contact_force_exact.filter(|&f| f > 0.0)?;
+    Some(format!(
+        "on the exact orbits of its strongest point and its peak (massless boundary, no \
+         truncation in N): {} N",
+        significant(f, 3)
+    ))
 }
 
 /// The clauses of the parenthesis after a largest contact force, joined (empty without any).
@@ -327,7 +344,21 @@ mod tests {
             harmonics: 20,
             largest_contact_force: force,
             largest_contact_force_finer: finer,
+            largest_contact_force_exact: None,
         }
+    }
+
+    /// The exact orbits' force is quoted when they were shot, and only then.
+    #[test]
+    fn the_exact_orbits_force_is_quoted_beside_the_truncated_one() {
+        let shot = RetraceHead {
+            largest_contact_force_exact: Some(175.04),
+            ..trace(Some(267.9), Some(202.0))
+        };
+        let clause = exact_orbit_force(Some(&shot)).unwrap();
+        assert!(clause.ends_with("no truncation in N): 175 N"), "{clause}");
+        assert_eq!(exact_orbit_force(Some(&trace(Some(1.0), None))), None);
+        assert_eq!(exact_orbit_force(None), None);
     }
 
     /// The summary's word on a curve's largest contact force: NOT converged when its strongest
