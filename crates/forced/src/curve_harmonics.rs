@@ -4,7 +4,7 @@
 //! normal to the curve there, so that a fold is checked where it is and a point far up a
 //! steep branch is not compared with another W's orbit.
 
-use crate::curve::{CurveHarmonics, ForceCheck, FrequencyResponse, FrfSettings};
+use crate::curve::{CurveHarmonics, ExactForce, ForceCheck, FrequencyResponse, FrfSettings};
 use crate::exact_force::{exact_largest_force, larger_exact};
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::HarmonicLadder;
@@ -110,15 +110,22 @@ pub(crate) fn check_curve(
             break;
         }
     }
-    if let Some(f) = out.force.as_mut() {
-        let points: Vec<&ForcedPoint> = curve.points.iter().collect();
-        let candidates = force_candidates(&points, base.system().master());
-        f.exact = larger_exact(candidates.iter().map(|&i| {
-            let p = &curve.points[i];
-            exact_largest_force(ladder.solver_of(p), p)
-        }));
-    }
     (out, moving)
+}
+
+/// The largest contact force on the exact orbits of `curve`'s strongest point and its peak
+/// (`force_candidates`, each on the solver of its N in `ladder`): the last trace's
+/// `ForceCheck::exact`, shot once the curve is final.
+pub(crate) fn exact_force_of_curve(
+    ladder: &HarmonicLadder<'_, '_>,
+    curve: &FrequencyResponse,
+) -> Option<ExactForce> {
+    let points: Vec<&ForcedPoint> = curve.points.iter().collect();
+    let master = ladder.solver(0).system().master();
+    larger_exact(force_candidates(&points, master).iter().map(|&i| {
+        let p = &curve.points[i];
+        exact_largest_force(ladder.solver_of(p), p)
+    }))
 }
 
 /// Adds one checked point's verdict to `out` (its largest changes, its count of points not

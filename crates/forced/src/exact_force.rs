@@ -25,12 +25,23 @@ pub(crate) fn exact_largest_force(
     if !point.touches() {
         return Ok(None);
     }
+    let clock = std::time::Instant::now();
     let (model, seen) = seen_from_most_open(solver, point);
     let Some(settled) = settled_boundary(&model, solver, &seen)? else {
         return Ok(None);
     };
+    let shot = clock.elapsed().as_secs_f64();
     let b = &settled.boundary;
     let peak = largest_contact_force(&b.model, &b.start)?;
+    tracing::debug!(
+        omega = point.omega,
+        modes = b.modes,
+        force = peak.map(|p| p.force),
+        harmonic_balance = point.largest_contact_force(),
+        shot_seconds = shot,
+        seconds = clock.elapsed().as_secs_f64(),
+        "largest contact force on the exact orbit"
+    );
     Ok(peak.map(|p| ExactForce {
         force: p.force,
         omega: b.model.omega,

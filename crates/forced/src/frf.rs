@@ -14,7 +14,7 @@
 //! points uncomputed ([`FrfTermination::Gap`]).
 
 use crate::curve::{Fold, FrequencyResponse, FrfSettings, FrfTermination, HarmonicPolicy, Sweep};
-use crate::curve_harmonics::check_curve;
+use crate::curve_harmonics::{check_curve, exact_force_of_curve};
 use crate::curve_stability::assess_stability;
 use crate::error::ForcedError;
 use crate::ladder::HarmonicLadder;
@@ -104,6 +104,9 @@ fn retraced_curve(
                 true => HarmonicLadder::new(current, raised_to, settings.harmonic_tolerance)?,
                 false => ladder,
             };
+            if let Some(f) = retraces.last_mut().and_then(|c| c.force.as_mut()) {
+                f.exact = exact_force_of_curve(&stability, &curve);
+            }
             assess_stability(&stability, settings, &mut curve)?;
             curve.retraces = retraces;
             return Ok(curve);

@@ -22,7 +22,7 @@
 
 use rayon::prelude::*;
 
-use crate::curve::CurveHarmonics;
+use crate::curve::{CurveHarmonics, ExactForce};
 use crate::curve_harmonics::{
     force_candidates, force_check, points_worth_checking, record_check, strongest_point,
     MovingPoint,
@@ -134,6 +134,9 @@ pub(crate) fn converged_sweep(
                 sweep.raised = Some(raise_segments(&target, finer, top, &mut sweep, moving)?);
                 refold_raised(&mut sweep, current.speed_scale);
             }
+            if let Some(f) = retraces.last_mut().and_then(|c| c.force.as_mut()) {
+                f.exact = exact_force_of_sweep(&target, &sweep);
+            }
             sweep.retraces = retraces;
             return Ok((sweep, current));
         }
@@ -143,6 +146,19 @@ pub(crate) fn converged_sweep(
             _ => target.level(next)?,
         };
     }
+}
+
+/// The largest contact force on the exact orbits of `sweep`'s strongest point and its peak
+/// (`curve_harmonics::force_candidates`, each on the problem at its speed): the last trace's
+/// `ForceCheck::exact`, shot once the sweep is final.
+fn exact_force_of_sweep(target: &SpeedTarget<'_>, sweep: &SpeedSweep) -> Option<ExactForce> {
+    let points: Vec<&ForcedPoint> = sweep.points.iter().map(|p| &p.point).collect();
+    let candidates = force_candidates(&points, target.master);
+    larger_exact(
+        (candidates.par_iter())
+            .map(|&i| exact_force_at(target.family, target.base, &sweep.points[i]))
+            .collect::<Vec<_>>(),
+    )
 }
 
 /// N of the next trace of a sweep traced at `target`'s N whose check moved at 2N (the
@@ -226,7 +242,6 @@ fn check_sweep(
         .map(|&i| target.solve_again(finer, i, &sweep.points[i]))
         .collect();
     let strongest = strongest_point(&points);
-    let candidates = force_candidates(&points, target.master);
     let mut moving = Vec::new();
     for (&i, solve) in checked.iter().zip(solves) {
         if strongest == Some(i) {
@@ -242,13 +257,6 @@ fn check_sweep(
                 finer: solve.map(|s| s.0),
             });
         }
-    }
-    if let Some(f) = out.force.as_mut() {
-        f.exact = larger_exact(
-            (candidates.par_iter())
-                .map(|&i| exact_force_at(target.family, target.base, &sweep.points[i]))
-                .collect::<Vec<_>>(),
-        );
     }
     (out, moving)
 }

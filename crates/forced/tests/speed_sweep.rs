@@ -478,8 +478,8 @@ fn a_retraced_sweep_is_converged_in_n_against_the_exact_curve() {
             "point {i} checked"
         );
     }
-    let exact = stop_exact();
-    let (w_peak, q_exact, _) = exact.peak_before(2.2).expect("the exact peak");
+    let exact_curve = stop_exact();
+    let (w_peak, q_exact, _) = exact_curve.peak_before(2.2).expect("the exact peak");
     let (q10, q20) = (sweep_peak(&checked), sweep_peak(&retraced));
     let off = |q: f64| (q - q_exact).abs() / q_exact;
     println!(
@@ -516,6 +516,23 @@ fn a_retraced_sweep_is_converged_in_n_against_the_exact_curve() {
     );
     let (c10, c20) = (first.change().unwrap(), force.change().unwrap());
     assert!(c20 < c10, "{c20:e} against {c10:e}");
+    // The force the truncated series converges to, on the last trace only: the exact orbit's
+    // (`ExactForce`, shot on the massless boundary, here the penalty equation itself) against
+    // the oracle's orbits at its W, within 1e-6 (both flows exact; measured in
+    // tests/forced_oracle_cli.rs: 7e-10).
+    assert_eq!(first.exact, None);
+    let exact = force.exact.expect("the last trace's exact force");
+    let w = exact.omega;
+    let oracle: Vec<f64> = (exact_curve.samples.windows(2).enumerate())
+        .filter(|(_, p)| (p[0].orbit.omega - w) * (p[1].orbit.omega - w) <= 0.0)
+        .filter_map(|(i, _)| exact_curve.orbit_on_segment(i, w))
+        .map(|o| pwl::largest_penalty_force(&exact_curve.sys, &o, 1000))
+        .collect();
+    let error = (oracle.iter())
+        .map(|f| (exact.force / f - 1.0).abs())
+        .fold(f64::INFINITY, f64::min);
+    println!("exact orbit's force {exact:?}, the oracle's orbits there {oracle:?} ({error:.1e})");
+    assert!(error <= 1e-6, "{error:e}");
 }
 
 /// The 3-DOF system turning (`Turning`) with its running gap closing with the speed, as a
