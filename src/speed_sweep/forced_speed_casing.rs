@@ -166,6 +166,13 @@ pub struct CasingSummary {
     pub max_contact_force_n_at_largest: f64,
     /// The largest contact force over the sweep (N).
     pub max_contact_force_n: f64,
+    /// The same two on the exact orbits (each point in contact shot on its settled massless
+    /// boundary for its stability: no truncation in N; `nlmodes_forced::ExactForce`); `null`
+    /// where not shot.
+    #[serde(default)]
+    pub max_contact_force_exact_n_at_largest: Option<f64>,
+    #[serde(default)]
+    pub max_contact_force_exact_n: Option<f64>,
     /// Points stable, unstable, undetermined: all, and those in contact.
     pub stability: [usize; 3],
     pub contact_stability: [usize; 3],
@@ -266,6 +273,10 @@ pub fn summarize(st: &CasingStudy) -> CasingSummary {
         nodes_in_contact_at_largest: nodes,
         max_contact_force_n_at_largest: force,
         max_contact_force_n: largest,
+        max_contact_force_exact_n_at_largest: last.exact_force.map(|e| e.force),
+        max_contact_force_exact_n: (pts.iter())
+            .filter_map(|p| p.exact_force.map(|e| e.force))
+            .reduce(f64::max),
         stability: verdicts.map(|v| count(v, false)),
         contact_stability: verdicts.map(|v| count(v, true)),
         largest_multiplier_in_contact: largest_multiplier,
@@ -317,7 +328,7 @@ fn harmonics_in_contact(st: &CasingStudy) -> Vec<[usize; 3]> {
     out
 }
 
-const HEADER: [&str; 20] = [
+const HEADER: [&str; 21] = [
     "point",
     "lobes",
     "speed_rpm",
@@ -338,6 +349,7 @@ const HEADER: [&str; 20] = [
     "harmonics",
     "harmonic_change_q1",
     "harmonic_change_force",
+    "max_contact_force_exact_N",
 ];
 
 /// `casing.csv`: one row per amplitude.
@@ -368,6 +380,7 @@ pub fn csv(st: &CasingStudy) -> Result<CsvTable> {
             p.point.harmonics.into(),
             opt(p.harmonic_change.map(|c| c[0])),
             opt(p.harmonic_change.map(|c| c[1])),
+            opt(p.exact_force.map(|e| e.force)),
         ])?;
     }
     Ok(table)
@@ -481,7 +494,7 @@ pub fn sentence(s: &CasingSummary) -> String {
         Some(onset) => format!(
             "**rubs once delta exceeds {:.3} mm** ({:.2} g0, the smallest running gap); at \
              delta = {:.3} mm ({:.2} g0) {} contact nodes touch, the largest contact force is \
-             {} N and the master's first harmonic q1/g0 = {:.3}",
+             {} N{} and the master's first harmonic q1/g0 = {:.3}",
             1e3 * onset,
             s.onset_over_g0.unwrap_or(0.0),
             1e3 * s.largest_amplitude_m,
@@ -491,6 +504,11 @@ pub fn sentence(s: &CasingSummary) -> String {
                 s.max_contact_force_n_at_largest,
                 3
             ),
+            s.max_contact_force_exact_n_at_largest
+                .map_or(String::new(), |f| format!(
+                    " ({} N on its exact orbit: massless boundary, no truncation in N)",
+                    crate::speed_sweep::forced_speed_report::significant(f, 3)
+                )),
             s.q1_over_g0_at_largest
         ),
     };

@@ -35,6 +35,7 @@ use faer::Mat;
 use nlmodes_hb::{FullBasis, System};
 use rayon::prelude::*;
 
+use crate::curve::ExactForce;
 use crate::curve_harmonics::points_worth_checking;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
@@ -164,6 +165,9 @@ pub struct CasingPoint {
     pub harmonic_change: Option<[f64; 2]>,
     /// Whether the solve at 2N failed.
     pub harmonic_failed: bool,
+    /// The largest contact force on the point's exact orbit (its settled boundary's, shot for
+    /// its stability: `exact_force`); `None` without stability, contact or a shot orbit.
+    pub exact_force: Option<ExactForce>,
 }
 
 /// A traced distortion sweep.
@@ -415,6 +419,7 @@ impl Problem<'_> {
             jump: false,
             harmonic_change: None,
             harmonic_failed: false,
+            exact_force: None,
         }
     }
 
@@ -503,7 +508,7 @@ impl Problem<'_> {
         solver: &ForcedSettings,
         p: &CasingPoint,
         how: &Assessment,
-    ) -> Result<PointStability, ForcedError> {
+    ) -> Result<(PointStability, Option<ExactForce>), ForcedError> {
         let (point, theta) = if p.point.touches() {
             advanced_orbit(&p.point, most_open_sample(&p.point))
         } else {
@@ -576,11 +581,11 @@ impl Problem<'_> {
                 let solver = (ladder.iter())
                     .find(|l| l.harmonics.harmonics == p.point.harmonics)
                     .unwrap_or(&ladder[0]);
-                let st = self.stability(solver, p, &how);
-                p.stability = Some(st.unwrap_or_else(|e| {
+                let (st, exact) = self.stability(solver, p, &how).unwrap_or_else(|e| {
                     tracing::warn!("casing sweep: no stability at {:e} m: {e}", p.amplitude);
-                    PointStability::unchecked()
-                }));
+                    (PointStability::unchecked(), None)
+                });
+                (p.stability, p.exact_force) = (Some(st), exact);
             });
         crate::speed_sweep::classify_changes(
             sweep.points.iter_mut().filter_map(|p| p.stability.as_mut()),

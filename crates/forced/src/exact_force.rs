@@ -9,7 +9,7 @@
 //! series and converges to it from above on the default blade (level 2 at rest: 268 N at
 //! N = 20, 202 N at N = 40, 175 N on the exact curve).
 
-use nlmodes_boundary::largest_contact_force;
+use nlmodes_boundary::{largest_contact_force, CutoffConvergence};
 
 use crate::curve::ExactForce;
 use crate::error::ForcedError;
@@ -31,17 +31,25 @@ pub(crate) fn exact_largest_force(
         return Ok(None);
     };
     let shot = clock.elapsed().as_secs_f64();
-    let b = &settled.boundary;
-    let peak = largest_contact_force(&b.model, &b.start)?;
+    let exact = exact_force_of(&settled)?;
     tracing::debug!(
         omega = point.omega,
-        modes = b.modes,
-        force = peak.map(|p| p.force),
+        modes = settled.boundary.modes,
+        force = exact.map(|e| e.force),
         harmonic_balance = point.largest_contact_force(),
         shot_seconds = shot,
         seconds = clock.elapsed().as_secs_f64(),
         "largest contact force on the exact orbit"
     );
+    Ok(exact)
+}
+
+/// The largest contact force of the settled boundary's shot orbit (`None`: it never touches).
+pub(crate) fn exact_force_of(
+    settled: &CutoffConvergence,
+) -> Result<Option<ExactForce>, ForcedError> {
+    let b = &settled.boundary;
+    let peak = largest_contact_force(&b.model, &b.start)?;
     Ok(peak.map(|p| ExactForce {
         force: p.force,
         omega: b.model.omega,

@@ -32,8 +32,10 @@ use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::{ContactMethod, FullBasis, System};
 
 use crate::boundary::{BoundaryInputs, BOUNDARY_SHIFT_LIMIT};
+use crate::curve::ExactForce;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
+use crate::exact_force::exact_force_of;
 use crate::harmonic_check::HarmonicCheck;
 use crate::load::Load;
 use crate::orbit_origin::{advanced_orbit, most_open_sample};
@@ -104,14 +106,15 @@ pub(crate) fn settled_boundary(
 /// The verdict of `point` (in contact, under `solver`'s law, seen from the origin `model` is
 /// advanced to) on the settled boundary (module docs), `hb_change` the harmonic balance's
 /// relative change of the master's amplitude at the point's last doubling of N (`None`: not
-/// checked); `None` where the boundary does not apply or does not shoot.
+/// checked), with the settled boundary it was read from; `None` where the boundary does not
+/// apply or does not shoot.
 fn settled_verdict(
     model: &SettledModel<'_>,
     solver: &ForcedSolver<'_>,
     point: &ForcedPoint,
     hb_change: Option<f64>,
     how: &Assessment,
-) -> Result<Option<PointStability>, ForcedError> {
+) -> Result<Option<(PointStability, CutoffConvergence)>, ForcedError> {
     let h = model.harmonic();
     let clock = std::time::Instant::now();
     let Some(settled) = settled_boundary(model, solver, point)? else {
@@ -139,10 +142,11 @@ fn settled_verdict(
         distance,
         limit,
     );
-    Ok(Some(match how.verify {
+    let st = match how.verify {
         true => st.verified(&settled.boundary),
         false => st,
-    }))
+    };
+    Ok(Some((st, settled)))
 }
 
 /// The verdict of `point` on `solver` (`assess_point_with`); where that is undetermined because
@@ -165,7 +169,8 @@ pub(crate) fn assess_point_settled(
         HarmonicCheck::NotConverged { change } => change.map(|c| c[0]),
         HarmonicCheck::Unchecked | HarmonicCheck::Linear => None,
     };
-    Ok(settled_verdict(&model, solver, &seen, hb_change, how)?.unwrap_or(st))
+    let settled = settled_verdict(&model, solver, &seen, hb_change, how)?;
+    Ok(settled.map_or(st, |(st, _)| st))
 }
 
 /// `point` seen from its sample farthest from contact (`orbit_origin::most_open_sample`), and
@@ -186,21 +191,22 @@ pub(crate) fn seen_from_most_open<'a>(
 
 /// The verdict of `point` of the casing study (seen from the origin `model.distortion` is
 /// advanced to) on `solver` (its N and contact law), `hb_change` as `settled_verdict`'s: the
-/// settled boundary's in contact where it applies, else `assess_point_with`.
+/// settled boundary's in contact where it applies, else `assess_point_with`; with the largest
+/// contact force of the settled boundary's exact orbit (`exact_force`) where it was shot.
 pub(crate) fn casing_point_stability(
     model: &SettledModel<'_>,
     solver: &ForcedSolver<'_>,
     point: &ForcedPoint,
     hb_change: Option<f64>,
     how: &Assessment,
-) -> Result<PointStability, ForcedError> {
+) -> Result<(PointStability, Option<ExactForce>), ForcedError> {
     if !point.touches() {
-        return assess_point_with(solver, point, how);
+        return Ok((assess_point_with(solver, point, how)?, None));
     }
     match settled_verdict(model, solver, point, hb_change, how)? {
-        Some(st) => Ok(st),
+        Some((st, settled)) => Ok((st, exact_force_of(&settled)?)),
         // Exact contact with every mode below (N + 1) W (an impact, not this model), or no
         // shot orbit: the massive model's monodromy behind its period check.
-        None => assess_point_with(solver, point, how),
+        None => Ok((assess_point_with(solver, point, how)?, None)),
     }
 }

@@ -14,7 +14,10 @@
 //!   (measured 5.4e-2 next to the onset): the refinement is what brings the points there;
 //! - the sweep's count of points not converged is the points' own.
 //!
-//! Under a second, about 1 s with the build.
+//! And each point's largest contact force on its exact orbit (`CasingPoint::exact_force`, shot
+//! on the settled boundary for its stability) is the oracle's orbit's at its W within 1e-6.
+//!
+//! Under a second each, about 1 s with the build.
 
 mod common;
 mod pwl;
@@ -31,6 +34,11 @@ const PHASE: f64 = 0.3;
 
 /// N = 8 on 64 samples, kc = 10 x the static contact stiffness, up to N = 32.
 fn sweep(system: &System, policy: SpeedHarmonics) -> (CasingSweep, f64, f64) {
+    sweep_with(system, policy, false)
+}
+
+/// `sweep`, with each point's stability (its settled boundary shot) when `stability`.
+fn sweep_with(system: &System, policy: SpeedHarmonics, stability: bool) -> (CasingSweep, f64, f64) {
     let kc = 10.0 * system.contact_stiffness()[0];
     let solver = ForcedSettings {
         harmonics: HarmonicSettings::new(8, 64).unwrap(),
@@ -45,7 +53,7 @@ fn sweep(system: &System, policy: SpeedHarmonics) -> (CasingSweep, f64, f64) {
     let amplitudes: Vec<f64> = (0..=20).map(|i| 0.1 * GAP * i as f64).collect();
     let mut settings = CasingSweepSettings::new(w, amplitudes, solver);
     settings.phase = PHASE;
-    settings.stability = false;
+    settings.stability = stability;
     settings.harmonic_policy = policy;
     settings.max_harmonics = 32;
     let out = casing_sweep(system, &damping, &settings, |_| {}).unwrap();
@@ -127,4 +135,47 @@ fn the_casing_sweep_raises_n_where_its_check_asks() {
         r.len() - converged.len(),
         "the count of points not converged"
     );
+}
+
+/// The exact orbits' forces of the casing sweep (`CasingPoint::exact_force`) against the
+/// oracle's orbit at the same W, shot from the point's state (`pwl::largest_penalty_force`):
+/// within 1e-6 relative (both flows exact; tests/forced_oracle_cli.rs measures 7e-10), at every
+/// point in contact; the harmonic balance's force at the point's N printed beside it.
+#[test]
+fn the_casing_sweeps_exact_contact_forces_are_the_oracles() {
+    let system = common::three_dof(GAP);
+    let (out, w, kc) = sweep_with(&system, SpeedHarmonics::Retrace, true);
+    let mut compared = 0;
+    for p in out.points.iter().filter(|p| p.point.touches()) {
+        let exact = p
+            .exact_force
+            .unwrap_or_else(|| panic!("no exact force at delta = {}", p.amplitude));
+        let c = &p.point.coefficients;
+        let series = |i: usize| (0..c.ncols()).map(|q| c[(i, q)]).collect::<Vec<f64>>();
+        let mut z: Vec<f64> = (0..3)
+            .map(|i| FullBasis::value_at(&series(i), 0.0))
+            .collect();
+        z.extend((0..3).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
+        let sys = oracle(&system, p.amplitude, kc);
+        let orbit = pwl::periodic_at(&sys, exact.omega, &z, 1e-12)
+            .unwrap_or_else(|| panic!("no exact orbit at delta = {}", p.amplitude));
+        let oracle_force = pwl::largest_penalty_force(&sys, &orbit, 1000);
+        let error = (exact.force / oracle_force - 1.0).abs();
+        println!(
+            "delta/gap {:.2}: exact orbit {:.8e}, oracle {oracle_force:.8e} ({error:.1e}); \
+             harmonic balance at N = {}: {:.8e}",
+            p.amplitude / GAP,
+            exact.force,
+            p.point.harmonics,
+            p.point.largest_contact_force()
+        );
+        assert!(error <= 1e-6, "delta = {}: {error:e}", p.amplitude);
+        assert!(
+            (exact.omega / w - 1.0).abs() <= 1e-2,
+            "{} against {w}",
+            exact.omega
+        );
+        compared += 1;
+    }
+    assert!(compared >= 8, "points in contact: {compared}");
 }
