@@ -260,6 +260,9 @@ pub struct RetraceHead {
     /// On the exact orbit (massless boundary, no truncation in N).
     #[serde(default, alias = "largest_contact_force_exact_n")]
     pub largest_contact_force_exact: Option<f64>,
+    /// Where, on a speed sweep (rpm).
+    #[serde(default)]
+    pub largest_contact_force_exact_rpm: Option<f64>,
 }
 
 /// Reads a JSON file written by an earlier stage.

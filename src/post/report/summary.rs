@@ -144,21 +144,25 @@ fn sweep_phrase(
     );
     match w.contact_span() {
         Some([a, b]) => format!(
-            "{head} **rubs at {a:.0}-{b:.0} rpm**, peak q/g0 = {:.2} at {:.0} rpm{}, largest \
-             contact force {} N{}{}; {}.{n}\n",
+            "{head} **rubs at {a:.0}-{b:.0} rpm**, peak q/g0 = {:.2} at {:.0} rpm{}, {}; \
+             {}.{n}\n",
             w.peak_q1_over_g0,
             w.peak_rpm,
             match w.peak_verdict() {
                 "" => String::new(),
                 v => format!(" ({v})"),
             },
-            crate::speed_sweep::forced_speed_report::significant(w.max_contact_force_n, 3),
-            w.max_contact_force_rpm
-                .map_or(String::new(), |x| format!(" at {x:.0} rpm")),
-            files::parenthesis(&[
-                files::force_convergence(w.retraces.last(), r.case.forced.harmonic_tolerance),
-                files::exact_orbit_force(w.retraces.last()),
-            ]),
+            files::force_words(
+                &format!(
+                    "{} N{}",
+                    crate::speed_sweep::forced_speed_report::significant(w.max_contact_force_n, 3),
+                    w.max_contact_force_rpm
+                        .map_or(String::new(), |x| format!(" at {x:.0} rpm"))
+                ),
+                w.retraces.last(),
+                r.case.forced.harmonic_tolerance,
+                None
+            ),
             w.stability_text()
         ),
         None => format!(

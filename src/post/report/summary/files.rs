@@ -147,14 +147,11 @@ pub(super) fn forced_headline(case: &Case, dir: &Path, at: &str) -> String {
                     )
                 });
                 let tolerance = case.forced.harmonic_tolerance;
-                format!(
-                    "largest contact force {} N{}",
-                    significant(p.force, 3),
-                    parenthesis(&[
-                        force_convergence(trace_of(level), tolerance),
-                        exact_orbit_force(trace_of(level)),
-                        reference
-                    ])
+                force_words(
+                    &format!("{} N", significant(p.force, 3)),
+                    trace_of(level),
+                    tolerance,
+                    reference,
                 )
             } else {
                 "no contact".into()
@@ -222,17 +219,40 @@ pub(crate) fn force_convergence(last: Option<&RetraceHead>, tolerance: f64) -> O
     }
 }
 
-/// The largest contact force on the exact orbits of the last trace's strongest point and peak
-/// (`nlmodes_forced::ExactForce`: the massless boundary, no truncation in N), as a clause for
-/// the parenthesis after the force (`None` where they were not shot): the number the harmonic
-/// balance's converges to.
-pub(crate) fn exact_orbit_force(last: Option<&RetraceHead>) -> Option<String> {
-    let f = last?.largest_contact_force_exact.filter(|&f| f > 0.0)?;
-    Some(format!(
-        "on the exact orbits of its strongest point and its peak (massless boundary, no \
-         truncation in N): {} N",
-        significant(f, 3)
-    ))
+/// A curve's or sweep's largest contact force as the summary words it: the force on the exact
+/// orbits of the last trace's strongest point and peak when they were shot
+/// (`nlmodes_forced::ExactForce`: the massless boundary, no truncation in N; where, for a
+/// sweep), the number to sign off, with the harmonic balance's `hb` ("268 N", "102 N at 8112
+/// rpm") and its convergence in N (`force_convergence`) and `reference` in the parenthesis;
+/// else the harmonic balance's with the same parenthesis.
+pub(crate) fn force_words(
+    hb: &str,
+    last: Option<&RetraceHead>,
+    tolerance: f64,
+    reference: Option<String>,
+) -> String {
+    let convergence = force_convergence(last, tolerance);
+    let exact = last.and_then(|t| t.largest_contact_force_exact.filter(|&f| f > 0.0));
+    match exact {
+        Some(f) => {
+            let at = (last.and_then(|t| t.largest_contact_force_exact_rpm))
+                .map_or(String::new(), |x| format!(" at {x:.0} rpm"));
+            format!(
+                "largest contact force **{} N**{at} on the exact orbits of the strongest point \
+                 and the peak (massless boundary, no truncation in N){}",
+                significant(f, 3),
+                parenthesis(&[
+                    Some(format!("the harmonic balance's {hb}")),
+                    convergence,
+                    reference
+                ])
+            )
+        }
+        None => format!(
+            "largest contact force {hb}{}",
+            parenthesis(&[convergence, reference])
+        ),
+    }
 }
 
 /// The clauses of the parenthesis after a largest contact force, joined (empty without any).
@@ -345,20 +365,39 @@ mod tests {
             largest_contact_force: force,
             largest_contact_force_finer: finer,
             largest_contact_force_exact: None,
+            largest_contact_force_exact_rpm: None,
         }
     }
 
-    /// The exact orbits' force is quoted when they were shot, and only then.
+    /// The exact orbits' force leads when they were shot, the harmonic balance's and its
+    /// convergence in the parenthesis; without them the harmonic balance's leads.
     #[test]
-    fn the_exact_orbits_force_is_quoted_beside_the_truncated_one() {
+    fn the_exact_orbits_force_leads_the_truncated_one() {
         let shot = RetraceHead {
-            largest_contact_force_exact: Some(175.04),
-            ..trace(Some(267.9), Some(202.0))
+            largest_contact_force_exact: Some(96.156),
+            largest_contact_force_exact_rpm: Some(8136.1),
+            ..trace(Some(101.8), Some(94.85))
         };
-        let clause = exact_orbit_force(Some(&shot)).unwrap();
-        assert!(clause.ends_with("no truncation in N): 175 N"), "{clause}");
-        assert_eq!(exact_orbit_force(Some(&trace(Some(1.0), None))), None);
-        assert_eq!(exact_orbit_force(None), None);
+        let words = force_words("102 N at 8112 rpm", Some(&shot), 1e-3, None);
+        assert!(
+            words.starts_with("largest contact force **96.2 N** at 8136 rpm on the exact orbits"),
+            "{words}"
+        );
+        assert!(
+            words.contains(
+                "(the harmonic balance's 102 N at 8112 rpm; NOT converged in N: the N = 20"
+            ),
+            "{words}"
+        );
+        let truncated = force_words("268 N", Some(&trace(Some(267.9), Some(202.0))), 1e-3, None);
+        assert!(
+            truncated.starts_with("largest contact force 268 N (NOT converged in N"),
+            "{truncated}"
+        );
+        assert_eq!(
+            force_words("5 N", None, 1e-3, None),
+            "largest contact force 5 N"
+        );
     }
 
     /// The summary's word on a curve's largest contact force: NOT converged when its strongest
