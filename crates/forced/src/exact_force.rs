@@ -9,11 +9,9 @@
 //! series and converges to it from above on the default blade (level 2 at rest: 268 N at
 //! N = 20, 202 N at N = 40, 175 N on the exact curve).
 
-use nlmodes_boundary::{largest_contact_force, CutoffConvergence};
-
 use crate::curve::ExactForce;
 use crate::error::ForcedError;
-use crate::settled_stability::{seen_from_most_open, settled_boundary};
+use crate::settled_stability::{exact_force_of, seen_from_most_open, settled_boundary};
 use crate::solver::{ForcedPoint, ForcedSolver};
 
 /// The largest contact force of `point` (solved on `solver`) on its exact orbit (module docs);
@@ -42,19 +40,6 @@ pub(crate) fn exact_largest_force(
         "largest contact force on the exact orbit"
     );
     Ok(exact)
-}
-
-/// The largest contact force of the settled boundary's shot orbit (`None`: it never touches).
-pub(crate) fn exact_force_of(
-    settled: &CutoffConvergence,
-) -> Result<Option<ExactForce>, ForcedError> {
-    let b = &settled.boundary;
-    let peak = largest_contact_force(&b.model, &b.start)?;
-    Ok(peak.map(|p| ExactForce {
-        force: p.force,
-        omega: b.model.omega,
-        cutoff_change: settled.change[0],
-    }))
 }
 
 /// The larger of the candidates' exact forces (`exact_largest_force` of each); a candidate whose

@@ -27,7 +27,9 @@
 //! (exact contact, every mode resolved) or does not shoot keep `assess_point_with`.
 
 use faer::Mat;
-use nlmodes_boundary::{boundary_with_converged_cutoff, CutoffConvergence, DrivenInputs};
+use nlmodes_boundary::{
+    boundary_with_converged_cutoff, largest_contact_force, CutoffConvergence, DrivenInputs,
+};
 use nlmodes_hb::floquet::Verdict;
 use nlmodes_hb::{ContactMethod, FullBasis, System};
 
@@ -35,7 +37,6 @@ use crate::boundary::{BoundaryInputs, BOUNDARY_SHIFT_LIMIT};
 use crate::curve::ExactForce;
 use crate::distortion::CasingDistortion;
 use crate::error::ForcedError;
-use crate::exact_force::exact_force_of;
 use crate::harmonic_check::HarmonicCheck;
 use crate::load::Load;
 use crate::orbit_origin::{advanced_orbit, most_open_sample};
@@ -209,4 +210,18 @@ pub(crate) fn casing_point_stability(
         // shot orbit: the massive model's monodromy behind its period check.
         None => Ok((assess_point_with(solver, point, how)?, None)),
     }
+}
+
+/// The largest contact force of the settled boundary's shot orbit (`None`: it never touches):
+/// `exact_force`'s and the casing study's.
+pub(crate) fn exact_force_of(
+    settled: &CutoffConvergence,
+) -> Result<Option<ExactForce>, ForcedError> {
+    let b = &settled.boundary;
+    let peak = largest_contact_force(&b.model, &b.start)?;
+    Ok(peak.map(|p| ExactForce {
+        force: p.force,
+        omega: b.model.omega,
+        cutoff_change: settled.change[0],
+    }))
 }
