@@ -268,7 +268,8 @@ pub fn interaction_verdict(
     let _ = writeln!(
         s,
         "| EO | crossing (rpm) | level | touches (rpm) | peak q/g0 (at rpm, its stability) | \
-         largest contact force (N, at rpm) | stability |\n|---|---|---|---|---|---|---|"
+         largest contact force (N, at rpm: on the exact orbits; the harmonic balance's) | \
+         stability |\n|---|---|---|---|---|---|---|"
     );
     for row in &rows {
         let c = &row.crossing;
@@ -282,7 +283,7 @@ pub fn interaction_verdict(
         for w in &row.sweeps {
             let _ = writeln!(
                 s,
-                "| {} | {:.0} | {}{} | {} | {:.3} ({:.0}{}) | {}{} | {} |",
+                "| {} | {:.0} | {}{} | {} | {:.3} ({:.0}{}) | {}{}{} | {} |",
                 c.engine_order,
                 c.speed_rpm,
                 level_text(case, w),
@@ -298,6 +299,7 @@ pub fn interaction_verdict(
                     "" => String::new(),
                     v => format!(", {v}"),
                 },
+                exact_force_cell(w.retraces.last()),
                 significant(w.max_contact_force_n, 4),
                 w.max_contact_force_rpm
                     .map_or(String::new(), |r| format!(" ({r:.0})")),
@@ -306,4 +308,19 @@ pub fn interaction_verdict(
         }
     }
     Ok(s + "\n")
+}
+
+/// The verdict table's exact-orbit force ("96.16 (8136); N = 40: "), before the harmonic
+/// balance's: the last trace's `largest_contact_force_exact` where it was shot, else nothing.
+fn exact_force_cell(last: Option<&crate::post::results::RetraceHead>) -> String {
+    match last.and_then(|t| t.largest_contact_force_exact.map(|f| (t, f))) {
+        Some((t, f)) => format!(
+            "{}{}; N = {}: ",
+            significant(f, 4),
+            t.largest_contact_force_exact_rpm
+                .map_or(String::new(), |r| format!(" ({r:.0})")),
+            t.harmonics
+        ),
+        None => String::new(),
+    }
 }
