@@ -25,7 +25,7 @@ mod pwl;
 use nlmodes_forced::{
     casing_sweep, CasingSweep, CasingSweepSettings, Damping, ForcedSettings, SpeedHarmonics,
 };
-use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
+use nlmodes_hb::{AlgorithmParams, ContactMethod, HarmonicSettings, System};
 use pwl::{GapWave, Pwl};
 
 const GAP: f64 = 0.5;
@@ -79,12 +79,7 @@ fn errors(system: &System, out: &CasingSweep, w: f64, kc: f64) -> Vec<(f64, usiz
     (out.points.iter())
         .filter(|p| p.point.touches())
         .map(|p| {
-            let c = &p.point.coefficients;
-            let series = |i: usize| (0..c.ncols()).map(|q| c[(i, q)]).collect::<Vec<f64>>();
-            let mut z: Vec<f64> = (0..3)
-                .map(|i| FullBasis::value_at(&series(i), 0.0))
-                .collect();
-            z.extend((0..3).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
+            let z = common::state_at_zero(&p.point.coefficients, w);
             let sys = oracle(system, p.amplitude, kc);
             let orbit = pwl::periodic_at(&sys, w, &z, 1e-12)
                 .unwrap_or_else(|| panic!("no exact orbit at delta = {}", p.amplitude));
@@ -150,12 +145,7 @@ fn the_casing_sweeps_exact_contact_forces_are_the_oracles() {
         let exact = p
             .exact_force
             .unwrap_or_else(|| panic!("no exact force at delta = {}", p.amplitude));
-        let c = &p.point.coefficients;
-        let series = |i: usize| (0..c.ncols()).map(|q| c[(i, q)]).collect::<Vec<f64>>();
-        let mut z: Vec<f64> = (0..3)
-            .map(|i| FullBasis::value_at(&series(i), 0.0))
-            .collect();
-        z.extend((0..3).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
+        let z = common::state_at_zero(&p.point.coefficients, w);
         let sys = oracle(&system, p.amplitude, kc);
         let orbit = pwl::periodic_at(&sys, exact.omega, &z, 1e-12)
             .unwrap_or_else(|| panic!("no exact orbit at delta = {}", p.amplitude));

@@ -254,17 +254,12 @@ fn shot_distance(t: &Turning, sweep: &SpeedSweep, settings: &SpeedSweepSettings)
     let (mut worst, mut touching) = (0.0_f64, 0);
     for p in sweep.points.iter().step_by(every) {
         let w = k as f64 * p.speed;
-        let c = &p.point.coefficients;
-        let series = |i: usize| (0..c.ncols()).map(|q| c[(i, q)]).collect::<Vec<f64>>();
-        let mut z: Vec<f64> = (0..3)
-            .map(|i| FullBasis::value_at(&series(i), 0.0))
-            .collect();
-        z.extend((0..3).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
+        let z = common::state_at_zero(&p.point.coefficients, w);
         let sys = oracle(t, p.speed, (&casing, k), stiffness);
         let orbit = pwl::periodic_at(&sys, w, &z, 1e-12)
             .unwrap_or_else(|| panic!("no exact orbit at {} rad/s", p.speed));
         let exact = pwl::trace::first_harmonic(&sys, &orbit, &[0.0, 0.0, 1.0]);
-        worst = worst.max((master(c) / exact - 1.0).abs());
+        worst = worst.max((master(&p.point.coefficients) / exact - 1.0).abs());
         touching += usize::from(!orbit.flow.events.is_empty());
     }
     (worst, touching)
@@ -449,11 +444,7 @@ fn a_distortion_sweep_lies_on_exact_orbits() {
         if !p.point.touches() {
             continue;
         }
-        let series = |i: usize| (0..c.ncols()).map(|q| c[(i, q)]).collect::<Vec<f64>>();
-        let mut z: Vec<f64> = (0..3)
-            .map(|i| FullBasis::value_at(&series(i), 0.0))
-            .collect();
-        z.extend((0..3).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
+        let z = common::state_at_zero(c, w);
         let casing = LobedCasing {
             lobes: 1,
             amplitude: p.amplitude,

@@ -26,7 +26,7 @@ use nlmodes_forced::{
     casing_sweep, CasingPoint, CasingSweepSettings, Damping, ForcedSettings, Verdict,
     BOUNDARY_SHIFT_LIMIT,
 };
-use nlmodes_hb::{AlgorithmParams, ContactMethod, FullBasis, HarmonicSettings, System};
+use nlmodes_hb::{AlgorithmParams, ContactMethod, HarmonicSettings, System};
 use pwl::{Dense, GapWave, Pwl};
 
 const GAP: f64 = 0.5;
@@ -137,13 +137,7 @@ fn reference(delta: f64, harmonic: usize, w: f64, z: &[f64]) -> Reference {
 
 /// (x, v)(0) of a point's harmonic-balance orbit at W (rad/s).
 fn start_of(p: &CasingPoint, w: f64) -> Vec<f64> {
-    let c = &p.point.coefficients;
-    let series = |i: usize| (0..c.ncols()).map(|q| c[(i, q)]).collect::<Vec<f64>>();
-    let mut z: Vec<f64> = (0..3)
-        .map(|i| FullBasis::value_at(&series(i), 0.0))
-        .collect();
-    z.extend((0..3).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
-    z
+    common::state_at_zero(&p.point.coefficients, w)
 }
 
 /// The distortion sweep at W = 0.7 w1 (delta from 0 to 2 gaps in steps of 0.1 gap), the gap at

@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use faer::Mat;
-use nlmodes_hb::System;
+use nlmodes_hb::{FullBasis, System};
 
 /// The 3-DOF system with a non-diagonal mass matrix of the nnm tests (`three_dof_stop`): one
 /// contact row 0.2 x0 + x2 with gap `gap`, master x2.
@@ -122,4 +122,20 @@ pub fn penalty_settings(
         },
         ..nlmodes_forced::ForcedSettings::new(harmonics).expect("N")
     }
+}
+
+/// (x, v)(0) of a harmonic-balance orbit (`coefficients`: n x (2N + 1)) at W (rad/s): the
+/// start the oracle's shooting (`pwl::periodic_at`) takes from a point.
+pub fn state_at_zero(coefficients: &Mat<f64>, w: f64) -> Vec<f64> {
+    let n = coefficients.nrows();
+    let series = |i: usize| {
+        (0..coefficients.ncols())
+            .map(|q| coefficients[(i, q)])
+            .collect::<Vec<f64>>()
+    };
+    let mut z: Vec<f64> = (0..n)
+        .map(|i| FullBasis::value_at(&series(i), 0.0))
+        .collect();
+    z.extend((0..n).map(|i| FullBasis::rate_at(&series(i), w, 0.0)));
+    z
 }
