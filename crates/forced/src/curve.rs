@@ -86,8 +86,9 @@ pub struct ForceCheck {
     /// The same orbit's largest contact force at 2N (`None`: that solve failed or landed on
     /// another orbit).
     pub finer: Option<f64>,
-    /// The largest contact force on the exact orbits of the curve's strongest point and of its
-    /// peak (the larger; `exact_force`): the number the truncated series converges to. Shot
+    /// The largest contact force on the exact orbits of the curve, from its strongest point
+    /// and its peak along the curve (`exact_force::climbed_exact`): the number the truncated
+    /// series converges to. Shot
     /// on the last trace only, once its points are final (raised segments included); `None`
     /// on earlier traces, where neither touches on its exact orbit or the boundary does not
     /// shoot.

@@ -5,7 +5,7 @@
 //! steep branch is not compared with another W's orbit.
 
 use crate::curve::{CurveHarmonics, ExactForce, ForceCheck, FrequencyResponse, FrfSettings};
-use crate::exact_force::{exact_largest_force, larger_exact};
+use crate::exact_force::{climbed_exact, exact_largest_force};
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::HarmonicLadder;
 use crate::newton::{ArcRow, OrbitState};
@@ -113,19 +113,21 @@ pub(crate) fn check_curve(
     (out, moving)
 }
 
-/// The largest contact force on the exact orbits of `curve`'s strongest point and its peak
-/// (`force_candidates`, each on the solver of its N in `ladder`): the last trace's
-/// `ForceCheck::exact`, shot once the curve is final.
+/// The largest contact force on the exact orbits of `curve`, from its strongest point and its
+/// peak (`force_candidates`) along the curve (`exact_force::climbed_exact`; each on the solver
+/// of its N in `ladder`): the last trace's `ForceCheck::exact`, shot once the curve is final.
 pub(crate) fn exact_force_of_curve(
     ladder: &HarmonicLadder<'_, '_>,
     curve: &FrequencyResponse,
 ) -> Option<ExactForce> {
     let points: Vec<&ForcedPoint> = curve.points.iter().collect();
     let master = ladder.solver(0).system().master();
-    larger_exact(force_candidates(&points, master).iter().map(|&i| {
-        let p = &curve.points[i];
-        exact_largest_force(ladder.solver_of(p), p)
-    }))
+    climbed_exact(
+        points.len(),
+        &force_candidates(&points, master),
+        |i| points[i].touches(),
+        |i| exact_largest_force(ladder.solver_of(points[i]), points[i]),
+    )
 }
 
 /// Adds one checked point's verdict to `out` (its largest changes, its count of points not

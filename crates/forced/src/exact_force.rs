@@ -42,18 +42,46 @@ pub(crate) fn exact_largest_force(
     Ok(exact)
 }
 
-/// The larger of the candidates' exact forces (`exact_largest_force` of each); a candidate whose
-/// analysis failed is left out (with a debug trace).
-pub(crate) fn larger_exact(
-    forces: impl IntoIterator<Item = Result<Option<ExactForce>, ForcedError>>,
+/// The most steps of `climbed_exact` along a curve.
+const CLIMB_STEPS: usize = 30;
+
+/// The largest exact force along a curve of `count` points, `touches(i)` saying which touch:
+/// each of `candidates` (`curve_harmonics::force_candidates`: the harmonic balance's strongest
+/// point and peak) shot (`exact(i)`: `exact_largest_force`, `None` where it fails), then from
+/// the largest a climb along the curve to the neighbour whose exact force is larger, until
+/// neither is (at most `CLIMB_STEPS` steps). The exact force varies smoothly along the curve,
+/// and the truncated series' strongest point and peak need not be where it is largest (the
+/// default blade's level 5 at 8000 rpm: 162 N at the two, 165 N on the exact curve).
+pub(crate) fn climbed_exact(
+    count: usize,
+    candidates: &[usize],
+    touches: impl Fn(usize) -> bool,
+    exact: impl Fn(usize) -> Result<Option<ExactForce>, ForcedError>,
 ) -> Option<ExactForce> {
-    forces
-        .into_iter()
-        .filter_map(|f| {
-            f.unwrap_or_else(|e| {
+    let mut known: Vec<Option<Option<ExactForce>>> = vec![None; count];
+    let mut at = |i: usize| {
+        *known[i].get_or_insert_with(|| {
+            exact(i).unwrap_or_else(|e| {
                 tracing::debug!(error = %e, "no exact contact force");
                 None
             })
         })
-        .max_by(|a, b| a.force.total_cmp(&b.force))
+    };
+    let larger = |a: &(usize, ExactForce), b: &(usize, ExactForce)| a.1.force.total_cmp(&b.1.force);
+    let mut best = (candidates.iter())
+        .filter_map(|&i| at(i).map(|f| (i, f)))
+        .max_by(larger)?;
+    for _ in 0..CLIMB_STEPS {
+        let next = [best.0.checked_sub(1), Some(best.0 + 1)]
+            .into_iter()
+            .flatten()
+            .filter(|&j| j < count && touches(j))
+            .filter_map(|j| at(j).map(|f| (j, f)))
+            .max_by(larger);
+        match next {
+            Some(n) if n.1.force > best.1.force => best = n,
+            _ => break,
+        }
+    }
+    Some(best.1)
 }

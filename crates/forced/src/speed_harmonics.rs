@@ -28,7 +28,7 @@ use crate::curve_harmonics::{
     MovingPoint,
 };
 use crate::error::ForcedError;
-use crate::exact_force::larger_exact;
+use crate::exact_force::climbed_exact;
 use crate::harmonic_check::HarmonicCheck;
 use crate::ladder::verdict;
 use crate::raise_speed::{at_harmonics, SpeedTarget};
@@ -148,16 +148,17 @@ pub(crate) fn converged_sweep(
     }
 }
 
-/// The largest contact force on the exact orbits of `sweep`'s strongest point and its peak
-/// (`curve_harmonics::force_candidates`, each on the problem at its speed): the last trace's
-/// `ForceCheck::exact`, shot once the sweep is final.
+/// The largest contact force on the exact orbits of `sweep`, from its strongest point and its
+/// peak (`curve_harmonics::force_candidates`) along the sweep (`exact_force::climbed_exact`;
+/// each on the problem at its speed): the last trace's `ForceCheck::exact`, shot once the
+/// sweep is final.
 fn exact_force_of_sweep(target: &SpeedTarget<'_>, sweep: &SpeedSweep) -> Option<ExactForce> {
     let points: Vec<&ForcedPoint> = sweep.points.iter().map(|p| &p.point).collect();
-    let candidates = force_candidates(&points, target.master);
-    larger_exact(
-        (candidates.par_iter())
-            .map(|&i| exact_force_at(target.family, target.base, &sweep.points[i]))
-            .collect::<Vec<_>>(),
+    climbed_exact(
+        points.len(),
+        &force_candidates(&points, target.master),
+        |i| points[i].touches(),
+        |i| exact_force_at(target.family, target.base, &sweep.points[i]),
     )
 }
 

@@ -220,7 +220,7 @@ pub(crate) fn force_convergence(last: Option<&RetraceHead>, tolerance: f64) -> O
 }
 
 /// A curve's or sweep's largest contact force as the summary words it: the force on the exact
-/// orbits of the last trace's strongest point and peak when they were shot
+/// orbits along the last trace (from its strongest point and peak) when they were shot
 /// (`nlmodes_forced::ExactForce`: the massless boundary, no truncation in N; where, for a
 /// sweep), the number to sign off, with the harmonic balance's `hb` ("268 N", "102 N at 8112
 /// rpm") and its convergence in N (`force_convergence`) and `reference` in the parenthesis;
@@ -238,8 +238,8 @@ pub(crate) fn force_words(
             let at = (last.and_then(|t| t.largest_contact_force_exact_rpm))
                 .map_or(String::new(), |x| format!(" at {x:.0} rpm"));
             format!(
-                "largest contact force **{} N**{at} on the exact orbits of the strongest point \
-                 and the peak (massless boundary, no truncation in N){}",
+                "largest contact force **{} N**{at} on the exact orbits (massless boundary, no \
+                 truncation in N){}",
                 significant(f, 3),
                 parenthesis(&[
                     Some(format!("the harmonic balance's {hb}")),
