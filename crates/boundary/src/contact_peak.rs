@@ -1,5 +1,5 @@
 //! The largest contact force of a shot orbit on the massless boundary (issue 39: how hard the
-//! blade strikes the casing, docs/DESIGN.md §10.8).
+//! blade strikes the casing, docs/DESIGN.md §10.10).
 //!
 //! The harmonic-balance orbit's contact force converges slowly in N under a stiff penalty law:
 //! a strike lasts a small fraction of the period, and its peak needs harmonics far above those

@@ -1,4 +1,4 @@
-//! The largest contact force of a forced point on its exact orbit (issue 39, DESIGN §10.8): the
+//! The largest contact force of a forced point on its exact orbit (issue 39, DESIGN §10.10): the
 //! point's orbit shot on the massless boundary with its cutoff settled, as its settled Floquet
 //! verdict is (`settled_stability`), and that orbit's largest contact force
 //! (`nlmodes_boundary::largest_contact_force`: no truncation in N). Under a penalty law whose
