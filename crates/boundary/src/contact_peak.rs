@@ -5,8 +5,8 @@
 //! a strike lasts a small fraction of the period, and its peak needs harmonics far above those
 //! that settle the first harmonic (the default blade's level 2 at rest: 268 N at N = 20, 202 N
 //! at 40, 175 N on the exact curve). The shot orbit has no truncation: its force is the model's
-//! own, as exact as the flow. The orbit is sampled at [`FORCE_SAMPLES`] instants of its period,
-//! then the interval around the largest sample is sampled again [`FORCE_SAMPLES`] times finer:
+//! own, as exact as the flow. The orbit is sampled at `FORCE_SAMPLES` instants of its period,
+//! then the interval around the largest sample is sampled again `FORCE_SAMPLES` times finer:
 //! a strike lasting 1 % of the period spans 10 coarse and 5,000 fine samples, so the peak of a
 //! half-sine pulse is missed by at most (pi / 2 / 5,000)^2 / 2, about 5e-8 relative. Two
 //! strikes whose peaks differ by less than the coarse pass's error (1 - cos(pi / 20), about
@@ -17,15 +17,13 @@ use crate::driven_model::DrivenBoundary;
 use nlmodes_hb::HbError;
 
 /// Instants per period of the first pass, and per coarse interval of the second.
-pub const FORCE_SAMPLES: usize = 1024;
+const FORCE_SAMPLES: usize = 1024;
 
-/// The largest contact force of an orbit and where it acts.
+/// The largest contact force of an orbit and when it acts.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactPeak {
     /// The force (N, compressive positive).
     pub force: f64,
-    /// The contact row it acts on.
-    pub row: usize,
     /// Its time from the orbit's start (s).
     pub time: f64,
 }
@@ -77,10 +75,10 @@ fn scan(
             flow.advance(&mut x, &mut active, step, None)?;
         }
         let lambda = flow.contact_force(&x, &active)?;
-        for (row, &force) in lambda.iter().enumerate() {
+        for &force in &lambda {
             if force > 0.0 && best.is_none_or(|b| force > b.force) {
                 let time = (lead + k as f64 * step).rem_euclid(period);
-                best = Some(ContactPeak { force, row, time });
+                best = Some(ContactPeak { force, time });
             }
         }
     }

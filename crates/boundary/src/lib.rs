@@ -57,7 +57,7 @@ mod test_models;
 
 pub use arc_length::{CurveEnd, CurveSettings};
 pub use backbone_curve::{BoundaryBackbonePoint, BoundaryPiece, Judge};
-pub use contact_peak::{largest_contact_force, ContactPeak, FORCE_SAMPLES};
+pub use contact_peak::{largest_contact_force, ContactPeak};
 pub use converged::{converged_orbit, ConvergedOrbit, ConvergenceSettings, ConvergenceStop};
 pub use converged_cutoff::{boundary_with_converged_cutoff, CutoffConvergence, CUTOFF_DOUBLINGS};
 pub use driven_curve::driven_end_text;

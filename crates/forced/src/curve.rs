@@ -103,9 +103,6 @@ pub struct ExactForce {
     /// The exact orbit's W (rad/s): shot with W free from the harmonic-balance orbit, within
     /// the boundary's shift of the point's.
     pub omega: f64,
-    /// The relative change of the master's amplitude at the cutoff's last doubling (0 when no
-    /// doubling added a mode): the exact model's own error estimate.
-    pub cutoff_change: f64,
 }
 
 impl ForceCheck {

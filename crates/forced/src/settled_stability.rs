@@ -222,6 +222,5 @@ pub(crate) fn exact_force_of(
     Ok(peak.map(|p| ExactForce {
         force: p.force,
         omega: b.model.omega,
-        cutoff_change: settled.change[0],
     }))
 }
