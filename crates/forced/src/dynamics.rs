@@ -50,7 +50,7 @@ pub struct ModalDynamics {
     /// Modal load Phi^T f per coefficient index of the full basis (n x (2N + 1)).
     load: Mat<f64>,
     /// The rows' modal products, (c c) x n: row j c + jr holds psi_jk psi_jr,k
-    /// (`diagonal_blocks`; empty under a general damping). Held, not made per call: the speed
+    /// (`diagonal_columns`; empty under a general damping). Held, not made per call: the speed
     /// sweep evaluates G on every residual, and making them there cost 15 % of its time
     /// (session 26). Its size, c^2 n, is that of one compliance's blocks, 4 c^2 (N + 1), when
     /// n is 4 (N + 1).
@@ -178,17 +178,13 @@ impl ModalDynamics {
     /// Z_n^-1 under diagonal modal damping on the cosine and sine `columns` of `r`, in place
     /// (`nw` = n W): mode k's 2 x 2 block [[d, e], [-e, d]], d = w_k^2 - (n W)^2, e = n W c_k.
     fn diagonal_pair(&self, nw: f64, cd: &[f64], r: &mut Mat<f64>, [ic, is]: [usize; 2]) {
-        let sine = r.col_as_slice(is).to_vec();
-        let mut new_sine = vec![0.0; sine.len()];
-        let cosine = r.col_as_slice_mut(ic);
-        for k in 0..sine.len() {
-            let (d, e) = (self.eigenvalues[k] - nw * nw, nw * cd[k]);
+        for (k, (&lambda, &ck)) in self.eigenvalues.iter().zip(cd).enumerate() {
+            let (d, e) = (lambda - nw * nw, nw * ck);
             let inverse = 1.0 / (d * d + e * e);
-            let (rc, rs) = (cosine[k], sine[k]);
-            cosine[k] = (d * rc - e * rs) * inverse;
-            new_sine[k] = (e * rc + d * rs) * inverse;
+            let (rc, rs) = (r[(k, ic)], r[(k, is)]);
+            r[(k, ic)] = (d * rc - e * rs) * inverse;
+            r[(k, is)] = (e * rc + d * rs) * inverse;
         }
-        r.col_as_slice_mut(is).copy_from_slice(&new_sine);
     }
 
     /// The general-damping path of [`Self::solve_harmonic`]: a dense LU of the 2n x 2n Z_n.
@@ -233,7 +229,7 @@ impl ModalDynamics {
 
     /// The contact compliance and the load's contact response at W (see [`ContactCompliance`]).
     pub fn compliance(&self, omega: f64) -> Result<ContactCompliance, ForcedError> {
-        let mut out = ContactCompliance::zeros(omega, self.contacts(), self.terms());
+        let mut out = ContactCompliance::empty(self.contacts(), self.terms());
         self.compliance_into(omega, &mut out)?;
         Ok(out)
     }
@@ -246,44 +242,85 @@ impl ModalDynamics {
         omega: f64,
         out: &mut ContactCompliance,
     ) -> Result<(), ForcedError> {
+        let every: Vec<usize> = (0..self.contacts()).collect();
+        self.compliance_rows_into(omega, &every, out)
+    }
+
+    /// The compliance at W on the columns of the contact rows `rows` (`ContactCompliance`'s
+    /// written rows; the mean's block and y_F in full): when `out` holds W already, only the
+    /// rows not written yet are added, else it is reset to W first. Under diagonal modal
+    /// damping a row costs a c-th of the whole G (the rows in contact are 2-8 of 24 on the
+    /// default blade); a general damping writes every row at once.
+    pub fn compliance_rows_into(
+        &self,
+        omega: f64,
+        rows: &[usize],
+        out: &mut ContactCompliance,
+    ) -> Result<(), ForcedError> {
         let (c, terms) = (self.contacts(), self.terms());
         if !out.has_shape(c, terms) {
-            *out = ContactCompliance::zeros(omega, c, terms);
+            *out = ContactCompliance::empty(c, terms);
         }
-        out.omega = omega;
-        self.general_block(0, omega, out)?;
-        match &self.damping {
-            ModalDamping::Diagonal(cd) => self.diagonal_blocks(omega, cd, out)?,
-            ModalDamping::Full(_) => {
-                for n in 1..=terms / 2 {
-                    self.general_block(n, omega, out)?;
+        if out.omega != omega || out.omega.is_nan() {
+            // Marked stale until written: an error leaves it at no W, not half written.
+            out.forget(f64::NAN);
+            self.general_block(0, omega, out)?;
+            match &self.damping {
+                ModalDamping::Diagonal(cd) => self.diagonal_load(omega, cd, out),
+                ModalDamping::Full(_) => {
+                    for n in 1..=terms / 2 {
+                        self.general_block(n, omega, out)?;
+                    }
+                    (0..c).for_each(|j| out.set_written(j, true));
                 }
             }
+            out.omega = omega;
+        }
+        let missing = out.missing(rows);
+        if let (false, ModalDamping::Diagonal(cd)) = (missing.is_empty(), &self.damping) {
+            self.diagonal_columns(omega, cd, &missing, out);
         }
         Ok(())
     }
 
-    /// Harmonics n >= 1 of G and y_F under diagonal modal damping, from two modal sums per
-    /// harmonic, C_n = Psi diag(d / det) Psi^T and S_n = Psi diag(e / det) Psi^T
-    /// (d = lambda_k - (n W)^2, e = n W c_k, det = d^2 + e^2): a unit cosine force on row jr
-    /// gives C_n e_jr in the cosine part and S_n e_jr in the sine part, a unit sine force
-    /// -S_n e_jr and C_n e_jr (the pairs of [`Self::solve_harmonic`]). Every harmonic's sums
-    /// at once, as one product of the rows' modal products `outer` with the modal factors,
-    /// and the load's response as one product with Psi: a Newton iteration of the speed sweep
-    /// evaluates G at a new W on every residual, and 2N small products cost twice the two
-    /// large ones. Equal to [`Self::general_block`] to round-off.
-    fn diagonal_blocks(
+    /// y_F's harmonics n >= 1 under diagonal modal damping: the load's modal response, then
+    /// its contact coordinates as one product with Psi.
+    fn diagonal_load(&self, omega: f64, cd: &[f64], out: &mut ContactCompliance) {
+        let (c, terms) = (self.contacts(), self.terms());
+        let mut z = self.load.clone();
+        for n in 1..=terms / 2 {
+            let columns = [FullBasis::cos_index(n), FullBasis::sin_index(n)];
+            self.diagonal_pair(n as f64 * omega, cd, &mut z, columns);
+        }
+        let yl = product(self.psi.as_ref(), z.as_ref());
+        for j in 0..c {
+            for p in 1..terms {
+                out.y_load[j * terms + p] = yl[(j, p)];
+            }
+        }
+    }
+
+    /// G's columns of the contact rows `rows` in harmonics n >= 1 under diagonal modal damping,
+    /// from two modal sums per harmonic, C_n = Psi diag(d / det) Psi^T and S_n = Psi diag(e /
+    /// det) Psi^T (d = lambda_k - (n W)^2, e = n W c_k, det = d^2 + e^2): a unit cosine force
+    /// on row jr gives C_n e_jr in the cosine part and S_n e_jr in the sine part, a unit sine
+    /// force -S_n e_jr and C_n e_jr (the pairs of [`Self::solve_harmonic`]). Every harmonic's
+    /// sums at once, as one product of the rows' modal products `outer` with the modal
+    /// factors: a Newton iteration of the speed sweep evaluates G at a new W on every
+    /// residual, and 2N small products cost twice the large one. Equal to
+    /// [`Self::general_block`] to round-off.
+    fn diagonal_columns(
         &self,
         omega: f64,
         cd: &[f64],
+        rows: &[usize],
         out: &mut ContactCompliance,
-    ) -> Result<(), ForcedError> {
+    ) {
         let (nd, c, terms) = (self.dofs(), self.contacts(), self.terms());
         let nh = terms / 2;
-        // Column 2 (n - 1) + part of the factors and of the load's modal response is
-        // harmonic n's cosine (part 0) or sine (part 1).
+        // Column 2 (n - 1) + part of the factors is harmonic n's cosine (part 0) or sine
+        // (part 1) factor.
         let mut factors = Mat::zeros(nd, 2 * nh);
-        let mut z = self.load.clone();
         for n in 1..=nh {
             let nw = n as f64 * omega;
             for k in 0..nd {
@@ -292,30 +329,26 @@ impl ModalDynamics {
                 factors[(k, 2 * (n - 1))] = d * inverse;
                 factors[(k, 2 * (n - 1) + 1)] = e * inverse;
             }
-            let columns = [FullBasis::cos_index(n), FullBasis::sin_index(n)];
-            self.diagonal_pair(nw, cd, &mut z, columns);
         }
-        let sums = product(self.outer.as_ref(), factors.as_ref());
-        for n in 1..=nh {
-            let (pc, ps) = (2 * (n - 1), 2 * (n - 1) + 1);
-            let mut g = out.block_mut(n);
-            for jr in 0..c {
+        // Row jr c + j of `outer` holds psi_jr,k psi_jk: each row's c products are contiguous.
+        let picked = Mat::from_fn(rows.len() * c, nd, |i, k| {
+            self.outer[(rows[i / c] * c + i % c, k)]
+        });
+        let sums = product(picked.as_ref(), factors.as_ref());
+        for (at, &jr) in rows.iter().enumerate() {
+            for n in 1..=nh {
+                let (pc, ps) = (2 * (n - 1), 2 * (n - 1) + 1);
+                let mut g = out.block_mut(n);
                 for j in 0..c {
-                    let (cm, sm) = (sums[(j * c + jr, pc)], sums[(j * c + jr, ps)]);
+                    let (cm, sm) = (sums[(at * c + j, pc)], sums[(at * c + j, ps)]);
                     g[(2 * j, 2 * jr)] = cm;
                     g[(2 * j + 1, 2 * jr)] = sm;
                     g[(2 * j, 2 * jr + 1)] = -sm;
                     g[(2 * j + 1, 2 * jr + 1)] = cm;
                 }
             }
+            out.set_written(jr, true);
         }
-        let yl = product(self.psi.as_ref(), z.as_ref());
-        for j in 0..c {
-            for p in 1..terms {
-                out.y_load[j * terms + p] = yl[(j, p)];
-            }
-        }
-        Ok(())
     }
 
     /// Harmonic n of G and y_F for any damping: Z_n^-1 applied to Psi^T e_j in each part of

@@ -25,7 +25,7 @@ use nlmodes_hb::penalty_integral::{penalty_force, ContactPhases};
 use nlmodes_hb::FullBasis;
 
 use crate::active_jacobian::ActiveJacobian;
-use crate::compliance::ContactCompliance;
+use crate::compliance::{Blended, ContactCompliance};
 use crate::dynamics::ModalDynamics;
 use crate::error::ForcedError;
 use crate::following::{Following, StructurePair, STRUCTURE_STEP};
@@ -135,6 +135,14 @@ impl ContactSamples {
     /// Whether any row touches anywhere in the period.
     pub fn touches(&self, samples: usize) -> bool {
         (0..self.gaps.len() / samples.max(1)).any(|j| self.row_active(j, samples))
+    }
+
+    /// The contact rows with a nonzero force coefficient (`terms` = 2N + 1 per row).
+    pub fn loaded_rows(&self, terms: usize) -> Vec<usize> {
+        (self.coefficients.chunks_exact(terms.max(1)).enumerate())
+            .filter(|(_, row)| row.iter().any(|&v| v != 0.0))
+            .map(|(j, _)| j)
+            .collect()
     }
 
     /// Whether contact row `j` touches anywhere in the period.
@@ -267,9 +275,9 @@ pub struct InnerNewton<'p> {
     pub settings: InnerTolerance,
     /// The compliance at the last W used (recomputed when W changes).
     pub cache: Option<ContactCompliance>,
-    /// A following structure's blended compliance at the last W off W_s
+    /// A following structure's second and blended compliances at the last W off W_s
     /// (`jacobian_compliance`).
-    pub blended: Option<ContactCompliance>,
+    pub blended: Blended,
     /// Smoothing of the law in the current solve (length units; 0 = exact).
     pub smoothing: f64,
     /// How the law's coefficients are computed.
@@ -306,27 +314,26 @@ impl InnerNewton<'_> {
             b: f.structure.at(omega + h)?,
             h,
         });
-        (self.cache, self.blended) = (None, None);
+        (self.cache, self.blended) = (None, Blended::default());
         Ok(())
     }
 
-    fn compliance(&mut self, omega: f64) -> Result<&ContactCompliance, ForcedError> {
+    /// The compliance at W of the structure the residual holds, on the columns of the contact
+    /// rows `rows` at least (`ModalDynamics::compliance_rows_into`).
+    fn compliance(
+        &mut self,
+        omega: f64,
+        rows: &[usize],
+    ) -> Result<&ContactCompliance, ForcedError> {
         let dynamics = match self.following.as_ref().and_then(|f| f.built.as_ref()) {
             Some(b) => &b.a.0,
             None => self.dynamics,
         };
-        match &mut self.cache {
-            Some(c) if c.omega == omega => {}
-            Some(c) => {
-                // In place: an error leaves it half written, so it is dropped then.
-                if let Err(e) = dynamics.compliance_into(omega, c) {
-                    self.cache = None;
-                    return Err(e);
-                }
-            }
-            None => self.cache = Some(dynamics.compliance(omega)?),
-        }
-        Ok(self.cache.as_ref().expect("just set"))
+        let cache = self
+            .cache
+            .get_or_insert_with(|| ContactCompliance::empty(dynamics.contacts(), dynamics.terms()));
+        dynamics.compliance_rows_into(omega, rows, cache)?;
+        Ok(cache)
     }
 
     /// The compliance of the structure the residual at W holds: G(W) of the fixed structure,
@@ -334,20 +341,29 @@ impl InnerNewton<'_> {
     /// G_s(W) + (W - W_s) / h (G_h(W) - G_s(W)) (R's term -(W - W_s) D carries the second
     /// structure's G, and the Newton matrix I + G J_Lambda must carry it too: with G_s alone the
     /// matrix is off by (W - W_s) dG/dW|_structure J_Lambda, which under the stiff penalty law
-    /// stalled the line search (the blade's EO 3 sweep, session 25; DESIGN §10.10)).
-    /// Computed once per W (the Newton matrix and the W column share it).
-    fn jacobian_compliance(&mut self, omega: f64) -> Result<&ContactCompliance, ForcedError> {
+    /// stalled the line search (the blade's EO 3 sweep, session 25; DESIGN §10.10)). On the
+    /// columns of the contact rows `rows` at least; computed once per W and row (the Newton
+    /// matrix and the W column share it).
+    fn jacobian_compliance(
+        &mut self,
+        omega: f64,
+        rows: &[usize],
+    ) -> Result<&ContactCompliance, ForcedError> {
         let pair =
             (self.following.as_ref().and_then(|f| f.built.as_ref())).filter(|p| p.omega != omega);
         let Some(pair) = pair else {
-            return self.compliance(omega);
+            return self.compliance(omega, rows);
         };
-        if self.blended.as_ref().is_none_or(|b| b.omega != omega) {
-            let (shift, other) = ((omega - pair.omega) / pair.h, pair.b.0.compliance(omega)?);
-            let blended = self.compliance(omega)?.blend(&other, shift);
-            self.blended = Some(blended);
+        let shift = (omega - pair.omega) / pair.h;
+        let second = &mut self.blended.second;
+        if !second.has_shape(pair.b.0.contacts(), pair.b.0.terms()) {
+            *second = ContactCompliance::empty(pair.b.0.contacts(), pair.b.0.terms());
         }
-        Ok(self.blended.as_ref().expect("just set"))
+        pair.b.0.compliance_rows_into(omega, rows, second)?;
+        self.compliance(omega, rows)?;
+        let first = self.cache.as_ref().expect("just written");
+        self.blended.blend(first, shift, rows);
+        Ok(&self.blended.compliance)
     }
 
     /// R(y, W) and the contact samples it used.
@@ -368,7 +384,7 @@ impl InnerNewton<'_> {
             self.integration,
         );
         let casing = self.casing;
-        let comp = self.compliance(s.omega)?;
+        let comp = self.compliance(s.omega, &cs.loaded_rows(self.basis.terms()))?;
         let g_lambda = comp.apply(&cs.coefficients);
         let mut r: Vec<f64> = (0..s.y.len())
             .map(|i| s.y[i] - s.level * comp.y_load[i] + g_lambda[i])
@@ -604,7 +620,7 @@ impl InnerNewton<'_> {
         let rate = match arc.map(|a| a.parameter) {
             Some(Parameter::Frequency) => self.frequency_column(s, cs, &jac)?,
             Some(Parameter::Level) => self
-                .compliance(s.omega)?
+                .compliance(s.omega, &[])?
                 .y_load
                 .iter()
                 .map(|v| -v)
@@ -612,7 +628,7 @@ impl InnerNewton<'_> {
             None => vec![0.0; l],
         };
         let (t, contacts) = (self.basis.terms(), self.g0.len());
-        let comp = self.jacobian_compliance(s.omega)?;
+        let comp = self.jacobian_compliance(s.omega, jac.active())?;
         let mut row_active = vec![false; contacts];
         jac.active().iter().for_each(|&j| row_active[j] = true);
         let inactive: Vec<usize> = (0..l).filter(|&i| !row_active[i / t]).collect();
@@ -728,7 +744,7 @@ impl InnerNewton<'_> {
         let gap_rates: Vec<f64> = (jac.active().iter())
             .map(|&j| (pair.b.1[j] - pair.a.1[j]) / pair.h)
             .collect();
-        let comp = self.jacobian_compliance(s.omega)?;
+        let comp = self.jacobian_compliance(s.omega, jac.active())?;
         for (ai, dg) in gap_rates.into_iter().enumerate() {
             let column = jac.column(comp, ai * t);
             rate.iter_mut().zip(column).for_each(|(r, g)| *r -= dg * g);

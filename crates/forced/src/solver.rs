@@ -472,7 +472,7 @@ impl<'s> ForcedSolver<'s> {
                 max_iterations: self.settings.newton_iterations,
             },
             cache: None,
-            blended: None,
+            blended: Default::default(),
             smoothing: 0.0,
             integration: self.integration,
             casing: &self.casing,

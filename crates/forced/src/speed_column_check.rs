@@ -75,7 +75,7 @@ fn inner_newton<'p>(
             max_iterations: 30,
         },
         cache: None,
-        blended: None,
+        blended: Default::default(),
         smoothing: 0.0,
         integration: ForceIntegration::ExactPenalty {
             stiffness: PENALTY,

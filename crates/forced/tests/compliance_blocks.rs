@@ -81,7 +81,7 @@ fn block_products_equal_the_dense_products_of_g() {
 }
 
 /// The two ways to the compliance give one G and one y_F: Rayleigh damping takes the diagonal
-/// path (every harmonic's modal sums as one product, `ModalDynamics::diagonal_blocks`), and
+/// path (every harmonic's modal sums as one product, `ModalDynamics::diagonal_columns`), and
 /// the same damping with its modal off-diagonal perturbed by 1e-10 of its largest entry takes
 /// the general one (a dense LU of Z_n per harmonic). Near resonance (W = 1.1 sits between the
 /// system's first two frequencies, 0.74 and 1.60 rad/s) the perturbation moves G by about
@@ -119,5 +119,60 @@ fn the_diagonal_and_the_general_damping_paths_give_one_compliance() {
         for (i, (ya, yb)) in a.y_load.iter().zip(&b.y_load).enumerate() {
             assert!((ya - yb).abs() <= 1e-7 * y_scale, "W {w}, y_F[{i}]");
         }
+    }
+}
+
+/// The compliance written row by row (`compliance_rows_into`, what a Newton solve asks for:
+/// the columns of the rows in contact) is the whole compliance on those columns, to the last
+/// bit, on both damping paths; a move to another W leaves every row stale again on the
+/// diagonal path (and reading a stale row panics rather than return G at the old W; the
+/// general path writes every row at once); y_F is written whatever the rows.
+#[test]
+fn the_compliance_written_row_by_row_is_the_whole_compliance() {
+    let system = two_rows();
+    let load = Load::fundamental(vec![0.1, 0.0, 0.3]);
+    let nh = 4;
+    let t = 2 * nh + 1;
+    for (damping, row_by_row) in [
+        (
+            Damping::Rayleigh {
+                alpha: 0.02,
+                beta: 0.01,
+            },
+            true,
+        ),
+        (
+            Damping::Matrix(Mat::from_fn(3, 3, |i, j| if i == j { 0.05 } else { 0.01 })),
+            false,
+        ),
+    ] {
+        let c = damping.matrix(&system).unwrap();
+        let dynamics = ModalDynamics::new(&system, &c, &load, nh).unwrap();
+        let mut partial = nlmodes_forced::ContactCompliance::empty(2, t);
+        for w in [0.3, 1.1, 2.6] {
+            let whole = dynamics.compliance(w).unwrap();
+            dynamics.compliance_rows_into(w, &[], &mut partial).unwrap();
+            assert_eq!(partial.y_load, whole.y_load, "W {w}: y_F without rows");
+            dynamics
+                .compliance_rows_into(w, &[1], &mut partial)
+                .unwrap();
+            assert!(partial.written(1));
+            // Forces on row 1 alone read only its columns.
+            let lambda: Vec<f64> = (0..2 * t)
+                .map(|i| if i >= t { (0.4 * i as f64).sin() } else { 0.0 })
+                .collect();
+            assert_eq!(partial.apply(&lambda), whole.apply(&lambda), "W {w}");
+            dynamics
+                .compliance_rows_into(w, &[0, 1], &mut partial)
+                .unwrap();
+            assert_eq!(partial.dense(), whole.dense(), "W {w}: both rows");
+        }
+        dynamics
+            .compliance_rows_into(0.7, &[0], &mut partial)
+            .unwrap();
+        assert!(partial.written(0));
+        assert_eq!(partial.written(1), !row_by_row);
+        let read = std::panic::catch_unwind(|| partial.dense());
+        assert_eq!(read.is_err(), row_by_row, "a stale row must not be read");
     }
 }

@@ -96,6 +96,15 @@ impl ContactPhases {
             })
             .sum();
         let may_cross = |fa: f64, da: f64| fa.abs() <= da.abs() * h + 0.5 * curvature * h * h;
+        // Every phase lies within h / 2 of a grid point, where the series is at most
+        // |f'| h / 2 + curvature h^2 / 8 above its value there: a row that stays below by more
+        // than that everywhere never touches (most rows at most points of a curve), and the
+        // scan below would find no switch either.
+        let highest = values.iter().fold(f64::NEG_INFINITY, |a, &v| a.max(v)) - level;
+        let steepest = slopes.iter().fold(0.0_f64, |a, &d| a.max(d.abs()));
+        if highest + 0.5 * steepest * h + 0.125 * curvature * h * h < 0.0 {
+            return Vec::new();
+        }
         let mut switches: Vec<(f64, bool)> = Vec::new();
         let (mut fa, mut da) = at(0);
         for k in 1..=m {
@@ -234,11 +243,6 @@ impl TrigMoments {
         Self { cos, sin }
     }
 
-    /// int cos(r theta) for any integer r.
-    fn c(&self, r: isize) -> f64 {
-        self.cos[r.unsigned_abs()]
-    }
-
     /// int sin(r theta) for any integer r.
     fn s(&self, r: isize) -> f64 {
         let v = self.sin[r.unsigned_abs()];
@@ -249,35 +253,41 @@ impl TrigMoments {
         }
     }
 
-    /// int phi_p phi_q over the interval (basis functions of `FullBasis`).
-    fn product(&self, p: usize, q: usize) -> f64 {
-        let (i, j) = (
-            FullBasis::harmonic_of(p) as isize,
-            FullBasis::harmonic_of(q) as isize,
-        );
-        let cosine = |k: usize| k % 2 == 1;
-        match (p, q) {
-            (0, 0) => self.c(0),
-            (0, _) => self.single(q),
-            (_, 0) => self.single(p),
-            _ => match (cosine(p), cosine(q)) {
-                (true, true) => 0.5 * (self.c(i - j) + self.c(i + j)),
-                (false, false) => 0.5 * (self.c(i - j) - self.c(i + j)),
-                (true, false) => 0.5 * (self.s(j + i) + self.s(j - i)),
-                (false, true) => 0.5 * (self.s(i + j) + self.s(i - j)),
-            },
+    /// Adds int phi_p over the interval, p = 0..2N (basis functions of `FullBasis`), to
+    /// `out`.
+    fn add_singles(&self, out: &mut [f64]) {
+        out[0] += self.cos[0];
+        for n in 1..=self.cos.len() / 2 {
+            out[FullBasis::cos_index(n)] += self.cos[n];
+            out[FullBasis::sin_index(n)] += self.sin[n];
         }
     }
 
-    /// int phi_p over the interval.
-    fn single(&self, p: usize) -> f64 {
-        let n = FullBasis::harmonic_of(p) as isize;
-        if p == 0 {
-            self.c(0)
-        } else if p % 2 == 1 {
-            self.c(n)
-        } else {
-            self.s(n)
+    /// Adds int phi_p phi_q over the interval to `out` ((2N + 1)^2), from cos a cos b =
+    /// (cos(a - b) + cos(a + b)) / 2 and its siblings, harmonic pair by harmonic pair.
+    fn add_products(&self, mut out: MatMut<'_, f64>) {
+        let harmonics = self.cos.len() / 2;
+        out[(0, 0)] += self.cos[0];
+        for n in 1..=harmonics {
+            for (p, v) in [
+                (FullBasis::cos_index(n), self.cos[n]),
+                (FullBasis::sin_index(n), self.sin[n]),
+            ] {
+                out[(p, 0)] += v;
+                out[(0, p)] += v;
+            }
+        }
+        for j in 1..=harmonics {
+            let (qc, qs) = (FullBasis::cos_index(j), FullBasis::sin_index(j));
+            for i in 1..=harmonics {
+                let (pc, ps) = (FullBasis::cos_index(i), FullBasis::sin_index(i));
+                let (minus, plus) = (self.cos[i.abs_diff(j)], self.cos[i + j]);
+                let (ii, jj) = (i as isize, j as isize);
+                out[(pc, qc)] += 0.5 * (minus + plus);
+                out[(ps, qs)] += 0.5 * (minus - plus);
+                out[(pc, qs)] += 0.5 * (self.s(jj + ii) + self.s(jj - ii));
+                out[(ps, qc)] += 0.5 * (self.s(ii + jj) + self.s(ii - jj));
+            }
         }
     }
 }
@@ -310,33 +320,32 @@ pub fn penalty_force(
         }
         return vec![0.0; terms];
     }
-    let mut j = Mat::<f64>::zeros(terms, terms);
+    let mut own;
+    let mut j = match jacobian {
+        Some(out) => out,
+        None => {
+            own = Mat::<f64>::zeros(terms, terms);
+            own.as_mut()
+        }
+    };
+    j.fill(0.0);
     let mut offset = vec![0.0; terms];
     for &interval in contact {
         let moments = TrigMoments::over(harmonics, interval);
-        for p in 0..terms {
-            offset[p] += moments.single(p);
-            for q in p..terms {
-                let v = moments.product(p, q);
-                j[(p, q)] += v;
-                if q != p {
-                    j[(q, p)] += v;
-                }
-            }
+        moments.add_products(j.as_mut());
+        moments.add_singles(&mut offset);
+    }
+    let mut force = vec![0.0; terms];
+    for q in 0..terms {
+        let yq = series[q];
+        for (p, f) in force.iter_mut().enumerate() {
+            let v = j[(p, q)] * (stiffness * weight(p));
+            j[(p, q)] = v;
+            *f += v * yq;
         }
     }
-    for p in 0..terms {
-        let wk = stiffness * weight(p);
-        offset[p] *= wk * gap;
-        for q in 0..terms {
-            j[(p, q)] *= wk;
-        }
-    }
-    let force = (0..terms)
-        .map(|p| (0..terms).map(|q| j[(p, q)] * series[q]).sum::<f64>() - offset[p])
-        .collect();
-    if let Some(mut out) = jacobian {
-        out.copy_from(&j);
+    for (p, f) in force.iter_mut().enumerate() {
+        *f -= offset[p] * (stiffness * weight(p) * gap);
     }
     force
 }
@@ -447,6 +456,37 @@ mod tests {
         let wrapped = phases.above(&centred, 0.99);
         assert_eq!(wrapped.len(), 1, "{wrapped:?}");
         assert!(wrapped[0].0 > 6.0 && wrapped[0].1 > std::f64::consts::TAU);
+    }
+
+    /// Levels just below and just above a series' maximum, which lies between grid points:
+    /// wherever a fine sampling sees the series above the level a contact phase is found (the
+    /// search's early return for rows that stay below is never taken then), and none where
+    /// the level is above the maximum.
+    #[test]
+    fn levels_next_to_the_maximum_between_grid_points() {
+        let phases = ContactPhases::new(8, 0);
+        for shift in [0.13, 0.5, 0.91] {
+            let theta0 = shift * std::f64::consts::TAU / phases.grid() as f64;
+            let mut y = vec![0.0; 17];
+            for n in 1..=8 {
+                let (s, c) = (n as f64 * theta0).sin_cos();
+                y[FullBasis::cos_index(n)] = c / (8.0 * n as f64);
+                y[FullBasis::sin_index(n)] = s / (8.0 * n as f64);
+            }
+            let fine = 200_000;
+            let top = (0..fine)
+                .map(|i| FullBasis::value_at(&y, i as f64 * std::f64::consts::TAU / fine as f64))
+                .fold(f64::NEG_INFINITY, f64::max);
+            for margin in [1e-3, 1e-5, 1e-8] {
+                let below = phases.above(&y, top - margin);
+                assert!(!below.is_empty(), "shift {shift}, {margin:e} below the top");
+                let above = phases.above(&y, top + margin);
+                assert!(
+                    above.is_empty(),
+                    "shift {shift}, {margin:e} above: {above:?}"
+                );
+            }
+        }
     }
 
     #[test]
