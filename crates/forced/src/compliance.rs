@@ -138,7 +138,7 @@ impl ContactCompliance {
     /// harmonics).
     pub fn entry(&self, i: usize, col: usize) -> f64 {
         let t = self.terms();
-        if col % t != 0 {
+        if !col.is_multiple_of(t) {
             self.require([col / t]);
         }
         let (pi, pc) = (i % t, col % t);
