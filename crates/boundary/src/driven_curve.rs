@@ -105,6 +105,7 @@ mod tests {
                 contact: [vec![0.0], vec![0.0]],
             }],
             omega,
+            structure: Default::default(),
         }
     }
 

@@ -17,8 +17,8 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef, Side};
 
 use crate::driven_model::DrivenBoundary;
+use crate::structure_modes::{fingerprint, StructureModes};
 use crate::switch_scan::{next_switch, settle_active_set, EventPath, RowsAt};
-use nlmodes_dense::{balance, Balanced};
 use nlmodes_hb::HbError;
 
 /// Most switches over one period before the contact set is declared chattering.
@@ -351,20 +351,14 @@ fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError
     };
     let x_a = generator(model, &set, e.as_ref());
     let events = event_functionals(model, &set, e.as_ref());
-    // Balanced first (`balance`): X_a mixes q, q' ~ W q, the drive's unit cos/sin and the
-    // constant 1, with entries from 1 to w_max^2; unbalanced, its eigenvectors carried errors
-    // of 1e-8..1e-6 of the orbit into the flow (docs/STABILITY.md 9.2).
-    let Balanced { matrix, scales } = balance(x_a.as_ref());
-    let eig = matrix.eigen().map_err(|err| HbError::Decomposition {
-        what: "eigen-decomposition of a piece of the massless boundary",
-        detail: format!("{err:?}"),
-    })?;
-    let values: Vec<c64> = (0..m).map(|k| eig.S()[k]).collect();
-    let u = eig.U().to_owned();
-    let u_inverse = u.partial_piv_lu().solve(Mat::<c64>::identity(m, m));
-    // X_a = D X_b D^-1 = (D U) diag(l) (U^-1 D^-1).
-    let vectors = Mat::from_fn(m, m, |i, k| u[(i, k)] * scales[i]);
-    let inverse = Mat::from_fn(m, m, |i, k| u_inverse[(i, k)] / scales[k]);
+    let n = 2 * r;
+    let a = x_a.as_ref().submatrix(0, 0, n, n);
+    let structure = (model.structure).modes(active, structure_fingerprint(model), a)?;
+    let Decomposition {
+        values,
+        vectors,
+        inverse,
+    } = completed(model, &structure, x_a.as_ref().submatrix(0, n, n, m - n));
     if inverse
         .col_iter()
         .any(|col| col.iter().any(|z| !z.is_finite()))
@@ -384,6 +378,83 @@ fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError
         inverse,
         fastest,
     })
+}
+
+/// The fingerprint of what A_a is made of (`structure_modes`): W^2, C_q, B and R.
+fn structure_fingerprint(model: &DrivenBoundary) -> u64 {
+    fn entries(m: &Mat<f64>) -> impl Iterator<Item = f64> + '_ {
+        (0..m.ncols())
+            .flat_map(move |j| (0..m.nrows()).map(move |i| (i, j)))
+            .map(move |(i, j)| m[(i, j)])
+    }
+    fingerprint(
+        (model.omega2.iter().copied())
+            .chain(entries(&model.damping))
+            .chain(entries(&model.contact_modal))
+            .chain(entries(&model.flexibility)),
+    )
+}
+
+/// X_a = V diag(l) V^-1 (size x size).
+struct Decomposition {
+    values: Vec<c64>,
+    vectors: Mat<c64>,
+    inverse: Mat<c64>,
+}
+
+/// X_a's decomposition from A_a's (`structure`, 2r x 2r) and, in closed form, the drive's
+/// block D (`structure_modes` module docs; `f` = F_a, 2r x (2H + 1)): D's eigenvalues mu =
+/// +-i h W with the eigenvectors (1, -+i) on harmonic h's (cos, sin) pair, and 0 for the
+/// constant; each with its structure part x_mu = (mu - A_a)^-1 F_a w_mu = V diag(1 / (mu - l))
+/// V^-1 F_a w_mu, so that, with Y = V^-1 X and W the drive's eigenvectors,
+/// V_X = [[V, X], [0, W]] and V_X^-1 = [[V^-1, -Y W^-1], [0, W^-1]].
+fn completed(
+    model: &DrivenBoundary,
+    structure: &StructureModes,
+    f: MatRef<'_, f64>,
+) -> Decomposition {
+    let (n, d) = (structure.values.len(), f.ncols());
+    let i = c64::new(0.0, 1.0);
+    let (mut mus, mut w, mut w_inverse) =
+        (Vec::with_capacity(d), Mat::zeros(d, d), Mat::zeros(d, d));
+    for (h, drive) in model.drive.iter().enumerate() {
+        let speed = drive.harmonic as f64 * model.omega;
+        let (ic, is) = (2 * h, 2 * h + 1);
+        mus.extend([c64::new(0.0, speed), c64::new(0.0, -speed)]);
+        (w[(ic, ic)], w[(is, ic)], w[(ic, is)], w[(is, is)]) = (c64::ONE, -i, c64::ONE, i);
+        // [[1, 1], [-i, i]]^-1 = [[1, i], [1, -i]] / 2.
+        let half = c64::new(0.5, 0.0);
+        (w_inverse[(ic, ic)], w_inverse[(ic, is)]) = (half, half * i);
+        (w_inverse[(is, ic)], w_inverse[(is, is)]) = (half, -half * i);
+    }
+    mus.push(c64::ZERO);
+    (w[(d - 1, d - 1)], w_inverse[(d - 1, d - 1)]) = (c64::ONE, c64::ONE);
+    let f = Mat::from_fn(n, d, |k, col| c64::new(f[(k, col)], 0.0));
+    let gw = &(&structure.inverse * &f) * &w;
+    let y = Mat::from_fn(n, d, |k, col| {
+        gw[(k, col)] / (mus[col] - structure.values[k])
+    });
+    let x = &structure.vectors * &y;
+    let top_right = -(&y * &w_inverse);
+    let m = n + d;
+    let values = structure.values.iter().copied().chain(mus).collect();
+    let vectors = Mat::from_fn(m, m, |row, col| match (row < n, col < n) {
+        (true, true) => structure.vectors[(row, col)],
+        (true, false) => x[(row, col - n)],
+        (false, true) => c64::ZERO,
+        (false, false) => w[(row - n, col - n)],
+    });
+    let inverse = Mat::from_fn(m, m, |row, col| match (row < n, col < n) {
+        (true, true) => structure.inverse[(row, col)],
+        (true, false) => top_right[(row, col - n)],
+        (false, true) => c64::ZERO,
+        (false, false) => w_inverse[(row - n, col - n)],
+    });
+    Decomposition {
+        values,
+        vectors,
+        inverse,
+    }
 }
 
 /// X_a (size x size): q' = v; v' = -W^2 q - C_q v + sum_h P_h z_h - B_a^T lambda_a; z_h rotating
@@ -496,6 +567,64 @@ mod tests {
     use super::*;
     use crate::rk4::{integrate, Rk4State};
     use crate::test_models::{driven_three_modes as model, driven_three_modes_moving_gap};
+
+    /// The largest entry of V diag(l) V^-1 - X_a over X_a's largest, for a piece of `m`.
+    fn reconstruction_error(m: &DrivenBoundary, active: &[bool]) -> f64 {
+        let piece = build_piece(m, active).expect("piece");
+        let set: Vec<usize> = (0..active.len()).filter(|&j| active[j]).collect();
+        let (r, cols) = (m.r(), m.r() + 2 * m.drive.len() + 1);
+        let rhs = Mat::from_fn(set.len(), cols, |i, k| {
+            let j = set[i];
+            match (k < r, k + 1 < cols) {
+                (true, _) => m.contact_modal[(j, k)],
+                (false, true) => m.drive[(k - r) / 2].contact[(k - r) % 2][j],
+                (false, false) => -m.gaps[j],
+            }
+        });
+        let r_aa = Mat::from_fn(set.len(), set.len(), |i, k| m.flexibility[(set[i], set[k])]);
+        let e = match set.is_empty() {
+            true => Mat::zeros(0, cols),
+            false => r_aa.llt(Side::Lower).expect("R_aa").solve(&rhs),
+        };
+        let x = generator(m, &set, e.as_ref());
+        let size = x.nrows();
+        let scaled = Mat::from_fn(size, size, |i, k| piece.vectors[(i, k)] * piece.values[k]);
+        let rebuilt = &scaled * &piece.inverse;
+        let largest = x.norm_max();
+        (0..size)
+            .flat_map(|i| (0..size).map(move |k| (i, k)))
+            .map(|(i, k)| (rebuilt[(i, k)] - c64::new(x[(i, k)], 0.0)).norm())
+            .fold(0.0, f64::max)
+            / largest
+    }
+
+    /// A piece is X_a = V diag(l) V^-1 with V from the structure's block decomposed once (at
+    /// the first W) and the drive's block in closed form at every other W of the model's
+    /// copies (`DrivenBoundary::at` shares the decompositions), for every active set of the
+    /// three-row model, with and without a moving gap; and a model whose damping is changed
+    /// after its first flow gets a new decomposition (the fingerprint), not the old one.
+    #[test]
+    fn pieces_from_the_structure_decomposed_once_rebuild_the_generator() {
+        let sets: Vec<Vec<bool>> = (0..8_usize)
+            .map(|bits| (0..3).map(|j| bits >> j & 1 == 1).collect())
+            .collect();
+        for base in [model(0.9), driven_three_modes_moving_gap(0.9)] {
+            for omega in [0.9, 1.7, 0.31, 2.9] {
+                let m = base.at(omega);
+                for active in &sets {
+                    let error = reconstruction_error(&m, active);
+                    assert!(error < 1e-12, "W {omega}, {active:?}: {error:e}");
+                }
+            }
+            let held = format!("{:?}", base.structure);
+            assert!(held.contains("8 active sets"), "{held}");
+        }
+        let mut changed = model(0.9);
+        assert!(reconstruction_error(&changed, &sets[3]) < 1e-12);
+        changed.damping[(0, 0)] = 0.2;
+        let error = reconstruction_error(&changed, &sets[3]);
+        assert!(error < 1e-12, "after the damping changed: {error:e}");
+    }
 
     #[test]
     fn the_driven_flow_agrees_with_rk4_and_keeps_liouville() {

@@ -27,6 +27,7 @@
 use faer::{Mat, MatRef};
 
 use crate::model::{dynamic_modes, residual_flexibility, BoundaryModel};
+use crate::structure_modes::StructureCache;
 use nlmodes_hb::full_basis::FullBasis;
 use nlmodes_hb::system::System;
 use nlmodes_hb::HbError;
@@ -74,6 +75,9 @@ pub struct DrivenBoundary {
     pub drive: Vec<BoundaryDrive>,
     /// Excitation frequency W (rad/s).
     pub omega: f64,
+    /// The structure's decompositions by active set, shared with the model's copies at other
+    /// W (`structure_modes`; `Default::default()` for a new model).
+    pub structure: StructureCache,
 }
 
 impl DrivenBoundary {
@@ -109,6 +113,7 @@ impl DrivenBoundary {
             gaps: model.gaps.clone(),
             drive: Vec::new(),
             omega: 2.0 * std::f64::consts::PI / period,
+            structure: StructureCache::default(),
         }
     }
 
@@ -241,6 +246,7 @@ pub fn driven_model(
         gaps: system.gaps().to_vec(),
         drive,
         omega,
+        structure: StructureCache::default(),
     }
     .with_gap_motion(&inputs.gap_motion)
     .map(Some)

@@ -51,6 +51,7 @@ mod orbit_at_q;
 mod response_curve;
 pub mod rk4;
 mod rk4_check;
+mod structure_modes;
 mod switch_scan;
 #[cfg(test)]
 mod test_models;
@@ -74,3 +75,4 @@ pub use model::{residual_sum, BoundaryModel, ModalData};
 pub use orbit_at_q::ExactOrbitAtQ;
 pub use response_curve::{boundary_curve, BoundaryCurve, BoundaryCurvePoint};
 pub use rk4_check::{check_by_rk4, check_driven_by_rk4, ShootingCheck, SHOOTING_CHECK_LIMIT};
+pub use structure_modes::StructureCache;

@@ -73,6 +73,7 @@ pub(crate) fn driven_three_modes(omega: f64) -> DrivenBoundary {
             },
         ],
         omega,
+        structure: Default::default(),
     }
 }
 

@@ -1,0 +1,127 @@
+//! The structure's block of a massless-boundary piece, decomposed once per active set and kept
+//! across excitation frequencies (DESIGN §10.6).
+//!
+//! On the active set a the augmented generator of `driven_flow` is block upper triangular,
+//!
+//! ```text
+//! X_a = [ A_a  F_a ]     A_a = [ 0, I; -W^2 - B_a^T R_aa^-1 B_a, -C_q ]   (2r x 2r),
+//!       [ 0    D   ]     D   = diag([0, -h W; h W, 0] per drive harmonic h, 0),
+//! ```
+//!
+//! and only D depends on the excitation frequency W, F_a on the drive and the gaps. A shooting
+//! moves W at every Newton iteration (W is one of its unknowns, and its last column is a
+//! difference in W), so decomposing X_a whole cost one eigen-decomposition per active set and
+//! per W: the largest cost of the settled stability verdicts (session 28). A_a's decomposition
+//! is kept here instead, by active set, for every W of one model ([`StructureCache`], shared by
+//! `DrivenBoundary::at`), and `driven_flow` completes it for the drive in closed form.
+
+use std::collections::HashMap;
+use std::hash::{DefaultHasher, Hash, Hasher};
+use std::sync::{Arc, Mutex};
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat, MatRef};
+
+use nlmodes_dense::{balance, Balanced};
+use nlmodes_hb::HbError;
+
+/// A_a = V diag(l) V^-1 (2r x 2r).
+#[derive(Debug)]
+pub(crate) struct StructureModes {
+    /// l: the damped modes' eigenvalues (1/s).
+    pub values: Vec<c64>,
+    /// V.
+    pub vectors: Mat<c64>,
+    /// V^-1.
+    pub inverse: Mat<c64>,
+}
+
+impl StructureModes {
+    /// The decomposition of `a`, balanced first: A_a mixes q and q' ~ W q with entries from 1 to
+    /// w_max^2, and unbalanced its eigenvectors carried errors of 1e-8..1e-6 of the orbit into
+    /// the flow (docs/STABILITY.md 9.2).
+    fn of(a: MatRef<'_, f64>) -> Result<Self, HbError> {
+        let n = a.nrows();
+        let Balanced { matrix, scales } = balance(a);
+        let eig = matrix.eigen().map_err(|err| HbError::Decomposition {
+            what: "eigen-decomposition of a piece of the massless boundary",
+            detail: format!("{err:?}"),
+        })?;
+        let values: Vec<c64> = (0..n).map(|k| eig.S()[k]).collect();
+        let u = eig.U().to_owned();
+        let u_inverse = u.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
+        // A = D A_b D^-1 = (D U) diag(l) (U^-1 D^-1).
+        Ok(Self {
+            values,
+            vectors: Mat::from_fn(n, n, |i, k| u[(i, k)] * scales[i]),
+            inverse: Mat::from_fn(n, n, |i, k| u_inverse[(i, k)] / scales[k]),
+        })
+    }
+}
+
+/// The structure's decompositions of one model by active set, shared by its copies at other
+/// W (`Clone` shares them). Each is stored with a fingerprint of the matrices it was made from
+/// and made again when they differ (a model whose public fields were changed after its first
+/// flow).
+#[derive(Clone, Default)]
+pub struct StructureCache {
+    decompositions: Arc<Mutex<Decompositions>>,
+}
+
+/// The decompositions by active set, each with the fingerprint of its matrices.
+type Decompositions = HashMap<Vec<bool>, (u64, Arc<StructureModes>)>;
+
+impl std::fmt::Debug for StructureCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let held = self.decompositions.lock().map(|d| d.len()).unwrap_or(0);
+        write!(f, "StructureCache({held} active sets)")
+    }
+}
+
+/// Active sets kept at most: a period of the blade visits a few; a continuation of the exact
+/// curve some tens.
+const MOST_SETS: usize = 256;
+
+impl StructureCache {
+    /// The decomposition of A_a for `active`, made from `a` when none is held for the
+    /// matrices of `fingerprint`.
+    pub(crate) fn modes(
+        &self,
+        active: &[bool],
+        fingerprint: u64,
+        a: MatRef<'_, f64>,
+    ) -> Result<Arc<StructureModes>, HbError> {
+        let held = self.lock().get(active).cloned();
+        if let Some((print, modes)) = held {
+            if print == fingerprint {
+                return Ok(modes);
+            }
+        }
+        let modes = Arc::new(StructureModes::of(a)?);
+        let mut map = self.lock();
+        if map.len() >= MOST_SETS {
+            map.clear();
+        }
+        map.insert(active.to_vec(), (fingerprint, Arc::clone(&modes)));
+        Ok(modes)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Decompositions> {
+        // A panic elsewhere while the map was held leaves it whole (inserts are single calls).
+        self.decompositions
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+}
+
+/// A fingerprint of the values A_a is made of (their count and bits).
+pub(crate) fn fingerprint(values: impl Iterator<Item = f64>) -> u64 {
+    let mut hasher = DefaultHasher::new();
+    let mut count = 0_usize;
+    for v in values {
+        v.to_bits().hash(&mut hasher);
+        count += 1;
+    }
+    count.hash(&mut hasher);
+    hasher.finish()
+}
