@@ -101,6 +101,21 @@ impl Piece {
             .sum()
     }
 
+    /// Row j's event function and its first two time derivatives at tau (one exponential per
+    /// term).
+    fn event_jet(&self, j: usize, w0: &[c64], tau: f64) -> [f64; 3] {
+        let mut jet = [0.0; 3];
+        for (k, w) in w0.iter().enumerate() {
+            let l = self.values[k];
+            let term = self.events[(j, k)] * (l * tau).exp() * w;
+            let rate = term * l;
+            jet[0] += term.re;
+            jet[1] += rate.re;
+            jet[2] += (rate * l).re;
+        }
+        jet
+    }
+
     /// Every row's event function and its rate at tau, and the per-mode curvature terms
     /// |l_k|^2 |e_k| of a bound on its second derivative (one exponential per eigenvalue, shared
     /// by the rows).
@@ -179,6 +194,10 @@ impl EventPath for DrivenPath<'_> {
         self.piece.event_rate(j, self.w0, tau)
     }
 
+    fn event_jet(&self, j: usize, tau: f64) -> [f64; 3] {
+        self.piece.event_jet(j, self.w0, tau)
+    }
+
     fn rows_at(&self, tau: f64) -> RowsAt {
         self.piece.rows_at(self.w0, tau)
     }
@@ -215,6 +234,8 @@ pub struct DrivenFlow<'m> {
     model: &'m DrivenBoundary,
     pieces: HashMap<Vec<bool>, Piece>,
     threshold: f64,
+    /// The fingerprint of the model's structure (`structure_fingerprint`), at its first piece.
+    fingerprint: Option<u64>,
 }
 
 impl<'m> DrivenFlow<'m> {
@@ -224,6 +245,7 @@ impl<'m> DrivenFlow<'m> {
             model,
             pieces: HashMap::new(),
             threshold: EVENT_THRESHOLD * gmax,
+            fingerprint: None,
         }
     }
 
@@ -298,7 +320,8 @@ impl<'m> DrivenFlow<'m> {
 
     fn piece(&mut self, active: &[bool]) -> Result<&Piece, HbError> {
         if !self.pieces.contains_key(active) {
-            let piece = build_piece(self.model, active)?;
+            let print = *(self.fingerprint).get_or_insert_with(|| structure_fingerprint(self.model));
+            let piece = build_piece(self.model, active, print)?;
             self.pieces.insert(active.to_vec(), piece);
         }
         Ok(&self.pieces[active])
@@ -318,7 +341,7 @@ fn solve_in(piece: &Piece, x: &[f64]) -> Vec<c64> {
 }
 
 /// X_a, its eigen-decomposition and the event functionals of the active set `active`.
-fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError> {
+fn build_piece(model: &DrivenBoundary, active: &[bool], print: u64) -> Result<Piece, HbError> {
     let (r, c, m) = (model.r(), model.gaps.len(), model.size());
     let set: Vec<usize> = (0..c).filter(|&j| active[j]).collect();
     let na = set.len();
@@ -353,7 +376,7 @@ fn build_piece(model: &DrivenBoundary, active: &[bool]) -> Result<Piece, HbError
     let events = event_functionals(model, &set, e.as_ref());
     let n = 2 * r;
     let a = x_a.as_ref().submatrix(0, 0, n, n);
-    let structure = (model.structure).modes(active, structure_fingerprint(model), a)?;
+    let structure = (model.structure).modes(active, print, a)?;
     let Decomposition {
         values,
         vectors,
@@ -570,7 +593,7 @@ mod tests {
 
     /// The largest entry of V diag(l) V^-1 - X_a over X_a's largest, for a piece of `m`.
     fn reconstruction_error(m: &DrivenBoundary, active: &[bool]) -> f64 {
-        let piece = build_piece(m, active).expect("piece");
+        let piece = build_piece(m, active, structure_fingerprint(m)).expect("piece");
         let set: Vec<usize> = (0..active.len()).filter(|&j| active[j]).collect();
         let (r, cols) = (m.r(), m.r() + 2 * m.drive.len() + 1);
         let rhs = Mat::from_fn(set.len(), cols, |i, k| {

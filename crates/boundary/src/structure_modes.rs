@@ -114,14 +114,16 @@ impl StructureCache {
     }
 }
 
-/// A fingerprint of the values A_a is made of (their count and bits).
+/// A fingerprint of the values A_a is made of (their bits, mixed word by word, then their
+/// count through SipHash): a guard against a model changed in place, not a defence against
+/// chosen inputs.
 pub(crate) fn fingerprint(values: impl Iterator<Item = f64>) -> u64 {
-    let mut hasher = DefaultHasher::new();
-    let mut count = 0_usize;
+    let (mut mixed, mut count) = (0x9e37_79b9_7f4a_7c15_u64, 0_u64);
     for v in values {
-        v.to_bits().hash(&mut hasher);
+        mixed = (mixed ^ v.to_bits()).wrapping_mul(0x0000_0100_0000_01b3).rotate_left(29);
         count += 1;
     }
-    count.hash(&mut hasher);
+    let mut hasher = DefaultHasher::new();
+    (mixed, count).hash(&mut hasher);
     hasher.finish()
 }

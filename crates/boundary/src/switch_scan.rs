@@ -39,6 +39,12 @@ pub(crate) trait EventPath {
     fn event(&self, j: usize, tau: f64) -> f64;
     /// Its rate f_j'(tau) (m/s).
     fn event_rate(&self, j: usize, tau: f64) -> f64;
+    /// f_j, f_j' and f_j'' at tau (m, m/s, m/s^2), for the switch searches' Newton steps; by
+    /// default from [`Self::event`] and [`Self::event_rate`], f_j'' unknown (NaN: the search
+    /// on the rate then bisects).
+    fn event_jet(&self, j: usize, tau: f64) -> [f64; 3] {
+        [self.event(j, tau), self.event_rate(j, tau), f64::NAN]
+    }
     /// Every row's event function and rate at tau, with the terms of the curvature bound.
     fn rows_at(&self, tau: f64) -> RowsAt;
     /// Factors that advance this path's terms by `step` (s), for [`Self::rows_advanced`];
@@ -134,37 +140,75 @@ pub(crate) fn next_switch(
 /// The time in (a, b) where row j's event rate falls through 0 (positive at a, negative at b):
 /// the event function's maximum.
 fn bisect_rate(path: &impl EventPath, j: usize, a: f64, b: f64) -> f64 {
-    let (mut lo, mut hi) = (a, b);
-    for _ in 0..BISECTION_STEPS {
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi {
-            break;
-        }
-        if path.event_rate(j, mid) > 0.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
+    let (lo, hi) = bracket_root(
+        |t| {
+            let [_, rate, curvature] = path.event_jet(j, t);
+            (rate, curvature)
+        },
+        (a, b),
+        false,
+    );
     0.5 * (lo + hi)
 }
 
 /// The time in (a, b] where row j's event function rises through 0 (the end on the positive
 /// side, so that the switch happens with the row just past its boundary).
 fn bisect(path: &impl EventPath, j: usize, a: f64, b: f64) -> f64 {
+    let (_, hi) = bracket_root(
+        |t| {
+            let [event, rate, _] = path.event_jet(j, t);
+            (event, rate)
+        },
+        (a, b),
+        true,
+    );
+    hi
+}
+
+/// The bracket [lo, hi] of a root of g in (a, b) closed to round-off, g given with its
+/// derivative, g(hi) > 0 >= g(lo) when `positive_at_b` (else g(lo) > 0 >= g(hi)): Newton steps
+/// kept inside the shrinking bracket (its midpoint where a step would leave it or the
+/// derivative is not finite: at worst the bisection it replaces), each evaluation moving the
+/// bracket's end on its side; once a step falls to round-off the next point is taken just
+/// beyond the estimate on the other side, so that both ends close on the root. A few
+/// evaluations where the bisection took 60, each an exponential per term of the piece (the
+/// massless boundary's largest cost after its eigen-decompositions, session 28).
+fn bracket_root(
+    g_and_slope: impl Fn(f64) -> (f64, f64),
+    (a, b): (f64, f64),
+    positive_at_b: bool,
+) -> (f64, f64) {
     let (mut lo, mut hi) = (a, b);
+    let resolution = 4.0 * f64::EPSILON * a.abs().max(b.abs()).max(f64::MIN_POSITIVE);
+    let mut t = 0.5 * (lo + hi);
     for _ in 0..BISECTION_STEPS {
-        let mid = 0.5 * (lo + hi);
-        if mid <= lo || mid >= hi {
+        if !(t > lo && t < hi) || hi - lo <= resolution {
             break;
         }
-        if path.event(j, mid) > 0.0 {
-            hi = mid;
+        let (v, d) = g_and_slope(t);
+        let past = (v > 0.0) == positive_at_b;
+        if past {
+            hi = t;
         } else {
-            lo = mid;
+            lo = t;
         }
+        let newton = t - v / d;
+        let inside = |x: f64| x.is_finite() && x > lo && x < hi;
+        t = if !inside(newton) {
+            0.5 * (lo + hi)
+        } else if (newton - t).abs() > resolution {
+            newton
+        } else {
+            // Converged on the estimate: step past it to the bracket's other end.
+            let beyond = if past { newton - resolution } else { newton + resolution };
+            if inside(beyond) {
+                beyond
+            } else {
+                0.5 * (lo + hi)
+            }
+        };
     }
-    hi
+    (lo, hi)
 }
 
 /// The active set of `c` rows by Murty's least-index principal pivoting, from `start`:
