@@ -26,7 +26,7 @@
 //! The boundary terms of d Lambda / d y vanish because y - g0 = 0 at the switches. Units: y and
 //! g0 in the same length unit, k force per length; Lambda in force units.
 
-use faer::{Mat, MatMut};
+use faer::{MatMut, MatRef};
 
 use crate::full_basis::FullBasis;
 
@@ -263,30 +263,32 @@ impl TrigMoments {
         }
     }
 
-    /// Adds int phi_p phi_q over the interval to `out` ((2N + 1)^2), from cos a cos b =
-    /// (cos(a - b) + cos(a + b)) / 2 and its siblings, harmonic pair by harmonic pair.
-    fn add_products(&self, mut out: MatMut<'_, f64>) {
+    /// Adds int phi_p phi_q over the interval to `out` ((2N + 1)^2, column-major), from cos a
+    /// cos b = (cos(a - b) + cos(a + b)) / 2 and its siblings, harmonic pair by harmonic pair.
+    fn add_products(&self, out: &mut [f64]) {
         let harmonics = self.cos.len() / 2;
-        out[(0, 0)] += self.cos[0];
+        let t = 2 * harmonics + 1;
+        out[0] += self.cos[0];
         for n in 1..=harmonics {
             for (p, v) in [
                 (FullBasis::cos_index(n), self.cos[n]),
                 (FullBasis::sin_index(n), self.sin[n]),
             ] {
-                out[(p, 0)] += v;
-                out[(0, p)] += v;
+                out[p] += v;
+                out[p * t] += v;
             }
         }
         for j in 1..=harmonics {
             let (qc, qs) = (FullBasis::cos_index(j), FullBasis::sin_index(j));
+            let (column_c, column_s) = out[qc * t..(qs + 1) * t].split_at_mut(t);
             for i in 1..=harmonics {
                 let (pc, ps) = (FullBasis::cos_index(i), FullBasis::sin_index(i));
                 let (minus, plus) = (self.cos[i.abs_diff(j)], self.cos[i + j]);
                 let (ii, jj) = (i as isize, j as isize);
-                out[(pc, qc)] += 0.5 * (minus + plus);
-                out[(ps, qs)] += 0.5 * (minus - plus);
-                out[(pc, qs)] += 0.5 * (self.s(jj + ii) + self.s(jj - ii));
-                out[(ps, qc)] += 0.5 * (self.s(ii + jj) + self.s(ii - jj));
+                column_c[pc] += 0.5 * (minus + plus);
+                column_s[ps] += 0.5 * (minus - plus);
+                column_s[pc] += 0.5 * (self.s(jj + ii) + self.s(jj - ii));
+                column_c[ps] += 0.5 * (self.s(ii + jj) + self.s(ii - jj));
             }
         }
     }
@@ -320,32 +322,28 @@ pub fn penalty_force(
         }
         return vec![0.0; terms];
     }
-    let mut own;
-    let mut j = match jacobian {
-        Some(out) => out,
-        None => {
-            own = Mat::<f64>::zeros(terms, terms);
-            own.as_mut()
-        }
-    };
-    j.fill(0.0);
+    // J column-major in one buffer: the exact law fills it at every residual of every row in
+    // contact, (2N + 1)^2 entries, and indexed through a matrix view that cost half the fill.
+    let mut j = vec![0.0; terms * terms];
     let mut offset = vec![0.0; terms];
     for &interval in contact {
         let moments = TrigMoments::over(harmonics, interval);
-        moments.add_products(j.as_mut());
+        moments.add_products(&mut j);
         moments.add_singles(&mut offset);
     }
+    let scale: Vec<f64> = (0..terms).map(|p| stiffness * weight(p)).collect();
     let mut force = vec![0.0; terms];
-    for q in 0..terms {
-        let yq = series[q];
-        for (p, f) in force.iter_mut().enumerate() {
-            let v = j[(p, q)] * (stiffness * weight(p));
-            j[(p, q)] = v;
-            *f += v * yq;
+    for (column, &yq) in j.chunks_exact_mut(terms).zip(series) {
+        for ((v, f), &k) in column.iter_mut().zip(force.iter_mut()).zip(&scale) {
+            *v *= k;
+            *f += *v * yq;
         }
     }
     for (p, f) in force.iter_mut().enumerate() {
-        *f -= offset[p] * (stiffness * weight(p) * gap);
+        *f -= offset[p] * (scale[p] * gap);
+    }
+    if let Some(mut out) = jacobian {
+        out.copy_from(MatRef::from_column_major_slice(&j, terms, terms));
     }
     force
 }
@@ -353,6 +351,7 @@ pub fn penalty_force(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use faer::Mat;
 
     /// A series that crosses the level twice per period, with one short excursion.
     fn series() -> Vec<f64> {
