@@ -320,7 +320,8 @@ impl<'m> DrivenFlow<'m> {
 
     fn piece(&mut self, active: &[bool]) -> Result<&Piece, HbError> {
         if !self.pieces.contains_key(active) {
-            let print = *(self.fingerprint).get_or_insert_with(|| structure_fingerprint(self.model));
+            let print =
+                *(self.fingerprint).get_or_insert_with(|| structure_fingerprint(self.model));
             let piece = build_piece(self.model, active, print)?;
             self.pieces.insert(active.to_vec(), piece);
         }

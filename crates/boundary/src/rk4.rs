@@ -11,8 +11,10 @@
 
 use std::collections::HashMap;
 
+use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
+use faer::reborrow::ReborrowMut;
+use faer::{Accum, Mat, Par, Side};
 
 use crate::driven_model::DrivenBoundary;
 use crate::switch_scan::settle_active_set;
@@ -135,9 +137,8 @@ fn stiffness_on(model: &DrivenBoundary, active: &[usize]) -> Result<Mat<f64>, Hb
     Ok(k)
 }
 
-/// The active set at q and the derivative of (q, q', Y): (q', -W^2 q - B^T lambda(q), A(q) Y)
-/// with A = [[0, I], [-K_a(q), 0]].
-type Derivative = (Vec<usize>, Vec<f64>, Vec<f64>, Mat<f64>);
+/// The active set at q and the derivative of (q, q'): (q', -W^2 q - C_q q' + f - B^T lambda(q)).
+type Derivative = (Vec<usize>, Vec<f64>, Vec<f64>);
 
 /// The integrator's state across stages: the last active set (the next LCP's start) and the
 /// stiffness of every set met.
@@ -148,13 +149,7 @@ struct Rk4<'m> {
 }
 
 impl Rk4<'_> {
-    fn derivative(
-        &mut self,
-        t: f64,
-        q: &[f64],
-        v: &[f64],
-        y: &Mat<f64>,
-    ) -> Result<Derivative, HbError> {
+    fn derivative(&mut self, t: f64, q: &[f64], v: &[f64]) -> Result<Derivative, HbError> {
         let model = self.model;
         let r = q.len();
         let (active, lambda) = contact_solution(model, t, q, self.last_set.clone())?;
@@ -169,51 +164,84 @@ impl Rk4<'_> {
                         .sum::<f64>()
             })
             .collect();
-        if !self.stiffness.contains_key(&active) {
-            let k = stiffness_on(model, &active)?;
-            self.stiffness.insert(active.clone(), k);
-        }
-        let k_a = &self.stiffness[&active];
-        let n = 2 * r;
-        let mut dy = Mat::zeros(n, n);
-        for col in 0..n {
-            for i in 0..r {
-                dy[(i, col)] = y[(r + i, col)];
-                dy[(r + i, col)] = -(0..r)
-                    .map(|l| k_a[(i, l)] * y[(l, col)] + model.damping[(i, l)] * y[(r + l, col)])
-                    .sum::<f64>();
-            }
-        }
-        Ok((active, v.to_vec(), accel, dy))
+        Ok((active, v.to_vec(), accel))
     }
+
+    /// dY = A Y on the active set `active`, A = [[0, I], [-K_a, -C_q]]: [[Y_v], [-(K_a Y_q +
+    /// C_q Y_v)]] as two products (the check's largest cost as indexed sums).
+    fn variational(&mut self, active: &[usize], y: &Mat<f64>) -> Result<Mat<f64>, HbError> {
+        let model = self.model;
+        if !self.stiffness.contains_key(active) {
+            let k = stiffness_on(model, active)?;
+            self.stiffness.insert(active.to_vec(), k);
+        }
+        let k_a = &self.stiffness[active];
+        let (r, n) = (y.nrows() / 2, y.nrows());
+        let mut dy = Mat::zeros(n, n);
+        let (y_q, y_v) = (y.as_ref().subrows(0, r), y.as_ref().subrows(r, r));
+        dy.as_mut().subrows_mut(0, r).copy_from(y_v);
+        let mut bottom = dy.as_mut().subrows_mut(r, r);
+        matmul(
+            bottom.rb_mut(),
+            Accum::Replace,
+            k_a.as_ref(),
+            y_q,
+            -1.0,
+            Par::Seq,
+        );
+        matmul(
+            bottom,
+            Accum::Add,
+            model.damping.as_ref(),
+            y_v,
+            -1.0,
+            Par::Seq,
+        );
+        Ok(dy)
+    }
+
+    /// One classical RK4 step of (q, q') over h, and of Y when given (its stages on the
+    /// active sets of the state's stages: the search for a switch within a step reads only
+    /// whether the sets agree, and takes its steps without Y).
     fn rk4_step(
         &mut self,
         t: f64,
         q: &[f64],
         v: &[f64],
-        y: &Mat<f64>,
+        y: Option<&Mat<f64>>,
         h: f64,
     ) -> Result<Rk4Step, HbError> {
         let axpy = |x: &[f64], a: f64, d: &[f64]| -> Vec<f64> {
             x.iter().zip(d).map(|(xi, di)| xi + a * di).collect()
         };
-        let (s1, k1q, k1v, k1y) = self.derivative(t, q, v, y)?;
-        let y2 = y + faer::Scale(0.5 * h) * &k1y;
+        let (s1, k1q, k1v) = self.derivative(t, q, v)?;
         let (q2, v2) = (axpy(q, 0.5 * h, &k1q), axpy(v, 0.5 * h, &k1v));
-        let (s2, k2q, k2v, k2y) = self.derivative(t + 0.5 * h, &q2, &v2, &y2)?;
-        let y3 = y + faer::Scale(0.5 * h) * &k2y;
+        let (s2, k2q, k2v) = self.derivative(t + 0.5 * h, &q2, &v2)?;
         let (q3, v3) = (axpy(q, 0.5 * h, &k2q), axpy(v, 0.5 * h, &k2v));
-        let (s3, k3q, k3v, k3y) = self.derivative(t + 0.5 * h, &q3, &v3, &y3)?;
-        let y4 = y + faer::Scale(h) * &k3y;
+        let (s3, k3q, k3v) = self.derivative(t + 0.5 * h, &q3, &v3)?;
         let (q4, v4) = (axpy(q, h, &k3q), axpy(v, h, &k3v));
-        let (s4, k4q, k4v, k4y) = self.derivative(t + h, &q4, &v4, &y4)?;
+        let (s4, k4q, k4v) = self.derivative(t + h, &q4, &v4)?;
         let combine = |x: &[f64], a: &[f64], b: &[f64], c: &[f64], d: &[f64]| -> Vec<f64> {
             (0..x.len())
                 .map(|i| x[i] + h / 6.0 * (a[i] + 2.0 * b[i] + 2.0 * c[i] + d[i]))
                 .collect()
         };
-        let y_new = y + faer::Scale(h / 6.0)
-            * (&k1y + faer::Scale(2.0) * &k2y + faer::Scale(2.0) * &k3y + &k4y);
+        let y_new = match y {
+            None => None,
+            Some(y) => {
+                let k1y = self.variational(&s1, y)?;
+                let y2 = y + faer::Scale(0.5 * h) * &k1y;
+                let k2y = self.variational(&s2, &y2)?;
+                let y3 = y + faer::Scale(0.5 * h) * &k2y;
+                let k3y = self.variational(&s3, &y3)?;
+                let y4 = y + faer::Scale(h) * &k3y;
+                let k4y = self.variational(&s4, &y4)?;
+                Some(
+                    y + faer::Scale(h / 6.0)
+                        * (&k1y + faer::Scale(2.0) * &k2y + faer::Scale(2.0) * &k3y + &k4y),
+                )
+            }
+        };
         Ok(Rk4Step {
             q: combine(q, &k1q, &k2q, &k3q, &k4q),
             v: combine(v, &k1v, &k2v, &k3v, &k4v),
@@ -244,7 +272,8 @@ const SWITCH_BISECTIONS: usize = 50;
 struct Rk4Step {
     q: Vec<f64>,
     v: Vec<f64>,
-    y: Mat<f64>,
+    /// Y at the step's end, when it was carried.
+    y: Option<Mat<f64>>,
     one_set: bool,
 }
 
@@ -271,13 +300,13 @@ pub fn integrate(
     let mut t = 0.0;
     while t < duration {
         let h = h_max.min(duration - t);
-        let mut step = rk4.rk4_step(t, &q, &v, &y, h)?;
+        let mut step = rk4.rk4_step(t, &q, &v, Some(&y), h)?;
         let mut taken = h;
         if !step.one_set {
             let (mut lo, mut hi) = (0.0, h);
             for _ in 0..SWITCH_BISECTIONS {
                 let mid = 0.5 * (lo + hi);
-                if rk4.rk4_step(t, &q, &v, &y, mid)?.one_set {
+                if rk4.rk4_step(t, &q, &v, None, mid)?.one_set {
                     lo = mid;
                 } else {
                     hi = mid;
@@ -287,14 +316,16 @@ pub fn integrate(
             // variational equation's coefficient jumps there, and a stage evaluated past the
             // switch must not weigh on a long step.
             if lo > 0.0 {
-                let before = rk4.rk4_step(t, &q, &v, &y, lo)?;
-                (q, v, y) = (before.q, before.v, before.y);
+                let before = rk4.rk4_step(t, &q, &v, Some(&y), lo)?;
+                (q, v) = (before.q, before.v);
+                y = before.y.expect("carried");
                 t += lo;
             }
             taken = hi - lo;
-            step = rk4.rk4_step(t, &q, &v, &y, hi - lo)?;
+            step = rk4.rk4_step(t, &q, &v, Some(&y), hi - lo)?;
         }
-        (q, v, y) = (step.q, step.v, step.y);
+        (q, v) = (step.q, step.v);
+        y = step.y.expect("carried");
         t += taken;
     }
     Ok((Rk4State { q, v }, y))

@@ -120,7 +120,9 @@ impl StructureCache {
 pub(crate) fn fingerprint(values: impl Iterator<Item = f64>) -> u64 {
     let (mut mixed, mut count) = (0x9e37_79b9_7f4a_7c15_u64, 0_u64);
     for v in values {
-        mixed = (mixed ^ v.to_bits()).wrapping_mul(0x0000_0100_0000_01b3).rotate_left(29);
+        mixed = (mixed ^ v.to_bits())
+            .wrapping_mul(0x0000_0100_0000_01b3)
+            .rotate_left(29);
         count += 1;
     }
     let mut hasher = DefaultHasher::new();

@@ -200,7 +200,11 @@ fn bracket_root(
             newton
         } else {
             // Converged on the estimate: step past it to the bracket's other end.
-            let beyond = if past { newton - resolution } else { newton + resolution };
+            let beyond = if past {
+                newton - resolution
+            } else {
+                newton + resolution
+            };
             if inside(beyond) {
                 beyond
             } else {
