@@ -78,9 +78,10 @@ impl std::fmt::Debug for StructureCache {
     }
 }
 
-/// Active sets kept at most: a period of the blade visits a few; a continuation of the exact
-/// curve some tens.
-const MOST_SETS: usize = 256;
+/// Active sets kept at most: a period of the blade visits a few, a continuation of the exact
+/// curve some tens; at 46 dynamic modes each holds two 92 x 92 complex matrices (270 kB), so a
+/// full cache is about 17 MB (emptied, then refilled, past this).
+const MOST_SETS: usize = 64;
 
 impl StructureCache {
     /// The decomposition of A_a for `active`, made from `a` when none is held for the
