@@ -442,9 +442,9 @@ fn completed(
     let (mut mus, mut w, mut w_inverse) =
         (Vec::with_capacity(d), Mat::zeros(d, d), Mat::zeros(d, d));
     for (h, drive) in model.drive.iter().enumerate() {
-        let speed = drive.harmonic as f64 * model.omega;
+        let frequency = drive.harmonic as f64 * model.omega;
         let (ic, is) = (2 * h, 2 * h + 1);
-        mus.extend([c64::new(0.0, speed), c64::new(0.0, -speed)]);
+        mus.extend([c64::new(0.0, frequency), c64::new(0.0, -frequency)]);
         (w[(ic, ic)], w[(is, ic)], w[(ic, is)], w[(is, is)]) = (c64::ONE, -i, c64::ONE, i);
         // [[1, 1], [-i, i]]^-1 = [[1, i], [1, -i]] / 2.
         let half = c64::new(0.5, 0.0);
