@@ -438,7 +438,7 @@ fn completed(
     f: MatRef<'_, f64>,
 ) -> Decomposition {
     let (n, d) = (structure.values.len(), f.ncols());
-    let i = c64::new(0.0, 1.0);
+    let (i, half) = (c64::new(0.0, 1.0), c64::new(0.5, 0.0));
     let (mut mus, mut w, mut w_inverse) =
         (Vec::with_capacity(d), Mat::zeros(d, d), Mat::zeros(d, d));
     for (h, drive) in model.drive.iter().enumerate() {
@@ -447,7 +447,6 @@ fn completed(
         mus.extend([c64::new(0.0, frequency), c64::new(0.0, -frequency)]);
         (w[(ic, ic)], w[(is, ic)], w[(ic, is)], w[(is, is)]) = (c64::ONE, -i, c64::ONE, i);
         // [[1, 1], [-i, i]]^-1 = [[1, i], [1, -i]] / 2.
-        let half = c64::new(0.5, 0.0);
         (w_inverse[(ic, ic)], w_inverse[(ic, is)]) = (half, half * i);
         (w_inverse[(is, ic)], w_inverse[(is, is)]) = (half, -half * i);
     }

@@ -81,9 +81,9 @@ impl ContactCompliance {
         out
     }
 
-    /// Marks row `j`'s columns as written (`true`) or stale.
-    pub(crate) fn set_written(&mut self, j: usize, written: bool) {
-        self.written[j] = written;
+    /// Marks row `j`'s columns as written.
+    pub(crate) fn mark_written(&mut self, j: usize) {
+        self.written[j] = true;
     }
 
     /// Marks every row's columns as stale, at `omega` (the mean's block and y_F are the
@@ -268,7 +268,7 @@ impl Blended {
                         .for_each(|(o, (&x, &y))| *o = mix(x, y));
                 }
             }
-            out.written[jr] = true;
+            out.mark_written(jr);
         }
     }
 }

@@ -271,7 +271,7 @@ impl ModalDynamics {
                     for n in 1..=terms / 2 {
                         self.general_block(n, omega, out)?;
                     }
-                    (0..c).for_each(|j| out.set_written(j, true));
+                    (0..c).for_each(|j| out.mark_written(j));
                 }
             }
             out.omega = omega;
@@ -347,7 +347,7 @@ impl ModalDynamics {
                     g[(2 * j + 1, 2 * jr + 1)] = cm;
                 }
             }
-            out.set_written(jr, true);
+            out.mark_written(jr);
         }
     }
 
