@@ -12,6 +12,7 @@
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
+use nlmodes_dense::eigenvalues_checked;
 
 use crate::free_flow::{BoundaryFlow, FlowState};
 use crate::model::{norm, BoundaryModel, ModalData};
@@ -282,13 +283,8 @@ pub fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, HbError
     if m.col_iter().any(|col| col.iter().any(|v| !v.is_finite())) {
         return Ok(None);
     }
-    let values = orbit
-        .monodromy
-        .eigenvalues()
-        .map_err(|e| HbError::Decomposition {
-            what: "eigenvalues of the massless boundary's monodromy",
-            detail: format!("{e:?}"),
-        })?;
+    let what = "eigenvalues of the massless boundary's monodromy";
+    let values = eigenvalues_checked(m.as_ref(), what).map_err(HbError::dense(what))?;
     let t = orbit.period;
     let log_det: f64 = values.iter().map(|mu| mu.norm().ln()).sum();
     if !(log_det.is_finite() && log_det.abs() <= 1e-6) {

@@ -5,6 +5,7 @@
 //! ([`check_driven_by_rk4`], constant or moving gaps, Sec. 9.5) have none.
 
 use faer::Mat;
+use nlmodes_dense::eigenvalues_checked;
 use serde::{Deserialize, Serialize};
 
 use crate::driven_model::DrivenBoundary;
@@ -117,12 +118,9 @@ fn compare(
         .sum::<f64>()
         .sqrt();
     let eigenvalues = |m: &Mat<f64>, name: &'static str| {
-        m.eigenvalues()
+        eigenvalues_checked(m.as_ref(), name)
             .map(what.multipliers)
-            .map_err(|e| HbError::Decomposition {
-                what: name,
-                detail: format!("{e:?}"),
-            })
+            .map_err(HbError::dense(name))
     };
     let exact = eigenvalues(exact, "eigenvalues of the massless boundary's monodromy")?;
     let integrated = eigenvalues(&monodromy, "eigenvalues of the RK4 monodromy")?;

@@ -22,7 +22,7 @@ use std::sync::{Arc, Mutex};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef};
 
-use nlmodes_dense::{balance, Balanced};
+use nlmodes_dense::{balance, eigen_checked, Balanced};
 use nlmodes_hb::HbError;
 
 /// A_a = V diag(l) V^-1 (2r x 2r).
@@ -43,12 +43,8 @@ impl StructureModes {
     fn of(a: MatRef<'_, f64>) -> Result<Self, HbError> {
         let n = a.nrows();
         let Balanced { matrix, scales } = balance(a);
-        let eig = matrix.eigen().map_err(|err| HbError::Decomposition {
-            what: "eigen-decomposition of a piece of the massless boundary",
-            detail: format!("{err:?}"),
-        })?;
-        let values: Vec<c64> = (0..n).map(|k| eig.S()[k]).collect();
-        let u = eig.U().to_owned();
+        let what = "a piece of the massless boundary";
+        let (values, u) = eigen_checked(matrix.as_ref(), what).map_err(HbError::dense(what))?;
         let u_inverse = u.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
         // A = D A_b D^-1 = (D U) diag(l) (U^-1 D^-1).
         Ok(Self {

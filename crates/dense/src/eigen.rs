@@ -21,6 +21,16 @@ pub enum DenseError {
     /// An eigenvalue came out NaN or infinite.
     #[error("non-finite generalized eigenvalue")]
     NonFinite,
+    /// A general (nonsymmetric) eigen-decomposition failed or its input was not finite.
+    #[error("eigen-decomposition of {what} failed ({detail})")]
+    General { what: &'static str, detail: String },
+    /// Every attempt at a general eigen-decomposition failed its check (`general`: the
+    /// eigenvalues' power sums against the traces, or the pairs' residuals).
+    #[error(
+        "eigen-decomposition of {what} failed its check (relative error {error:.1e} > 1e-11 \
+         on the matrix, its balanced form and their transposes or reversals)"
+    )]
+    Unchecked { what: &'static str, error: f64 },
 }
 
 impl DenseError {

@@ -7,11 +7,13 @@
 
 mod balance;
 mod eigen;
+mod general;
 mod lu;
 mod symmetric;
 
 pub use balance::{balance, Balanced};
 pub use eigen::{cholesky_lower, fix_sign, generalized_eigen, DenseError, GeneralizedEigen};
+pub use general::{eigen_checked, eigenvalues_checked, CHECK};
 pub use lu::DenseLu;
 pub use symmetric::{
     check_symmetric, max_abs, relative_asymmetry, symmetrize, SymmetryError, SYMMETRY_TOLERANCE,

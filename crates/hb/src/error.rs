@@ -274,6 +274,12 @@ impl HbError {
             DenseError::NonFinite => HbError::NonFiniteResult {
                 what: "generalized eigenvalues",
             },
+            DenseError::General { what, .. } | DenseError::Unchecked { what, .. } => {
+                HbError::Decomposition {
+                    what,
+                    detail: e.to_string(),
+                }
+            }
         }
     }
 

@@ -19,6 +19,7 @@
 use std::collections::HashMap;
 
 use faer::{Mat, MatRef, Par, Side};
+use nlmodes_dense::eigenvalues_checked;
 
 use crate::contact::Multipliers;
 use crate::error::HbError;
@@ -359,10 +360,8 @@ pub fn multipliers_of(
             what: "monodromy matrix",
         });
     }
-    let eig = phi.eigenvalues().map_err(|e| HbError::Decomposition {
-        what: "monodromy eigenvalues",
-        detail: format!("{e:?}"),
-    })?;
+    let what = "monodromy eigenvalues";
+    let eig = eigenvalues_checked(phi.as_ref(), what).map_err(HbError::dense(what))?;
     let mut multipliers: Vec<[f64; 2]> = eig.iter().map(|z| [z.re, z.im]).collect();
     multipliers.sort_by(|a, b| b[0].hypot(b[1]).total_cmp(&a[0].hypot(a[1])));
     let log_det: f64 = multipliers.iter().map(|z| z[0].hypot(z[1]).ln()).sum();

@@ -14,6 +14,7 @@
 //! w_j^2): it matters where two modes close in frequency couple through G.
 
 use faer::{Mat, MatRef};
+use nlmodes_dense::eigenvalues_checked;
 use sprs::CsMat;
 
 use crate::error::ModalError;
@@ -35,8 +36,8 @@ pub fn gyroscopic_frequencies(w2: &[f64], g: MatRef<'_, f64>) -> Result<Vec<f64>
         }
     }
     let what = "the gyroscopic companion matrix";
-    let values = a.eigenvalues().map_err(|_| ModalError::DenseEigen {
-        what: what.to_string(),
+    let values = eigenvalues_checked(a.as_ref(), what).map_err(|e| ModalError::DenseEigen {
+        what: e.to_string(),
     })?;
     let mut f: Vec<f64> = values
         .iter()

@@ -3,6 +3,7 @@
 
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
+use nlmodes_dense::eigen_checked;
 
 use super::impact::impact_equivalent_pieces;
 use super::modal_basis::{DecoupledModes, ModalBasis};
@@ -226,12 +227,13 @@ impl<'s> FloquetAnalysis<'s> {
         let r = self.modes_kept(point.omega, harmonics);
         let moments = self.contact_moments(point, r, harmonics, samples)?;
         let lin = hill_linearization(&self.modes.omega[..r], harmonics, point.omega, &moments);
-        let eig = lin.eigen().map_err(|e| NnmError::Decomposition {
-            what: "Hill eigen-decomposition",
-            detail: format!("{e:?}"),
-        })?;
-        let values: Vec<c64> = (0..lin.nrows()).map(|i| eig.S()[i]).collect();
-        let content = harmonic_content(eig.U(), r, harmonics);
+        let what = "Hill eigen-decomposition";
+        let (values, vectors) =
+            eigen_checked(lin.as_ref(), what).map_err(|e| NnmError::Decomposition {
+                what,
+                detail: e.to_string(),
+            })?;
+        let content = harmonic_content(vectors.as_ref(), r, harmonics);
         let selection = select_exponents(&values, &content, point.omega, 2 * r);
         let exponents: Vec<c64> = selection.chosen.iter().map(|&i| values[i]).collect();
         let mut out = stability_from_exponents(&exponents, point.period(), self.settings.tolerance);

@@ -19,6 +19,7 @@
 
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, MatRef, Side};
+use nlmodes_dense::eigenvalues_checked;
 use serde::{Deserialize, Serialize};
 
 use super::sort_multipliers;
@@ -133,9 +134,10 @@ pub fn monodromy_by_integration(
             what: "monodromy integration",
         });
     }
-    let eig = matrix.eigenvalues().map_err(|e| NnmError::Decomposition {
-        what: "monodromy eigenvalues",
-        detail: format!("{e:?}"),
+    let what = "monodromy eigenvalues";
+    let eig = eigenvalues_checked(matrix.as_ref(), what).map_err(|e| NnmError::Decomposition {
+        what,
+        detail: e.to_string(),
     })?;
     let mut multipliers: Vec<[f64; 2]> = eig.iter().map(|z| [z.re, z.im]).collect();
     sort_multipliers(&mut multipliers);

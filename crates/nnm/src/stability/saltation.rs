@@ -34,6 +34,7 @@
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef};
+use nlmodes_dense::eigenvalues_checked;
 
 use crate::point::BackbonePoint;
 use crate::NnmError;
@@ -383,9 +384,10 @@ pub(crate) fn reduced_multipliers(
     let omega_e = z.transpose() * &j_mat * z;
     let back = omega_e.partial_piv_lu().solve(phi_e.transpose() * &omega_e);
     let psi = faer::Scale(0.5) * (&phi_e + &back);
-    let rhos = psi.eigenvalues().map_err(|e| NnmError::Decomposition {
-        what: "reduced monodromy eigenvalues",
-        detail: format!("{e:?}"),
+    let what = "reduced monodromy eigenvalues";
+    let rhos = eigenvalues_checked(psi.as_ref(), what).map_err(|e| NnmError::Decomposition {
+        what,
+        detail: e.to_string(),
     })?;
     Ok((multipliers_from_rho(&rhos), trivial))
 }
