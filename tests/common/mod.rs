@@ -61,6 +61,7 @@ pub fn run_gmsh(geo: &Path, order: usize, format: &str, settings: &[(&str, f64)]
         cmd.arg("-setnumber").arg(name).arg(value.to_string());
     }
     cmd.arg(geo).arg("-o").arg(out);
+    without_aslr(&mut cmd);
     let output = match cmd.output() {
         Ok(o) => o,
         Err(e) => panic!(
@@ -82,6 +83,31 @@ pub fn run_gmsh(geo: &Path, order: usize, format: &str, settings: &[(&str, f64)]
         tail(&output.stdout),
         tail(&output.stderr)
     );
+}
+
+/// Runs gmsh without address-space layout randomization, as the binary's mesh stage does
+/// (`src/child.rs`, `without_aslr`): gmsh orders some work by pointer addresses, and with ASLR
+/// the coarse blade's node coordinates differ in their last bit from run to run (session 29:
+/// 5 different meshes in 10 runs; one in four of them met a faer eigenvalue failure in
+/// `blade_stability`). Best effort where a sandbox refuses the call.
+fn without_aslr(cmd: &mut Command) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: runs in the forked child before exec, calls only the async-signal-safe
+        // personality and allocates nothing.
+        unsafe {
+            cmd.pre_exec(|| {
+                let current = libc::personality(0xffff_ffff);
+                if current != -1 {
+                    libc::personality(
+                        current as libc::c_ulong | libc::ADDR_NO_RANDOMIZE as libc::c_ulong,
+                    );
+                }
+                Ok(())
+            });
+        }
+    }
 }
 
 /// A per-test-binary memo: `get(key, init)` runs `init` once per key, even when tests ask
