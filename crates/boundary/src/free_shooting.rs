@@ -12,7 +12,7 @@
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
-use nlmodes_dense::eigenvalues_checked;
+use nlmodes_dense::{eigenvalues_checked, DenseError};
 
 use crate::free_flow::{BoundaryFlow, FlowState};
 use crate::model::{norm, BoundaryModel, ModalData};
@@ -277,14 +277,23 @@ pub fn shot_orbit(
 
 /// The multipliers (as exponents, 1/s) of a shot orbit's monodromy; `None` when the monodromy
 /// or a multiplier is not a finite nonzero number, or its determinant is not 1 within 1e-6 (the
-/// flow is Hamiltonian: a monodromy that is not symplectic to that accuracy is not trusted).
+/// flow is Hamiltonian: a monodromy that is not symplectic to that accuracy is not trusted), or
+/// no eigen-decomposition of it passes `nlmodes_dense`'s check.
 pub fn exponents_of(orbit: &ShotOrbit) -> Result<Option<Vec<faer::c64>>, HbError> {
     let m = &orbit.monodromy;
     if m.col_iter().any(|col| col.iter().any(|v| !v.is_finite())) {
         return Ok(None);
     }
     let what = "eigenvalues of the massless boundary's monodromy";
-    let values = eigenvalues_checked(m.as_ref(), what).map_err(HbError::dense(what))?;
+    let values = match eigenvalues_checked(m.as_ref(), what) {
+        Ok(values) => values,
+        // No decomposition passed its check: no shooting verdict (the caller falls back).
+        Err(e @ DenseError::Unchecked { .. }) => {
+            tracing::debug!(error = %e, "massless-boundary multipliers not trusted");
+            return Ok(None);
+        }
+        Err(e) => return Err(HbError::dense(what)(e)),
+    };
     let t = orbit.period;
     let log_det: f64 = values.iter().map(|mu| mu.norm().ln()).sum();
     if !(log_det.is_finite() && log_det.abs() <= 1e-6) {
