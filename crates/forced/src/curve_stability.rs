@@ -34,8 +34,14 @@ pub(crate) fn assess_stability(
             assess_point_settled(ladder.solver_of(point), point, &how)
         })
         .collect();
-    for st in assessed {
-        let mut st = st?;
+    for (k, st) in assessed.into_iter().enumerate() {
+        // A point whose analysis fails (a decomposition that no check trusts) is undetermined,
+        // as on a speed sweep: the curve it belongs to stands.
+        let mut st = st.unwrap_or_else(|e| {
+            let omega = curve.points[from + k].omega;
+            tracing::warn!("forced response: no stability at W = {omega:.6e} rad/s: {e}");
+            PointStability::unchecked()
+        });
         // A change of stability is between points of one piece.
         let piece = curve
             .pieces
