@@ -14,7 +14,11 @@
 //! The checks. Eigenvalues: the power sums sum l^k = tr(X^k), k = 1, 2, which are exact
 //! polynomials of the entries: a backward-stable solver meets them to about n eps ||X||_F^k
 //! however ill-conditioned single eigenvalues are; the tolerance is [`CHECK`] n ||X||_F^k.
-//! Eigenvectors: the residual ||X u - l u|| <= [`CHECK`] ||X||_F ||u|| of every column.
+//! Eigenvectors: the eigenvalues' power sums as above, and the residual of two combinations of
+//! the pairs, ||X U z - U diag(l) z|| <= [`CHECK`] ||X||_F sum |z_k| ||u_k||, with fixed,
+//! unequal weights z_k: a wrong column shows in both combinations unless its residual cancels
+//! against others' for both weight sets at once. Two products with vectors instead of one with
+//! U (O(n^2), not O(n^3): the Hill matrices hold hundreds of rows).
 
 use faer::{c64, Mat, MatRef};
 
@@ -61,6 +65,7 @@ pub fn eigen_checked(
     }
     finite(x, what)?;
     let norm = x.norm_l2().max(f64::MIN_POSITIVE);
+    let sums = PowerSums::of(x);
     let mut worst = f64::INFINITY;
     for reversed in [false, true] {
         let candidate = if reversed { reverse(x) } else { x.to_owned() };
@@ -72,7 +77,9 @@ pub fn eigen_checked(
         let vectors = Mat::from_fn(n, n, |i, k| {
             eig.U()[(if reversed { n - 1 - i } else { i }, k)]
         });
-        let error = worst_residual(x, &values, &vectors) / norm;
+        let error = sums
+            .error(&values)
+            .max(probe_residual(x, &values, &vectors) / norm);
         if error <= CHECK {
             return Ok((values, vectors));
         }
@@ -112,20 +119,47 @@ fn reverse(x: MatRef<'_, f64>) -> Mat<f64> {
     Mat::from_fn(n, n, |i, j| x[(n - 1 - i, n - 1 - j)])
 }
 
-/// The largest ||X u - l u|| / ||u|| over the pairs.
-fn worst_residual(x: MatRef<'_, f64>, values: &[c64], vectors: &Mat<c64>) -> f64 {
+/// The larger of the residuals ||X U z - U diag(l) z|| / sum |z_k| ||u_k|| of two weight sets
+/// z (module docs): z_k = (1 + k / n) / ||u_k|| and (2 - k / n) (-1)^k / ||u_k||.
+fn probe_residual(x: MatRef<'_, f64>, values: &[c64], vectors: &Mat<c64>) -> f64 {
     let n = x.nrows();
-    let complex = Mat::from_fn(n, n, |i, j| c64::new(x[(i, j)], 0.0));
-    let product = &complex * vectors;
+    let sizes: Vec<f64> = (0..n)
+        .map(|k| {
+            let size = vectors
+                .col(k)
+                .iter()
+                .map(|u| u.norm_sqr())
+                .sum::<f64>()
+                .sqrt();
+            size.max(f64::MIN_POSITIVE)
+        })
+        .collect();
     let mut worst = 0.0_f64;
-    for (k, &l) in values.iter().enumerate() {
-        let (mut residual, mut size) = (0.0, 0.0);
-        for i in 0..n {
-            let u = vectors[(i, k)];
-            residual += (product[(i, k)] - l * u).norm_sqr();
-            size += u.norm_sqr();
+    for probe in 0..2 {
+        let weight = |k: usize| {
+            let t = k as f64 / n as f64;
+            match probe {
+                0 => (1.0 + t) / sizes[k],
+                _ => (2.0 - t) * if k.is_multiple_of(2) { 1.0 } else { -1.0 } / sizes[k],
+            }
+        };
+        let total: f64 = (0..n).map(|k| weight(k).abs() * sizes[k]).sum();
+        let (mut v, mut lv) = (vec![c64::new(0.0, 0.0); n], vec![c64::new(0.0, 0.0); n]);
+        for k in 0..n {
+            let (z, lz) = (weight(k), values[k] * weight(k));
+            for i in 0..n {
+                v[i] += vectors[(i, k)] * z;
+                lv[i] += vectors[(i, k)] * lz;
+            }
         }
-        let relative = (residual / size.max(f64::MIN_POSITIVE)).sqrt();
+        let residual: f64 = (0..n)
+            .map(|i| {
+                let xv: c64 = (0..n).map(|j| v[j] * x[(i, j)]).sum();
+                (xv - lv[i]).norm_sqr()
+            })
+            .sum::<f64>()
+            .sqrt();
+        let relative = residual / total;
         worst = worst.max(if relative.is_nan() {
             f64::INFINITY
         } else {
@@ -329,6 +363,32 @@ mod tests {
                 let (values, _) = eigen_checked(x.as_ref(), "random").expect("pairs");
                 assert_eq!(values.len(), n);
             }
+        }
+    }
+
+    /// Every single wrong column of a correct decomposition of the monodromy (balanced) fails
+    /// the probes, as does a wrong eigenvalue; the correct one passes.
+    #[test]
+    fn a_wrong_pair_fails_the_probes() {
+        let x = balance(monodromy().as_ref()).matrix;
+        let (values, vectors) = eigen_checked(x.as_ref(), "fixture").expect("checked");
+        let norm = x.norm_l2();
+        assert!(probe_residual(x.as_ref(), &values, &vectors) / norm <= CHECK);
+        for k in 0..8 {
+            let mut wrong = vectors.clone();
+            let j = (k + 3) % 8;
+            for i in 0..8 {
+                wrong[(i, k)] = vectors[(i, j)];
+            }
+            let error = probe_residual(x.as_ref(), &values, &wrong) / norm;
+            assert!(
+                error > 1e3 * CHECK,
+                "column {k} swapped with {j}: {error:e}"
+            );
+            let mut shifted = values.clone();
+            shifted[k] += c64::new(1e-6, 0.0);
+            let error = probe_residual(x.as_ref(), &shifted, &vectors) / norm;
+            assert!(error > 10.0 * CHECK, "value {k} moved by 1e-6: {error:e}");
         }
     }
 
