@@ -7,9 +7,9 @@
 //! the pairs). A verdict read from such values is wrong (here: no verdict; elsewhere it could
 //! be a wrong one), so every general eigen-decomposition of the workspace goes through this
 //! module: faer's result is checked by invariants it must satisfy, and where the check fails
-//! the decomposition is made again of an exactly similar matrix (balanced by powers of two,
-//! then transposed, or with its rows and columns in reverse order); where none passes, a typed
-//! error says so.
+//! (or faer reports an error) the decomposition is made again of an exactly similar matrix
+//! (balanced by powers of two, then transposed, or with its rows and columns in reverse
+//! order); where none passes, a typed error says so.
 //!
 //! The checks. Eigenvalues: the power sums sum l^k = tr(X^k), k = 1, 2, which are exact
 //! polynomials of the entries: a backward-stable solver meets them to about n eps ||X||_F^k
@@ -25,8 +25,9 @@ use faer::{c64, Mat, MatRef};
 use crate::balance::balance;
 use crate::eigen::DenseError;
 
-/// Relative tolerance of the checks: 1e5 of the unit round-off of a backward-stable solver
-/// (about n eps), far below the O(1) errors of a failed decomposition.
+/// Relative tolerance of the checks (their misses are scaled by n ||X||_F^k): about 5e4 times
+/// the unit round-off a backward-stable solver meets them to, far below the O(1) misses of a
+/// failed decomposition.
 pub const CHECK: f64 = 1e-11;
 
 /// The eigenvalues of the square matrix `x`, checked (module docs). `what` names the matrix
@@ -37,23 +38,24 @@ pub fn eigenvalues_checked(x: MatRef<'_, f64>, what: &'static str) -> Result<Vec
     }
     finite(x, what)?;
     let sums = PowerSums::of(x);
-    let mut worst = f64::INFINITY;
+    let mut attempts = Attempts::new(what);
     for candidate in similar_matrices(x) {
-        let values = candidate.eigenvalues().map_err(|e| DenseError::General {
-            what,
-            detail: format!("{e:?}"),
-        })?;
-        let error = sums.error(&values);
-        if error <= CHECK {
-            return Ok(values);
+        match candidate.eigenvalues() {
+            Ok(values) => {
+                let error = sums.error(&values);
+                if error <= CHECK {
+                    return Ok(values);
+                }
+                attempts.missed(error);
+            }
+            Err(e) => attempts.failed(format!("{e:?}")),
         }
-        worst = worst.min(error);
     }
-    Err(DenseError::Unchecked { what, error: worst })
+    Err(attempts.error())
 }
 
-/// The eigen-decomposition of the square matrix `x` (values, and vectors as columns), each
-/// pair checked by its residual (module docs). Tried on `x` itself, then with rows and columns
+/// The eigen-decomposition of the square matrix `x` (values, and vectors as columns), checked
+/// by the values' power sums and the pairs' weighted residuals (module docs). Tried on `x` itself, then with rows and columns
 /// in reverse order (the vectors' entries put back), so that a caller's balancing is kept.
 pub fn eigen_checked(
     x: MatRef<'_, f64>,
@@ -66,13 +68,16 @@ pub fn eigen_checked(
     finite(x, what)?;
     let norm = x.norm_l2().max(f64::MIN_POSITIVE);
     let sums = PowerSums::of(x);
-    let mut worst = f64::INFINITY;
+    let mut attempts = Attempts::new(what);
     for reversed in [false, true] {
         let candidate = if reversed { reverse(x) } else { x.to_owned() };
-        let eig = candidate.eigen().map_err(|e| DenseError::General {
-            what,
-            detail: format!("{e:?}"),
-        })?;
+        let eig = match candidate.eigen() {
+            Ok(eig) => eig,
+            Err(e) => {
+                attempts.failed(format!("{e:?}"));
+                continue;
+            }
+        };
         let values: Vec<c64> = (0..n).map(|k| eig.S()[k]).collect();
         let vectors = Mat::from_fn(n, n, |i, k| {
             eig.U()[(if reversed { n - 1 - i } else { i }, k)]
@@ -83,9 +88,48 @@ pub fn eigen_checked(
         if error <= CHECK {
             return Ok((values, vectors));
         }
-        worst = worst.min(error);
+        attempts.missed(error);
     }
-    Err(DenseError::Unchecked { what, error: worst })
+    Err(attempts.error())
+}
+
+/// What the attempts at one decomposition gave when none passed: the smallest miss of a check,
+/// or faer's last error where no attempt returned.
+struct Attempts {
+    what: &'static str,
+    smallest_miss: Option<f64>,
+    failure: Option<String>,
+}
+
+impl Attempts {
+    fn new(what: &'static str) -> Self {
+        Self {
+            what,
+            smallest_miss: None,
+            failure: None,
+        }
+    }
+
+    fn missed(&mut self, error: f64) {
+        self.smallest_miss = Some(self.smallest_miss.map_or(error, |e| e.min(error)));
+    }
+
+    fn failed(&mut self, detail: String) {
+        self.failure = Some(detail);
+    }
+
+    fn error(self) -> DenseError {
+        match (self.smallest_miss, self.failure) {
+            (Some(error), _) => DenseError::Unchecked {
+                what: self.what,
+                error,
+            },
+            (None, detail) => DenseError::General {
+                what: self.what,
+                detail: detail.unwrap_or_else(|| "no attempt".to_string()),
+            },
+        }
+    }
 }
 
 /// Refuses a matrix with a NaN or infinite entry (no decomposition of it means anything).
