@@ -37,6 +37,8 @@ struct Piece {
     vectors: Mat<c64>,
     inverse: Mat<c64>,
     events: Mat<c64>,
+    /// |E_jk| (c x size), for the curvature bounds.
+    magnitudes: Mat<f64>,
     /// The event functionals split for the scan ([`RowTerms`]).
     row_terms: RowTerms,
     fastest: f64,
@@ -144,7 +146,7 @@ impl Piece {
     /// in t, so each term's largest modulus is at one end).
     fn curvature_bound(&self, j: usize, a: &RowsAt, b: &RowsAt) -> f64 {
         (0..a.curvatures.len())
-            .map(|k| self.events[(j, k)].norm_sqr().sqrt() * a.curvatures[k].max(b.curvatures[k]))
+            .map(|k| self.magnitudes[(j, k)] * a.curvatures[k].max(b.curvatures[k]))
             .sum()
     }
 
@@ -222,6 +224,16 @@ impl EventPath for DrivenPath<'_> {
 
     fn fastest(&self) -> f64 {
         self.piece.fastest
+    }
+
+    fn curvature_bounds(&self, at: &RowsAt) -> Vec<f64> {
+        let curvatures = faer::ColRef::from_slice(&at.curvatures);
+        let bounds = &self.piece.magnitudes * curvatures;
+        bounds.iter().copied().collect()
+    }
+
+    fn growth_rate(&self) -> Option<f64> {
+        Some(self.piece.values.iter().fold(0.0_f64, |a, l| a.max(l.re)))
     }
 
     fn rows(&self) -> usize {
@@ -396,6 +408,7 @@ fn build_piece(model: &DrivenBoundary, active: &[bool], print: u64) -> Result<Pi
     let events = &events_c * &vectors;
     Ok(Piece {
         row_terms: RowTerms::new(&events, &values),
+        magnitudes: Mat::from_fn(c, m, |j, k| events[(j, k)].norm_sqr().sqrt()),
         values,
         events,
         vectors,

@@ -332,6 +332,11 @@ impl EventPath for FreePath<'_> {
         self.piece.freq.iter().fold(0.0_f64, |a, &s| a.max(s))
     }
 
+    /// The curvature terms bound the whole piece (undamped: constant modal amplitudes).
+    fn growth_rate(&self) -> Option<f64> {
+        Some(0.0)
+    }
+
     fn rows(&self) -> usize {
         self.piece.event_offset.len()
     }

@@ -206,28 +206,36 @@ pub fn contact_samples_smoothed(
             }
         }
         ForceIntegration::ExactPenalty { stiffness, phases } => {
-            for (j, &gap) in g0.iter().enumerate() {
-                let (rows, samples) = (j * t..(j + 1) * t, j * m..(j + 1) * m);
-                let series = &y[rows.clone()];
-                let contact = if m >= phases.grid() {
-                    phases.above_sampled(
+            // Each row's law is integrated on its own series (the rows are independent), so
+            // the rows run in parallel and the result is the same in any order.
+            use rayon::prelude::*;
+            let rows: Vec<(Vec<f64>, Option<Mat<f64>>)> = (g0.par_iter().enumerate())
+                .map(|(j, &gap)| {
+                    let (rows, samples) = (j * t..(j + 1) * t, j * m..(j + 1) * m);
+                    let series = &y[rows];
+                    let contact = if m >= phases.grid() {
+                        phases.above_sampled(
+                            series,
+                            &raw_gaps[samples.clone()],
+                            &sampled_rates[samples],
+                            gap,
+                        )
+                    } else {
+                        phases.above(series, gap)
+                    };
+                    let mut block = (!contact.is_empty()).then(|| Mat::zeros(t, t));
+                    let lambda = penalty_force(
+                        &contact,
                         series,
-                        &raw_gaps[samples.clone()],
-                        &sampled_rates[samples],
                         gap,
-                    )
-                } else {
-                    phases.above(series, gap)
-                };
-                let mut block = (!contact.is_empty()).then(|| Mat::zeros(t, t));
-                let lambda = penalty_force(
-                    &contact,
-                    series,
-                    gap,
-                    stiffness,
-                    block.as_mut().map(|b| b.as_mut()),
-                );
-                coefficients[rows].copy_from_slice(&lambda);
+                        stiffness,
+                        block.as_mut().map(|b| b.as_mut()),
+                    );
+                    (lambda, block)
+                })
+                .collect();
+            for (j, (lambda, block)) in rows.into_iter().enumerate() {
+                coefficients[j * t..(j + 1) * t].copy_from_slice(&lambda);
                 blocks.push(block);
             }
         }
