@@ -99,8 +99,11 @@ impl ModalDynamics {
         for h in 1..=harmonics {
             let (fc, fs) = load.at(h, n);
             for (p, f) in [(FullBasis::cos_index(h), fc), (FullBasis::sin_index(h), fs)] {
-                for k in 0..n {
-                    modal_load[(k, p)] = (0..n).map(|i| phi[(i, k)] * f[i]).sum();
+                let column = modal_load.col_as_slice_mut(p);
+                for (k, out) in column.iter_mut().enumerate() {
+                    *out = (phi.col_as_slice(k).iter().zip(&f))
+                        .map(|(a, b)| a * b)
+                        .sum();
                 }
             }
         }
@@ -178,13 +181,19 @@ impl ModalDynamics {
     /// Z_n^-1 under diagonal modal damping on the cosine and sine `columns` of `r`, in place
     /// (`nw` = n W): mode k's 2 x 2 block [[d, e], [-e, d]], d = w_k^2 - (n W)^2, e = n W c_k.
     fn diagonal_pair(&self, nw: f64, cd: &[f64], r: &mut Mat<f64>, [ic, is]: [usize; 2]) {
-        for (k, (&lambda, &ck)) in self.eigenvalues.iter().zip(cd).enumerate() {
+        // On the columns as slices (the sine's copied out and back: two columns of one matrix
+        // cannot be borrowed at once), the arithmetic of the 2 x 2 solve unchanged.
+        let mut sine = r.col_as_slice(is).to_vec();
+        let cosine = r.col_as_slice_mut(ic);
+        let modes = self.eigenvalues.iter().zip(cd);
+        for ((&lambda, &ck), (rc, rs)) in modes.zip(cosine.iter_mut().zip(sine.iter_mut())) {
             let (d, e) = (lambda - nw * nw, nw * ck);
             let inverse = 1.0 / (d * d + e * e);
-            let (rc, rs) = (r[(k, ic)], r[(k, is)]);
-            r[(k, ic)] = (d * rc - e * rs) * inverse;
-            r[(k, is)] = (e * rc + d * rs) * inverse;
+            let (c0, s0) = (*rc, *rs);
+            *rc = (d * c0 - e * s0) * inverse;
+            *rs = (e * c0 + d * s0) * inverse;
         }
+        r.col_as_slice_mut(is).copy_from_slice(&sine);
     }
 
     /// The general-damping path of [`Self::solve_harmonic`]: a dense LU of the 2n x 2n Z_n.

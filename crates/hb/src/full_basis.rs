@@ -33,14 +33,15 @@ impl FullBasis {
         settings.validate()?;
         let (nh, m) = (settings.harmonics, settings.samples);
         let terms = 2 * nh + 1;
-        let phase = |k: usize, n: usize| {
-            // Reduce n k modulo m before scaling: the same angle for every (n, k) with equal n k mod m.
-            2.0 * std::f64::consts::PI * ((n * k) % m) as f64 / m as f64
-        };
+        // Reduce n k modulo m before scaling: the same angle for every (n, k) with equal n k
+        // mod m, so one table of the m angles' cosines and sines serves every entry.
+        let angle = |j: usize| 2.0 * std::f64::consts::PI * j as f64 / m as f64;
+        let cosines: Vec<f64> = (0..m).map(|j| angle(j).cos()).collect();
+        let sines: Vec<f64> = (0..m).map(|j| angle(j).sin()).collect();
         let value = |k: usize, p: usize| match p {
             0 => 1.0,
-            _ if p % 2 == 1 => phase(k, p.div_ceil(2)).cos(),
-            _ => phase(k, p / 2).sin(),
+            _ if p % 2 == 1 => cosines[(p.div_ceil(2) * k) % m],
+            _ => sines[(p / 2 * k) % m],
         };
         let derivative = |k: usize, p: usize| {
             let n = Self::harmonic_of(p) as f64;
