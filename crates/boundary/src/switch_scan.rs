@@ -176,7 +176,7 @@ pub(crate) fn next_switch(
 /// `tol` (0 where a row is at or past it). A row below `tol` all along this stretch crosses
 /// neither at a scan point nor in a short excursion between two, so the scan may leap over it.
 fn clear_stretch(path: &impl EventPath, at: &RowsAt, tol: f64, rate: f64, remaining: f64) -> f64 {
-    if at.events.iter().any(|&f| !(f < tol)) {
+    if at.events.iter().any(|&f| f >= tol || f.is_nan()) {
         return 0.0;
     }
     let grown = (rate * remaining).exp();
@@ -401,10 +401,19 @@ mod tests {
                 let exact = first_root(&stepping, at - 2.0 * (1.0 - above).acos(), at);
                 assert_eq!(s.1, 0);
                 assert_eq!(l.1, 0);
-                assert!((l.0 - s.0).abs() <= 1e-12, "above {above}, at {at}: {l:?} {s:?}");
-                assert!((l.0 - exact).abs() <= 1e-12, "above {above}, at {at}: {l:?} vs {exact}");
+                assert!(
+                    (l.0 - s.0).abs() <= 1e-12,
+                    "above {above}, at {at}: {l:?} {s:?}"
+                );
+                assert!(
+                    (l.0 - exact).abs() <= 1e-12,
+                    "above {above}, at {at}: {l:?} vs {exact}"
+                );
                 let (ns, nl) = (stepping.evaluations.get(), leaping.evaluations.get());
-                assert!(2 * nl < ns, "above {above}, at {at}: {nl} vs {ns} evaluations");
+                assert!(
+                    2 * nl < ns,
+                    "above {above}, at {at}: {nl} vs {ns} evaluations"
+                );
             }
         }
     }
@@ -415,7 +424,10 @@ mod tests {
     fn a_row_that_stays_below_is_never_reported() {
         for leaps in [false, true] {
             let p = path(3.0, -1e-3, leaps);
-            assert_eq!(next_switch(&p, 1e-12, 2.0 * std::f64::consts::PI, None), None);
+            assert_eq!(
+                next_switch(&p, 1e-12, 2.0 * std::f64::consts::PI, None),
+                None
+            );
         }
     }
 }
