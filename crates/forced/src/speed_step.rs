@@ -50,6 +50,7 @@ const SPEED_CORRECTIONS: usize = 12;
 /// The forced problem at one rotation speed: the structure there (K(Omega) with its stress
 /// stiffening and spin softening, the contact rows and running gaps), its damping C (N s/m)
 /// and the load (N, its harmonics of W).
+#[derive(Clone)]
 pub struct SpeedProblem {
     /// The structure at the speed.
     pub system: System,
