@@ -7,7 +7,7 @@ use crate::error::ForcedError;
 
 /// A structure that moves with W: on a speed sweep's row W = e Omega, the condensed structure
 /// and the running gaps are those at the speed W / e (DESIGN §10.10).
-pub trait MovingStructure {
+pub trait MovingStructure: Sync {
     /// The condensed structure (on the solve's basis) and the gaps g0 (length unit) at W (rad/s).
     fn at(&self, omega: f64) -> Result<(ModalDynamics, Vec<f64>), ForcedError>;
 }

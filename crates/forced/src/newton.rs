@@ -316,10 +316,14 @@ impl InnerNewton<'_> {
             return Ok(());
         }
         let h = -STRUCTURE_STEP * omega;
+        // The two structures are independent builds (an eigen-decomposition of the model at
+        // each speed): side by side.
+        let structure = f.structure;
+        let (a, b) = rayon::join(|| structure.at(omega), || structure.at(omega + h));
         f.built = Some(StructurePair {
             omega,
-            a: f.structure.at(omega)?,
-            b: f.structure.at(omega + h)?,
+            a: a?,
+            b: b?,
             h,
         });
         (self.cache, self.blended) = (None, Blended::default());

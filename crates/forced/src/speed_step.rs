@@ -213,7 +213,7 @@ impl SpeedStepper<'_> {
     ) -> Result<SpeedPoint, ForcedError> {
         let problem = self.problem(speed)?;
         let solver = problem.solver(&self.solver)?;
-        let following = StructureAtSpeed { stepper: self };
+        let following = StructureAtSpeed::of(self);
         // The structure is built again where W moves by more than the speed tolerance.
         let band = self.fundamental() * self.settings.speed_tolerance * self.settings.speed_scale;
         if let Some(solved) = solver.solve_following(start.clone(), row, (&following, band)) {
@@ -331,17 +331,33 @@ impl SpeedStepper<'_> {
 /// The structure of a sweep at W: its problem at the speed W / k (k the orbit's fundamental
 /// order), condensed on the sweep's basis (`newton::MovingStructure`).
 struct StructureAtSpeed<'a> {
-    stepper: &'a SpeedStepper<'a>,
+    family: &'a dyn SpeedFamily,
+    settings: &'a SpeedSweepSettings,
+    /// N of the sweep's solves.
+    harmonics: usize,
+}
+
+impl<'a> StructureAtSpeed<'a> {
+    /// The structure of `stepper`'s sweep (what it reads of the stepper: the family, the
+    /// settings and N, all shared between threads).
+    fn of(stepper: &'a SpeedStepper<'a>) -> Self {
+        Self {
+            family: stepper.family,
+            settings: stepper.settings,
+            harmonics: stepper.solver.harmonics.harmonics,
+        }
+    }
 }
 
 impl MovingStructure for StructureAtSpeed<'_> {
     fn at(&self, omega: f64) -> Result<(ModalDynamics, Vec<f64>), ForcedError> {
-        let problem = self.stepper.problem(omega / self.stepper.fundamental())?;
+        let speed = omega / self.settings.fundamental_order() as f64;
+        let problem = problem_at(self.family, self.settings, speed)?;
         let dynamics = ModalDynamics::new(
             &problem.system,
             &problem.damping,
             &problem.load,
-            self.stepper.solver.harmonics.harmonics,
+            self.harmonics,
         )?;
         Ok((dynamics, problem.system.gaps().to_vec()))
     }
