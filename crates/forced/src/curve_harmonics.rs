@@ -92,10 +92,18 @@ pub(crate) fn check_curve(
         return (out, moving);
     }
     let strongest = strongest_point(&curve.points.iter().collect::<Vec<_>>());
+    // The checks are independent solves: a batch at a time side by side (one per core where
+    // the check stops at the first point that moves, all at once otherwise), taken in order.
+    let batch = match until_one_moves {
+        true => rayon::current_num_threads().max(1),
+        false => checked.len().max(1),
+    };
+    let mut solved = Vec::with_capacity(checked.len());
     for (k, &i) in checked.iter().enumerate() {
-        let row = normal_row(base, settings, curve, i);
-        let point = curve.points[i].clone();
-        let (point, finer) = ladder.checked_with_solve(point, 0, Some(&row));
+        if k == solved.len() {
+            solved.extend(check_batch(ladder, settings, curve, &checked[k..], batch));
+        }
+        let (point, finer) = std::mem::take(&mut solved[k]).expect("solved in its batch");
         record_check(&mut out, point.harmonic_check);
         if strongest == Some(i) {
             out.force = Some(force_check(i, &point, finer.as_ref()));
@@ -111,6 +119,25 @@ pub(crate) fn check_curve(
         }
     }
     (out, moving)
+}
+
+/// The solves at 2N of the first `batch` of the points `next` of `curve` (`check_curve`), in
+/// parallel, in their order.
+fn check_batch(
+    ladder: &HarmonicLadder<'_, '_>,
+    settings: &FrfSettings,
+    curve: &FrequencyResponse,
+    next: &[usize],
+    batch: usize,
+) -> Vec<Option<(ForcedPoint, Option<ForcedPoint>)>> {
+    use rayon::prelude::*;
+    let base = ladder.solver(0);
+    let rows: Vec<(usize, ArcRow)> = (next.iter().take(batch))
+        .map(|&i| (i, normal_row(base, settings, curve, i)))
+        .collect();
+    rows.par_iter()
+        .map(|(i, row)| Some(ladder.checked_with_solve(curve.points[*i].clone(), 0, Some(row))))
+        .collect()
 }
 
 /// The largest contact force on the exact orbits of `curve`, from its strongest point and its
