@@ -172,8 +172,8 @@ pub(crate) fn next_switch(
 /// How far past t0 (s, at most `remaining`) no row can reach `tol`, from the rows `at` t0:
 /// on [t0, t0 + h] f_j <= f_j(t0) + max(f_j'(t0), 0) h + M_j h^2 / 2, M_j the curvature bound
 /// read at t0 ([`EventPath::curvature_bound`] with both ends at t0) grown by exp(`rate`
-/// `remaining`) (DESIGN §10.6); the stretch is the smallest h where one row's bound meets
-/// `tol` (0 where a row is at or past it). A row below `tol` all along this stretch crosses
+/// `remaining`) (docs/STABILITY.md Sec. 9); the stretch is the smallest h where one row's
+/// bound meets `tol` (0 where a row is at or past it). A row below `tol` all along this stretch crosses
 /// neither at a scan point nor in a short excursion between two, so the scan may leap over it.
 fn clear_stretch(path: &impl EventPath, at: &RowsAt, tol: f64, rate: f64, remaining: f64) -> f64 {
     if at.events.iter().any(|&f| f >= tol || f.is_nan()) {
