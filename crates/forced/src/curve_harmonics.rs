@@ -98,45 +98,46 @@ pub(crate) fn check_curve(
         true => rayon::current_num_threads().max(1),
         false => checked.len().max(1),
     };
-    let mut solved = Vec::with_capacity(checked.len());
-    for (k, &i) in checked.iter().enumerate() {
-        if k == solved.len() {
-            solved.extend(check_batch(ladder, settings, curve, &checked[k..], batch));
-        }
-        let (point, finer) = std::mem::take(&mut solved[k]).expect("solved in its batch");
-        record_check(&mut out, point.harmonic_check);
-        if strongest == Some(i) {
-            out.force = Some(force_check(i, &point, finer.as_ref()));
-        }
-        let moved = matches!(point.harmonic_check, HarmonicCheck::NotConverged { .. });
-        if moved {
-            moving.push(MovingPoint { index: i, finer });
-        }
-        curve.points[i] = point;
-        if moved && until_one_moves {
-            out.checked.truncate(k + 1);
-            break;
+    let mut k = 0;
+    for chunk in checked.chunks(batch) {
+        for (&i, (point, finer)) in chunk
+            .iter()
+            .zip(check_batch(ladder, settings, curve, chunk))
+        {
+            record_check(&mut out, point.harmonic_check);
+            if strongest == Some(i) {
+                out.force = Some(force_check(i, &point, finer.as_ref()));
+            }
+            let moved = matches!(point.harmonic_check, HarmonicCheck::NotConverged { .. });
+            if moved {
+                moving.push(MovingPoint { index: i, finer });
+            }
+            curve.points[i] = point;
+            k += 1;
+            if moved && until_one_moves {
+                out.checked.truncate(k);
+                return (out, moving);
+            }
         }
     }
     (out, moving)
 }
 
-/// The solves at 2N of the first `batch` of the points `next` of `curve` (`check_curve`), in
-/// parallel, in their order.
+/// The solves at 2N of the points `chunk` of `curve` (`check_curve`), in parallel, in their
+/// order.
 fn check_batch(
     ladder: &HarmonicLadder<'_, '_>,
     settings: &FrfSettings,
     curve: &FrequencyResponse,
-    next: &[usize],
-    batch: usize,
-) -> Vec<Option<(ForcedPoint, Option<ForcedPoint>)>> {
+    chunk: &[usize],
+) -> Vec<(ForcedPoint, Option<ForcedPoint>)> {
     use rayon::prelude::*;
     let base = ladder.solver(0);
-    let rows: Vec<(usize, ArcRow)> = (next.iter().take(batch))
-        .map(|&i| (i, normal_row(base, settings, curve, i)))
+    let rows: Vec<ArcRow> = (chunk.iter())
+        .map(|&i| normal_row(base, settings, curve, i))
         .collect();
-    rows.par_iter()
-        .map(|(i, row)| Some(ladder.checked_with_solve(curve.points[*i].clone(), 0, Some(row))))
+    (chunk.par_iter().zip(&rows))
+        .map(|(&i, row)| ladder.checked_with_solve(curve.points[i].clone(), 0, Some(row)))
         .collect()
 }
 
